@@ -1,0 +1,113 @@
+"""The contact surface: the data object between detection and contact laws.
+
+Conventions (mm, world frame = the thesis frame, see `fecheck.frames`):
+
+* The **slave** is a triangle mesh; the **master** is an analytic surface or a mesh.
+* Depth is positive where the slave is inside the master. It is measured along the
+  **foundation normal** `normal` of each face: the direction in which the elastic
+  foundation's springs act and in which the pressure pushes the slave out of the
+  master. For a plane master it is the plane's normal; for an analytic sphere master
+  over a meshed plateau it is the slave face's own normal (depth along that normal
+  to the sphere, so that a flat plateau gets the exact cap volume); for a mesh master
+  it is the slave face normal and the depth is the signed closest-point distance.
+* Depth is linear over each face (interpolated from its vertices). The in-contact
+  part of a face is the face clipped at zero depth (or the whole face, in the thesis's
+  ``whole-face`` mode). Integrals over it are given as a quadrature: points with
+  barycentric coordinates on their face and area weights. Weights are areas projected
+  onto the plane normal to `normal` (for a flat slave under its own normal, the
+  plain area), so that for a sphere against a plane Σ w·d is the cap volume.
+* A rule of degree 2 is exact for the linear EF law; nonlinear laws use the same points.
+
+Derivatives (for the analytic tangent) are with respect to a small rigid motion of the
+slave relative to the master, the twist ``ξ = (v, ω)``: a slave point moves by
+``δx = v + ω × x`` (x in world coordinates, about the world origin), its normal by
+``ω × n`` if the normal is fixed in the slave (``normal_body == "slave"``) and not at
+all if it is fixed in the master (``normal_body == "master"``). Quadrature points keep
+their barycentric coordinates under the motion: laws whose pressure vanishes at zero
+depth then get exact derivatives (Leibniz's boundary term is zero).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Literal
+
+import numpy as np
+
+
+@dataclass(frozen=True, eq=False)
+class ContactSurface:
+    """Penetration of a slave mesh into a master at one relative pose.
+
+    Per contact face (m faces with some positive depth):
+
+    face : (m,) int, slave face index
+    normal : (m, 3) unit foundation normal (direction of the pressure on the slave)
+    vertex_depth : (m, 3) signed depth at the face's vertices, mm
+
+    Per quadrature point (Q points):
+
+    qp_face : (Q,) int, index into the m contact faces
+    qp_bary : (Q, 3) barycentric coordinates on that face
+    qp_point : (Q, 3) world position, mm
+    qp_depth : (Q,) depth, mm (may be ≤ 0 in whole-face mode; laws clamp at 0)
+    qp_weight : (Q,) projected area weight, mm²
+    qp_depth_twist : (Q, 6) ∂depth/∂ξ, (1, mm) for (v, ω)
+    qp_weight_twist : (Q, 6) ∂weight/∂ξ at fixed barycentric coordinates, (mm, mm²)
+
+    normal_body : "master" or "slave", which body the normals are fixed in
+    n_slave_faces : faces of the whole slave mesh (for reporting per-face fields)
+    """
+
+    face: np.ndarray
+    normal: np.ndarray
+    vertex_depth: np.ndarray
+    qp_face: np.ndarray
+    qp_bary: np.ndarray
+    qp_point: np.ndarray
+    qp_depth: np.ndarray
+    qp_weight: np.ndarray
+    qp_depth_twist: np.ndarray
+    qp_weight_twist: np.ndarray
+    normal_body: Literal["master", "slave"]
+    n_slave_faces: int
+
+    @property
+    def n_faces(self) -> int:
+        """Number of slave faces in contact."""
+        return len(self.face)
+
+    @property
+    def area(self) -> float:
+        """Total in-contact (projected) area, mm²."""
+        return float(self.qp_weight.sum())
+
+    @property
+    def max_depth(self) -> float:
+        """Largest vertex depth among the contact faces, mm (0 with no contact)."""
+        return float(self.vertex_depth.max()) if self.vertex_depth.size else 0.0
+
+    def face_sum(self, values: np.ndarray) -> np.ndarray:
+        """Sum per-quadrature-point values onto their contact faces, shape (m, …)."""
+        values = np.asarray(values)
+        out = np.zeros((self.n_faces,) + values.shape[1:])
+        np.add.at(out, self.qp_face, values)
+        return out
+
+    @property
+    def face_area(self) -> np.ndarray:
+        """(m,) in-contact projected area of each contact face, mm²."""
+        return np.bincount(self.qp_face, self.qp_weight, minlength=self.n_faces)
+
+    @property
+    def face_depth_integral(self) -> np.ndarray:
+        """(m,) ∫ depth dA over each contact face, mm³ (depth clamped at 0)."""
+        d = np.maximum(self.qp_depth, 0.0)
+        return np.bincount(self.qp_face, self.qp_weight * d, minlength=self.n_faces)
+
+    @classmethod
+    def empty(cls, n_slave_faces: int, normal_body: Literal["master", "slave"]) -> ContactSurface:
+        """A contact surface with no contact."""
+        z = np.zeros
+        return cls(z(0, int), z((0, 3)), z((0, 3)), z(0, int), z((0, 3)), z((0, 3)), z(0),
+                   z(0), z((0, 6)), z((0, 6)), normal_body, n_slave_faces)

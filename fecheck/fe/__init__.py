@@ -1,0 +1,1 @@
+"""Finite-element cross-check of the elastic-foundation answer (scikit-fem)."""

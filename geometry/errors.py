@@ -1,0 +1,10 @@
+"""The one exception type for problems a user can fix."""
+
+
+class FecheckError(Exception):
+    """A user-facing problem: bad input, an unreadable file, an impossible request.
+
+    The message says what was wrong and what to change; the CLI prints it on one line
+    and exits non-zero. `geometry` defines it so that both packages share one type
+    (`fecheck.errors` re-exports it).
+    """

@@ -1,0 +1,149 @@
+"""Plain mesh containers: NumPy arrays with a few cached derived properties.
+
+Units are mm. Builders in this package return these; `geometry.io` reads and writes
+them through meshio.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from functools import cached_property
+
+import numpy as np
+
+from geometry.errors import FecheckError
+
+
+@dataclass(frozen=True, eq=False)
+class TriMesh:
+    """A triangle surface mesh.
+
+    Parameters
+    ----------
+    points : (n, 3) float array, mm
+    faces : (m, 3) int array of vertex indices, counter-clockwise seen from outside
+    regions : named subsets of faces, e.g. ``{"top": array([...])}``
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> m = TriMesh(np.array([[0., 0, 0], [1, 0, 0], [0, 1, 0]]), np.array([[0, 1, 2]]))
+    >>> float(m.area)
+    0.5
+    """
+
+    points: np.ndarray
+    faces: np.ndarray
+    regions: dict[str, np.ndarray] = field(default_factory=dict)
+
+    def __post_init__(self) -> None:
+        points = np.ascontiguousarray(self.points, dtype=np.float64)
+        faces = np.ascontiguousarray(self.faces, dtype=np.int64)
+        if points.ndim != 2 or points.shape[1] != 3:
+            raise FecheckError(f"mesh points must be an (n, 3) array, got shape {points.shape}")
+        if faces.ndim != 2 or faces.shape[1] != 3:
+            raise FecheckError(f"mesh faces must be an (m, 3) array, got shape {faces.shape}")
+        if faces.size and (faces.min() < 0 or faces.max() >= len(points)):
+            raise FecheckError("mesh faces refer to vertices that do not exist")
+        if not np.all(np.isfinite(points)):
+            raise FecheckError("mesh points contain NaN or infinite coordinates")
+        object.__setattr__(self, "points", points)
+        object.__setattr__(self, "faces", faces)
+
+    @property
+    def n_faces(self) -> int:
+        return len(self.faces)
+
+    @property
+    def n_points(self) -> int:
+        return len(self.points)
+
+    @cached_property
+    def triangles(self) -> np.ndarray:
+        """(m, 3, 3) vertex coordinates of every face, mm."""
+        return self.points[self.faces]
+
+    @cached_property
+    def face_cross(self) -> np.ndarray:
+        """(m, 3) un-normalised face normals (twice the area vector), mm²."""
+        t = self.triangles
+        return np.cross(t[:, 1] - t[:, 0], t[:, 2] - t[:, 0])
+
+    @cached_property
+    def face_areas(self) -> np.ndarray:
+        """(m,) face areas, mm²."""
+        return 0.5 * np.linalg.norm(self.face_cross, axis=1)
+
+    @cached_property
+    def face_normals(self) -> np.ndarray:
+        """(m, 3) unit face normals (zero for degenerate faces)."""
+        c = self.face_cross
+        n = np.linalg.norm(c, axis=1, keepdims=True)
+        return np.divide(c, n, out=np.zeros_like(c), where=n > 0)
+
+    @cached_property
+    def face_centroids(self) -> np.ndarray:
+        """(m, 3) face centroids, mm."""
+        return self.triangles.mean(axis=1)
+
+    @cached_property
+    def area(self) -> float:
+        """Total surface area, mm²."""
+        return float(self.face_areas.sum())
+
+    @cached_property
+    def signed_volume(self) -> float:
+        """Enclosed volume by the divergence theorem, mm³ (meaningful for closed meshes)."""
+        t = self.triangles
+        return float(np.einsum("ij,ij->i", t[:, 0], np.cross(t[:, 1], t[:, 2])).sum() / 6.0)
+
+    @cached_property
+    def edges_unique(self) -> np.ndarray:
+        """(e, 2) sorted vertex pairs of the unique edges."""
+        e = np.sort(self.faces[:, [0, 1, 1, 2, 2, 0]].reshape(-1, 2), axis=1)
+        return np.unique(e, axis=0)
+
+    @cached_property
+    def vertex_normals(self) -> np.ndarray:
+        """(n, 3) area-weighted unit vertex normals."""
+        acc = np.zeros_like(self.points)
+        for k in range(3):
+            np.add.at(acc, self.faces[:, k], self.face_cross)
+        n = np.linalg.norm(acc, axis=1, keepdims=True)
+        return np.divide(acc, n, out=np.zeros_like(acc), where=n > 0)
+
+    def transformed(self, rotation: np.ndarray, translation: np.ndarray) -> TriMesh:
+        """This mesh moved rigidly: x' = R x + t (mm)."""
+        return TriMesh(self.points @ np.asarray(rotation).T + translation, self.faces, self.regions)
+
+
+@dataclass(frozen=True, eq=False)
+class TetMesh:
+    """A tetrahedral volume mesh.
+
+    Parameters
+    ----------
+    points : (n, 3) float array, mm
+    tets : (m, 4) int array, positively oriented
+    boundaries : named boundary triangle sets, e.g. ``{"top": (k, 3), "bottom": (j, 3)}``
+    """
+
+    points: np.ndarray
+    tets: np.ndarray
+    boundaries: dict[str, np.ndarray] = field(default_factory=dict)
+
+    def __post_init__(self) -> None:
+        object.__setattr__(self, "points", np.ascontiguousarray(self.points, dtype=np.float64))
+        object.__setattr__(self, "tets", np.ascontiguousarray(self.tets, dtype=np.int64))
+
+    @cached_property
+    def tet_volumes(self) -> np.ndarray:
+        """(m,) signed tetrahedron volumes, mm³."""
+        p = self.points[self.tets]
+        return np.einsum("ij,ij->i", p[:, 1] - p[:, 0],
+                         np.cross(p[:, 2] - p[:, 0], p[:, 3] - p[:, 0])) / 6.0
+
+    @cached_property
+    def volume(self) -> float:
+        """Total volume, mm³."""
+        return float(np.abs(self.tet_volumes).sum())

@@ -1,0 +1,24 @@
+#!/usr/bin/env bash
+# Installs fecheck on a fresh Debian/Ubuntu machine: the system libraries gmsh and
+# off-screen VTK rendering need, then a virtual environment in .venv with the package.
+#   bash scripts/setup.sh          # runtime + test dependencies
+set -euo pipefail
+cd "$(dirname "$0")/.."
+
+if command -v apt-get >/dev/null 2>&1; then
+    SUDO=""
+    [ "$(id -u)" -ne 0 ] && SUDO="sudo"
+    pkgs="libglu1-mesa libgl1 libxcursor1 libxft2 libxinerama1 libgomp1 libegl1 libegl-mesa0"
+    if ! dpkg -s $pkgs >/dev/null 2>&1; then
+        echo "fecheck setup: installing system libraries for gmsh and off-screen rendering"
+        $SUDO apt-get update -qq
+        DEBIAN_FRONTEND=noninteractive $SUDO apt-get install -y -qq --no-install-recommends $pkgs >/dev/null
+    fi
+fi
+
+PY=${PYTHON:-python3}
+[ -x .venv/bin/python ] || "$PY" -m venv .venv
+echo "fecheck setup: installing Python packages into .venv (about 1-2 minutes the first time)"
+.venv/bin/python -m pip install -q --upgrade pip
+.venv/bin/python -m pip install -q -e ".[test]"
+echo "fecheck setup: done"

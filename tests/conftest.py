@@ -1,0 +1,25 @@
+"""Shared test fixtures and paths."""
+
+from __future__ import annotations
+
+import os
+from pathlib import Path
+
+import pytest
+
+REPO = Path(__file__).resolve().parents[1]
+SHARED_DATA = Path(os.environ.get("FECHECK_SHARED_DATA", REPO.parent / "shared" / "data"))
+KNEE_DIR = SHARED_DATA / "knee" / "lenhart2015"
+
+
+@pytest.fixture(autouse=True)
+def _isolated_cache(tmp_path_factory, monkeypatch):
+    """Every test session writes meshes to its own cache folder, never the user's."""
+    monkeypatch.setenv("FECHECK_CACHE_DIR", str(tmp_path_factory.getbasetemp() / "cache"))
+
+
+def require_knee_data() -> Path:
+    """The scanned-knee folder, or skip the test with a clear message."""
+    if not KNEE_DIR.is_dir():
+        pytest.skip(f"scanned knee data not found at {KNEE_DIR} (set FECHECK_SHARED_DATA)")
+    return KNEE_DIR
