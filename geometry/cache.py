@@ -1,0 +1,139 @@
+"""On-disk mesh cache keyed by builder name and canonical parameters.
+
+Entries are ``.npz`` files under ``$FECHECK_CACHE_DIR`` (default ``~/.cache/fecheck``),
+named by the sha256 of a JSON document holding the builder name, the parameters
+(floats rounded to 12 significant digits, keys sorted) and `FORMAT_VERSION`. Writes go
+to a temporary file renamed into place, so parallel sweeps never see half an entry.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import json
+import os
+import tempfile
+import warnings
+from collections.abc import Callable, Mapping
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from geometry.errors import FecheckError
+from geometry.mesh import TetMesh, TriMesh
+
+#: Bump when the stored layout or any builder's output changes.
+FORMAT_VERSION = 1
+
+_warned_unwritable: set[str] = set()
+
+
+def cache_dir() -> Path:
+    """The cache folder: ``$FECHECK_CACHE_DIR`` or ``~/.cache/fecheck`` (not created)."""
+    env = os.environ.get("FECHECK_CACHE_DIR")
+    return Path(env).expanduser() if env else Path.home() / ".cache" / "fecheck"
+
+
+def _canonical(value: Any) -> Any:
+    if isinstance(value, Mapping):
+        return {str(k): _canonical(v) for k, v in sorted(value.items(), key=lambda kv: str(kv[0]))}
+    if isinstance(value, np.ndarray):
+        return _canonical(value.tolist())
+    if isinstance(value, (list, tuple)):
+        return [_canonical(v) for v in value]
+    if isinstance(value, (bool, np.bool_)) or value is None or isinstance(value, str):
+        return value if not isinstance(value, np.bool_) else bool(value)
+    if isinstance(value, (int, np.integer)):
+        return int(value)
+    if isinstance(value, (float, np.floating)):
+        v = float(value)
+        if not np.isfinite(v):
+            raise FecheckError(f"mesh parameter {value!r} is not finite")
+        return float(f"{v:.12g}") + 0.0
+    if hasattr(value, "coeffs"):
+        return {"coeffs": _canonical(np.asarray(value.coeffs))}
+    raise FecheckError(f"cannot use {type(value).__name__} as a mesh cache parameter")
+
+
+def cache_key(name: str, params: Mapping[str, Any]) -> str:
+    """The hex sha256 identifying a build of `name` with `params`."""
+    doc = {"builder": name, "params": _canonical(params), "version": FORMAT_VERSION}
+    return hashlib.sha256(json.dumps(doc, sort_keys=True).encode()).hexdigest()
+
+
+def _to_arrays(mesh: TriMesh | TetMesh) -> dict[str, np.ndarray]:
+    if isinstance(mesh, TriMesh):
+        out = {"kind": np.array("tri"), "points": mesh.points, "cells": mesh.faces}
+        groups = mesh.regions
+    else:
+        out = {"kind": np.array("tet"), "points": mesh.points, "cells": mesh.tets}
+        groups = mesh.boundaries
+    out.update({f"group__{k}": np.asarray(v) for k, v in groups.items()})
+    return out
+
+
+def _from_arrays(data: Mapping[str, np.ndarray]) -> TriMesh | TetMesh:
+    groups = {k[len("group__"):]: data[k] for k in data if k.startswith("group__")}
+    if str(data["kind"]) == "tri":
+        return TriMesh(data["points"], data["cells"], groups)
+    return TetMesh(data["points"], data["cells"], groups)
+
+
+def _writable_dir() -> Path | None:
+    folder = cache_dir()
+    try:
+        folder.mkdir(parents=True, exist_ok=True)
+        if not os.access(folder, os.W_OK):
+            raise PermissionError(f"{folder} is not writable")
+    except OSError as err:
+        if str(folder) not in _warned_unwritable:
+            _warned_unwritable.add(str(folder))
+            warnings.warn(f"mesh cache disabled ({err}); set FECHECK_CACHE_DIR to a writable "
+                          "folder to reuse meshes between runs", stacklevel=3)
+        return None
+    return folder
+
+
+def cached_build(name: str, params: Mapping[str, Any],
+                 build: Callable[[], TriMesh | TetMesh], use_cache: bool = True,
+                 info: dict | None = None) -> TriMesh | TetMesh:
+    """Return ``build()``, read from the cache when an entry for (name, params) exists.
+
+    Parameters
+    ----------
+    name : builder name, e.g. ``"icosphere"``
+    params : everything the result depends on (numbers, strings, lists, Polynomial2D)
+    build : makes the mesh when it is not cached
+    use_cache : False to always build (and not store)
+    info : if given, receives ``{"source": "cache" | "built", "key": ..., "path": ...}``
+
+    A cache hit returns arrays identical to those stored from the fresh build.
+    """
+    key = cache_key(name, params)
+    folder = _writable_dir() if use_cache else None
+    path = folder / f"{name}-{key[:32]}.npz" if folder is not None else None
+    if info is not None:
+        info.update({"key": key, "path": str(path) if path else None})
+    if path is not None and path.is_file():
+        try:
+            with np.load(path, allow_pickle=False) as data:
+                mesh = _from_arrays({k: data[k] for k in data.files})
+        except (OSError, ValueError, KeyError, FecheckError):
+            path.unlink(missing_ok=True)
+        else:
+            if info is not None:
+                info["source"] = "cache"
+            return mesh
+    mesh = build()
+    if info is not None:
+        info["source"] = "built"
+    if path is not None:
+        fd, tmp = tempfile.mkstemp(prefix=".tmp-", suffix=".npz", dir=path.parent)
+        try:
+            with os.fdopen(fd, "wb") as fh:
+                np.savez(fh, **_to_arrays(mesh))
+            os.replace(tmp, path)
+        except OSError as err:
+            Path(tmp).unlink(missing_ok=True)
+            warnings.warn(f"could not write mesh cache entry {path}: {err}", stacklevel=2)
+    return mesh
