@@ -1,0 +1,68 @@
+"""Plain results of the FE cross-check (frozen dataclasses; units in the field names)."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+
+@dataclass(frozen=True)
+class ContactMetrics:
+    """Summary of one contact: pressures (MPa), area (mm²), indentation (mm), force (N).
+
+    ``depth_mm`` is NaN when the source does not report it (Donahue 2002).
+    """
+
+    max_pressure_MPa: float
+    mean_pressure_MPa: float
+    area_mm2: float
+    depth_mm: float
+    force_N: float
+
+    def as_dict(self) -> dict[str, float | None]:
+        out = {"max_pressure_MPa": self.max_pressure_MPa,
+               "mean_pressure_MPa": self.mean_pressure_MPa, "area_mm2": self.area_mm2,
+               "depth_mm": self.depth_mm, "force_N": self.force_N}
+        return {k: (None if not np.isfinite(v) else float(v)) for k, v in out.items()}
+
+
+@dataclass(frozen=True, eq=False)
+class FEContactResult:
+    """An FE contact solve under load control.
+
+    Attributes
+    ----------
+    metrics : max/mean pressure, contact area, indenter displacement, summed reaction
+    points : (n, 3) top-surface node positions (reference configuration), mm; for the
+        axisymmetric model (r, 0, z)
+    pressure_MPa : (n,) recovered contact pressure at those nodes
+    nodal_force_N : (n,) contact force at each node (≥ 0, pressing down)
+    gap_mm : (n,) vertical gap to the indenter after loading (≥ 0; 0 where in contact)
+    active : (n,) nodes in contact
+    n_dofs, n_elements : problem size; element : element kind, e.g. "tet P2"
+    min_size_mm : smallest element edge under the contact
+    iterations : active-set iterations; timing_s : wall times of the steps
+    max_penetration_mm : worst overlap at the candidate contact nodes (≥ 0)
+    """
+
+    metrics: ContactMetrics
+    points: np.ndarray
+    pressure_MPa: np.ndarray
+    nodal_force_N: np.ndarray
+    gap_mm: np.ndarray
+    active: np.ndarray
+    n_dofs: int
+    n_elements: int
+    element: str
+    min_size_mm: float
+    iterations: int
+    timing_s: dict
+    max_penetration_mm: float
+
+    def as_dict(self) -> dict:
+        return {**self.metrics.as_dict(), "n_dofs": self.n_dofs, "n_elements": self.n_elements,
+                "element": self.element, "min_size_mm": self.min_size_mm,
+                "iterations": self.iterations, "max_penetration_mm": self.max_penetration_mm,
+                "min_nodal_force_N": float(self.nodal_force_N.min()),
+                "timing_s": dict(self.timing_s)}

@@ -1,0 +1,183 @@
+"""Cartilage layers as tetrahedral volume meshes (Gmsh), mm.
+
+A layer of thickness ``h`` is meshed as a flat slab ``0 <= ζ <= h`` over its footprint
+(rectangle or ellipse in the x-y plane), refined by a Gmsh size field around
+``refine_point``, and then sheared vertically onto its top surface:
+``z = z_top(x, y) - h + ζ``. The shear has unit Jacobian, so every vertical line keeps
+the length ``h`` and the volume stays footprint area × h. The top surface is flat
+(``z_top = 0`` at the footprint centre), inclined (``sagittal_deg`` tilts it about x,
+``frontal_deg`` about y) or a `Polynomial2D` ``z_top = f(x, y)``.
+
+Boundaries "top" and "bottom" are triangle sets (vertex indices into the tet mesh).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+
+import numpy as np
+
+from geometry.cache import cached_build
+from geometry.errors import FecheckError
+from geometry.mesh import TetMesh
+from geometry.polynomial import Polynomial2D
+
+_FOOTPRINTS = ("rectangle", "ellipse")
+
+
+def cartilage_layer(footprint: str = "rectangle", center_xy: Sequence[float] = (0.0, 0.0),
+                    half_x: float = 30.0, half_y: float = 30.0, thickness: float = 6.0, *,
+                    top: Polynomial2D | None = None, sagittal_deg: float = 0.0,
+                    frontal_deg: float = 0.0, size: float = 5.0,
+                    refine_point: Sequence[float] | None = None,
+                    refine_size: float | None = None, refine_radius: float | None = None,
+                    order: int = 1, cache: bool = True) -> TetMesh:
+    """Tetrahedral mesh of a cartilage layer bonded to bone on its bottom face.
+
+    Parameters
+    ----------
+    footprint : "rectangle" or "ellipse" (outline in the x-y plane)
+    center_xy : footprint centre, mm
+    half_x, half_y : half-extents (semi-axes for an ellipse), mm
+    thickness : layer thickness h, measured vertically, mm
+    top : polynomial top surface z = f(x, y), mm (overrides the angles)
+    sagittal_deg, frontal_deg : tilt of a plane top about x (slope dz/dy) and about y
+        (slope dz/dx), degrees; the plane passes through z = 0 at the centre
+    size : element size away from the refinement, mm
+    refine_point : (x, y) of the point on the top surface to refine around (a mesh node
+        is placed there), mm
+    refine_size : element size at the refinement point, mm (default ``size``)
+    refine_radius : radius of the disc around the point meshed at ``refine_size``, mm;
+        sizes grow linearly to ``size`` over a further ``2 * thickness + 4 * size``
+    order : 1 (4-node tets) or 2 (10-node tets in Gmsh node order, mapped like the rest)
+    cache : reuse a cached mesh built with the same parameters
+
+    Returns
+    -------
+    TetMesh with boundaries "top" and "bottom" ((k, 3) or (k, 6) vertex indices).
+    """
+    if footprint not in _FOOTPRINTS:
+        raise FecheckError(f"layer footprint must be one of {_FOOTPRINTS}, got {footprint!r}")
+    numbers = {"half_x": half_x, "half_y": half_y, "thickness": thickness, "size": size}
+    for name, value in numbers.items():
+        if not np.isfinite(value) or value <= 0:
+            raise FecheckError(f"layer {name} must be a positive length in mm, got {value}")
+    if order not in (1, 2):
+        raise FecheckError(f"layer mesh order must be 1 or 2, got {order}")
+    rsize = size if refine_size is None else float(refine_size)
+    if not (np.isfinite(rsize) and 0 < rsize <= size):
+        raise FecheckError(f"refine_size must be in (0, size={size}] mm, got {refine_size}")
+    rradius = 0.0 if refine_radius is None else float(refine_radius)
+    if not np.isfinite(rradius) or rradius < 0:
+        raise FecheckError(f"refine_radius must be a non-negative length, got {refine_radius}")
+    params = {"footprint": footprint, "center_xy": [float(c) for c in center_xy],
+              "half_x": half_x, "half_y": half_y, "thickness": thickness, "top": top,
+              "sagittal_deg": sagittal_deg, "frontal_deg": frontal_deg, "size": size,
+              "refine_point": None if refine_point is None else [float(c) for c in refine_point],
+              "refine_size": rsize, "refine_radius": rradius, "order": order}
+
+    def build() -> TetMesh:
+        return _build_layer(**params)
+
+    return cached_build("cartilage_layer", params, build, use_cache=cache)
+
+
+def top_height(points_xy: np.ndarray, center_xy: Sequence[float], top: Polynomial2D | None,
+               sagittal_deg: float, frontal_deg: float) -> np.ndarray:
+    """Height of the layer's top surface above the points (n, 2), mm."""
+    x, y = points_xy[:, 0], points_xy[:, 1]
+    if top is not None:
+        return top.value(x, y)
+    cx, cy = center_xy
+    return (np.tan(np.radians(frontal_deg)) * (x - cx)
+            + np.tan(np.radians(sagittal_deg)) * (y - cy))
+
+
+def _build_layer(footprint: str, center_xy: list[float], half_x: float, half_y: float,
+                 thickness: float, top: Polynomial2D | None, sagittal_deg: float,
+                 frontal_deg: float, size: float, refine_point: list[float] | None,
+                 refine_size: float, refine_radius: float, order: int) -> TetMesh:
+    from geometry.gmsh_session import gmsh_session
+
+    cx, cy = center_xy
+    with gmsh_session("cartilage_layer") as gmsh:
+        occ = gmsh.model.occ
+        if footprint == "rectangle":
+            base = occ.addRectangle(cx - half_x, cy - half_y, 0.0, 2 * half_x, 2 * half_y)
+        else:
+            rx, ry = max(half_x, half_y), min(half_x, half_y)
+            disk = occ.addDisk(cx, cy, 0.0, rx, ry)
+            if half_y > half_x:
+                occ.rotate([(2, disk)], cx, cy, 0.0, 0, 0, 1, np.pi / 2)
+            base = disk
+        volume = occ.extrude([(2, base)], 0, 0, thickness)
+        vol_tag = [tag for dim, tag in volume if dim == 3][0]
+        pt = None if refine_point is None else occ.addPoint(refine_point[0], refine_point[1],
+                                                            thickness)
+        occ.synchronize()
+        top_tag, bottom_tag = _top_bottom_surfaces(gmsh, vol_tag, thickness)
+        gmsh.option.setNumber("Mesh.MeshSizeMax", size)
+        gmsh.option.setNumber("Mesh.MeshSizeMin", min(size, refine_size))
+        if pt is not None:
+            gmsh.model.mesh.embed(0, [pt], 2, top_tag)
+            _refinement_field(gmsh, pt, refine_size, refine_radius, size, thickness)
+        gmsh.option.setNumber("Mesh.Algorithm3D", 10)
+        gmsh.model.mesh.generate(3)
+        if order == 2:
+            gmsh.model.mesh.setOrder(2)
+        points, tets, faces = _extract(gmsh, vol_tag, (top_tag, bottom_tag), order)
+    zeta = points[:, 2].copy()
+    points[:, 2] = top_height(points[:, :2], center_xy, top, sagittal_deg, frontal_deg) \
+        - thickness + zeta
+    return TetMesh(points, tets, {"top": faces[0], "bottom": faces[1]})
+
+
+def _top_bottom_surfaces(gmsh, vol_tag: int, thickness: float) -> tuple[int, int]:
+    top = bottom = None
+    for dim, tag in gmsh.model.getBoundary([(3, vol_tag)], oriented=False):
+        zmin, zmax = gmsh.model.getBoundingBox(dim, tag)[2::3]
+        if abs(zmin - thickness) < 1e-5 and abs(zmax - thickness) < 1e-5:
+            top = tag
+        elif abs(zmin) < 1e-5 and abs(zmax) < 1e-5:
+            bottom = tag
+    if top is None or bottom is None:
+        raise FecheckError("could not identify the layer's top and bottom faces in Gmsh")
+    return top, bottom
+
+
+def _refinement_field(gmsh, point_tag: int, refine_size: float, refine_radius: float,
+                      size: float, thickness: float) -> None:
+    field = gmsh.model.mesh.field
+    dist = field.add("Distance")
+    field.setNumbers(dist, "PointsList", [point_tag])
+    thr = field.add("Threshold")
+    field.setNumber(thr, "InField", dist)
+    field.setNumber(thr, "SizeMin", refine_size)
+    field.setNumber(thr, "SizeMax", size)
+    field.setNumber(thr, "DistMin", refine_radius)
+    field.setNumber(thr, "DistMax", refine_radius + 2 * thickness + 4 * size)
+    field.setAsBackgroundMesh(thr)
+    gmsh.option.setNumber("Mesh.MeshSizeExtendFromBoundary", 0)
+    gmsh.option.setNumber("Mesh.MeshSizeFromPoints", 0)
+    gmsh.option.setNumber("Mesh.MeshSizeFromCurvature", 0)
+
+
+def _extract(gmsh, vol_tag: int, surf_tags: tuple[int, int],
+             order: int) -> tuple[np.ndarray, np.ndarray, list[np.ndarray]]:
+    tet_type, tri_type = (4, 2) if order == 1 else (11, 9)
+    node_tags, coords, _ = gmsh.model.mesh.getNodes()
+    node_tags = node_tags.astype(np.int64)
+    lookup = np.full(node_tags.max() + 1, -1, dtype=np.int64)
+    lookup[node_tags] = np.arange(len(node_tags))
+    points = coords.reshape(-1, 3)
+    _, tet_nodes = gmsh.model.mesh.getElementsByType(tet_type, vol_tag)
+    tets = lookup[tet_nodes.astype(np.int64)].reshape(-1, 4 if order == 1 else 10)
+    faces = []
+    for tag in surf_tags:
+        _, tri_nodes = gmsh.model.mesh.getElementsByType(tri_type, tag)
+        faces.append(lookup[tri_nodes.astype(np.int64)].reshape(-1, 3 if order == 1 else 6))
+    used, inverse = np.unique(tets, return_inverse=True)
+    remap = np.full(len(points), -1, dtype=np.int64)
+    remap[used] = np.arange(len(used))
+    tets = inverse.reshape(tets.shape)
+    return points[used].copy(), tets, [remap[f] for f in faces]
