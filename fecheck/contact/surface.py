@@ -57,6 +57,9 @@ class ContactSurface:
 
     normal_body : "master" or "slave", which body the normals are fixed in
     n_slave_faces : faces of the whole slave mesh (for reporting per-face fields)
+    normal_twist : (m, 3, 6) ∂normal/∂ξ, (1/mm, 1): ``ω × n`` for slave normals, zero
+        for a plane master, the surface-curvature term for a polynomial master
+        (its normal is taken at the contact, which slides over the surface)
     """
 
     face: np.ndarray
@@ -71,6 +74,11 @@ class ContactSurface:
     qp_weight_twist: np.ndarray
     normal_body: Literal["master", "slave"]
     n_slave_faces: int
+    normal_twist: np.ndarray | None = None
+
+    def __post_init__(self) -> None:
+        if self.normal_twist is None:
+            object.__setattr__(self, "normal_twist", np.zeros((len(self.face), 3, 6)))
 
     @property
     def n_faces(self) -> int:

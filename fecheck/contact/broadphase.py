@@ -1,0 +1,109 @@
+"""Broad phase: the slave faces within reach of the master, reused while the pose moves little.
+
+A face is a candidate when one of its vertices has a master ``reach`` (a signed distance,
+positive inside, 1-Lipschitz in the point) above ``-margin``. Between two relative poses
+(slave in master frame) ``y = R p + t`` and ``y0 = R0 p + t0`` every slave vertex moves by
+at most ``|(R - R0) o + t - t0| + 2 sin(θ/2) ρ`` (``o`` the slave's vertex centroid,
+``ρ`` its radius about ``o``, θ the angle of ``R R0ᵀ``). While that bound stays below
+``reuse_fraction · margin``, no face outside the set can have come into contact, so the
+set is reused: an evaluation then touches only candidate vertices and faces.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from dataclasses import dataclass
+
+import numpy as np
+
+from geometry.mesh import TriMesh
+
+
+@dataclass(frozen=True, eq=False)
+class Candidates:
+    """Slave faces near the master, with their per-face data in the slave frame (mm).
+
+    faces : (m,) slave face indices
+    local_faces : (m, 3) vertex indices into `points`
+    vertices : (n,) slave vertex indices of `points`
+    points : (n, 3) vertex coordinates
+    normals : (m, 3) unit outward face normals
+    areas : (m,) face areas, mm²
+    """
+
+    faces: np.ndarray
+    local_faces: np.ndarray
+    vertices: np.ndarray
+    points: np.ndarray
+    normals: np.ndarray
+    areas: np.ndarray
+
+
+def motion_bound(R: np.ndarray, t: np.ndarray, R0: np.ndarray, t0: np.ndarray,
+                 centroid: np.ndarray, radius: float) -> float:
+    """Largest displacement of any slave vertex between two relative poses, mm (an upper
+    bound): ``|(R - R0) o + t - t0| + 2 sin(θ/2) ρ``."""
+    cos_theta = np.clip((np.trace(R @ R0.T) - 1.0) * 0.5, -1.0, 1.0)
+    chord = np.sqrt(2.0 * (1.0 - cos_theta))               # = 2 sin(θ/2)
+    return float(np.linalg.norm((R - R0) @ centroid + t - t0) + chord * radius)
+
+
+class CandidateCache:
+    """Candidate faces of one slave against one master, rebuilt only when needed.
+
+    Parameters
+    ----------
+    slave : the slave mesh (slave frame, mm)
+    reach : function of (n, 3) master-frame points -> (n,) signed distance, mm
+    margin_mm : reach kept around the master, mm
+    reuse_fraction : reuse the set while the motion bound is below this × margin
+    prefilter : optional function of (n, 3) master-frame points -> (n,) bool, a cheap
+        test (e.g. a bounding box) run before `reach` on a full rebuild
+    """
+
+    def __init__(self, slave: TriMesh, reach: Callable[[np.ndarray], np.ndarray],
+                 margin_mm: float, reuse_fraction: float = 0.5,
+                 prefilter: Callable[[np.ndarray], np.ndarray] | None = None) -> None:
+        self.slave = slave
+        self.reach = reach
+        self.margin_mm = float(margin_mm)
+        self.reuse_fraction = float(reuse_fraction)
+        self.prefilter = prefilter
+        self.centroid = slave.points.mean(axis=0)
+        self.radius = float(np.linalg.norm(slave.points - self.centroid, axis=1).max())
+        self.n_rebuilds = 0
+        self.n_reuses = 0
+        self._ref: tuple[np.ndarray, np.ndarray] | None = None
+        self._current: Candidates | None = None
+
+    def get(self, R: np.ndarray, t: np.ndarray) -> Candidates:
+        """Candidates for the relative pose (slave → master frame) ``y = R p + t``."""
+        if self._ref is not None:
+            bound = motion_bound(R, t, *self._ref, self.centroid, self.radius)
+            if bound <= self.reuse_fraction * self.margin_mm:
+                self.n_reuses += 1
+                return self._current
+        self._current = self._build(R, t)
+        self._ref = (R.copy(), t.copy())
+        self.n_rebuilds += 1
+        return self._current
+
+    def _build(self, R: np.ndarray, t: np.ndarray) -> Candidates:
+        slave = self.slave
+        y = slave.points @ R.T + t
+        near = np.zeros(slave.n_points, dtype=bool)
+        test = np.arange(slave.n_points)
+        if self.prefilter is not None:
+            test = test[self.prefilter(y)]
+        if test.size:
+            near[test] = self.reach(y[test]) > -self.margin_mm
+        faces = np.flatnonzero(near[slave.faces].any(axis=1))
+        vertices, local = np.unique(slave.faces[faces], return_inverse=True)
+        return Candidates(faces=faces, local_faces=local.reshape(-1, 3), vertices=vertices,
+                          points=slave.points[vertices], normals=slave.face_normals[faces],
+                          areas=slave.face_areas[faces])
+
+    def reset(self) -> None:
+        """Forget the cached set (the next call rebuilds it)."""
+        self._ref = None
+        self._current = None
