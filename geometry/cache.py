@@ -14,6 +14,7 @@ import os
 import tempfile
 import warnings
 from collections.abc import Callable, Mapping
+from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
@@ -26,6 +27,19 @@ from geometry.mesh import TetMesh, TriMesh
 FORMAT_VERSION = 1
 
 _warned_unwritable: set[str] = set()
+
+
+@dataclass
+class CacheStats:
+    """Counts of cache hits and fresh builds in this process; `last` is the latest source."""
+
+    hits: int = 0
+    builds: int = 0
+    last: str | None = None
+
+
+#: Process-wide counters, updated by every `cached_build` call.
+STATS = CacheStats()
 
 
 def cache_dir() -> Path:
@@ -123,10 +137,14 @@ def cached_build(name: str, params: Mapping[str, Any],
         else:
             if info is not None:
                 info["source"] = "cache"
+            STATS.hits += 1
+            STATS.last = "cache"
             return mesh
     mesh = build()
     if info is not None:
         info["source"] = "built"
+    STATS.builds += 1
+    STATS.last = "built"
     if path is not None:
         fd, tmp = tempfile.mkstemp(prefix=".tmp-", suffix=".npz", dir=path.parent)
         try:

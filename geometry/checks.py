@@ -12,7 +12,7 @@ from dataclasses import asdict, dataclass
 
 import numpy as np
 
-from geometry.mesh import TriMesh
+from geometry.mesh import TetMesh, TriMesh
 
 #: Relative tolerance on |V_hull - V_mesh| / V_hull for a closed mesh to count as convex.
 CONVEX_RTOL = 1e-9
@@ -129,3 +129,13 @@ def mesh_report(mesh: TriMesh, name: str = "") -> MeshReport:
         components=_components(mesh.n_points, faces, edges),
         boundary_edges=int(np.count_nonzero(counts == 1)),
     )
+
+
+def tet_surface(mesh: TetMesh) -> TriMesh:
+    """Boundary triangles of a tetrahedral mesh (faces used by one tet), outward for
+    positively oriented tets; quadratic tets contribute their corner nodes."""
+    t = mesh.tets[:, :4]
+    faces = np.vstack([t[:, [1, 2, 3]], t[:, [0, 3, 2]], t[:, [0, 1, 3]], t[:, [0, 2, 1]]])
+    _, inverse, counts = np.unique(np.sort(faces, axis=1), axis=0, return_inverse=True,
+                                   return_counts=True)
+    return TriMesh(mesh.points, faces[counts[inverse.ravel()] == 1])

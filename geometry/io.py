@@ -1,6 +1,7 @@
 """Read and write meshes through meshio (STL, OBJ, VTK/VTU, Gmsh .msh, PLY, OFF, ...).
 
-`load_mesh` returns a `TetMesh` when the file holds tetrahedra, else a `TriMesh` of its
+`load_mesh` returns a `TetMesh` when the file holds tetrahedra (10-node ones in Gmsh's
+node order, as `geometry.layer` builds them), else a `TriMesh` of its
 triangles. STL stores every triangle with its own three vertices: coincident vertices
 are merged (coordinates equal to 1e-8 mm, as trimesh does) so that the surface is
 connected.
@@ -8,6 +9,7 @@ connected.
 
 from __future__ import annotations
 
+import warnings
 from pathlib import Path
 
 import numpy as np
@@ -15,16 +17,22 @@ import numpy as np
 from geometry.errors import FecheckError
 from geometry.mesh import TetMesh, TriMesh
 
+#: Gmsh orders the last two edge nodes of a 10-node tet (2-3, 1-3); meshio/VTK (1-3, 2-3).
+_TET10_SWAP = [0, 1, 2, 3, 4, 5, 6, 7, 9, 8]
 #: Coordinates closer than this (mm) are the same vertex when merging.
 MERGE_DECIMALS = 8
 
 
-def _meshio_format(path: Path) -> None:
+def check_format(path: str | Path) -> None:
+    """Raise FecheckError unless meshio knows the extension of `path`."""
     from meshio._helpers import _filetypes_from_path, extension_to_filetypes
 
+    from meshio import ReadError
+
+    path = Path(path)
     try:
         _filetypes_from_path(path)
-    except (KeyError, ValueError):
+    except (KeyError, ValueError, ReadError):
         known = ", ".join(sorted(extension_to_filetypes))
         raise FecheckError(f"{path}: unknown mesh format '{path.suffix}'; "
                            f"use one of {known}") from None
@@ -55,9 +63,12 @@ def load_mesh(path: str | Path) -> TriMesh | TetMesh:
     path = Path(path)
     if not path.is_file():
         raise FecheckError(f"{path}: mesh file not found")
-    _meshio_format(path)
+    check_format(path)
     try:
-        raw = meshio.read(path)
+        with warnings.catch_warnings():
+            # meshio's STL reader probes binary/ASCII with arithmetic that may overflow
+            warnings.simplefilter("ignore", RuntimeWarning)
+            raw = meshio.read(path)
     except Exception as err:  # meshio raises many types on corrupt input
         raise FecheckError(f"{path}: cannot read mesh ({type(err).__name__}: {err})") from None
     points = np.asarray(raw.points, dtype=float)
@@ -70,6 +81,10 @@ def load_mesh(path: str | Path) -> TriMesh | TetMesh:
     blocks = {}
     for block in raw.cells:
         blocks.setdefault(block.type, []).append(np.asarray(block.data, dtype=np.int64))
+    if "tetra10" in blocks:
+        tets = np.concatenate(blocks["tetra10"])[:, _TET10_SWAP]
+        bounds = {"triangles": np.concatenate(blocks["triangle6"])} if "triangle6" in blocks else {}
+        return TetMesh(points, tets, bounds)
     if "tetra" in blocks:
         tets = np.concatenate(blocks["tetra"])
         bounds = {"triangles": np.concatenate(blocks["triangle"])} if "triangle" in blocks else {}
@@ -90,14 +105,19 @@ def save_mesh(mesh: TriMesh | TetMesh, path: str | Path) -> Path:
     import meshio
 
     path = Path(path)
-    _meshio_format(path)
+    check_format(path)
     if isinstance(mesh, TriMesh):
-        cells = [("triangle", mesh.faces)]
+        kind, cells = "triangle", mesh.faces
+    elif mesh.tets.shape[1] == 4:
+        kind, cells = "tetra", mesh.tets
     else:
-        cells = [("tetra", mesh.tets)]
+        kind, cells = "tetra10", mesh.tets[:, _TET10_SWAP]
+    if len(mesh.points) < 2**31:
+        cells = cells.astype(np.int32)
+    extra = {"binary": True} if path.suffix.lower() == ".stl" else {}
     try:
         path.parent.mkdir(parents=True, exist_ok=True)
-        meshio.write(path, meshio.Mesh(mesh.points, cells))
+        meshio.write(path, meshio.Mesh(mesh.points, [(kind, cells)]), **extra)
     except OSError as err:
         raise FecheckError(f"{path}: cannot write mesh ({err})") from None
     return path
