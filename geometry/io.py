@@ -38,6 +38,11 @@ def check_format(path: str | Path) -> None:
                            f"use one of {known}") from None
 
 
+def _format_option(path: Path) -> dict:
+    """meshio reads and writes .msh as ANSYS first; fecheck means Gmsh's format."""
+    return {"file_format": "gmsh"} if path.suffix.lower() == ".msh" else {}
+
+
 def merge_vertices(points: np.ndarray, faces: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """Merge coincident vertices (to `MERGE_DECIMALS` decimals of a mm); drop unused ones."""
     used = np.unique(faces)
@@ -68,7 +73,7 @@ def load_mesh(path: str | Path) -> TriMesh | TetMesh:
         with warnings.catch_warnings():
             # meshio's STL reader probes binary/ASCII with arithmetic that may overflow
             warnings.simplefilter("ignore", RuntimeWarning)
-            raw = meshio.read(path)
+            raw = meshio.read(path, **_format_option(path))
     except Exception as err:  # meshio raises many types on corrupt input
         raise FecheckError(f"{path}: cannot read mesh ({type(err).__name__}: {err})") from None
     points = np.asarray(raw.points, dtype=float)
@@ -114,10 +119,10 @@ def save_mesh(mesh: TriMesh | TetMesh, path: str | Path) -> Path:
         kind, cells = "tetra10", mesh.tets[:, _TET10_SWAP]
     if len(mesh.points) < 2**31:
         cells = cells.astype(np.int32)
-    extra = {"binary": True} if path.suffix.lower() == ".stl" else {}
+    extra = {"binary": True} if path.suffix.lower() == ".stl" else _format_option(path)
     try:
         path.parent.mkdir(parents=True, exist_ok=True)
         meshio.write(path, meshio.Mesh(mesh.points, [(kind, cells)]), **extra)
-    except OSError as err:
-        raise FecheckError(f"{path}: cannot write mesh ({err})") from None
+    except Exception as err:  # meshio raises KeyError/ValueError for unsupported cells
+        raise FecheckError(f"{path}: cannot write mesh ({type(err).__name__}: {err})") from None
     return path
