@@ -67,10 +67,14 @@ class ContactPair:
         largest vertex depth)
     margin_mm : broad-phase reach; candidate faces are reused while no slave vertex can
         have moved more than half of it relative to the master
+    mesh_sign : inside/outside test of a mesh master, "normal" (side of the closest
+        face normal; open sheets) or "winding" (generalised winding number; closed
+        meshes), see `fecheck.contact.mesh_master`
     """
 
     def __init__(self, slave: TriMesh, master, *, method: str = "auto",
-                 area: str = "clipped", margin_mm: float = 2.0) -> None:
+                 area: str = "clipped", margin_mm: float = 2.0,
+                 mesh_sign: str = "normal") -> None:
         if not isinstance(slave, TriMesh):
             raise FecheckError("the slave must be a geometry.mesh.TriMesh")
         if slave.n_faces == 0:
@@ -102,7 +106,7 @@ class ContactPair:
             self.master = master
         elif method == "bvh":
             from fecheck.contact.mesh_master import MeshMaster
-            self.master = MeshMaster(master)
+            self.master = MeshMaster(master, sign=mesh_sign, margin_mm=self.margin_mm)
         else:
             from fecheck.contact.thesis import thesis_detector
             self.master = master

@@ -1,0 +1,115 @@
+"""Mesh masters: signed closest-point depth through libigl's compiled AABB tree (mm).
+
+The tree is built once per master (``igl.AABB.init``) and queried with
+``squared_distance`` for the slave points of each evaluation. Depth is the distance to
+the closest point, positive inside. Inside/outside:
+
+* ``sign="normal"`` (default): the side of the closest face's normal. For a consistently
+  oriented mesh (open sheet or closed) this is exact wherever the closest point lies on
+  a face or an edge (at an edge, a point in the outward normal cone is outside both
+  faces), which is where contact happens; it costs nothing beyond the closest-point
+  query, and it defines inside for an OPEN sheet (a cropped cartilage surface) as the
+  side its normals point away from — where a ray-parity test fails (rays escape through
+  the hole).
+* ``sign="winding"``: the generalised winding number (``igl.winding_number``, exact,
+  inside where it exceeds 1/2), robust for closed meshes with defects
+  (self-intersections, small holes) but O(faces) per point: measured 180 µs per point at
+  20,480 faces, against 2.6 µs for the closest-point query. libigl's point-cloud fast
+  winding number (precomputed octree) was 24 µs per point and wrong by up to 0.93
+  within 2 mm of the surface, so it is not used.
+
+Measured alternatives for the closest point (one run, 20,480-face sphere, 500 points
+within 2 mm of it): igl.AABB 1.3 ms; ``igl.signed_distance`` rebuilds its tree every
+call (45 ms); trimesh's rtree-based proximity is slower still (see
+``validation/bench_detection.py``).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from geometry.errors import FecheckError
+from geometry.mesh import TriMesh
+
+
+def is_closed(mesh: TriMesh) -> bool:
+    """True if every edge is shared by exactly two faces."""
+    e = np.sort(mesh.faces[:, [0, 1, 1, 2, 2, 0]].reshape(-1, 2), axis=1)
+    _, counts = np.unique(e, axis=0, return_counts=True)
+    return bool(np.all(counts == 2))
+
+
+class MeshMaster:
+    """A triangle-mesh master with a prebuilt AABB tree (master body frame, mm).
+
+    Parameters
+    ----------
+    mesh : the master surface, faces counter-clockwise from outside (normals outward)
+    sign : "normal" (side of the closest face normal) or "winding" (generalised
+        winding number > 1/2; closed meshes)
+    margin_mm : reach of the broad-phase box test around the master's bounding box
+    """
+
+    uses_slave_normal = False
+    normal_body = "slave"
+
+    def __init__(self, mesh: TriMesh, sign: str = "normal", margin_mm: float = 2.0) -> None:
+        import igl
+
+        if mesh.n_faces == 0:
+            raise FecheckError("the master mesh has no faces; check the mesh file or builder")
+        if sign not in ("normal", "winding"):
+            raise FecheckError(f"unknown sign method {sign!r}; choose 'normal' or 'winding'")
+        if sign == "winding" and not is_closed(mesh):
+            raise FecheckError("sign='winding' needs a closed master mesh; "
+                               "use sign='normal' for open sheets")
+        self.mesh, self.sign = mesh, sign
+        self._V = np.ascontiguousarray(mesh.points)
+        self._F = np.ascontiguousarray(mesh.faces)
+        self._normals = mesh.face_normals
+        self._tree = igl.AABB()
+        self._tree.init(self._V, self._F)
+        self._winding = igl.winding_number
+        lo, hi = mesh.points.min(axis=0), mesh.points.max(axis=0)
+        self._box = (lo - margin_mm, hi + margin_mm)
+
+    def describe(self) -> str:
+        sign = ("side of the closest face normal" if self.sign == "normal"
+                else "generalised winding number")
+        return (f"mesh master ({self.mesh.n_faces} faces): libigl AABB closest point, "
+                f"inside by {sign}")
+
+    def prefilter(self, y: np.ndarray) -> np.ndarray:
+        """(n,) True for points inside the master's bounding box grown by the margin."""
+        lo, hi = self._box
+        return np.all((y >= lo) & (y <= hi), axis=1)
+
+    def _query(self, y: np.ndarray):
+        pts = np.ascontiguousarray(y.reshape(-1, 3))
+        sq, face, closest = self._tree.squared_distance(self._V, self._F, pts)
+        offset = pts - closest
+        if self.sign == "normal":
+            outside = np.einsum("ij,ij->i", offset, self._normals[face]) > 0.0
+        else:
+            outside = self._winding(self._V, self._F, pts) < 0.5
+        dist = np.sqrt(sq)
+        depth = np.where(outside, -dist, dist)
+        return depth, face, offset, dist, outside
+
+    def reach(self, y: np.ndarray) -> np.ndarray:
+        """Signed distance, positive inside, mm (1-Lipschitz)."""
+        return self.depth_values(y)
+
+    def depth_values(self, y: np.ndarray, u: np.ndarray | None = None) -> np.ndarray:
+        """(…,) signed closest-point depth, mm."""
+        return self._query(y)[0].reshape(y.shape[:-1])
+
+    def depth_gradients(self, y: np.ndarray, u: np.ndarray | None = None):
+        """(∂d/∂y, None): minus the outward unit direction from the closest point
+        (minus the face normal when the point is on the surface)."""
+        _, face, offset, dist, outside = self._query(y)
+        on_surface = dist < 1e-12
+        direction = offset / np.where(on_surface, 1.0, dist)[:, None]
+        direction = np.where(outside[:, None], direction, -direction)
+        direction = np.where(on_surface[:, None], self._normals[face], direction)
+        return (-direction).reshape(y.shape), None
