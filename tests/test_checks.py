@@ -53,6 +53,8 @@ def test_report_agrees_with_trimesh(kind):
     assert r.winding_consistent == t.is_winding_consistent
     assert r.edges == len(t.edges_unique)
     assert r.area_mm2 == pytest.approx(t.area, rel=1e-12)
+    lengths = t.edges_unique_length
+    assert (r.edge_min_mm, r.edge_max_mm) == pytest.approx((lengths.min(), lengths.max()))
     if r.volume_mm3 is not None:
         assert r.volume_mm3 == pytest.approx(t.volume, rel=1e-12)
         assert r.convex == t.is_convex
@@ -63,7 +65,8 @@ def test_icosphere_report_numbers():
     assert (r.faces, r.vertices, r.edges, r.boundary_edges) == (1280, 642, 1920, 0)
     exact = 4 / 3 * np.pi * 1000
     assert -0.01 < (r.volume_mm3 - exact) / exact < 0  # inscribed: -0.86% at 1280 faces
-    assert r.edge_max_mm < 2 * 10 * np.sin(np.arctan(2) / 2 / 4 * 1.3)
+    # mean edge ≈ the chord of the icosahedron's edge angle atan(2) split 2^3 times
+    assert r.edge_mean_mm == pytest.approx(2 * 10 * np.sin(np.arctan(2) / 16), rel=0.1)
 
 
 def test_open_cap_boundary_and_volume():
