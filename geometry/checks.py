@@ -65,8 +65,8 @@ def _components(n_points: int, faces: np.ndarray, edges: np.ndarray) -> int:
 
     graph = coo_matrix((np.ones(len(edges)), (edges[:, 0], edges[:, 1])),
                        shape=(n_points, n_points))
-    n, labels = connected_components(graph, directed=False)
-    return int(len(np.unique(labels[np.unique(faces)])))
+    _, labels = connected_components(graph, directed=False)
+    return len(np.unique(labels[np.unique(faces)]))
 
 
 def _is_convex(mesh: TriMesh, closed: bool, volume: float | None) -> bool:

@@ -25,9 +25,8 @@ MERGE_DECIMALS = 8
 
 def check_format(path: str | Path) -> None:
     """Raise FecheckError unless meshio knows the extension of `path`."""
-    from meshio._helpers import _filetypes_from_path, extension_to_filetypes
-
     from meshio import ReadError
+    from meshio._helpers import _filetypes_from_path, extension_to_filetypes
 
     path = Path(path)
     try:
@@ -47,8 +46,7 @@ def merge_vertices(points: np.ndarray, faces: np.ndarray) -> tuple[np.ndarray, n
     """Merge coincident vertices (to `MERGE_DECIMALS` decimals of a mm); drop unused ones."""
     used = np.unique(faces)
     keys = np.round(points[used], MERGE_DECIMALS) + 0.0
-    unique_keys, first, inverse = np.unique(keys, axis=0, return_index=True,
-                                            return_inverse=True)
+    _, first, inverse = np.unique(keys, axis=0, return_index=True, return_inverse=True)
     remap = np.empty(len(points), dtype=np.int64)
     remap[used] = inverse.ravel()
     return points[used][first], remap[faces]
@@ -74,7 +72,7 @@ def load_mesh(path: str | Path) -> TriMesh | TetMesh:
             # meshio's STL reader probes binary/ASCII with arithmetic that may overflow
             warnings.simplefilter("ignore", RuntimeWarning)
             raw = meshio.read(path, **_format_option(path))
-    except Exception as err:  # meshio raises many types on corrupt input
+    except Exception as err:  # noqa: BLE001 - meshio raises many types on corrupt input
         raise FecheckError(f"{path}: cannot read mesh ({type(err).__name__}: {err})") from None
     points = np.asarray(raw.points, dtype=float)
     if points.ndim != 2 or points.shape[1] not in (2, 3) or len(points) == 0:
@@ -123,6 +121,6 @@ def save_mesh(mesh: TriMesh | TetMesh, path: str | Path) -> Path:
     try:
         path.parent.mkdir(parents=True, exist_ok=True)
         meshio.write(path, meshio.Mesh(mesh.points, [(kind, cells)]), **extra)
-    except Exception as err:  # meshio raises KeyError/ValueError for unsupported cells
+    except Exception as err:  # noqa: BLE001 - meshio: KeyError/ValueError/OSError on writes
         raise FecheckError(f"{path}: cannot write mesh ({type(err).__name__}: {err})") from None
     return path

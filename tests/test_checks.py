@@ -2,6 +2,7 @@
 
 import numpy as np
 import pytest
+from conftest import require_knee_data
 
 from geometry.cap import spherical_cap
 from geometry.checks import mesh_report, tet_surface
@@ -9,8 +10,6 @@ from geometry.icosphere import icosahedron, icosphere
 from geometry.io import load_mesh
 from geometry.mesh import TetMesh, TriMesh
 from geometry.plateau import plateau_box
-
-from conftest import require_knee_data
 
 # Table 3.1 rows: (χ, winding consistent, convex, watertight, empty). The thesis found
 # its Gmsh icosphere "not convex" by 0.04 mm³ of hull volume (a numerical artefact of

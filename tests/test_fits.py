@@ -8,8 +8,14 @@ import numpy as np
 import pytest
 
 from geometry.errors import FecheckError
-from geometry.fits import (fit_plane, fit_polynomial_surface, fit_sphere,
-                           fit_spherical_polynomial, plane_angles, plane_coefficients)
+from geometry.fits import (
+    fit_plane,
+    fit_polynomial_surface,
+    fit_sphere,
+    fit_spherical_polynomial,
+    plane_angles,
+    plane_coefficients,
+)
 from geometry.polynomial import Polynomial2D
 
 MEAN_ABS = np.sqrt(2 / np.pi)  # E|N(0, σ²)| / σ

@@ -10,6 +10,7 @@ import argparse
 import json
 from pathlib import Path
 
+
 def _coeffs(text: str) -> list:
     try:
         value = json.loads(text)
