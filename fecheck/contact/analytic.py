@@ -73,11 +73,15 @@ class Plane:
 
     def depth_gradients(self, y: np.ndarray, u: np.ndarray | None = None):
         """(∂d/∂y, None): the gradient is minus the plane normal."""
-        return np.broadcast_to(-self.normal, y.shape), None
+        g = np.empty(y.shape)
+        g[...] = -self.normal
+        return g, None
 
-    def foundation_normals(self, centroids: np.ndarray):
-        """(m, 3) normals at face centroids and (m, 3, 3) ∂normal/∂centroid (zero)."""
-        return np.broadcast_to(self.normal, centroids.shape), None
+    def foundation_normals(self, triangles: np.ndarray):
+        """(m, 3) normals of faces (m, 3, 3) and ∂normal/∂centroid (None: zero)."""
+        n = np.empty((len(triangles), 3))
+        n[...] = self.normal
+        return n, None
 
 
 @dataclass(frozen=True, eq=False)
@@ -138,7 +142,7 @@ class Sphere:
         h = np.where(safe[..., None], depth[..., None] * g_ray, 0.0)
         return g, h
 
-    def foundation_normals(self, centroids: np.ndarray):
+    def foundation_normals(self, triangles: np.ndarray):
         raise FecheckError("the sphere master uses the slave face normals")
 
 
@@ -198,9 +202,10 @@ class PolynomialSurface:
                       -1.0 / s], axis=-1)
         return g, None
 
-    def foundation_normals(self, centroids: np.ndarray):
-        """(m, 3) upward unit normals at the vertical feet of `centroids` and their
-        (m, 3, 3) derivatives with respect to the centroid position."""
+    def foundation_normals(self, triangles: np.ndarray):
+        """(m, 3) upward unit normals at the vertical feet of the centroids of faces
+        (m, 3, 3) and their (m, 3, 3) derivatives with respect to the centroid position."""
+        centroids = triangles.sum(axis=1) / 3.0
         _, fx, fy, fxx, fxy, fyy = self._eval(centroids, True)
         a = np.stack([-fx, -fy, np.ones_like(fx)], axis=-1)
         s = np.linalg.norm(a, axis=-1)

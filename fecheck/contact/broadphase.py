@@ -43,8 +43,8 @@ def motion_bound(R: np.ndarray, t: np.ndarray, R0: np.ndarray, t0: np.ndarray,
                  centroid: np.ndarray, radius: float) -> float:
     """Largest displacement of any slave vertex between two relative poses, mm (an upper
     bound): ``|(R - R0) o + t - t0| + 2 sin(θ/2) ρ``."""
-    cos_theta = np.clip((np.trace(R @ R0.T) - 1.0) * 0.5, -1.0, 1.0)
-    chord = np.sqrt(2.0 * (1.0 - cos_theta))               # = 2 sin(θ/2)
+    cos_theta = min(max(((R * R0).sum() - 1.0) * 0.5, -1.0), 1.0)   # trace(R R0ᵀ) = Σ R∘R0
+    chord = np.sqrt(2.0 * (1.0 - cos_theta))                       # = 2 sin(θ/2)
     return float(np.linalg.norm((R - R0) @ centroid + t - t0) + chord * radius)
 
 

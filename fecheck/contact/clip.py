@@ -13,9 +13,25 @@ from __future__ import annotations
 import numpy as np
 
 _EYE = np.eye(3)
-_CYCLE = np.array([[0, 1, 2], [1, 2, 0], [2, 0, 1]])
 # Rows: barycentric coordinates of the 3 rule points on a sub-triangle's corners.
 _RULE = np.array([[4.0, 1.0, 1.0], [1.0, 4.0, 1.0], [1.0, 1.0, 4.0]]) / 6.0
+# Corner points of a face: 0, 1, 2 its vertices, 3, 4, 5 the zero-depth points on the
+# edges 0-1, 1-2, 2-0. For each sign pattern (bit i set when vertex i is in contact),
+# the in-contact sub-triangles as corner-point triples (unused slots are never read).
+_N_TRI = np.array([0, 1, 1, 2, 1, 2, 2, 1])
+_TABLE = np.array([
+    [[0, 0, 0], [0, 0, 0]],
+    [[0, 3, 5], [0, 0, 0]],      # vertex 0
+    [[1, 4, 3], [0, 0, 0]],      # vertex 1
+    [[0, 1, 4], [0, 4, 5]],      # vertices 0, 1
+    [[2, 5, 4], [0, 0, 0]],      # vertex 2
+    [[2, 0, 3], [2, 3, 4]],      # vertices 0, 2
+    [[1, 2, 5], [1, 5, 3]],      # vertices 1, 2
+    [[0, 1, 2], [0, 0, 0]],      # all three
+])
+_ROLL = [1, 2, 0]
+_EDGE_POINTS = [3, 4, 5]
+_BITS = np.array([1, 2, 4])
 
 
 def clip_faces(depth: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -35,28 +51,17 @@ def clip_faces(depth: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     >>> float(frac[0])
     0.25
     """
-    positive = depth > 0.0
-    n_pos = positive.sum(axis=1)
-    # The odd vertex: the lone positive one (n_pos == 1) or the lone non-positive one.
-    odd = np.where(n_pos == 1, np.argmax(positive, axis=1), np.argmin(positive, axis=1))
-    perm = _CYCLE[odd]
-    d = np.take_along_axis(depth, perm, axis=1)
-    e_o, e_a, e_b = _EYE[perm[:, 0]], _EYE[perm[:, 1]], _EYE[perm[:, 2]]
-    with np.errstate(divide="ignore", invalid="ignore"):  # unused where signs agree
-        t_a = (d[:, 0] / (d[:, 0] - d[:, 1]))[:, None]
-        t_b = (d[:, 0] / (d[:, 0] - d[:, 2]))[:, None]
-        p_a = (1.0 - t_a) * e_o + t_a * e_a
-        p_b = (1.0 - t_b) * e_o + t_b * e_b
-
-    one, two, three = n_pos == 1, n_pos == 2, n_pos == 3
-    idx = np.arange(len(depth))
-    parent = np.concatenate([idx[three], idx[one], idx[two], idx[two]])
-    corners = np.concatenate([
-        np.stack([e_o[three], e_a[three], e_b[three]], axis=1),
-        np.stack([e_o[one], p_a[one], p_b[one]], axis=1),
-        np.stack([e_a[two], e_b[two], p_b[two]], axis=1),
-        np.stack([e_a[two], p_b[two], p_a[two]], axis=1),
-    ])
+    m = len(depth)
+    pattern = (depth > 0.0) @ _BITS
+    step = depth - depth[:, _ROLL]
+    t = depth / np.where(step == 0.0, 1.0, step)      # zero crossing along edge i → i+1
+    points = np.zeros((m, 6, 3))
+    points[:, :3] = _EYE
+    points[:, _EDGE_POINTS, [0, 1, 2]] = 1.0 - t
+    points[:, _EDGE_POINTS, _ROLL] = t
+    slots = np.flatnonzero(np.arange(2) < _N_TRI[pattern][:, None])
+    parent = slots >> 1
+    corners = points[parent[:, None], _TABLE[pattern[parent], slots & 1]]
     u = corners[:, 1, 1:] - corners[:, 0, 1:]
     v = corners[:, 2, 1:] - corners[:, 0, 1:]
     fraction = np.abs(u[:, 0] * v[:, 1] - u[:, 1] * v[:, 0])

@@ -104,12 +104,17 @@ class MeshMaster:
         """(…,) signed closest-point depth, mm."""
         return self._query(y)[0].reshape(y.shape[:-1])
 
-    def depth_gradients(self, y: np.ndarray, u: np.ndarray | None = None):
-        """(∂d/∂y, None): minus the outward unit direction from the closest point
-        (minus the face normal when the point is on the surface)."""
-        _, face, offset, dist, outside = self._query(y)
+    def depth_and_gradients(self, y: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Depth (n,) and its gradient (n, 3) at points (n, 3) from one tree query: minus
+        the outward unit direction from the closest point (minus the face normal for a
+        point on the surface)."""
+        depth, face, offset, dist, outside = self._query(y)
         on_surface = dist < 1e-12
         direction = offset / np.where(on_surface, 1.0, dist)[:, None]
         direction = np.where(outside[:, None], direction, -direction)
         direction = np.where(on_surface[:, None], self._normals[face], direction)
-        return (-direction).reshape(y.shape), None
+        return depth, -direction
+
+    def depth_gradients(self, y: np.ndarray, u: np.ndarray | None = None):
+        """(∂d/∂y, None) at points of any leading shape, see `depth_and_gradients`."""
+        return self.depth_and_gradients(y.reshape(-1, 3))[1].reshape(y.shape), None

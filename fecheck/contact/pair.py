@@ -24,6 +24,8 @@ from geometry.mesh import TriMesh
 
 METHODS = ("auto", "closed-form", "bvh", "ray-parity", "fcl")
 AREAS = ("clipped", "whole-face")
+_EYE = np.eye(3)
+_ROLL1, _ROLL2 = [1, 2, 0], [2, 0, 1]
 
 
 def validate_pose(pose, name: str) -> tuple[np.ndarray, np.ndarray]:
@@ -37,12 +39,25 @@ def validate_pose(pose, name: str) -> tuple[np.ndarray, np.ndarray]:
     if R.shape != (3, 3) or t.shape != (3,):
         raise FecheckError(f"{name} pose must be (R (3, 3), t (3,) mm), "
                            f"got shapes {R.shape} and {t.shape}")
-    if not (np.isfinite(R).all() and np.isfinite(t).all()):
+    if not np.isfinite(R.sum() + t.sum()):
         raise FecheckError(f"{name} pose contains NaN or infinite values")
-    if np.abs(R.T @ R - np.eye(3)).max() > 1e-6 or np.linalg.det(R) < 0:
+    if np.abs(R.T @ R - _EYE).max() > 1e-6 or R[0] @ _cross(R[1], R[2]) < 0:
         raise FecheckError(f"{name} rotation is not orthonormal with det +1; "
                            "build it with fecheck.frames.rotation")
     return R, t
+
+
+def _cross(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """a × b over the last axis (cheaper than np.cross on small arrays)."""
+    return a[..., _ROLL1] * b[..., _ROLL2] - a[..., _ROLL2] * b[..., _ROLL1]
+
+
+def _apply(a: np.ndarray, R: np.ndarray, t: np.ndarray | None = None) -> np.ndarray:
+    """R a (+ t) for an array of 3-vectors of any leading shape."""
+    out = a.reshape(-1, 3) @ R.T
+    if t is not None:
+        out += t
+    return out.reshape(a.shape)
 
 
 def _skew(v: np.ndarray) -> np.ndarray:
@@ -152,49 +167,54 @@ class ContactPair:
         if cand.faces.size == 0:
             return ContactSurface.empty(self.slave.n_faces, body)
         y = cand.points @ R.T + t
+        grad = None
         if master.uses_slave_normal:
-            u = -(cand.normals @ R.T)
+            u = _apply(cand.normals, -R)
             d = master.depth_values(y[cand.local_faces], u[:, None, :])
+        elif hasattr(master, "depth_and_gradients"):        # one BVH query for both
+            dv, grad = master.depth_and_gradients(y)
+            d = dv[cand.local_faces]
         else:
             d = master.depth_values(y)[cand.local_faces]
         hit = np.flatnonzero(d.max(axis=1) > 0.0)
         if hit.size == 0:
             return ContactSurface.empty(self.slave.n_faces, body)
-        return self._surface(cand, hit, d[hit], y[cand.local_faces[hit]], R, Rm, tm, Rs)
+        faces = cand.local_faces[hit]
+        return self._surface(cand, hit, d[hit], y[faces], R, Rm, tm, Rs,
+                             None if grad is None else grad[faces])
 
-    def _surface(self, cand, hit, D, Y, R, Rm, tm, Rs) -> ContactSurface:
+    def _surface(self, cand, hit, D, Y, R, Rm, tm, Rs, g=None) -> ContactSurface:
+        """Quadrature, twist derivatives and normals of the contact faces `hit`."""
         master = self.master
         m = len(hit)
-        nf_w = cand.normals[hit] @ Rs.T                      # slave face normals, world
-        X = Y @ Rm.T + tm                                    # (m, 3, 3) world vertices
+        nf_w = _apply(cand.normals[hit], Rs)                  # slave face normals, world
+        X = _apply(Y, Rm, tm)                                 # (m, 3, 3) world vertices
         if master.uses_slave_normal:
-            U = np.broadcast_to(-(cand.normals[hit] @ R.T)[:, None, :], Y.shape)
+            U = np.broadcast_to(_apply(cand.normals[hit], -R)[:, None, :], Y.shape)
             g, h = master.depth_gradients(Y, U)
-            gw, hw = g @ Rm.T, h @ Rm.T
-            rot = np.cross(X, gw) + np.cross(-nf_w[:, None, :], hw)
+            gw = _apply(g, Rm)
+            rot = _cross(X, gw) - _cross(nf_w[:, None, :], _apply(h, Rm))
         else:
-            g, _ = master.depth_gradients(Y)
-            gw = g @ Rm.T
-            rot = np.cross(X, gw)
-        vertex_twist = np.concatenate([gw, rot], axis=-1)   # (m, 3, 6)
+            gw = _apply(master.depth_gradients(Y)[0] if g is None else g, Rm)
+            rot = _cross(X, gw)
+        # Per vertex: depth, world position, ∂d/∂v, ∂d/∂ω — interpolated in one pass.
+        vertex = np.concatenate([D[:, :, None], X, gw, rot], axis=-1)      # (m, 3, 10)
 
         normal_twist = np.zeros((m, 3, 6))
         if master.normal_body == "slave":
             N = -nf_w
             normal_twist[:, :, 3:] = -_skew(N)
-            proj = np.ones(m)
-            dproj = None
         else:
-            Nm, dN = master.foundation_normals(Y.mean(axis=1))
-            N = Nm @ Rm.T
+            Nm, dN = master.foundation_normals(Y)
+            N = _apply(Nm, Rm)
+            cos = np.einsum("ij,ij->i", nf_w, N)
+            dcos = np.zeros((m, 6))
+            dcos[:, 3:] = _cross(nf_w, N)
             if dN is not None:
                 A = Rm @ dN @ Rm.T
                 normal_twist[:, :, :3] = A
-                normal_twist[:, :, 3:] = -A @ _skew(X.mean(axis=1))
-            cos = np.einsum("ij,ij->i", nf_w, N)
-            proj = np.abs(cos)
-            dcos = np.einsum("ij,ijk->ik", nf_w, normal_twist)
-            dcos[:, 3:] += np.cross(nf_w, N)
+                normal_twist[:, :, 3:] = -A @ _skew(X.sum(axis=1) / 3.0)
+                dcos += np.einsum("ij,ijk->ik", nf_w, normal_twist)
             dproj = np.sign(cos)[:, None] * dcos
 
         if self.area_mode == "clipped":
@@ -202,23 +222,20 @@ class ContactPair:
         else:
             parent, corners, frac = whole_faces(m)
         qp_face, bary, qfrac = quadrature(parent, corners, frac)
-        if self.area_mode == "clipped":
-            qp_depth = np.einsum("qi,qi->q", bary, D[qp_face])
-            qp_depth_twist = np.einsum("qi,qij->qj", bary, vertex_twist[qp_face])
-        else:
-            deepest = np.argmax(D, axis=1)
-            rows = np.arange(m)
-            qp_depth = D[rows, deepest][qp_face]
-            qp_depth_twist = vertex_twist[rows, deepest][qp_face]
+        qp = np.einsum("qi,qij->qj", bary, vertex[qp_face])
+        qp_depth, qp_depth_twist = qp[:, 0], qp[:, 4:]
+        if self.area_mode == "whole-face":
+            deepest = vertex[np.arange(m), np.argmax(D, axis=1)][qp_face]
+            qp_depth, qp_depth_twist = deepest[:, 0], deepest[:, 4:]
         area = qfrac * cand.areas[hit][qp_face]
-        weight = area * proj[qp_face]
-        if dproj is None:
-            weight_twist = np.zeros((len(qp_face), 6))
+        if master.normal_body == "slave":
+            weight, weight_twist = area, np.zeros((len(qp_face), 6))
         else:
+            weight = area * np.abs(cos)[qp_face]
             weight_twist = area[:, None] * dproj[qp_face]
         return ContactSurface(
             face=cand.faces[hit], normal=N, vertex_depth=D, qp_face=qp_face, qp_bary=bary,
-            qp_point=np.einsum("qi,qij->qj", bary, X[qp_face]), qp_depth=qp_depth,
-            qp_weight=weight, qp_depth_twist=qp_depth_twist, qp_weight_twist=weight_twist,
+            qp_point=qp[:, 1:4], qp_depth=qp_depth, qp_weight=weight,
+            qp_depth_twist=qp_depth_twist, qp_weight_twist=weight_twist,
             normal_body=master.normal_body, n_slave_faces=self.slave.n_faces,
             normal_twist=normal_twist)
