@@ -87,17 +87,29 @@ def plane_coefficients(sagittal_deg: float, frontal_deg: float) -> tuple[float, 
     return float(np.tan(gamma)), float(np.tan(lam) / np.cos(gamma))
 
 
-def fit_sphere(points: np.ndarray, *, refine: bool = True) -> SphereFit:
+def _weights(weights: np.ndarray | None, n: int) -> np.ndarray:
+    if weights is None:
+        return np.ones(n)
+    w = np.asarray(weights, dtype=float)
+    if w.shape != (n,) or not np.all(np.isfinite(w)) or np.any(w < 0) or not w.sum() > 0:
+        raise FecheckError(f"weights must be {n} finite non-negative numbers, not all zero")
+    return w
+
+
+def fit_sphere(points: np.ndarray, *, weights: np.ndarray | None = None,
+               refine: bool = True) -> SphereFit:
     """Best sphere through `points` (mm): algebraic LSQ, then geometric Gauss-Newton.
 
-    The geometric step minimises Σ(‖p_i - c‖ - R)² (thesis §2.2.1); the reported mean
-    error is eq. 2.1, ME = (1/n) Σ |‖p_i - c‖ - R|.
+    The geometric step minimises Σ w_i (‖p_i - c‖ - R)² (thesis §2.2.1; `weights`, e.g.
+    face areas for face centroids, default 1); the reported mean error is eq. 2.1,
+    ME = (1/n) Σ |‖p_i - c‖ - R| (unweighted).
     """
     p = _points(points, 4)
+    sw = np.sqrt(_weights(weights, len(p)))
     shift = p.mean(axis=0)
     q = p - shift
     A = np.column_stack([2.0 * q, np.ones(len(q))])
-    sol, *_ = np.linalg.lstsq(A, (q * q).sum(axis=1), rcond=None)
+    sol, *_ = np.linalg.lstsq(A * sw[:, None], (q * q).sum(axis=1) * sw, rcond=None)
     c, r2 = sol[:3], sol[3] + sol[:3] @ sol[:3]
     if r2 <= 0 or not np.isfinite(r2):
         raise FecheckError("sphere fit failed: the points are (nearly) coplanar")
@@ -106,12 +118,12 @@ def fit_sphere(points: np.ndarray, *, refine: bool = True) -> SphereFit:
         from scipy.optimize import least_squares
 
         def residual(x: np.ndarray) -> np.ndarray:
-            return np.linalg.norm(q - x[:3], axis=1) - x[3]
+            return sw * (np.linalg.norm(q - x[:3], axis=1) - x[3])
 
         def jacobian(x: np.ndarray) -> np.ndarray:
             d = q - x[:3]
             dist = np.linalg.norm(d, axis=1, keepdims=True)
-            return np.column_stack([-d / dist, -np.ones(len(q))])
+            return sw[:, None] * np.column_stack([-d / dist, -np.ones(len(q))])
 
         res = least_squares(residual, np.append(c, r), jac=jacobian, method="lm")
         c, r = res.x[:3], float(res.x[3])
@@ -120,29 +132,38 @@ def fit_sphere(points: np.ndarray, *, refine: bool = True) -> SphereFit:
 
 
 def fit_plane(points: np.ndarray, *, outlier_sigma: float | None = 2.0,
-              max_iterations: int = 50) -> PlaneFit:
+              weights: np.ndarray | None = None, max_iterations: int = 50) -> PlaneFit:
     """Fit z = ax + by + c (eq. 2.5, vertical residuals) with statistical outlier removal.
 
+    `weights` (e.g. face areas for face centroids) weight the squared residuals.
+
     Iterates: fit on the inliers, then keep the points whose residual lies within
-    ``outlier_sigma`` standard deviations of the inliers' residuals, until the inlier set
-    stops changing. ``outlier_sigma=None`` fits all points once. Mean errors are the
+    ``outlier_sigma``·σ̂ of the median residual, until the inlier set stops changing.
+    σ̂ = 1.4826·MAD of all points' residuals, a standard deviation estimate that outliers
+    do not inflate and that does not shrink as points are dropped (the plain standard
+    deviation of the inliers does, so iterating with it erodes good points: on the
+    scanned tibial plateaus it kept only 31-48% of the faces). ``outlier_sigma=None``
+    fits all points once. Mean errors are the
     mean |z - (ax + by + c)| over the inliers, and over the same inliers for the
     transverse plane z = mean(z) (thesis Table 2.1 "Tran").
     """
     p = _points(points, 3)
     if outlier_sigma is not None and not outlier_sigma > 0:
         raise FecheckError(f"outlier_sigma must be positive or None, got {outlier_sigma}")
+    sw = np.sqrt(_weights(weights, len(p)))
     A = np.column_stack([p[:, 0], p[:, 1], np.ones(len(p))])
     inliers = np.ones(len(p), dtype=bool)
     for _ in range(max_iterations):
-        coef, _, rank, _ = np.linalg.lstsq(A[inliers], p[inliers, 2], rcond=None)
+        coef, _, rank, _ = np.linalg.lstsq(A[inliers] * sw[inliers, None],
+                                           p[inliers, 2] * sw[inliers], rcond=None)
         if rank < 3:
             raise FecheckError("plane fit failed: the points are collinear in x-y")
         if outlier_sigma is None:
             break
         res = p[:, 2] - A @ coef
-        std = res[inliers].std()
-        new = np.abs(res - res[inliers].mean()) <= outlier_sigma * std
+        centre = np.median(res)
+        sigma_hat = 1.4826 * np.median(np.abs(res - centre))
+        new = np.abs(res - centre) <= outlier_sigma * sigma_hat
         if np.array_equal(new, inliers) or new.sum() < 3:
             break
         inliers = new

@@ -4,8 +4,11 @@ Tolerances come from the noise: a least-squares estimate has covariance σ²(J�
 the truth; we accept 5 standard errors (a false failure every ~2·10⁶ runs, fixed seeds).
 """
 
+import json
+
 import numpy as np
 import pytest
+from conftest import require_knee_data
 
 from geometry.errors import FecheckError
 from geometry.fits import (
@@ -16,6 +19,7 @@ from geometry.fits import (
     plane_angles,
     plane_coefficients,
 )
+from geometry.io import load_mesh
 from geometry.polynomial import Polynomial2D
 
 MEAN_ABS = np.sqrt(2 / np.pi)  # E|N(0, σ²)| / σ
@@ -153,3 +157,39 @@ def test_fits_reject_too_few_or_degenerate_points():
         fit_sphere(np.zeros((3, 3)))
     with pytest.raises(FecheckError):
         fit_plane(np.column_stack([np.arange(5.0), np.arange(5.0), np.ones(5)]))  # collinear
+
+
+def test_integer_weights_equal_repeated_points():
+    rng = np.random.default_rng(7)
+    pts, _ = _condyle_points(rng, np.array([1.0, 2.0, 3.0]), 20.0, 300, 0.3)
+    w = rng.integers(1, 4, len(pts))
+    rep = np.repeat(pts, w, axis=0)
+    a, b = fit_sphere(pts, weights=w), fit_sphere(rep)
+    np.testing.assert_allclose(a.center, b.center, atol=1e-8)
+    assert a.radius_mm == pytest.approx(b.radius_mm, abs=1e-8)
+    pa, pb = fit_plane(pts, weights=w, outlier_sigma=None), fit_plane(rep, outlier_sigma=None)
+    assert (pa.a, pa.b, pa.c) == pytest.approx((pb.a, pb.b, pb.c), abs=1e-10)
+
+
+def test_scanned_knee_fits_match_the_data_set_reference():
+    """Reproduce the fits shipped in fits.json (area-weighted, definitions in that file)."""
+    knee = require_knee_data()
+    ref = json.loads((knee / "fits.json").read_text())["fits"]
+    for side in ("medial", "lateral"):
+        m = load_mesh(knee / f"lenhart2015_R_tibia_cartilage_{side}.stl")
+        fit = fit_plane(m.face_centroids, outlier_sigma=None, weights=m.face_areas)
+        r = ref[f"tibial_plateau_{side}_plane"]
+        # reference printed to 5 decimals (a, b) and 3 (c)
+        assert (fit.a, fit.b, fit.c) == pytest.approx((r["a"], r["b"], r["c_mm"]), abs=6e-4)
+        assert fit.frontal_deg == pytest.approx(r["coronal_tilt_deg_atan_a"], abs=0.01)
+    femur = load_mesh(knee / "lenhart2015_R_femur_cartilage.stl")
+    n, c = femur.face_normals, femur.face_centroids
+    angle = np.degrees(np.arctan2(-n[:, 1], -n[:, 2]))
+    posterior_distal = (angle > -10) & (angle < 100) & (np.abs(n[:, 0]) < 0.5) & (c[:, 1] < 15)
+    for side, keep in (("medial", c[:, 0] < -8), ("lateral", c[:, 0] > 8)):
+        k = posterior_distal & keep
+        r = ref[f"femoral_condyle_{side}_sphere"]
+        assert k.sum() == r["n_faces"]
+        fit = fit_sphere(c[k], weights=femur.face_areas[k])
+        np.testing.assert_allclose(fit.center, r["centre_mm"], atol=1e-3)
+        assert fit.radius_mm == pytest.approx(r["radius_mm"], abs=6e-3)
