@@ -55,8 +55,10 @@ def _canonical(value: Any) -> Any:
         return _canonical(value.tolist())
     if isinstance(value, (list, tuple)):
         return [_canonical(v) for v in value]
-    if isinstance(value, (bool, np.bool_)) or value is None or isinstance(value, str):
-        return value if not isinstance(value, np.bool_) else bool(value)
+    if value is None or isinstance(value, str):
+        return value
+    if isinstance(value, (bool, np.bool_)):
+        return bool(value)
     if isinstance(value, (int, np.integer)):
         return int(value)
     if isinstance(value, (float, np.floating)):

@@ -15,7 +15,7 @@ import numpy as np
 
 from geometry.cache import cached_build
 from geometry.errors import FecheckError
-from geometry.icosphere import icosphere
+from geometry.icosphere import check_sphere_parameters, icosphere
 from geometry.mesh import TriMesh
 
 #: Vertices closer than this fraction of the radius to the plane are moved onto it.
@@ -116,6 +116,7 @@ def spherical_cap(radius: float, subdivisions: int, center: Sequence[float] = (0
     >>> bool(hemi.points[:, 2].max() <= 1e-9)
     True
     """
+    check_sphere_parameters(radius, subdivisions, center, method)
     cp = np.asarray(cut_point, dtype=float)
     cn = np.asarray(cut_normal, dtype=float)
     if cp.shape != (3,) or cn.shape != (3,) or not np.all(np.isfinite(np.r_[cp, cn])):
@@ -123,13 +124,13 @@ def spherical_cap(radius: float, subdivisions: int, center: Sequence[float] = (0
     if np.linalg.norm(cn) == 0:
         raise FecheckError("cut_normal must be a non-zero vector")
     cn = cn / np.linalg.norm(cn)
-    sphere = icosphere(radius, subdivisions, center, method=method, cache=cache)
     distance = (np.asarray(center, dtype=float) - cp) @ cn
     if distance >= radius:
         raise FecheckError("the cutting plane leaves nothing of the sphere: move cut_point "
                            "or flip cut_normal (the kept side is where the normal points away)")
 
     def build() -> TriMesh:
+        sphere = icosphere(radius, subdivisions, center, method=method, cache=cache)
         cap = clip_by_plane(sphere, cp, cn, snap=SNAP_RTOL * radius)
         if closed and distance > -radius:
             return close_planar_boundary(cap, cn)

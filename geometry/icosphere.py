@@ -34,7 +34,9 @@ def icosahedron() -> tuple[np.ndarray, np.ndarray]:
     return v / np.linalg.norm(v, axis=1, keepdims=True), f
 
 
-def _validate(radius: float, subdivisions: int, center: Sequence[float], method: str) -> None:
+def check_sphere_parameters(radius: float, subdivisions: int, center: Sequence[float],
+                            method: str) -> None:
+    """Raise FecheckError unless the icosphere parameters are valid (see `icosphere`)."""
     if not np.isfinite(radius) or radius <= 0:
         raise FecheckError(f"icosphere radius must be a positive number of mm, got {radius}")
     if int(subdivisions) != subdivisions or not 0 <= subdivisions <= MAX_SUBDIVISIONS:
@@ -88,7 +90,7 @@ def icosphere(radius: float, subdivisions: int, center: Sequence[float] = (0.0, 
     >>> m.n_faces
     320
     """
-    _validate(radius, subdivisions, center, method)
+    check_sphere_parameters(radius, subdivisions, center, method)
     builder = _unit_gmsh if method == "gmsh" else _unit_trimesh
     unit = cached_build(f"icosphere-unit-{method}", {"subdivisions": int(subdivisions)},
                         lambda: TriMesh(*builder(int(subdivisions))), use_cache=cache)

@@ -76,19 +76,53 @@ def test_mesh_layer_writes_a_tet_mesh(tmp_path):
     assert m.volume == pytest.approx(20 * 16 * 4, rel=1e-9)
 
 
-def test_mesh_info_table_and_json(tmp_path, capsys):
+def test_mesh_info_rows_for_the_four_table_3_1_kinds(tmp_path, capsys):
+    from test_checks import TABLE_3_1, _meshes
+
     files = []
-    for k, pts in enumerate((icosahedron()[0], icosahedron()[0] * 2)):
-        files.append(tmp_path / f"m{k}.obj")
-        save_mesh(TriMesh(pts, icosahedron()[1]), files[-1])
+    for k, (kind, mesh) in enumerate(_meshes().items()):
+        files.append(tmp_path / f"{k}.stl")
+        save_mesh(mesh, files[-1])
     js = tmp_path / "info.json"
     assert main(["mesh", "info", *map(str, files), "--json", str(js)]) == 0
     table = capsys.readouterr().out.splitlines()
-    assert len(table) == 3 and "χ" in table[0]
+    assert len(table) == 5 and "χ" in table[0]
     rows = json.loads(js.read_text())
-    assert [r["faces"] for r in rows] == [20, 20]
-    assert rows[1]["volume_mm3"] == pytest.approx(8 * rows[0]["volume_mm3"])
+    for row, kind in zip(rows, TABLE_3_1):
+        got = (row["euler"], row["winding_consistent"], row["convex"], row["watertight"],
+               row["empty"])
+        assert got == TABLE_3_1[kind], kind
     assert rows[0] == mesh_report(load_mesh(files[0]), str(files[0])).as_dict()
+
+
+@pytest.mark.parametrize("ext", [".stl", ".obj", ".vtu", ".vtk", ".msh", ".ply", ".off"])
+def test_surface_round_trip_in_every_format(tmp_path, ext):
+    from geometry.icosphere import icosphere
+
+    mesh = icosphere(10.0, 2)
+    back = load_mesh(save_mesh(mesh, tmp_path / f"m{ext}"))
+    assert back.n_faces == mesh.n_faces and back.n_points == mesh.n_points
+    # STL stores float32 coordinates; the others keep float64
+    tol = 1e-5 if ext == ".stl" else 1e-12
+    np.testing.assert_allclose(back.triangles, mesh.triangles, atol=tol)
+
+
+def test_stl_vertices_are_merged_into_a_connected_surface(tmp_path):
+    p, f = icosahedron()
+    soup = TriMesh(p[f].reshape(-1, 3), np.arange(60).reshape(20, 3))  # 60 loose vertices
+    back = load_mesh(save_mesh(soup, tmp_path / "soup.stl"))
+    r = mesh_report(back)
+    assert (back.n_points, r.watertight, r.euler, r.components) == (12, True, 2, 1)
+
+
+def test_tet_mesh_round_trip_keeps_tets(tmp_path):
+    from geometry.mesh import TetMesh
+
+    tet = TetMesh(np.vstack([np.zeros(3), np.eye(3)]), np.array([[0, 1, 2, 3]]))
+    for ext in (".vtu", ".msh"):
+        back = load_mesh(save_mesh(tet, tmp_path / f"t{ext}"))
+        assert isinstance(back, TetMesh)
+        assert back.volume == pytest.approx(1 / 6)
 
 
 def _bad_inputs(tmp):
