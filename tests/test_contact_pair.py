@@ -1,0 +1,129 @@
+"""ContactPair: input validation, invariance, symmetry and candidate reuse."""
+
+import numpy as np
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+from scipy.spatial.transform import Rotation
+
+from fecheck.contact import ContactPair, Plane, PolynomialSurface, Sphere
+from fecheck.errors import FecheckError
+from geometry.icosphere import icosphere
+from geometry.mesh import TriMesh
+from geometry.plateau import plane_patch
+from geometry.polynomial import Polynomial2D
+from tests.contact_helpers import IDENTITY, volume
+
+CONDYLE = icosphere(25.5, 3)
+PLATEAU = plane_patch([0.0, 0.0, 0.0], [0.0, 0.0, 1.0], radius=12.0, size=1.0)
+
+
+def _pairs():
+    poly = PolynomialSurface(Polynomial2D(np.array([[0.0, 0.05], [0.1, 0.0], [0.004, 0.0]])))
+    return {
+        "plane": (ContactPair(CONDYLE, Plane([0.0, 0.0, 0.0], [0.0, 0.0, 1.0])),
+                  (np.eye(3), np.array([0.2, 0.1, 25.5 - 0.8]))),
+        "polynomial": (ContactPair(CONDYLE, poly), (np.eye(3), np.array([0.2, 0.1, 25.5 - 0.8]))),
+        "sphere": (ContactPair(PLATEAU, Sphere([0.3, -0.2, 25.5 - 0.8], 25.5)), IDENTITY),
+        "mesh": (ContactPair(PLATEAU, icosphere(25.5, 3, center=(0.3, -0.2, 25.5 - 0.8))),
+                 IDENTITY),
+    }
+
+
+PAIRS = _pairs()
+
+
+@pytest.mark.parametrize("bad", [
+    (np.full((3, 3), np.nan), np.zeros(3)),
+    (np.eye(3), np.array([0.0, np.inf, 0.0])),
+    (2.0 * np.eye(3), np.zeros(3)),
+    (np.diag([1.0, 1.0, -1.0]), np.zeros(3)),
+    (np.eye(3), np.zeros(2)),
+    "not a pose",
+])
+def test_invalid_pose_raises_fecheck_error(bad):
+    pair, _ = PAIRS["plane"]
+    with pytest.raises(FecheckError):
+        pair.evaluate(bad, IDENTITY)
+    with pytest.raises(FecheckError):
+        pair.evaluate(IDENTITY, bad)
+
+
+def test_invalid_construction_raises_fecheck_error():
+    plane = Plane([0.0, 0.0, 0.0], [0.0, 0.0, 1.0])
+    with pytest.raises(FecheckError, match="no faces"):
+        ContactPair(TriMesh(np.zeros((0, 3)), np.zeros((0, 3), int)), plane)
+    with pytest.raises(FecheckError, match="unknown contact method"):
+        ContactPair(CONDYLE, plane, method="magic")
+    with pytest.raises(FecheckError, match="needs a mesh master"):
+        ContactPair(CONDYLE, plane, method="bvh")
+    with pytest.raises(FecheckError, match="analytic master"):
+        ContactPair(PLATEAU, CONDYLE, method="closed-form")
+    with pytest.raises(FecheckError):
+        ContactPair(CONDYLE, plane, area="some")
+    with pytest.raises(FecheckError):
+        ContactPair(CONDYLE, plane, margin_mm=float("nan"))
+    with pytest.raises(FecheckError):
+        Sphere([0.0, 0.0, 0.0], -1.0)
+    with pytest.raises(FecheckError):
+        Plane([0.0, 0.0, np.nan], [0.0, 0.0, 1.0])
+
+
+def test_no_contact_gives_an_empty_surface():
+    pair, _ = PAIRS["plane"]
+    s = pair.evaluate((np.eye(3), np.array([0.0, 0.0, 40.0])), IDENTITY)
+    assert s.n_faces == 0 and s.area == 0.0 and s.max_depth == 0.0
+    assert s.n_slave_faces == CONDYLE.n_faces
+
+
+@settings(max_examples=15, deadline=None)
+@given(kind=st.sampled_from(sorted(PAIRS)),
+       rotvec=st.lists(st.floats(-3.0, 3.0), min_size=3, max_size=3),
+       shift=st.lists(st.floats(-50.0, 50.0), min_size=3, max_size=3))
+def test_common_rigid_motion_moves_the_surface_rigidly(kind, rotvec, shift):
+    pair, slave_pose = PAIRS[kind]
+    base = pair.evaluate(slave_pose, IDENTITY)
+    Q, c = Rotation.from_rotvec(rotvec).as_matrix(), np.array(shift)
+    moved = pair.evaluate((Q @ slave_pose[0], Q @ slave_pose[1] + c), (Q, c))
+    np.testing.assert_array_equal(moved.face, base.face)
+    np.testing.assert_allclose(moved.qp_depth, base.qp_depth, atol=1e-9)
+    np.testing.assert_allclose(moved.qp_weight, base.qp_weight, rtol=1e-9, atol=1e-12)
+    np.testing.assert_allclose(moved.qp_point, base.qp_point @ Q.T + c, atol=1e-8)
+    np.testing.assert_allclose(moved.normal, base.normal @ Q.T, atol=1e-9)
+    # Linear-momentum rows of the depth gradient rotate with the bodies.
+    np.testing.assert_allclose(moved.qp_depth_twist[:, :3], base.qp_depth_twist[:, :3] @ Q.T,
+                               atol=1e-8)
+
+
+def test_symmetric_sphere_on_plane_gives_symmetric_resultants():
+    # An icosphere centred over the plane: Σ w·d·x and Σ w·d·y vanish (mesh symmetry
+    # about x = 0 and y = 0 planes of the icosahedron), force is along the normal.
+    pair, _ = PAIRS["plane"]
+    s = pair.evaluate((np.eye(3), np.array([0.0, 0.0, 25.5 - 1.0])), IDENTITY)
+    wd = s.qp_weight * s.qp_depth
+    moment_arm = (wd[:, None] * s.qp_point[:, :2]).sum(axis=0) / wd.sum()
+    np.testing.assert_allclose(moment_arm, 0.0, atol=1e-9)
+    mirrored = pair.evaluate((np.diag([-1.0, -1.0, 1.0]), np.array([0.0, 0.0, 25.5 - 1.0])),
+                             IDENTITY)
+    assert volume(mirrored) == pytest.approx(volume(s), rel=1e-12)
+
+
+def test_candidate_set_is_reused_for_small_motions_and_gives_identical_results():
+    plane = Plane([0.0, 0.0, 0.0], [0.0, 0.0, 1.0])
+    reused = ContactPair(CONDYLE, plane, margin_mm=2.0)
+    poses = [(Rotation.from_rotvec([0.0, 0.002 * k, 0.0]).as_matrix(),
+              np.array([0.05 * k, 0.0, 25.5 - 1.0 + 0.02 * k])) for k in range(8)]
+    for pose in poses:
+        a = reused.evaluate(pose, IDENTITY)
+        b = ContactPair(CONDYLE, plane, margin_mm=2.0).evaluate(pose, IDENTITY)
+        np.testing.assert_array_equal(a.face, b.face)
+        np.testing.assert_allclose(a.qp_depth, b.qp_depth, atol=1e-12)
+    assert reused.cache.n_rebuilds == 1 and reused.cache.n_reuses == len(poses) - 1
+    # A jump larger than half the margin forces a rebuild, and contact is still found.
+    far = reused.evaluate((np.eye(3), np.array([5.0, 0.0, 25.5 - 1.0])), IDENTITY)
+    assert reused.cache.n_rebuilds == 2 and far.max_depth == pytest.approx(1.0, abs=0.05)
+
+
+def test_describe_names_the_method():
+    assert "closed form (analytic plane), no BVH" in PAIRS["plane"][0].describe()
+    assert "AABB" in PAIRS["mesh"][0].describe()
