@@ -125,7 +125,7 @@ class ContactPair:
         else:
             from fecheck.contact.thesis import thesis_detector
             self.master = master
-            self._thesis = thesis_detector(method, slave, master)
+            self._thesis = thesis_detector(method, slave, master, area)
         if self._thesis is None:
             self._cache = CandidateCache(slave, self.master.reach, self.margin_mm,
                                          prefilter=getattr(self.master, "prefilter", None))
@@ -180,62 +180,70 @@ class ContactPair:
         if hit.size == 0:
             return ContactSurface.empty(self.slave.n_faces, body)
         faces = cand.local_faces[hit]
-        return self._surface(cand, hit, d[hit], y[faces], R, Rm, tm, Rs,
-                             None if grad is None else grad[faces])
+        return build_surface(master, self.area_mode, self.slave.n_faces, cand, hit, d[hit],
+                             y[faces], R, Rm, tm, Rs, None if grad is None else grad[faces])
 
-    def _surface(self, cand, hit, D, Y, R, Rm, tm, Rs, g=None) -> ContactSurface:
-        """Quadrature, twist derivatives and normals of the contact faces `hit`."""
-        master = self.master
-        m = len(hit)
-        nf_w = _apply(cand.normals[hit], Rs)                  # slave face normals, world
-        X = _apply(Y, Rm, tm)                                 # (m, 3, 3) world vertices
-        if master.uses_slave_normal:
-            U = np.broadcast_to(_apply(cand.normals[hit], -R)[:, None, :], Y.shape)
-            g, h = master.depth_gradients(Y, U)
-            gw = _apply(g, Rm)
-            rot = _cross(X, gw) - _cross(nf_w[:, None, :], _apply(h, Rm))
-        else:
-            gw = _apply(master.depth_gradients(Y)[0] if g is None else g, Rm)
-            rot = _cross(X, gw)
-        # Per vertex: depth, world position, ∂d/∂v, ∂d/∂ω — interpolated in one pass.
-        vertex = np.concatenate([D[:, :, None], X, gw, rot], axis=-1)      # (m, 3, 10)
 
-        normal_twist = np.zeros((m, 3, 6))
-        if master.normal_body == "slave":
-            N = -nf_w
-            normal_twist[:, :, 3:] = -_skew(N)
-        else:
-            Nm, dN = master.foundation_normals(Y)
-            N = _apply(Nm, Rm)
-            cos = np.einsum("ij,ij->i", nf_w, N)
-            dcos = np.zeros((m, 6))
-            dcos[:, 3:] = _cross(nf_w, N)
-            if dN is not None:
-                A = Rm @ dN @ Rm.T
-                normal_twist[:, :, :3] = A
-                normal_twist[:, :, 3:] = -A @ _skew(X.sum(axis=1) / 3.0)
-                dcos += np.einsum("ij,ijk->ik", nf_w, normal_twist)
-            dproj = np.sign(cos)[:, None] * dcos
+def build_surface(master, area_mode: str, n_slave_faces: int, cand, hit: np.ndarray,
+                  D: np.ndarray, Y: np.ndarray, R: np.ndarray, Rm: np.ndarray,
+                  tm: np.ndarray, Rs: np.ndarray, g: np.ndarray | None = None
+                  ) -> ContactSurface:
+    """Quadrature, twist derivatives and normals of the contact faces `hit` of `cand`.
 
-        if self.area_mode == "clipped":
-            parent, corners, frac = clip_faces(D)
-        else:
-            parent, corners, frac = whole_faces(m)
-        qp_face, bary, qfrac = quadrature(parent, corners, frac)
-        qp = np.einsum("qi,qij->qj", bary, vertex[qp_face])
-        qp_depth, qp_depth_twist = qp[:, 0], qp[:, 4:]
-        if self.area_mode == "whole-face":
-            deepest = vertex[np.arange(m), np.argmax(D, axis=1)][qp_face]
-            qp_depth, qp_depth_twist = deepest[:, 0], deepest[:, 4:]
-        area = qfrac * cand.areas[hit][qp_face]
-        if master.normal_body == "slave":
-            weight, weight_twist = area, np.zeros((len(qp_face), 6))
-        else:
-            weight = area * np.abs(cos)[qp_face]
-            weight_twist = area[:, None] * dproj[qp_face]
-        return ContactSurface(
-            face=cand.faces[hit], normal=N, vertex_depth=D, qp_face=qp_face, qp_bary=bary,
-            qp_point=qp[:, 1:4], qp_depth=qp_depth, qp_weight=weight,
-            qp_depth_twist=qp_depth_twist, qp_weight_twist=weight_twist,
-            normal_body=master.normal_body, n_slave_faces=self.slave.n_faces,
-            normal_twist=normal_twist)
+    D (m, 3) vertex depths and Y (m, 3, 3) vertex positions in the master frame (mm);
+    R the slave-to-master rotation; (Rm, tm) the master pose; Rs the slave rotation;
+    g (m, 3, 3) the depth gradients if already known (master frame).
+    """
+    m = len(hit)
+    nf_w = _apply(cand.normals[hit], Rs)                  # slave face normals, world
+    X = _apply(Y, Rm, tm)                                 # (m, 3, 3) world vertices
+    if master.uses_slave_normal:
+        U = np.broadcast_to(_apply(cand.normals[hit], -R)[:, None, :], Y.shape)
+        g, h = master.depth_gradients(Y, U)
+        gw = _apply(g, Rm)
+        rot = _cross(X, gw) - _cross(nf_w[:, None, :], _apply(h, Rm))
+    else:
+        gw = _apply(master.depth_gradients(Y)[0] if g is None else g, Rm)
+        rot = _cross(X, gw)
+    # Per vertex: depth, world position, ∂d/∂v, ∂d/∂ω — interpolated in one pass.
+    vertex = np.concatenate([D[:, :, None], X, gw, rot], axis=-1)      # (m, 3, 10)
+
+    normal_twist = np.zeros((m, 3, 6))
+    if master.normal_body == "slave":
+        N = -nf_w
+        normal_twist[:, :, 3:] = -_skew(N)
+    else:
+        Nm, dN = master.foundation_normals(Y)
+        N = _apply(Nm, Rm)
+        cos = np.einsum("ij,ij->i", nf_w, N)
+        dcos = np.zeros((m, 6))
+        dcos[:, 3:] = _cross(nf_w, N)
+        if dN is not None:
+            A = Rm @ dN @ Rm.T
+            normal_twist[:, :, :3] = A
+            normal_twist[:, :, 3:] = -A @ _skew(X.sum(axis=1) / 3.0)
+            dcos += np.einsum("ij,ijk->ik", nf_w, normal_twist)
+        dproj = np.sign(cos)[:, None] * dcos
+
+    if area_mode == "clipped":
+        parent, corners, frac = clip_faces(D)
+    else:
+        parent, corners, frac = whole_faces(m)
+    qp_face, bary, qfrac = quadrature(parent, corners, frac)
+    qp = np.einsum("qi,qij->qj", bary, vertex[qp_face])
+    qp_depth, qp_depth_twist = qp[:, 0], qp[:, 4:]
+    if area_mode == "whole-face":
+        deepest = vertex[np.arange(m), np.argmax(D, axis=1)][qp_face]
+        qp_depth, qp_depth_twist = deepest[:, 0], deepest[:, 4:]
+    area = qfrac * cand.areas[hit][qp_face]
+    if master.normal_body == "slave":
+        weight, weight_twist = area, np.zeros((len(qp_face), 6))
+    else:
+        weight = area * np.abs(cos)[qp_face]
+        weight_twist = area[:, None] * dproj[qp_face]
+    return ContactSurface(
+        face=cand.faces[hit], normal=N, vertex_depth=D, qp_face=qp_face, qp_bary=bary,
+        qp_point=qp[:, 1:4], qp_depth=qp_depth, qp_weight=weight,
+        qp_depth_twist=qp_depth_twist, qp_weight_twist=weight_twist,
+        normal_body=master.normal_body, n_slave_faces=n_slave_faces,
+        normal_twist=normal_twist)
