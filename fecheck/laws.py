@@ -1,0 +1,309 @@
+"""Contact laws: a `ContactSurface` → pressure, resultant wrench and its exact tangent.
+
+Every law returns a `LawResult`: the pressure at each quadrature point (MPa), the force
+F (N) and moment M (N·mm, about a given point) that the master exerts on the SLAVE, and
+the tangent d[F, M]/dξ (6, 6) with respect to the twist ξ = (v, ω) of the slave relative
+to the master (see `fecheck.contact.surface`). The tangent is exact for the discrete
+model: chain rule through ``qp_depth_twist``, ``qp_weight_twist``, the motion of the
+points ``δx = v + ω × x`` and the motion of the normals ``normal_twist``.
+
+Laws (thesis chapter 4):
+
+* `elastic_foundation` (eq. 4.1-4.3): p = k·d, k = (1−ν)E / ((1+ν)(1−2ν)h) (N/mm³).
+* `volumetric` (eq. 4.9): F = k_V·V (1 + a·v_n) with v_n = 0 in statics, i.e. p = k_V·d.
+  The thesis's k_V ≈ 1e7 N/m³ is 1e-2 N/mm³ (1 m³ = 1e9 mm³), about 450 times softer
+  than the baseline EF foundation (4.487 N/mm³).
+* `blankevoort_foundation`: the nonlinear foundation of Blankevoort et al. 1991
+  (J. Biomech. 24(11):1019-1031, eq. for the cartilage layer),
+  p = −(1−ν)E/((1+ν)(1−2ν)) · ln(1 − d/h). It stiffens without bound as d → h; beyond
+  d = 0.9·h it is continued linearly (C¹) so that a Newton iterate that overshoots stays
+  finite (the equilibrium itself is reported with its depth; d > 0.9 h is flagged).
+* `hertz` (eq. 4.4-4.8): from the maximum depth d only, P = 4/3·E*·√R·d^{3/2} along the
+  contact normal at the deepest point; E* = E/(1−ν²) for a rigid indenter or
+  1/E* = Σ (1−ν_i²)/E_i for two deformable bodies; a = √(R d), p0 = 3P/(2πa²).
+
+>>> round(ef_stiffness(20.0, 0.3, 6.0), 4)
+4.4872
+"""
+
+from __future__ import annotations
+
+import math
+import warnings
+from collections.abc import Callable
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from fecheck.contact.surface import ContactSurface
+from fecheck.errors import FecheckError
+
+BLANKEVOORT_LINEAR_FROM = 0.9      # fraction of h beyond which the log law is continued linearly
+
+
+def _check_number(name: str, value: float) -> float:
+    value = float(value)
+    if math.isnan(value):
+        raise FecheckError(f"{name} is NaN; give a number")
+    return value
+
+
+def validate_material(youngs_MPa: float, poisson: float, thickness_mm: float | None = None
+                      ) -> None:
+    """Reject E ≤ 0, h ≤ 0, ν < 0, ν ≥ 0.5 and NaN (`FecheckError`); warn when ν > 0.49."""
+    e = _check_number("Young's modulus (contact.youngs_MPa)", youngs_MPa)
+    nu = _check_number("Poisson's ratio (contact.poisson)", poisson)
+    if not e > 0:
+        raise FecheckError(f"Young's modulus must be > 0 MPa, got {e:g}")
+    if nu >= 0.5:
+        raise FecheckError(f"Poisson's ratio {nu:g} ≥ 0.5: the EF stiffness diverges as "
+                           f"ν → 0.5 (1 − 2ν in the denominator); use ν < 0.5")
+    if nu < 0:
+        raise FecheckError(f"Poisson's ratio must be ≥ 0, got {nu:g}")
+    if nu > 0.49:
+        warnings.warn(f"Poisson's ratio {nu:g} is within 0.01 of 0.5: the EF stiffness "
+                      f"(∝ 1/(1 − 2ν)) is very large and ill-conditioned", stacklevel=2)
+    if thickness_mm is not None:
+        h = _check_number("cartilage thickness (contact.thickness_mm)", thickness_mm)
+        if not h > 0:
+            raise FecheckError(f"cartilage thickness must be > 0 mm, got {h:g}")
+
+
+def ef_stiffness(youngs_MPa: float, poisson: float, thickness_mm: float) -> float:
+    """EF stiffness per unit area k = (1−ν)E / ((1+ν)(1−2ν)h), N/mm³ (eq. 4.3)."""
+    validate_material(youngs_MPa, poisson, thickness_mm)
+    return (1 - poisson) * youngs_MPa / ((1 + poisson) * (1 - 2 * poisson) * thickness_mm)
+
+
+def hertz_modulus(youngs_MPa: float, poisson: float, indenter_youngs_MPa: float = math.inf,
+                  indenter_poisson: float = 0.3) -> float:
+    """Effective modulus E* (MPa): 1/E* = (1−ν²)/E + (1−ν_i²)/E_i (E_i = inf: rigid)."""
+    validate_material(youngs_MPa, poisson)
+    inv = (1 - poisson ** 2) / youngs_MPa
+    if not math.isinf(indenter_youngs_MPa):
+        validate_material(indenter_youngs_MPa, indenter_poisson)
+        inv += (1 - indenter_poisson ** 2) / indenter_youngs_MPa
+    return 1.0 / inv
+
+
+@dataclass(frozen=True, eq=False)
+class LawResult:
+    """A law's output for one contact surface (forces on the slave).
+
+    pressure : (Q,) pressure at the quadrature points, MPa
+    force : (3,) N;  moment : (3,) N·mm about `about`;  tangent : (6, 6) d[F, M]/dξ
+    max_pressure : MPa at the deepest point;  max_depth : mm;  area : mm² (law's own
+    contact area: the clipped area for foundation laws, πa² for Hertz)
+    extra : law-specific values (Hertz: contact_radius_mm, p0_MPa, …)
+    """
+
+    surface: ContactSurface
+    pressure: np.ndarray
+    force: np.ndarray
+    moment: np.ndarray
+    tangent: np.ndarray
+    max_pressure: float
+    area: float
+    max_depth: float
+    extra: dict = field(default_factory=dict)
+    face_pressure_fn: Callable[[], np.ndarray] | None = None
+
+    @property
+    def mean_pressure(self) -> float:
+        """|F| / area, MPa (0 without contact)."""
+        return float(np.linalg.norm(self.force) / self.area) if self.area > 0 else 0.0
+
+    def face_pressure(self) -> np.ndarray:
+        """(n_slave_faces,) mean pressure on every slave face, MPa (0 off contact)."""
+        return self.face_pressure_fn()
+
+
+def _no_contact(surface: ContactSurface, about: np.ndarray) -> LawResult:
+    z3 = np.zeros(3)
+    n = surface.n_slave_faces
+    return LawResult(surface, np.zeros(0), z3, z3.copy(), np.zeros((6, 6)), 0.0, 0.0, 0.0,
+                     face_pressure_fn=lambda: np.zeros(n))
+
+
+def _skew(v: np.ndarray) -> np.ndarray:
+    return np.array([[0.0, -v[2], v[1]], [v[2], 0.0, -v[0]], [-v[1], v[0], 0.0]])
+
+
+def _cross(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """Row-wise a × b for (Q, 3) arrays (cheaper than np.cross on small arrays)."""
+    out = np.empty(np.broadcast_shapes(a.shape, b.shape))
+    out[:, 0] = a[:, 1] * b[:, 2] - a[:, 2] * b[:, 1]
+    out[:, 1] = a[:, 2] * b[:, 0] - a[:, 0] * b[:, 2]
+    out[:, 2] = a[:, 0] * b[:, 1] - a[:, 1] * b[:, 0]
+    return out
+
+
+def _axial(c: np.ndarray) -> np.ndarray:
+    """(3, …) axial part of c[j, k, …]: out[i] = ε_ijk c[j, k]."""
+    return np.stack([c[1, 2] - c[2, 1], c[2, 0] - c[0, 2], c[0, 1] - c[1, 0]])
+
+
+def _resultant(normal_twist: np.ndarray, x: np.ndarray, n: np.ndarray, fq: np.ndarray,
+               gq: np.ndarray, face: np.ndarray | None, about: np.ndarray
+               ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Wrench and tangent of point forces fq = s_q·n_q at x_q (summed over q).
+
+    gq (Q, 6) = ds_q/dξ; `face` (Q,) maps points to the rows of `normal_twist` (m, 3, 6)
+    (None: one row per point).
+    """
+    force = fq.sum(axis=0)
+    xf = x.T @ fq                                   # Σ x_q F_qᵀ
+    moment = _axial(xf)
+    t_f = n.T @ gq
+    t_m = _cross(x, n).T @ gq
+    if normal_twist.any():
+        s = np.einsum("ij,ij->i", fq, n)           # signed magnitudes
+        m = len(normal_twist)
+        if face is None:
+            s_face, xs_face = s, x * s[:, None]
+        else:
+            s_face = np.bincount(face, s, minlength=m)
+            xs_face = np.column_stack([np.bincount(face, x[:, i] * s, minlength=m)
+                                       for i in range(3)])
+        t_f = t_f + np.einsum("m,mij->ij", s_face, normal_twist)
+        t_m = t_m + _axial(np.einsum("mj,mkl->jkl", xs_face, normal_twist))
+    # point motion: δx × F_q = −skew(F_q)(v − skew(x_q) ω)
+    t_m[:, :3] -= _skew(force)
+    t_m[:, 3:] += xf - np.trace(xf) * np.eye(3)
+    moment_about = moment - np.cross(about, force)
+    t_m -= _skew(about) @ t_f
+    return force, moment_about, np.vstack([t_f, t_m])
+
+
+def foundation(surface: ContactSurface, pressure: Callable[[np.ndarray], tuple[np.ndarray,
+               np.ndarray]], about=(0.0, 0.0, 0.0)) -> LawResult:
+    """Generic foundation law p = p(d) (p(0) = 0) integrated over the contact surface.
+
+    `pressure(d)` returns (p, dp/dd) for depths d ≥ 0 (mm → MPa, MPa/mm); depths ≤ 0
+    carry no pressure. `about` is the moment reference point, mm (world).
+    """
+    about = np.asarray(about, dtype=float)
+    if surface.n_faces == 0:
+        return _no_contact(surface, about)
+    d = surface.qp_depth
+    pos = d > 0.0
+    p, dp = pressure(np.where(pos, d, 0.0))
+    p = np.where(pos, p, 0.0)
+    dp = np.where(pos, dp, 0.0)
+    w = surface.qp_weight
+    f = surface.qp_face
+    n = surface.normal[f]
+    x = surface.qp_point
+    s = w * p
+    gq = (w * dp)[:, None] * surface.qp_depth_twist + p[:, None] * surface.qp_weight_twist
+    force, moment, tangent = _resultant(surface.normal_twist, x, n, n * s[:, None], gq, f,
+                                        about)
+    max_depth = surface.max_depth
+    p_max = float(pressure(np.array([max_depth]))[0][0]) if max_depth > 0 else 0.0
+    area = float(w[pos].sum())
+
+    def face_pressure() -> np.ndarray:
+        out = np.zeros(surface.n_slave_faces)
+        fa = np.bincount(f, w, minlength=surface.n_faces)
+        fs = np.bincount(f, s, minlength=surface.n_faces)
+        ok = fa > 0
+        out[surface.face[ok]] = fs[ok] / fa[ok]
+        return out
+
+    return LawResult(surface, p, force, moment, tangent, p_max, area, max_depth,
+                     face_pressure_fn=face_pressure)
+
+
+def elastic_foundation(surface: ContactSurface, k_N_per_mm3: float, about=(0.0, 0.0, 0.0)
+                       ) -> LawResult:
+    """Linear EF law p = k·d (eq. 4.1-4.3); k in N/mm³ (see `ef_stiffness`)."""
+    k = float(k_N_per_mm3)
+    return foundation(surface, lambda d: (k * d, np.full_like(d, k)), about)
+
+
+def volumetric(surface: ContactSurface, k_v_N_per_mm3: float, about=(0.0, 0.0, 0.0)
+               ) -> LawResult:
+    """Volumetric law F = k_V·V (eq. 4.9, v_n = 0 in statics): p = k_V·d, k_V in N/mm³."""
+    k = float(k_v_N_per_mm3)
+    return foundation(surface, lambda d: (k * d, np.full_like(d, k)), about)
+
+
+def blankevoort_pressure(youngs_MPa: float, poisson: float, thickness_mm: float
+                         ) -> Callable[[np.ndarray], tuple[np.ndarray, np.ndarray]]:
+    """p(d) = −k0·ln(1 − d/h), k0 = (1−ν)E/((1+ν)(1−2ν)) (MPa), linear beyond 0.9·h."""
+    validate_material(youngs_MPa, poisson, thickness_mm)
+    k0 = (1 - poisson) * youngs_MPa / ((1 + poisson) * (1 - 2 * poisson))
+    h = float(thickness_mm)
+    dc = BLANKEVOORT_LINEAR_FROM * h
+    pc, sc = -k0 * math.log(1 - dc / h), k0 / (h - dc)
+
+    def pressure(d: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        inner = np.minimum(d, dc)
+        p = -k0 * np.log1p(-inner / h)
+        s = k0 / (h - inner)
+        beyond = d > dc
+        return np.where(beyond, pc + sc * (d - dc), p), np.where(beyond, sc, s)
+
+    return pressure
+
+
+def blankevoort_foundation(surface: ContactSurface, youngs_MPa: float, poisson: float,
+                           thickness_mm: float, about=(0.0, 0.0, 0.0)) -> LawResult:
+    """Nonlinear EF of Blankevoort et al. 1991: p = −(1−ν)E/((1+ν)(1−2ν))·ln(1 − d/h)."""
+    return foundation(surface, blankevoort_pressure(youngs_MPa, poisson, thickness_mm), about)
+
+
+def _deepest_vertex(surface: ContactSurface) -> tuple[int, np.ndarray, float, np.ndarray]:
+    """(contact face, world position, depth, d depth/dξ) of the deepest slave vertex."""
+    flat = int(np.argmax(surface.vertex_depth))
+    face, corner = divmod(flat, 3)
+    depth = float(surface.vertex_depth[face, corner])
+    rows = np.flatnonzero(surface.qp_face == face)
+    bary = surface.qp_bary[rows]
+    sol, *_ = np.linalg.lstsq(bary, np.column_stack([surface.qp_point[rows],
+                                                      surface.qp_depth_twist[rows],
+                                                      surface.qp_depth[rows]]), rcond=None)
+    point = sol[corner, :3]
+    if np.allclose(surface.qp_depth[rows], depth, rtol=0, atol=1e-12 * max(1.0, depth)):
+        twist = surface.qp_depth_twist[rows[0]]        # whole-face mode: depth is the max
+    else:
+        twist = sol[corner, 3:9]
+    return face, point, depth, twist
+
+
+def hertz(surface: ContactSurface, radius_mm: float, e_star_MPa: float,
+          about=(0.0, 0.0, 0.0)) -> LawResult:
+    """Hertz law from the maximum depth d (eq. 4.4-4.8): P = 4/3·E*·√R·d^{3/2} (N).
+
+    The force acts along the foundation normal of the deepest face at the deepest
+    vertex. `radius_mm` is the indenter radius R, `e_star_MPa` from `hertz_modulus`.
+    Reports a = √(R d) (mm), p0 = 3P/(2πa²), mean pressure P/(πa²) and area πa².
+    """
+    about = np.asarray(about, dtype=float)
+    if surface.n_faces == 0 or surface.max_depth <= 0:
+        return _no_contact(surface, about)
+    r = float(radius_mm)
+    face, x, d, dd = _deepest_vertex(surface)
+    n = surface.normal[face]
+    load = 4.0 / 3.0 * e_star_MPa * math.sqrt(r) * d ** 1.5
+    a = math.sqrt(r * d)
+    p0 = 3 * load / (2 * math.pi * a * a)
+    g = (1.5 * load / d) * dd
+    force, moment, tangent = _resultant(
+        surface.normal_twist[face:face + 1], x[None, :], n[None, :], (load * n)[None, :],
+        g[None, :], None, about)
+    centroids = surface.face_sum(surface.qp_point) / np.bincount(
+        surface.qp_face, minlength=surface.n_faces)[:, None]
+
+    def face_pressure() -> np.ndarray:
+        rel = centroids - x
+        rel -= np.outer(rel @ n, n)
+        ratio = 1.0 - np.einsum("ij,ij->i", rel, rel) / (a * a)
+        out = np.zeros(surface.n_slave_faces)
+        out[surface.face] = p0 * np.sqrt(np.clip(ratio, 0.0, None))
+        return out
+
+    extra = {"contact_radius_mm": a, "p0_MPa": p0, "mean_pressure_MPa": load / (math.pi * a * a),
+             "area_mm2": math.pi * a * a, "force_N": load}
+    return LawResult(surface, np.zeros(len(surface.qp_depth)), force, moment, tangent, p0,
+                     math.pi * a * a, d, extra, face_pressure_fn=face_pressure)

@@ -1,0 +1,420 @@
+"""Assemble a scene into bodies, contact pairs and forces, solve it, report the result.
+
+`run_scene(scene)` is the one entry point. Model kinds are registered in `MODEL_RUNNERS`
+(kind → function of the scene returning a `RunResult`); to add one (e.g. the scanned
+``sphere-tibia`` / ``femur-tibia`` models), write its runner, register it here and add
+the kind to `fecheck.scene.MODEL_KINDS`. The contact models share `ContactModel`:
+per compartment a `ContactPair` and a law; femur fixed, tibia pose (R, t).
+"""
+
+from __future__ import annotations
+
+import math
+import time
+from collections.abc import Callable, Mapping
+from dataclasses import dataclass
+
+import numpy as np
+
+from fecheck import laws
+from fecheck.errors import FecheckError
+from fecheck.frames import skew
+from fecheck.knee import COMPARTMENTS, LIGAMENTS, Knee, plane_normal
+from fecheck.ligaments import rod_constraint, spring_wrench, transition_strain_check
+from fecheck.results import CompartmentResult, LigamentResult, RunResult
+from fecheck.scene import DOF_NAMES, Scene
+from fecheck.statics import Problem, point_force, pose, solve
+
+GRAVITY_MPS2 = 9.81
+WHOLE_FACE_NOTE = ("whole-face area counting (thesis Fig. 3.20) reproduces the thesis's bias: "
+                   "contact area overestimated and depth underestimated (Table 5.3); use "
+                   "contact.area = 'clipped' for the exact values")
+
+
+def start_pose(scene: Scene) -> np.ndarray:
+    """q = (x, y, z, θy, θz) (mm, rad) from the dofs.* values, z lowered by the start gap."""
+    return np.array([scene["dofs.x_mm"], scene["dofs.y_mm"],
+                     scene["dofs.z_mm"] - scene["solver.start_gap_mm"],
+                     math.radians(scene["dofs.abduction_deg"]),
+                     math.radians(scene["dofs.internal_deg"])])
+
+
+def pose_dict(q: np.ndarray) -> dict[str, float]:
+    """Pose for reports: x_mm, y_mm, z_mm, abduction_deg, internal_deg."""
+    return {"x_mm": float(q[0]), "y_mm": float(q[1]), "z_mm": float(q[2]),
+            "abduction_deg": math.degrees(q[3]), "internal_deg": math.degrees(q[4])}
+
+
+def free_indices(scene: Scene) -> tuple[int, ...]:
+    return tuple(DOF_NAMES.index(d) for d in scene.free_dofs)
+
+
+def plateau_normals(scene: Scene) -> dict[str, np.ndarray]:
+    """{compartment: unit plateau normal, tibia frame} for plane plateaus."""
+    if scene["plateau.kind"] == "transverse":
+        return {c: np.array([0.0, 0.0, 1.0]) for c in COMPARTMENTS}
+    if scene["plateau.kind"] == "inclined":
+        return {c: plane_normal(scene[f"plateau.{c}_angles_deg"]) for c in COMPARTMENTS}
+    raise FecheckError("this model needs plane plateaus: set plateau.kind to 'transverse' or "
+                       "'inclined'")
+
+
+def applied_load(scene: Scene) -> Callable[[np.ndarray, np.ndarray],
+                                            tuple[np.ndarray, np.ndarray]]:
+    """Wrench (and tangent) of the external load and the tibia's weight at pose (R, t)."""
+    direction = np.asarray(scene["load.direction"], dtype=float)
+    norm = np.linalg.norm(direction)
+    force = scene["load.force_N"] * (direction / norm if norm > 0 else direction)
+    point = np.asarray(scene["load.point_mm"], dtype=float)
+    weight = np.array([0.0, 0.0, -scene["tibia.mass_kg"] * GRAVITY_MPS2 * scene["gravity"]])
+    com = np.asarray(scene["tibia.com_mm"], dtype=float)
+    follows = scene["load.frame"] == "tibia"
+    w_fixed = np.concatenate([force, np.cross(point, force)])
+
+    def wrench(rot: np.ndarray, t: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        w2, d2 = point_force(rot @ com + t, weight)
+        if follows:
+            w1, d1 = point_force(rot @ point + t, force)
+            return w1 + w2, d1 + d2
+        return w_fixed + w2, d2
+
+    return wrench
+
+
+def force_scale(scene: Scene) -> float:
+    """Load magnitude the residual tolerance is relative to, N (≥ 1)."""
+    weight = scene["tibia.mass_kg"] * GRAVITY_MPS2 * scene["gravity"]
+    return max(1.0, scene["load.force_N"], weight)
+
+
+def _ligament_names(scene: Scene) -> tuple[str, ...]:
+    return LIGAMENTS if scene["ligaments.model"] != "none" else ()
+
+
+# ----------------------------------------------------------------------------- rigid
+def run_rigid(scene: Scene, warm_start: np.ndarray | None = None) -> RunResult:
+    """Thesis §5.1: balls on frictionless plateau planes, linear statics (at the pose of
+    the dofs.* values; `warm_start` is ignored: there is nothing to iterate)."""
+    from fecheck.rigid import solve_rigid
+
+    t0 = time.perf_counter()
+    if scene["constraints.equal_forces"]:
+        raise FecheckError("constraints.equal_forces is not available for the rigid model "
+                           "(its reactions are statically determined); use a contact model")
+    if scene["ligaments.model"] == "spring":
+        raise FecheckError("the rigid model takes ligaments as rods (ligaments.model = 'rod') "
+                           "or none")
+    knee = scene.knee
+    q = start_pose(scene) + np.array([0.0, 0.0, scene["solver.start_gap_mm"], 0.0, 0.0])
+    theta_x = math.radians(scene["dofs.flexion_deg"])
+    rot, t = pose(q, theta_x)
+    applied, _ = applied_load(scene)(rot, t)
+    sol = solve_rigid(knee, plateau_normals(scene), applied, q, free_indices(scene),
+                      _ligament_names(scene), theta_x)
+    nan = math.nan
+    comps = {}
+    for c in COMPARTMENTS:
+        f_tibia = -sol.contact_force_N[c] * sol.contact_normal[c]
+        torque = np.cross(sol.contact_point[c] - t, f_tibia)
+        comps[c] = CompartmentResult(sol.contact_force_N[c], nan, nan, nan, nan,
+                                     float(np.linalg.norm(torque)), torque)
+    ligs = {k: LigamentResult(v, sol.ligament_length_mm[k])
+            for k, v in sol.ligament_force_N.items()}
+    elapsed = time.perf_counter() - t0
+    return RunResult(scene["name"] or scene.source, "rigid", "none", True, 1, sol.residual_N,
+                     pose_dict(q), comps, ligs, {"total": elapsed, "solve": elapsed})
+
+
+# ----------------------------------------------------------------------- contact models
+@dataclass
+class Compartment:
+    """One compartment's contact: pair, law and which body the slave belongs to."""
+
+    name: str
+    pair: object
+    law: Callable[[object], laws.LawResult]
+    slave_is_tibia: bool
+    radius_mm: float
+    last: laws.LawResult | None = None
+
+
+def _law(scene: Scene, radius_mm: float) -> Callable[[object], laws.LawResult]:
+    e, nu, h = scene["contact.youngs_MPa"], scene["contact.poisson"], scene["contact.thickness_mm"]
+    name = scene["contact.law"]
+    laws.validate_material(e, nu, h)
+    if name == "ef":
+        k = laws.ef_stiffness(e, nu, h)
+        return lambda s: laws.elastic_foundation(s, k)
+    if name == "volumetric":
+        kv = scene["contact.volumetric_stiffness_N_per_mm3"]
+        return lambda s: laws.volumetric(s, kv)
+    if name == "blankevoort":
+        pressure = laws.blankevoort_pressure(e, nu, h)
+        return lambda s: laws.foundation(s, pressure)
+    e_star = laws.hertz_modulus(e, nu, scene["contact.indenter_youngs_MPa"],
+                                scene["contact.indenter_poisson"])
+    return lambda s: laws.hertz(s, radius_mm, e_star)
+
+
+def build_compartments(scene: Scene) -> list[Compartment]:
+    """Contact pairs of the sphere-plane model (meshes built or read from the cache)."""
+    from fecheck.contact.analytic import Sphere
+    from fecheck.contact.pair import ContactPair
+
+    knee = scene.knee
+    out = []
+    opts = {"method": scene["contact.detection"], "area": scene["contact.area"],
+            "margin_mm": scene["contact.margin_mm"]}
+    for c in COMPARTMENTS:
+        centre, r = knee.condyle_center[c], knee.radius_mm(c)
+        if scene["contact.master"] == "plateau":
+            from geometry.icosphere import icosphere
+
+            slave = icosphere(r, scene["mesh.sphere_subdivisions"], centre,
+                              method=scene["mesh.method"])
+            pair = ContactPair(slave, _plateau_master(scene, knee, c), **opts)
+            out.append(Compartment(c, pair, _law(scene, r), False, r))
+        else:
+            slave = _plateau_mesh(scene, knee, c)
+            pair = ContactPair(slave, Sphere(centre, r), **opts)
+            out.append(Compartment(c, pair, _law(scene, r), True, r))
+    return out
+
+
+def _plateau_master(scene: Scene, knee: Knee, c: str):
+    from fecheck.contact.analytic import Plane, PolynomialSurface
+    from geometry.polynomial import Polynomial2D
+
+    if scene["plateau.kind"] == "polynomial":
+        return PolynomialSurface(Polynomial2D(np.asarray(scene[f"plateau.{c}_coefficients"])))
+    n = plateau_normals(scene)[c]
+    return Plane(knee.condyle_center[c] - knee.radius_mm(c) * n, n)
+
+
+def _plateau_mesh(scene: Scene, knee: Knee, c: str):
+    from geometry.plateau import plane_patch, polynomial_patch
+    from geometry.polynomial import Polynomial2D
+
+    foot = knee.condyle_center[c] - knee.radius_mm(c) * np.array([0.0, 0.0, 1.0])
+    size = {"size": scene["mesh.plateau_size_mm"], "refine_size": scene["mesh.plateau_refine_mm"],
+            "refine_radius": scene["mesh.plateau_refine_radius_mm"]}
+    radius = scene["mesh.plateau_radius_mm"]
+    if scene["plateau.kind"] == "polynomial":
+        poly = Polynomial2D(np.asarray(scene[f"plateau.{c}_coefficients"]))
+        return polynomial_patch(poly, footprint="ellipse", center_xy=foot[:2], half_x=radius,
+                                half_y=radius, refine_point=foot[:2], **size)
+    n = plateau_normals(scene)[c]
+    point = knee.condyle_center[c] - knee.radius_mm(c) * n
+    return plane_patch(point, n, radius=radius, refine_point=point, **size)
+
+
+class ContactModel:
+    """Wrench of all contacts on the tibia at a pose, with the exact tangent."""
+
+    def __init__(self, compartments: list[Compartment]):
+        self.compartments = compartments
+        self.evaluations = 0
+        self.contact_seconds = 0.0
+        self.touching = False
+        self._eye = np.eye(3)
+        self._zero = np.zeros(3)
+
+    def __call__(self, rot: np.ndarray, t: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        w = np.zeros(6)
+        dw = np.zeros((6, 6))
+        t0 = time.perf_counter()
+        touching = False
+        for comp in self.compartments:
+            if comp.slave_is_tibia:
+                surf = comp.pair.evaluate((rot, t), (self._eye, self._zero))
+                res = comp.law(surf)
+                wc, tc = np.concatenate([res.force, res.moment]), res.tangent
+            else:
+                surf = comp.pair.evaluate((self._eye, self._zero), (rot, t))
+                res = comp.law(surf)
+                wc = -np.concatenate([res.force, res.moment])
+                fs, ms = skew(wc[:3]), skew(wc[3:])
+                tc = res.tangent.copy()
+                tc[:3, 3:] -= fs
+                tc[3:, :3] -= fs
+                tc[3:, 3:] -= ms
+            comp.last = res
+            touching = touching or res.surface.n_faces > 0
+            w += wc
+            dw += tc
+        self.contact_seconds += time.perf_counter() - t0
+        self.evaluations += 1
+        self.touching = touching
+        return w, dw
+
+    def compartment_wrench(self, name: str) -> np.ndarray:
+        """(6,) last contact wrench of one compartment on the tibia (N, N·mm)."""
+        comp = next(c for c in self.compartments if c.name == name)
+        sign = 1.0 if comp.slave_is_tibia else -1.0
+        return sign * np.concatenate([comp.last.force, comp.last.moment])
+
+
+def _equal_force_constraint(model: ContactModel, wrench_fn):
+    """g = |F_medial| − |F_lateral| (N); gradient from the contact tangent (the second
+    derivative is not available: the Newton step is inexact in this one row)."""
+    def con(rot, t):
+        _, _ = wrench_fn(rot, t)
+        grads, mags = [], []
+        for comp in model.compartments:
+            res = comp.last
+            f = res.force
+            mag = float(np.linalg.norm(f))
+            tan = res.tangent[:3]
+            if not comp.slave_is_tibia:
+                tan = -tan  # the tibia's twist is minus the slave's relative twist
+            grads.append(f @ tan / mag if mag > 0 else np.zeros(6))
+            mags.append(mag)
+        g = mags[0] - mags[1]
+        return g, -(grads[0] - grads[1]), np.zeros((6, 6))
+    return con
+
+
+def run_contact_model(scene: Scene, warm_start: np.ndarray | None = None) -> RunResult:
+    """Sphere-plane (and later meshed) models: Newton statics with contact laws."""
+    t_start = time.perf_counter()
+    knee = scene.knee
+    comps = build_compartments(scene)
+    t_built = time.perf_counter()
+    contact = ContactModel(comps)
+    load = applied_load(scene)
+    lig_names = _ligament_names(scene)
+    springs = []
+    constraints = []
+    if scene["ligaments.model"] == "spring":
+        transition_strain_check(scene["ligaments.transition_strain"])
+        springs = [spring_wrench(knee.femur_attachment[n], knee.tibia_attachment[n],
+                                 knee.ligament_length_mm(n),
+                                 scene[f"ligaments.{n}.stiffness_N"],
+                                 scene[f"ligaments.{n}.reference_strain"],
+                                 scene["ligaments.transition_strain"]) for n in lig_names]
+    elif scene["ligaments.model"] == "rod":
+        constraints = [rod_constraint(knee.femur_attachment[n], knee.tibia_attachment[n],
+                                      knee.ligament_length_mm(n)) for n in lig_names]
+
+    def wrench(rot, t):
+        w, dw = contact(rot, t)
+        wl, dl = load(rot, t)
+        w, dw = w + wl, dw + dl
+        for spring in springs:
+            ws, ds = spring(rot, t)
+            w, dw = w + ws, dw + ds
+        return w, dw
+
+    if scene["constraints.equal_forces"]:
+        constraints.append(_equal_force_constraint(contact, wrench))
+    q0 = start_pose(scene) if warm_start is None else np.asarray(warm_start, dtype=float)
+    problem = Problem(q0, free_indices(scene), wrench, tuple(constraints),
+                      math.radians(scene["dofs.flexion_deg"]), force_scale(scene),
+                      tolerance=scene["solver.tolerance"],
+                      max_iterations=scene["solver.max_iterations"],
+                      touching=lambda: contact.touching)
+    t_solve = time.perf_counter()
+    sol = solve(problem)
+    t_solved = time.perf_counter()
+    rot, t = pose(sol.q, problem.theta_x)
+    wrench(rot, t)                                # state at the solution, for the report
+    compartments = {c.name: _compartment_result(contact, c, t) for c in comps}
+    ligaments = {}
+    for i, n in enumerate(lig_names):
+        x = rot @ knee.tibia_attachment[n] + t
+        length = float(np.linalg.norm(knee.femur_attachment[n] - x))
+        if springs:
+            force = springs[i].tension(length)
+        else:
+            force = float(sol.multipliers[i])
+        ligaments[n] = LigamentResult(force, length)
+    notes = []
+    if scene["contact.area"] == "whole-face":
+        notes.append(WHOLE_FACE_NOTE)
+    if not sol.converged:
+        notes.append(f"did not converge in {sol.iterations} iterations "
+                     f"(residual {sol.residual_norm:.3g} N); raise solver.max_iterations")
+    if scene["contact.law"] == "blankevoort":
+        deep = [c for c, r in compartments.items()
+                if r.max_depth_mm > laws.BLANKEVOORT_LINEAR_FROM * scene["contact.thickness_mm"]]
+        if deep:
+            notes.append(f"depth beyond 0.9 h in {deep}: the log law was continued linearly")
+    extra = {"evaluations": contact.evaluations,
+             "contact_faces": {c.name: c.pair.slave.n_faces for c in comps},
+             "detection": {c.name: c.pair.describe() for c in comps},
+             "residual_history": list(sol.history)}
+    if scene["constraints.equal_forces"]:
+        extra["equal_forces_multiplier"] = float(sol.multipliers[-1])
+    timing = {"total": time.perf_counter() - t_start, "build": t_built - t_start,
+              "solve": t_solved - t_solve, "contact": contact.contact_seconds,
+              "per_evaluation_us": 1e6 * contact.contact_seconds / max(contact.evaluations, 1)}
+    return RunResult(scene["name"] or scene.source, scene["model.kind"], scene["contact.law"],
+                     sol.converged, sol.iterations, sol.residual_norm, pose_dict(sol.q),
+                     compartments, ligaments, timing, exact_reference(scene, compartments),
+                     tuple(notes), extra | {"q": sol.q.tolist()})
+
+
+def _compartment_result(model: ContactModel, comp: Compartment, t: np.ndarray
+                        ) -> CompartmentResult:
+    res = comp.last
+    w = model.compartment_wrench(comp.name)
+    torque = w[3:] - np.cross(t, w[:3])
+    force = float(np.linalg.norm(w[:3]))
+    return CompartmentResult(force, res.max_pressure, res.mean_pressure, res.area,
+                             res.max_depth, float(np.linalg.norm(torque)), torque,
+                             res.surface.n_faces, res.face_pressure())
+
+
+def ef_sphere_plane(force_N: float, radius_mm: float, k_N_per_mm3: float) -> dict[str, float]:
+    """Closed-form EF sphere on plane at a given force (DESIGN §5): depth d from
+    F = k·πd²(R − d/3), area π(2Rd − d²), p_max = k·d, p_mean = F/A."""
+    r, k = radius_mm, k_N_per_mm3
+    d = (force_N / (k * math.pi * r)) ** 0.5
+    for _ in range(50):
+        f = k * math.pi * d * d * (r - d / 3) - force_N
+        d -= f / (k * math.pi * (2 * r * d - d * d))
+    area = math.pi * (2 * r * d - d * d)
+    return {"max_depth_mm": d, "area_mm2": area, "max_pressure_MPa": k * d,
+            "mean_pressure_MPa": force_N / area if area > 0 else 0.0}
+
+
+def exact_reference(scene: Scene, compartments: Mapping[str, CompartmentResult]) -> dict:
+    """Closed-form EF values at the solved compartment forces, with deviations (%)."""
+    if (scene["model.kind"] != "sphere-plane" or scene["plateau.kind"] == "polynomial"
+            or scene["contact.law"] not in ("ef", "volumetric")):
+        return {}
+    if scene["contact.law"] == "ef":
+        k = laws.ef_stiffness(scene["contact.youngs_MPa"], scene["contact.poisson"],
+                              scene["contact.thickness_mm"])
+    else:
+        k = scene["contact.volumetric_stiffness_N_per_mm3"]
+    out = {}
+    knee = scene.knee
+    for c, res in compartments.items():
+        if res.force_N <= 0:
+            continue
+        ref = ef_sphere_plane(res.force_N, knee.radius_mm(c), k)
+        got = {"max_depth_mm": res.max_depth_mm, "area_mm2": res.area_mm2,
+               "max_pressure_MPa": res.max_pressure_MPa,
+               "mean_pressure_MPa": res.mean_pressure_MPa}
+        ref["deviation_percent"] = {key: 100.0 * (got[key] - v) / v for key, v in ref.items()}
+        out[c] = ref
+    return out
+
+
+MODEL_RUNNERS: dict[str, Callable[..., RunResult]] = {
+    "rigid": run_rigid,
+    "sphere-plane": run_contact_model,
+}
+
+
+def run_scene(scene: Scene, warm_start: np.ndarray | None = None) -> RunResult:
+    """Solve a scene and return its `RunResult`.
+
+    `warm_start` (5,) = (x, y, z mm, θy, θz rad) starts the Newton solve there (sweeps).
+    """
+    kind = scene["model.kind"]
+    if kind not in MODEL_RUNNERS:
+        raise FecheckError(f"model.kind {kind!r} has no runner; known: "
+                           f"{', '.join(MODEL_RUNNERS)}")
+    return MODEL_RUNNERS[kind](scene, warm_start)
