@@ -6,7 +6,9 @@ consume it. No law knows how detection was done; no detection knows the law.
 """
 
 from fecheck.contact.analytic import Plane, PolynomialSurface, Sphere
+from fecheck.contact.gjk import BoxShape, ConvexPoints, SphereShape, gjk_epa, max_penetration
 from fecheck.contact.pair import ContactPair
 from fecheck.contact.surface import ContactSurface
 
-__all__ = ["ContactPair", "ContactSurface", "Plane", "PolynomialSurface", "Sphere"]
+__all__ = ["BoxShape", "ContactPair", "ContactSurface", "ConvexPoints", "Plane",
+           "PolynomialSurface", "Sphere", "SphereShape", "gjk_epa", "max_penetration"]
