@@ -138,22 +138,23 @@ class Compartment:
     last: laws.LawResult | None = None
 
 
-def _law(scene: Scene, radius_mm: float) -> Callable[[object], laws.LawResult]:
+def law_factory(scene: Scene) -> Callable[[float], Callable[[object], laws.LawResult]]:
+    """Validated contact law of a scene, as a function of the condyle radius (mm)."""
     e, nu, h = scene["contact.youngs_MPa"], scene["contact.poisson"], scene["contact.thickness_mm"]
     name = scene["contact.law"]
-    laws.validate_material(e, nu, h)
     if name == "ef":
         k = laws.ef_stiffness(e, nu, h)
-        return lambda s: laws.elastic_foundation(s, k)
+        return lambda r: lambda s: laws.elastic_foundation(s, k)
     if name == "volumetric":
+        laws.validate_material(e, nu, h)
         kv = scene["contact.volumetric_stiffness_N_per_mm3"]
-        return lambda s: laws.volumetric(s, kv)
+        return lambda r: lambda s: laws.volumetric(s, kv)
     if name == "blankevoort":
         pressure = laws.blankevoort_pressure(e, nu, h)
-        return lambda s: laws.foundation(s, pressure)
+        return lambda r: lambda s: laws.foundation(s, pressure)
     e_star = laws.hertz_modulus(e, nu, scene["contact.indenter_youngs_MPa"],
                                 scene["contact.indenter_poisson"])
-    return lambda s: laws.hertz(s, radius_mm, e_star)
+    return lambda r: lambda s: laws.hertz(s, r, e_star)
 
 
 def build_compartments(scene: Scene) -> list[Compartment]:
@@ -162,6 +163,7 @@ def build_compartments(scene: Scene) -> list[Compartment]:
     from fecheck.contact.pair import ContactPair
 
     knee = scene.knee
+    law = law_factory(scene)
     out = []
     opts = {"method": scene["contact.detection"], "area": scene["contact.area"],
             "margin_mm": scene["contact.margin_mm"]}
@@ -173,11 +175,11 @@ def build_compartments(scene: Scene) -> list[Compartment]:
             slave = icosphere(r, scene["mesh.sphere_subdivisions"], centre,
                               method=scene["mesh.method"])
             pair = ContactPair(slave, _plateau_master(scene, knee, c), **opts)
-            out.append(Compartment(c, pair, _law(scene, r), False, r))
+            out.append(Compartment(c, pair, law(r), False, r))
         else:
             slave = _plateau_mesh(scene, knee, c)
             pair = ContactPair(slave, Sphere(centre, r), **opts)
-            out.append(Compartment(c, pair, _law(scene, r), True, r))
+            out.append(Compartment(c, pair, law(r), True, r))
     return out
 
 
@@ -318,7 +320,7 @@ def run_contact_model(scene: Scene, warm_start: np.ndarray | None = None) -> Run
     t_solved = time.perf_counter()
     rot, t = pose(sol.q, problem.theta_x)
     wrench(rot, t)                                # state at the solution, for the report
-    compartments = {c.name: _compartment_result(contact, c, t) for c in comps}
+    compartments = {c.name: _compartment_result(contact, c, rot, t) for c in comps}
     ligaments = {}
     for i, n in enumerate(lig_names):
         x = rot @ knee.tibia_attachment[n] + t
@@ -354,15 +356,17 @@ def run_contact_model(scene: Scene, warm_start: np.ndarray | None = None) -> Run
                      tuple(notes), extra | {"q": sol.q.tolist()})
 
 
-def _compartment_result(model: ContactModel, comp: Compartment, t: np.ndarray
-                        ) -> CompartmentResult:
+def _compartment_result(model: ContactModel, comp: Compartment, rot: np.ndarray,
+                        t: np.ndarray) -> CompartmentResult:
     res = comp.last
     w = model.compartment_wrench(comp.name)
     torque = w[3:] - np.cross(t, w[:3])
     force = float(np.linalg.norm(w[:3]))
+    mesh = comp.pair.slave
+    points = mesh.points @ rot.T + t if comp.slave_is_tibia else mesh.points
     return CompartmentResult(force, res.max_pressure, res.mean_pressure, res.area,
                              res.max_depth, float(np.linalg.norm(torque)), torque,
-                             res.surface.n_faces, res.face_pressure())
+                             res.surface.n_faces, res.face_pressure(), points, mesh.faces)
 
 
 def ef_sphere_plane(force_N: float, radius_mm: float, k_N_per_mm3: float) -> dict[str, float]:

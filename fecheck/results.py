@@ -25,6 +25,7 @@ class CompartmentResult:
     e.g. pressures of the rigid point-contact model).
 
     face_pressure_MPa : (n_slave_faces,) mean pressure on every slave face (0 off contact)
+    slave_points, slave_faces : the slave mesh in world coordinates at equilibrium (plots)
     torque_vector_Nmm : (3,) moment of the compartment's contact force on the tibia about
         the tibial origin, world axes; `torque_Nmm` is its norm
     """
@@ -38,6 +39,8 @@ class CompartmentResult:
     torque_vector_Nmm: np.ndarray
     n_contact_faces: int = 0
     face_pressure_MPa: np.ndarray | None = None
+    slave_points: np.ndarray | None = None
+    slave_faces: np.ndarray | None = None
 
     def as_dict(self) -> dict[str, Any]:
         """JSON-ready metrics (no per-face arrays)."""
@@ -151,6 +154,43 @@ class RunResult:
         lines.extend(f"note: {n}" for n in self.notes)
         lines.append("time s: " + "  ".join(f"{k} {v:.4f}" for k, v in self.timing_s.items()))
         return "\n".join(lines)
+
+
+def write_pressure_plots(result: RunResult, directory: str | Path) -> list[Path]:
+    """Off-screen PNGs of the face pressures (MPa colour bar), one per compartment.
+
+    Imports pyvista lazily (off-screen EGL rendering). Returns the written paths.
+    """
+    import os
+
+    os.environ.setdefault("VTK_DEFAULT_OPENGL_WINDOW", "vtkEGLRenderWindow")
+    import pyvista as pv
+
+    out_dir = Path(directory)
+    out_dir.mkdir(parents=True, exist_ok=True)
+    paths = []
+    for name, comp in result.compartments.items():
+        if comp.slave_points is None or comp.face_pressure_MPa is None:
+            continue
+        cells = np.hstack([np.full((len(comp.slave_faces), 1), 3), comp.slave_faces]).ravel()
+        mesh = pv.PolyData(comp.slave_points, cells)
+        mesh.cell_data["pressure (MPa)"] = comp.face_pressure_MPa
+        hot = comp.face_pressure_MPa > 0
+        plotter = pv.Plotter(off_screen=True, window_size=(900, 700))
+        plotter.add_mesh(mesh, scalars="pressure (MPa)", cmap="viridis", show_edges=False,
+                         scalar_bar_args={"title": "pressure (MPa)"})
+        if hot.any():
+            centre = mesh.extract_cells(np.flatnonzero(hot)).center
+            plotter.camera.focal_point = centre
+            plotter.camera.position = np.asarray(centre) + np.array([0.0, 0.0, -60.0])
+            plotter.camera.up = (0.0, 1.0, 0.0)
+        plotter.add_text(f"{result.scene}: {name}, F = {comp.force_N:.1f} N, "
+                         f"p_max = {comp.max_pressure_MPa:.2f} MPa", font_size=10)
+        path = out_dir / f"{name}_pressure.png"
+        plotter.screenshot(str(path))
+        plotter.close()
+        paths.append(path)
+    return paths
 
 
 def write_rows(path: str | Path, rows: list[Mapping[str, Any]]) -> None:
