@@ -12,7 +12,7 @@ are exact. Used by the Hertz law, which needs the maximum depth only
 (`max_penetration`). Not a hot path: plain Python over at most a few hundred vertices.
 
 >>> depth, normal = max_penetration(SphereShape([0, 0, 0], 1.0), SphereShape([1.5, 0, 0], 1.0))
->>> round(depth, 12), normal.round(12).tolist()
+>>> round(depth, 12), (normal.round(12) + 0.0).tolist()
 (0.5, [1.0, 0.0, 0.0])
 """
 
