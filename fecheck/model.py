@@ -406,9 +406,17 @@ def exact_reference(scene: Scene, compartments: Mapping[str, CompartmentResult])
     return out
 
 
+def _run_scanned(scene: Scene, warm_start: np.ndarray | None = None) -> RunResult:
+    from fecheck.scanned_models import run_scanned
+
+    return run_scanned(scene, warm_start)
+
+
 MODEL_RUNNERS: dict[str, Callable[..., RunResult]] = {
     "rigid": run_rigid,
     "sphere-plane": run_contact_model,
+    "sphere-tibia": _run_scanned,
+    "femur-tibia": _run_scanned,
 }
 
 
@@ -418,6 +426,8 @@ def run_scene(scene: Scene, warm_start: np.ndarray | None = None) -> RunResult:
     `warm_start` (5,) = (x, y, z mm, θy, θz rad) starts the Newton solve there (sweeps).
     """
     kind = scene["model.kind"]
+    if scene["scanned.ligaments"] != "none":
+        return _run_scanned(scene, warm_start)
     if kind not in MODEL_RUNNERS:
         raise FecheckError(f"model.kind {kind!r} has no runner; known: "
                            f"{', '.join(MODEL_RUNNERS)}")

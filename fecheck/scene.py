@@ -26,7 +26,7 @@ from fecheck.knee import PRESETS, Knee, knee_from_landmarks
 
 DOF_NAMES = ("x", "y", "z", "abduction", "internal")
 LIGAMENT_NAMES = ("ACL", "PCL", "MCL")
-MODEL_KINDS = ("rigid", "sphere-plane")
+MODEL_KINDS = ("rigid", "sphere-plane", "sphere-tibia", "femur-tibia")
 
 
 @dataclass(frozen=True)
@@ -143,6 +143,21 @@ SCHEMA: dict[str, Key] = {
     "solver.max_iterations": Key("int", 60, "Newton iteration cap", low=1, high=1000),
     "solver.tolerance": Key("float", 1e-8, "residual tolerance relative to the load",
                             low=0.0, low_open=True, high=1e-2),
+    # Scanned knee (fecheck.scanned, fecheck.scanned_models): sphere-tibia, femur-tibia.
+    "scanned.data_dir": Key("str", "", "scanned knee folder; '' = $FECHECK_KNEE_DIR or "
+                            "<repo>/../shared/data/knee/lenhart2015"),
+    "scanned.thickness": Key("str", "uniform", "foundation thickness: contact.thickness_mm "
+                             "or per face, tibial + femoral cartilage to bone",
+                             choices=("uniform", "bone-distance")),
+    "scanned.decimate_faces": Key("int", 0, "0 = full meshes; N = about N tibial faces",
+                                  low=0),
+    "scanned.condyle": Key("str", "sphere", "sphere-tibia condyles: spheres or hemispheres "
+                           "cut towards the notch", choices=("sphere", "hemisphere")),
+    "scanned.hemisphere_cut_mm": Key("float", 10.0, "hemisphere cut: distance of the "
+                                     "sagittal cut plane from the centre towards the notch, mm",
+                                     low=0.0),
+    "scanned.ligaments": Key("str", "none", "the scanned knee's 55 Blankevoort bundles as "
+                             "springs", choices=("none", "bundles")),
 }
 
 
