@@ -72,16 +72,12 @@ class Plane:
         return (self.point - y) @ self.normal
 
     def depth_gradients(self, y: np.ndarray, u: np.ndarray | None = None):
-        """(∂d/∂y, None): the gradient is minus the plane normal."""
-        g = np.empty(y.shape)
-        g[...] = -self.normal
-        return g, None
+        """(∂d/∂y, None): minus the plane normal, (3,) for every point."""
+        return -self.normal, None
 
     def foundation_normals(self, triangles: np.ndarray):
-        """(m, 3) normals of faces (m, 3, 3) and ∂normal/∂centroid (None: zero)."""
-        n = np.empty((len(triangles), 3))
-        n[...] = self.normal
-        return n, None
+        """The plane normal (3,) for every face, and ∂normal/∂centroid (None: zero)."""
+        return self.normal, None
 
 
 @dataclass(frozen=True, eq=False)

@@ -13,6 +13,8 @@
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 
 from fecheck.contact.analytic import Plane, PolynomialSurface, Sphere
@@ -39,17 +41,15 @@ def validate_pose(pose, name: str) -> tuple[np.ndarray, np.ndarray]:
     if R.shape != (3, 3) or t.shape != (3,):
         raise FecheckError(f"{name} pose must be (R (3, 3), t (3,) mm), "
                            f"got shapes {R.shape} and {t.shape}")
-    if not np.isfinite(R.sum() + t.sum()):
-        raise FecheckError(f"{name} pose contains NaN or infinite values")
-    if np.abs(R.T @ R - _EYE).max() > 1e-6 or R[0] @ _cross(R[1], R[2]) < 0:
-        raise FecheckError(f"{name} rotation is not orthonormal with det +1; "
-                           "build it with fecheck.frames.rotation")
+    if not math.isfinite(t @ t):
+        raise FecheckError(f"{name} pose translation contains NaN or infinite values")
+    # Orthonormal (NaN fails the comparison) and proper: row 0 · (row 1 × row 2) = +1.
+    (a, b, c), (d, e, f), (g, h, i) = R.tolist()
+    if not (np.abs(R.T @ R - _EYE).max() <= 1e-6 and a * (e * i - f * h) - b * (d * i - f * g)
+            + c * (d * h - e * g) > 0):
+        raise FecheckError(f"{name} rotation is not orthonormal with det +1 (or contains "
+                           "NaN); build it with fecheck.frames.rotation")
     return R, t
-
-
-def _cross(a: np.ndarray, b: np.ndarray) -> np.ndarray:
-    """a × b over the last axis (cheaper than np.cross on small arrays)."""
-    return a[..., _ROLL1] * b[..., _ROLL2] - a[..., _ROLL2] * b[..., _ROLL1]
 
 
 def _apply(a: np.ndarray, R: np.ndarray, t: np.ndarray | None = None) -> np.ndarray:
@@ -60,12 +60,16 @@ def _apply(a: np.ndarray, R: np.ndarray, t: np.ndarray | None = None) -> np.ndar
     return out.reshape(a.shape)
 
 
+def _cross(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """a × b over the last axis (cheaper than np.cross on small arrays)."""
+    a0, a1, a2 = a[..., 0], a[..., 1], a[..., 2]
+    b0, b1, b2 = b[..., 0], b[..., 1], b[..., 2]
+    return np.stack([a1 * b2 - a2 * b1, a2 * b0 - a0 * b2, a0 * b1 - a1 * b0], axis=-1)
+
+
 def _skew(v: np.ndarray) -> np.ndarray:
-    out = np.zeros(v.shape + (3,))
-    out[..., 0, 1], out[..., 0, 2] = -v[..., 2], v[..., 1]
-    out[..., 1, 0], out[..., 1, 2] = v[..., 2], -v[..., 0]
-    out[..., 2, 0], out[..., 2, 1] = -v[..., 1], v[..., 0]
-    return out
+    """(3, 3) cross-product matrix of v; for row vectors x, x @ _skew(v) == x × v."""
+    return np.array([[0.0, -v[2], v[1]], [v[2], 0.0, -v[0]], [-v[1], v[0], 0.0]])
 
 
 class ContactPair:
@@ -192,38 +196,27 @@ def build_surface(master, area_mode: str, n_slave_faces: int, cand, hit: np.ndar
 
     D (m, 3) vertex depths and Y (m, 3, 3) vertex positions in the master frame (mm);
     R the slave-to-master rotation; (Rm, tm) the master pose; Rs the slave rotation;
-    g (m, 3, 3) the depth gradients if already known (master frame).
+    g (m, 3, 3) the depth gradients if already known (master frame). A gradient of
+    shape (3,) (a plane) is constant: its twist is then formed at the points directly.
     """
     m = len(hit)
-    nf_w = _apply(cand.normals[hit], Rs)                  # slave face normals, world
     X = _apply(Y, Rm, tm)                                 # (m, 3, 3) world vertices
     if master.uses_slave_normal:
         U = np.broadcast_to(_apply(cand.normals[hit], -R)[:, None, :], Y.shape)
         g, h = master.depth_gradients(Y, U)
         gw = _apply(g, Rm)
-        rot = _cross(X, gw) - _cross(nf_w[:, None, :], _apply(h, Rm))
-    else:
-        gw = _apply(master.depth_gradients(Y)[0] if g is None else g, Rm)
-        rot = _cross(X, gw)
-    # Per vertex: depth, world position, ∂d/∂v, ∂d/∂ω — interpolated in one pass.
-    vertex = np.concatenate([D[:, :, None], X, gw, rot], axis=-1)      # (m, 3, 10)
-
-    normal_twist = np.zeros((m, 3, 6))
-    if master.normal_body == "slave":
-        N = -nf_w
-        normal_twist[:, :, 3:] = -_skew(N)
-    else:
-        Nm, dN = master.foundation_normals(Y)
-        N = _apply(Nm, Rm)
-        cos = np.einsum("ij,ij->i", nf_w, N)
-        dcos = np.zeros((m, 6))
-        dcos[:, 3:] = _cross(nf_w, N)
-        if dN is not None:
-            A = Rm @ dN @ Rm.T
-            normal_twist[:, :, :3] = A
-            normal_twist[:, :, 3:] = -A @ _skew(X.sum(axis=1) / 3.0)
-            dcos += np.einsum("ij,ijk->ik", nf_w, normal_twist)
-        dproj = np.sign(cos)[:, None] * dcos
+        rot = _cross(X + D[:, :, None] * _apply(U, Rm), gw)     # (x + d u) × g
+    elif g is None:
+        g = master.depth_gradients(Y)[0]
+    constant = g.ndim == 1
+    if constant:                                          # interpolate depth and position
+        gw = Rm @ g
+        vertex = np.concatenate([D[:, :, None], X], axis=-1)
+    else:                                                 # … and ∂d/∂v, ∂d/∂ω per vertex
+        if not master.uses_slave_normal:
+            gw = _apply(g, Rm)
+            rot = _cross(X, gw)
+        vertex = np.concatenate([D[:, :, None], X, gw, rot], axis=-1)
 
     if area_mode == "clipped":
         parent, corners, frac = clip_faces(D)
@@ -231,19 +224,54 @@ def build_surface(master, area_mode: str, n_slave_faces: int, cand, hit: np.ndar
         parent, corners, frac = whole_faces(m)
     qp_face, bary, qfrac = quadrature(parent, corners, frac)
     qp = np.einsum("qi,qij->qj", bary, vertex[qp_face])
-    qp_depth, qp_depth_twist = qp[:, 0], qp[:, 4:]
-    if area_mode == "whole-face":
-        deepest = vertex[np.arange(m), np.argmax(D, axis=1)][qp_face]
-        qp_depth, qp_depth_twist = deepest[:, 0], deepest[:, 4:]
+    qp_point = qp[:, 1:4]
+    if area_mode == "whole-face":                        # the deepest vertex's depth
+        qp = vertex[np.arange(m), np.argmax(D, axis=1)][qp_face]
+    qp_depth = qp[:, 0]
+    if constant:
+        qp_depth_twist = np.empty((len(qp_face), 6))
+        qp_depth_twist[:, :3] = gw
+        qp_depth_twist[:, 3:] = (qp_point if area_mode == "clipped" else qp[:, 1:4]) @ _skew(gw)
+    else:
+        qp_depth_twist = qp[:, 4:]
     area = qfrac * cand.areas[hit][qp_face]
+
+    slide = None
     if master.normal_body == "slave":
+        N = -_apply(cand.normals[hit], Rs)
         weight, weight_twist = area, np.zeros((len(qp_face), 6))
     else:
+        nf_w = _apply(cand.normals[hit], Rs)
+        Nm, dN = master.foundation_normals(Y)
+        if Nm.ndim == 1:                                  # one normal for every face
+            n_w = Rm @ Nm
+            N = np.empty((m, 3))
+            N[:] = n_w
+            cos = nf_w @ n_w
+            dcos = np.zeros((m, 6))
+            dcos[:, 3:] = nf_w @ _skew(n_w)
+        else:
+            N = _apply(Nm, Rm)
+            cos = np.einsum("ij,ij->i", nf_w, N)
+            dcos = np.zeros((m, 6))
+            dcos[:, 3:] = _cross(nf_w, N)
+        if dN is not None:
+            A = Rm @ dN @ Rm.T                           # ∂N/∂(centroid), world
+            slide = np.concatenate([A, -A @ _skew_rows(X.sum(axis=1) / 3.0)], axis=-1)
+            dcos += np.einsum("ij,ijk->ik", nf_w, slide)
         weight = area * np.abs(cos)[qp_face]
-        weight_twist = area[:, None] * dproj[qp_face]
+        weight_twist = (area * np.sign(cos)[qp_face])[:, None] * dcos[qp_face]
     return ContactSurface(
         face=cand.faces[hit], normal=N, vertex_depth=D, qp_face=qp_face, qp_bary=bary,
-        qp_point=qp[:, 1:4], qp_depth=qp_depth, qp_weight=weight,
+        qp_point=qp_point, qp_depth=qp_depth, qp_weight=weight,
         qp_depth_twist=qp_depth_twist, qp_weight_twist=weight_twist,
-        normal_body=master.normal_body, n_slave_faces=n_slave_faces,
-        normal_twist=normal_twist)
+        normal_body=master.normal_body, n_slave_faces=n_slave_faces, normal_slide=slide)
+
+
+def _skew_rows(v: np.ndarray) -> np.ndarray:
+    """(m, 3, 3) cross-product matrices: _skew_rows(v) @ b == v × b."""
+    out = np.zeros(v.shape + (3,))
+    out[:, 0, 1], out[:, 0, 2] = -v[:, 2], v[:, 1]
+    out[:, 1, 0], out[:, 1, 2] = v[:, 2], -v[:, 0]
+    out[:, 2, 0], out[:, 2, 1] = -v[:, 1], v[:, 0]
+    return out

@@ -30,6 +30,7 @@ depth then get exact derivatives (Leibniz's boundary term is zero).
 from __future__ import annotations
 
 from dataclasses import dataclass
+from functools import cached_property
 from typing import Literal
 
 import numpy as np
@@ -57,9 +58,9 @@ class ContactSurface:
 
     normal_body : "master" or "slave", which body the normals are fixed in
     n_slave_faces : faces of the whole slave mesh (for reporting per-face fields)
-    normal_twist : (m, 3, 6) ∂normal/∂ξ, (1/mm, 1): ``ω × n`` for slave normals, zero
-        for a plane master, the surface-curvature term for a polynomial master
-        (its normal is taken at the contact, which slides over the surface)
+    normal_slide : (m, 3, 6) or None, the part of ∂normal/∂ξ of master normals that
+        slide over a curved master (polynomial: the normal is taken at the contact);
+        None means zero. `normal_twist` adds the rotation ``ω × n`` of slave normals.
     """
 
     face: np.ndarray
@@ -74,11 +75,21 @@ class ContactSurface:
     qp_weight_twist: np.ndarray
     normal_body: Literal["master", "slave"]
     n_slave_faces: int
-    normal_twist: np.ndarray | None = None
+    normal_slide: np.ndarray | None = None
 
-    def __post_init__(self) -> None:
-        if self.normal_twist is None:
-            object.__setattr__(self, "normal_twist", np.zeros((len(self.face), 3, 6)))
+    @cached_property
+    def normal_twist(self) -> np.ndarray:
+        """(m, 3, 6) ∂normal/∂ξ, (1/mm, 1): ``ω × n`` for slave normals, zero for a plane
+        master, the curvature term `normal_slide` for a polynomial master."""
+        out = np.zeros((self.n_faces, 3, 6))
+        if self.normal_body == "slave":
+            n = self.normal
+            out[:, 0, 4], out[:, 0, 5] = n[:, 2], -n[:, 1]     # ω × n = -[n]× ω
+            out[:, 1, 3], out[:, 1, 5] = -n[:, 2], n[:, 0]
+            out[:, 2, 3], out[:, 2, 4] = n[:, 1], -n[:, 0]
+        if self.normal_slide is not None:
+            out += self.normal_slide
+        return out
 
     @property
     def n_faces(self) -> int:

@@ -1,0 +1,293 @@
+"""Detection benchmark: our contact engine against the thesis's stack, measured in one run.
+
+Scenarios (R = 31.8 mm lateral condyle, icospheres of 20·4^n faces):
+
+* ``bisect`` — thesis Figs. 3.21/3.25: an icosphere bisected by a plane (d = R).
+  Exact: area πR², ∫d dA = 2πR³/3.
+* ``statics`` — the Newton regime: the same icosphere 1 mm into the plane, evaluated at
+  a sequence of nearby poses (candidate set reused) and from scratch.
+  Exact: cap area π(2Rd - d²), cap volume πd²(R - d/3).
+* ``sphere-master`` — an analytic sphere master over a flat plateau mesh (depth along
+  the plateau normal), 1 mm; the thesis stack meets an icosphere of 5,120 faces.
+* ``mesh-mesh`` — thesis Fig. 3.25's concave-concave case: an icosphere slave (R) into
+  an icosphere master (25.5 mm) of as many faces, overlapping by 1 mm. Exact, for the
+  closest-point depth d = R₂ - |x - c₂| over the slave surface inside the master:
+  area 2πR₁h₁ and ∫d dA = (2πR₁/D)[R₂u²/2 - u³/3] between u = D - R₁ and R₂.
+
+Methods: ``closed-form`` (analytic master), ``bvh`` (mesh master, libigl AABB), and the
+thesis stack: ``fcl`` (python-fcl per-face contacts through trimesh's converters, box or
+icosphere master) and ``ray-parity`` (trimesh ``contains`` with embree + cKDTree).
+Times are medians over repeated calls; compare them as ratios within one run.
+"""
+
+from __future__ import annotations
+
+import json
+import time
+from pathlib import Path
+
+import numpy as np
+
+from geometry.errors import FecheckError
+
+R_SLAVE = 31.8
+R_MASTER = 25.5
+DEPTH = 1.0
+LEVELS_FULL = (3, 4, 5, 6, 7)            # 1,280 … 327,680 faces
+LEVELS_QUICK = (3, 4, 5)                 # … 20,480 faces
+IDENTITY = (np.eye(3), np.zeros(3))
+
+
+def _median_time(fn, min_repeats: int = 3, budget_s: float = 0.3, max_repeats: int = 300):
+    """Median wall time of fn(), s, over at least `min_repeats` calls."""
+    times: list[float] = []
+    start = time.perf_counter()
+    while len(times) < min_repeats or (time.perf_counter() - start < budget_s
+                                       and len(times) < max_repeats):
+        t0 = time.perf_counter()
+        fn()
+        times.append(time.perf_counter() - t0)
+    return float(np.median(times))
+
+
+def _cap(d: float, R: float = R_SLAVE) -> tuple[float, float]:
+    return np.pi * (2 * R * d - d * d), np.pi * d * d * (R - d / 3)
+
+
+def _lens(R1: float, R2: float, overlap: float) -> tuple[float, float]:
+    """Slave-sphere area inside the master sphere and ∫(R₂ - |x - c₂|) dA over it."""
+    D = R1 + R2 - overlap
+    lo, hi = D - R1, R2
+    k = 2 * np.pi * R1 / D
+    return k * (hi**2 - lo**2) / 2, k * ((R2 * hi**2 / 2 - hi**3 / 3) - (R2 * lo**2 / 2 - lo**3 / 3))
+
+
+def _nearby_poses(base, n: int = 8, step_mm: float = 0.02):
+    """Small rigid perturbations of `base` (within the reuse window), a Newton-like walk."""
+    from fecheck.frames import rotation
+
+    R, t = base
+    return [(R @ rotation(0.0, 2e-4 * k, -1e-4 * k), t + step_mm * np.array([k, -k, 0.5 * k]))
+            for k in range(n)]
+
+
+def _row(scenario, method, n_faces, surface, exact, seconds, **extra):
+    area_exact, volume_exact = exact
+    volume = float((surface.qp_weight * np.maximum(surface.qp_depth, 0.0)).sum())
+    row = {
+        "scenario": scenario, "method": method, "n_faces": int(n_faces),
+        "n_contact_faces": int(surface.n_faces), "time_ms": 1e3 * seconds,
+        "area_mm2": surface.area, "area_exact_mm2": area_exact,
+        "area_rel_error": surface.area / area_exact - 1.0,
+        "volume_mm3": volume, "volume_exact_mm3": volume_exact,
+        "volume_rel_error": volume / volume_exact - 1.0,
+        "max_depth_mm": surface.max_depth,
+    }
+    row.update(extra)
+    return row
+
+
+def _measure(scenario, method, pair, poses, master_pose, n_faces, exact, min_repeats):
+    """Rows for one pair: reused-candidate time and, for our engine, from-scratch time."""
+    import warnings
+
+    it = iter(range(10**9))
+
+    def call():
+        return pair.evaluate(poses[next(it) % len(poses)], master_pose)
+
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        try:
+            surface = pair.evaluate(poses[0], master_pose)
+            seconds = _median_time(call, min_repeats)
+        except FecheckError as err:
+            return [{"scenario": scenario, "method": method, "n_faces": int(n_faces),
+                     "error": str(err)}]
+    extra = {}
+    if method in ("closed-form", "bvh"):
+        def scratch():
+            pair.cache.reset()
+            call()
+        extra["time_from_scratch_ms"] = 1e3 * _median_time(scratch, min_repeats)
+        extra["n_candidate_faces"] = int(pair.cache.get(
+            *_relative(poses[0], master_pose)).faces.size)
+    return [_row(scenario, method, n_faces, surface, exact, seconds, **extra)]
+
+
+def _relative(slave_pose, master_pose):
+    Rm, tm = master_pose
+    return Rm.T @ slave_pose[0], Rm.T @ (slave_pose[1] - tm)
+
+
+def _box_master(half: float, depth: float):
+    from geometry.mesh import TriMesh
+    import trimesh
+
+    box = trimesh.creation.box(extents=[2 * half, 2 * half, depth])
+    return TriMesh(np.asarray(box.vertices) - [0.0, 0.0, depth / 2], np.asarray(box.faces))
+
+
+def _plane_rows(levels, quick, progress):
+    from fecheck.contact import ContactPair, Plane
+    from geometry.icosphere import icosphere
+
+    rows = []
+    plane = Plane([0.0, 0.0, 0.0], [0.0, 0.0, 1.0])
+    box = _box_master(2.5 * R_SLAVE, 2.5 * R_SLAVE)
+    for level in levels:
+        sphere = icosphere(R_SLAVE, level)
+        n = sphere.n_faces
+        for scenario, d in (("bisect", R_SLAVE), ("statics", DEPTH)):
+            base = (np.eye(3), np.array([0.0, 0.0, R_SLAVE - d]))
+            poses = _nearby_poses(base) if scenario == "statics" else [base]
+            exact = _cap(d)
+            for method, master in (("closed-form", plane), ("bvh", box), ("fcl", box),
+                                   ("ray-parity", box)):
+                if method == "ray-parity" and (n > 20480 if quick else n > 81920):
+                    continue
+                progress(f"{scenario} {method} {n} faces")
+                pair = ContactPair(sphere, master, method=method)
+                rows += _measure(scenario, method, pair, poses, IDENTITY, n, exact,
+                                 min_repeats=3)
+    return rows
+
+
+def _sphere_master_rows(sizes, progress):
+    from fecheck.contact import ContactPair, Sphere
+    from geometry.icosphere import icosphere
+    from geometry.plateau import plane_patch
+
+    rows = []
+    master_pose = (np.eye(3), np.array([0.0, 0.0, R_SLAVE - DEPTH]))
+    condyle = icosphere(R_SLAVE, 4)                           # the thesis's ~5000 faces
+    for size in sizes:
+        plateau = plane_patch([0.0, 0.0, 0.0], [0.0, 0.0, 1.0], radius=30.0, size=size)
+        n = plateau.n_faces
+        progress(f"sphere-master {n} faces")
+        poses = _nearby_poses(IDENTITY)
+        rows += _measure("sphere-master", "closed-form",
+                         ContactPair(plateau, Sphere([0.0, 0.0, 0.0], R_SLAVE)), poses,
+                         master_pose, n, _cap(DEPTH), 3)
+        rows += _measure("sphere-master", "fcl", ContactPair(plateau, condyle, method="fcl"),
+                         poses, master_pose, n, _cap(DEPTH), 3)
+    return rows
+
+
+def _mesh_mesh_rows(levels, quick, progress):
+    from fecheck.contact import ContactPair
+    from geometry.icosphere import icosphere
+
+    rows = []
+    exact = _lens(R_SLAVE, R_MASTER, DEPTH)
+    distance = R_SLAVE + R_MASTER - DEPTH
+    for level in levels:
+        slave = icosphere(R_SLAVE, level)
+        master = icosphere(R_MASTER, level, center=(0.0, 0.0, -distance))
+        n = slave.n_faces
+        poses = _nearby_poses(IDENTITY)
+        for method in ("bvh", "ray-parity", "fcl"):
+            if method != "bvh" and (n > 20480 if quick else n > 81920):
+                continue
+            progress(f"mesh-mesh {method} {n} faces")
+            rows += _measure("mesh-mesh", method, ContactPair(slave, master, method=method),
+                             poses, IDENTITY, n, exact, 3)
+    return rows
+
+
+def _ratios(rows) -> dict:
+    """Speed ratios the acceptance criteria name, from rows of this run."""
+    def t(scenario, method, n, key="time_ms"):
+        for r in rows:
+            if (r["scenario"], r["method"], r["n_faces"]) == (scenario, method, n) and key in r:
+                return r[key]
+        return None
+
+    out = {}
+    for scenario in ("statics", "bisect"):
+        ours, fcl = t(scenario, "closed-form", 5120), t(scenario, "fcl", 5120)
+        if ours and fcl:
+            out[f"{scenario}_plane_5120_fcl_over_closed_form"] = fcl / ours
+        bvh, parity = t(scenario, "bvh", 5120), t(scenario, "ray-parity", 5120)
+        if bvh and parity:
+            out[f"{scenario}_box_5120_ray_parity_over_bvh"] = parity / bvh
+    sphere = [r for r in rows if r["scenario"] == "sphere-master" and "time_ms" in r]
+    if sphere:
+        n = min({r["n_faces"] for r in sphere}, key=lambda k: abs(k - 5120))
+        ours, fcl = t("sphere-master", "closed-form", n), t("sphere-master", "fcl", n)
+        if ours and fcl:
+            out[f"sphere_master_{n}_fcl_over_closed_form"] = fcl / ours
+    ours, parity = t("mesh-mesh", "bvh", 20480), t("mesh-mesh", "ray-parity", 20480)
+    if ours and parity:
+        out["mesh_mesh_20480_ray_parity_over_bvh"] = parity / ours
+    scratch = t("mesh-mesh", "bvh", 20480, "time_from_scratch_ms")
+    if ours and scratch:
+        out["mesh_mesh_20480_reused_over_from_scratch"] = ours / scratch
+    return out
+
+
+def run(quick: bool = False, progress=lambda message: None) -> dict:
+    """All scenarios: {"rows": [...], "ratios": {...}, "quick": bool}."""
+    levels = LEVELS_QUICK if quick else LEVELS_FULL
+    sizes = (2.0, 1.0, 0.5) if quick else (2.0, 1.0, 0.5, 0.25)
+    rows = _plane_rows(levels, quick, progress)
+    rows += _sphere_master_rows(sizes, progress)
+    rows += _mesh_mesh_rows(levels, quick, progress)
+    return {"quick": quick, "rows": rows, "ratios": _ratios(rows)}
+
+
+def table(result: dict) -> str:
+    """A plain-text summary of the rows and ratios."""
+    lines = [f"{'scenario':14s}{'method':12s}{'faces':>8s}{'contact':>8s}{'ms':>10s}"
+             f"{'scratch ms':>11s}{'area err':>10s}{'vol err':>10s}"]
+    for r in result["rows"]:
+        if "error" in r:
+            lines.append(f"{r['scenario']:14s}{r['method']:12s}{r['n_faces']:8d}  "
+                         f"error: {r['error']}")
+            continue
+        scratch = r.get("time_from_scratch_ms")
+        lines.append(f"{r['scenario']:14s}{r['method']:12s}{r['n_faces']:8d}"
+                     f"{r['n_contact_faces']:8d}{r['time_ms']:10.3f}"
+                     f"{'' if scratch is None else f'{scratch:.3f}':>11s}"
+                     f"{r['area_rel_error']:10.2%}{r['volume_rel_error']:10.2%}")
+    lines.append("ratios (same run):")
+    lines += [f"  {k}: {v:.1f}" if v >= 1 else f"  {k}: {v:.3f}"
+              for k, v in result["ratios"].items()]
+    return "\n".join(lines)
+
+
+def plot(result: dict, folder: Path) -> list[Path]:
+    """Log-log PNGs of time and area error against faces, one line per scenario/method."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    folder.mkdir(parents=True, exist_ok=True)
+    rows = [r for r in result["rows"] if "time_ms" in r]
+    fig, (ax_t, ax_e) = plt.subplots(1, 2, figsize=(12, 5))
+    for key in sorted({(r["scenario"], r["method"]) for r in rows}):
+        sel = sorted((r for r in rows if (r["scenario"], r["method"]) == key),
+                     key=lambda r: r["n_faces"])
+        n = [r["n_faces"] for r in sel]
+        ax_t.loglog(n, [r["time_ms"] for r in sel], "o-", label=" ".join(key))
+        ax_e.loglog(n, [max(abs(r["area_rel_error"]), 1e-6) for r in sel], "o-",
+                    label=" ".join(key))
+    ax_t.set(xlabel="slave faces", ylabel="median time per call, ms",
+             title="Detection time (thesis Figs. 3.21/3.25)")
+    ax_e.set(xlabel="slave faces", ylabel="|area error| vs exact",
+             title="Contact area error")
+    for ax in (ax_t, ax_e):
+        ax.grid(True, which="both", alpha=0.3)
+        ax.legend(fontsize=7)
+    fig.tight_layout()
+    path = folder / "bench_detection.png"
+    fig.savefig(path, dpi=120)
+    plt.close(fig)
+    return [path]
+
+
+def write_json(result: dict, path: Path) -> None:
+    """Write the result as JSON (rows with units in their keys)."""
+    path.parent.mkdir(parents=True, exist_ok=True)
+    path.write_text(json.dumps(result, indent=1))
