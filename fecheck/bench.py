@@ -128,12 +128,16 @@ def _rel(value: float, ref: float) -> float:
 
 
 # --------------------------------------------------------------------- load control
+class NotConverged(FecheckError):
+    """The load-controlled contact solve stopped without reaching the force."""
+
+
 def load_controlled(pair, law: Callable, direction: np.ndarray, force_N: float,
                     start_mm: float, tol: float = 1e-8, max_iter: int = 50):
     """Move the slave by δ along `direction` until the contact pushes back with `force_N`.
 
     Newton on δ (mm) with the law's tangent, bisection safeguard. Returns (LawResult, δ,
-    iterations). FecheckError if it does not converge.
+    iterations). `NotConverged` if it does not converge.
     """
     u = np.asarray(direction, dtype=float)
     eye, zero = np.eye(3), np.zeros(3)
@@ -155,7 +159,8 @@ def load_controlled(pair, law: Callable, direction: np.ndarray, force_N: float,
         if not lo < new < hi:
             new = 0.5 * (lo + hi) if math.isfinite(hi) else max(2.0 * delta, lo + 1e-3)
         delta = new
-    raise FecheckError(f"load-controlled contact solve did not converge in {max_iter} steps")
+    raise NotConverged(f"load-controlled contact solve did not converge in {max_iter} steps "
+                       f"(force {f:.4g} N of {force_N:.4g} N at δ = {delta:.4g} mm)")
 
 
 def _ef_k() -> float:
