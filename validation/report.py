@@ -224,7 +224,7 @@ def save_figure(fig, path: Path) -> Path:
 
     path.parent.mkdir(parents=True, exist_ok=True)
     fig.tight_layout()
-    fig.savefig(path, dpi=110)
+    fig.savefig(path, dpi=110, bbox_inches="tight")
     plt.close(fig)
     return path
 
@@ -254,9 +254,9 @@ def deviation_png(row_name: str, reference: str, lines: Sequence[Line], path: Pa
     ax.set_yticks(y, [ln.quantity for ln in shown], fontsize=8)
     ax.invert_yaxis()
     ax.set_xlabel("deviation from the thesis, %")
-    ax.set_title(f"{reference}: fecheck against the thesis")
     ax.grid(axis="x", alpha=0.3)
-    ax.legend(fontsize=8, loc="best")
+    ax.legend(fontsize=8, loc="lower center", bbox_to_anchor=(0.5, 1.0), frameon=False)
+    ax.set_title(f"{reference}: fecheck against the thesis", pad=14 + (26 if wf else 14))
     return save_figure(fig, path)
 
 
