@@ -143,20 +143,27 @@ def _axial(c: np.ndarray) -> np.ndarray:
     return np.stack([c[1, 2] - c[2, 1], c[2, 0] - c[0, 2], c[0, 1] - c[1, 0]])
 
 
-def _resultant(normal_twist: np.ndarray, x: np.ndarray, n: np.ndarray, fq: np.ndarray,
+def _normal_twist(surface: ContactSurface) -> np.ndarray | None:
+    """∂normal/∂ξ per contact face, or None when the normals do not move (plane master)."""
+    if surface.normal_body == "slave" or surface.normal_slide is not None:
+        return surface.normal_twist
+    return None
+
+
+def _resultant(normal_twist: np.ndarray | None, x: np.ndarray, n: np.ndarray, fq: np.ndarray,
                gq: np.ndarray, face: np.ndarray | None, about: np.ndarray
                ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Wrench and tangent of point forces fq = s_q·n_q at x_q (summed over q).
 
     gq (Q, 6) = ds_q/dξ; `face` (Q,) maps points to the rows of `normal_twist` (m, 3, 6)
-    (None: one row per point).
+    (None: one row per point); `normal_twist` None: the normals do not move.
     """
     force = fq.sum(axis=0)
     xf = x.T @ fq                                   # Σ x_q F_qᵀ
     moment = _axial(xf)
     t_f = n.T @ gq
     t_m = _cross(x, n).T @ gq
-    if normal_twist.any():
+    if normal_twist is not None:
         s = np.einsum("ij,ij->i", fq, n)           # signed magnitudes
         m = len(normal_twist)
         if face is None:
@@ -196,7 +203,7 @@ def foundation(surface: ContactSurface, pressure: Callable[[np.ndarray], tuple[n
     x = surface.qp_point
     s = w * p
     gq = (w * dp)[:, None] * surface.qp_depth_twist + p[:, None] * surface.qp_weight_twist
-    force, moment, tangent = _resultant(surface.normal_twist, x, n, n * s[:, None], gq, f,
+    force, moment, tangent = _resultant(_normal_twist(surface), x, n, n * s[:, None], gq, f,
                                         about)
     max_depth = surface.max_depth
     p_max = float(pressure(np.array([max_depth]))[0][0]) if max_depth > 0 else 0.0
@@ -289,9 +296,10 @@ def hertz(surface: ContactSurface, radius_mm: float, e_star_MPa: float,
     a = math.sqrt(r * d)
     p0 = 3 * load / (2 * math.pi * a * a)
     g = (1.5 * load / d) * dd
+    nt = _normal_twist(surface)
     force, moment, tangent = _resultant(
-        surface.normal_twist[face:face + 1], x[None, :], n[None, :], (load * n)[None, :],
-        g[None, :], None, about)
+        None if nt is None else nt[face:face + 1], x[None, :], n[None, :],
+        (load * n)[None, :], g[None, :], None, about)
     centroids = surface.face_sum(surface.qp_point) / np.bincount(
         surface.qp_face, minlength=surface.n_faces)[:, None]
 

@@ -364,9 +364,14 @@ def _compartment_result(model: ContactModel, comp: Compartment, rot: np.ndarray,
     force = float(np.linalg.norm(w[:3]))
     mesh = comp.pair.slave
     points = mesh.points @ rot.T + t if comp.slave_is_tibia else mesh.points
-    return CompartmentResult(force, res.max_pressure, res.mean_pressure, res.area,
-                             res.max_depth, float(np.linalg.norm(torque)), torque,
-                             res.surface.n_faces, res.face_pressure(), points, mesh.faces)
+    area, mean = res.area, res.mean_pressure
+    if comp.pair.area_mode == "whole-face" and res.surface.n_faces:
+        # the thesis's area: the full (unprojected) area of every face touching the master
+        area = float(mesh.face_areas[res.surface.face].sum())
+        mean = force / area
+    return CompartmentResult(force, res.max_pressure, mean, area, res.max_depth,
+                             float(np.linalg.norm(torque)), torque, res.surface.n_faces,
+                             res.face_pressure(), points, mesh.faces)
 
 
 def ef_sphere_plane(force_N: float, radius_mm: float, k_N_per_mm3: float) -> dict[str, float]:

@@ -193,6 +193,11 @@ def solve(p: Problem, z_start: np.ndarray | None = None) -> Solution:
     and the constraints hold to `tolerance`·`length_scale_mm` (mm). Raises
     `FecheckError` when free DOFs have neither stiffness nor load.
     """
+    if p.constraints and len(p.constraints) >= len(p.free):
+        raise FecheckError(f"{len(p.constraints)} constraints (ligament rods, equal forces) on "
+                           f"{len(p.free)} free DOFs {[DOF_LABELS[i] for i in p.free]} leave "
+                           f"no motion for the contact: the system is over-constrained; free "
+                           f"more DOFs (dofs.free) or use ligaments.model = 'spring'")
     sysm = _System(p)
     nf = sysm.nf
     z = np.zeros(nf + sysm.nc) if z_start is None else np.array(z_start, dtype=float)
