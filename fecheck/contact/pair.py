@@ -19,7 +19,7 @@ import numpy as np
 
 from fecheck.contact.analytic import Plane, PolynomialSurface, Sphere
 from fecheck.contact.broadphase import CandidateCache
-from fecheck.contact.clip import clip_faces, quadrature, whole_faces
+from fecheck.contact.clip import clipped_quadrature, whole_face_quadrature
 from fecheck.contact.surface import ContactSurface
 from geometry.errors import FecheckError
 from geometry.mesh import TriMesh
@@ -180,7 +180,7 @@ class ContactPair:
             d = dv[cand.local_faces]
         else:
             d = master.depth_values(y)[cand.local_faces]
-        hit = np.flatnonzero(d.max(axis=1) > 0.0)
+        hit = np.nonzero(d.max(axis=1) > 0.0)[0]
         if hit.size == 0:
             return ContactSurface.empty(self.slave.n_faces, body)
         faces = cand.local_faces[hit]
@@ -219,10 +219,9 @@ def build_surface(master, area_mode: str, n_slave_faces: int, cand, hit: np.ndar
         vertex = np.concatenate([D[:, :, None], X, gw, rot], axis=-1)
 
     if area_mode == "clipped":
-        parent, corners, frac = clip_faces(D)
+        qp_face, bary, qfrac = clipped_quadrature(D)
     else:
-        parent, corners, frac = whole_faces(m)
-    qp_face, bary, qfrac = quadrature(parent, corners, frac)
+        qp_face, bary, qfrac = whole_face_quadrature(m)
     qp = np.einsum("qi,qij->qj", bary, vertex[qp_face])
     qp_point = qp[:, 1:4]
     if area_mode == "whole-face":                        # the deepest vertex's depth

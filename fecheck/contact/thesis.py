@@ -24,7 +24,7 @@ from __future__ import annotations
 import numpy as np
 
 from fecheck.contact.broadphase import Candidates
-from fecheck.contact.clip import quadrature, whole_faces
+from fecheck.contact.clip import whole_face_quadrature
 from fecheck.contact.surface import ContactSurface
 from geometry.errors import FecheckError
 from geometry.mesh import TriMesh
@@ -139,7 +139,7 @@ class FclPerFace:
         # fcl's normal points from the slave into the master: the depth grows along it,
         # and the pressure on the slave acts against it.
         X = self.slave.triangles[face] @ Rs.T + ts
-        qp_face, bary, qfrac = quadrature(*whole_faces(len(face)))
+        qp_face, bary, qfrac = whole_face_quadrature(len(face))
         qp_point = np.einsum("qi,qij->qj", bary, X[qp_face])
         g = grad[qp_face]
         return ContactSurface(
