@@ -74,6 +74,9 @@ def femoral_master(scene: Scene):
 
 
 def _hemisphere(scene: Scene, compartment: str):
+    """The condyle sphere cut by a sagittal plane towards the notch, closed by a flat face
+    on the cut: slave points beyond the cut are then closest to that face and outside
+    (an open cap would count the points past its rim as inside)."""
     from geometry.cap import spherical_cap
 
     knee = scene.knee
@@ -81,7 +84,8 @@ def _hemisphere(scene: Scene, compartment: str):
     notch = np.array([1.0 if centre[0] < 0 else -1.0, 0.0, 0.0])
     cut = centre + scene["scanned.hemisphere_cut_mm"] * notch
     return spherical_cap(radius, scene["mesh.sphere_subdivisions"], centre,
-                         cut_point=cut, cut_normal=notch, method=scene["mesh.method"])
+                         cut_point=cut, cut_normal=notch, closed=True,
+                         method=scene["mesh.method"])
 
 
 def _masters(scene: Scene) -> dict:
