@@ -1,0 +1,159 @@
+"""The scanned knee's data (paths, landmarks, bundles), decimation and open-sheet contact."""
+
+import json
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+import tomllib
+from conftest import REPO, require_knee_data
+
+from fecheck import scanned
+from fecheck.decimate import cluster, decimate
+from fecheck.errors import FecheckError
+from fecheck.ligaments import SpringLigament
+
+SCENES = REPO / "validation" / "scenes"
+
+
+def test_missing_knee_folder_raises_a_clear_error(tmp_path, monkeypatch):
+    monkeypatch.setenv(scanned.ENV_VAR, str(tmp_path / "nowhere"))
+    with pytest.raises(FecheckError, match=r"nowhere.*FECHECK_KNEE_DIR.*scanned.data_dir"):
+        scanned.knee_dir()
+    with pytest.raises(FecheckError, match="scene key"):
+        scanned.knee_dir(tmp_path)                # an explicit folder wins over the env
+
+
+def test_environment_variable_points_to_the_data(monkeypatch):
+    knee = require_knee_data()
+    monkeypatch.setenv(scanned.ENV_VAR, str(knee))
+    assert scanned.knee_dir() == knee
+
+
+def test_landmarks_are_the_data_sets_condyle_spheres():
+    knee = require_knee_data()
+    fits = json.loads((knee / "fits.json").read_text())["fits"]
+    lm = scanned.landmarks(knee)
+    for c in ("medial", "lateral"):
+        ref = fits[f"femoral_condyle_{c}_sphere"]
+        np.testing.assert_allclose(lm.condyle_center[c], ref["centre_mm"])
+        # contact point = lowest sphere point, whose z fits.json gives independently
+        assert lm.contact_point[c][2] == pytest.approx(ref["lowest_point_z_mm"], abs=1e-3)
+
+
+def test_bundle_springs_reproduce_the_models_forces_at_rest():
+    knee = require_knee_data()
+    data = {b["name"]: b for b in json.loads((knee / "ligaments.json").read_text())}
+    bundles = scanned.bundles(knee)
+    assert len(bundles) == 55
+    checked = 0
+    for b in bundles:
+        ref = data[b.name]
+        if ref["wrap"] and ref["wrap"]["wraps_at_rest"]:
+            continue                              # our paths are straight lines
+        spring = SpringLigament(b.femur_point, b.tibia_point, b.slack_length_mm,
+                                b.stiffness_N, b.transition_strain)
+        # OpenSim's spring force at rest, printed to 1e-3 N (points to 1e-4 mm)
+        assert spring.tension(b.rest_length_mm) == pytest.approx(
+            ref["spring_force_N_at_rest"], abs=0.02)
+        checked += 1
+    assert checked > 30
+
+
+def test_scene_landmarks_and_plateaus_come_from_the_scanned_knee():
+    knee = require_knee_data()
+    table = scanned.knee_landmarks_table(knee)
+    sys.path.insert(0, str(REPO / "validation"))
+    try:
+        import knee_fits
+    finally:
+        sys.path.pop(0)
+    plateau = knee_fits.plateau_values()
+    for path in sorted(SCENES.glob("*.toml")):
+        data = tomllib.loads(path.read_text())
+        if data.get("model", {}).get("kind") not in ("sphere-tibia", "femur-tibia") and \
+                "scanned" not in data:
+            continue
+        lm = data["knee"]["landmarks"]
+        for group, values in table.items():
+            for key, v in values.items():
+                np.testing.assert_allclose(lm[group][key], v, atol=1e-9, err_msg=path.name)
+        kind = data.get("plateau", {}).get("kind")
+        for c in ("medial", "lateral"):
+            if kind == "inclined":
+                np.testing.assert_allclose(data["plateau"][f"{c}_angles_deg"],
+                                           plateau[c]["angles_deg"], atol=1e-9)
+            if kind == "polynomial":
+                np.testing.assert_allclose(data["plateau"][f"{c}_coefficients"],
+                                           plateau[c]["coefficients"], rtol=1e-8)
+
+
+def test_decimation_keeps_the_sheet_close_and_its_orientation():
+    knee = require_knee_data()
+    sheet = scanned.load_scanned_mesh("tibia_cartilage_medial", knee)
+    small = decimate(sheet, 1000)
+    assert 900 <= small.n_faces <= 1000
+    # every new vertex is the mean of old vertices in one cell: within the cell diagonal
+    from fecheck.thickness import closest_distance
+
+    dist, _ = closest_distance(small.points, sheet)
+    cell = np.sqrt(sheet.area / small.n_faces * 2)     # ~ edge length of the new mesh
+    assert dist.max() < np.sqrt(3) * cell
+    # winding kept: new faces agree with the closest old face's normal (n_z > 0 sheet)
+    assert (small.face_normals[:, 2] > 0).mean() > 0.99
+    assert small.area == pytest.approx(sheet.area, rel=0.05)
+
+
+def test_cluster_rejects_bad_cells_and_decimate_keeps_small_meshes():
+    from geometry.icosphere import icosphere
+
+    ball = icosphere(10.0, 2, method="trimesh", cache=False)
+    assert decimate(ball, 10_000) is ball
+    with pytest.raises(FecheckError, match="positive"):
+        cluster(ball, 0.0)
+
+
+def test_open_femoral_sheet_master_gives_the_data_sets_rest_overlap_without_hole_filling():
+    """Closest-face-normal sign on the OPEN femoral cartilage: tibial vertices penetrate by
+    at most 0.409 mm, 341 of 4453 (README rest-pose check, an independent computation)."""
+    from fecheck.contact.mesh_master import MeshMaster, is_closed
+
+    knee = require_knee_data()
+    femur = scanned.load_scanned_mesh("femur_cartilage", knee)
+    tibia = scanned.load_scanned_mesh("tibia_cartilage", knee)
+    assert not is_closed(femur)
+    depth = MeshMaster(femur).depth_values(tibia.points)
+    assert -depth.max() == pytest.approx(-0.409, abs=1e-3)
+    assert (depth > 0).sum() == 341
+
+
+def test_ray_parity_fails_on_the_open_sheet_where_the_normal_sign_does_not():
+    """Points 1 mm on the bone side of each face are inside, 1 mm off it outside; ray parity
+    (thesis Algorithm 3, trimesh `contains`) misses many inside points of an open sheet."""
+    import trimesh
+
+    from fecheck.contact.mesh_master import MeshMaster
+
+    knee = require_knee_data()
+    femur = decimate(scanned.load_scanned_mesh("femur_cartilage", knee), 3000)
+    c, n = femur.face_centroids, femur.face_normals
+    inside, outside = c - n, c + n
+    master = MeshMaster(femur)
+    assert np.all(master.depth_values(inside) > 0)
+    assert np.all(master.depth_values(outside) < 0)
+    parity = trimesh.Trimesh(femur.points, femur.faces, process=False).contains(inside)
+    assert parity.mean() < 0.8                    # measured 0.55: rays escape through the hole
+
+
+def test_missing_data_in_a_scene_is_a_one_line_error(tmp_path):
+    from fecheck.model import run_scene
+    from fecheck.scene import load_scene
+
+    scene = load_scene(SCENES / "femur_tibia.toml", [f"scanned.data_dir='{tmp_path}'"])
+    with pytest.raises(FecheckError, match="scanned knee data not found"):
+        run_scene(scene)
+
+
+def test_default_folder_is_next_to_the_repository():
+    assert scanned.DEFAULT_DIR == Path(REPO).parent / "shared" / "data" / "knee" / "lenhart2015"
