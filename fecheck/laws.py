@@ -150,21 +150,22 @@ def _normal_twist(surface: ContactSurface) -> np.ndarray | None:
     return None
 
 
-def _resultant(normal_twist: np.ndarray | None, x: np.ndarray, n: np.ndarray, fq: np.ndarray,
+def _resultant(normal_twist: np.ndarray | None, x: np.ndarray, n: np.ndarray, s: np.ndarray,
                gq: np.ndarray, face: np.ndarray | None, about: np.ndarray
                ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """Wrench and tangent of point forces fq = s_q·n_q at x_q (summed over q).
+    """Wrench and tangent of point forces s_q·n_q at x_q (summed over q).
 
     gq (Q, 6) = ds_q/dξ; `face` (Q,) maps points to the rows of `normal_twist` (m, 3, 6)
     (None: one row per point); `normal_twist` None: the normals do not move.
     """
-    force = fq.sum(axis=0)
-    xf = x.T @ fq                                   # Σ x_q F_qᵀ
-    moment = _axial(xf)
-    t_f = n.T @ gq
-    t_m = _cross(x, n).T @ gq
+    arm = np.empty((len(s), 6))                     # unit wrenches [n, x × n]
+    arm[:, :3] = n
+    arm[:, 3:] = _cross(x, n)
+    wrench = arm.T @ s
+    tangent = arm.T @ gq
+    force = wrench[:3]
+    xf = x.T @ (n * s[:, None])                     # Σ x_q F_qᵀ
     if normal_twist is not None:
-        s = np.einsum("ij,ij->i", fq, n)           # signed magnitudes
         m = len(normal_twist)
         if face is None:
             s_face, xs_face = s, x * s[:, None]
@@ -172,42 +173,51 @@ def _resultant(normal_twist: np.ndarray | None, x: np.ndarray, n: np.ndarray, fq
             s_face = np.bincount(face, s, minlength=m)
             xs_face = np.column_stack([np.bincount(face, x[:, i] * s, minlength=m)
                                        for i in range(3)])
-        t_f = t_f + np.einsum("m,mij->ij", s_face, normal_twist)
-        t_m = t_m + _axial(np.einsum("mj,mkl->jkl", xs_face, normal_twist))
+        tangent[:3] += np.einsum("m,mij->ij", s_face, normal_twist)
+        tangent[3:] += _axial(np.einsum("mj,mkl->jkl", xs_face, normal_twist))
     # point motion: δx × F_q = −skew(F_q)(v − skew(x_q) ω)
-    t_m[:, :3] -= _skew(force)
-    t_m[:, 3:] += xf - np.trace(xf) * np.eye(3)
-    moment_about = moment - np.cross(about, force)
-    t_m -= _skew(about) @ t_f
-    return force, moment_about, np.vstack([t_f, t_m])
+    tangent[3:, :3] -= _skew(force)
+    tangent[3:, 3:] += xf - np.trace(xf) * np.eye(3)
+    moment = wrench[3:] - np.cross(about, force)
+    tangent[3:] -= _skew(about) @ tangent[:3]
+    return force.copy(), moment, tangent
 
 
-def foundation(surface: ContactSurface, pressure: Callable[[np.ndarray], tuple[np.ndarray,
-               np.ndarray]], about=(0.0, 0.0, 0.0)) -> LawResult:
+def foundation(surface: ContactSurface,
+               pressure: Callable[[np.ndarray], tuple[np.ndarray, np.ndarray]] | float,
+               about=(0.0, 0.0, 0.0)) -> LawResult:
     """Generic foundation law p = p(d) (p(0) = 0) integrated over the contact surface.
 
-    `pressure(d)` returns (p, dp/dd) for depths d ≥ 0 (mm → MPa, MPa/mm); depths ≤ 0
-    carry no pressure. `about` is the moment reference point, mm (world).
+    `pressure(d)` returns (p, dp/dd) for depths d ≥ 0 (mm → MPa, MPa/mm), or is a number
+    k (N/mm³) for the linear law p = k·d; depths ≤ 0 carry no pressure. `about` is the
+    moment reference point, mm (world).
     """
     about = np.asarray(about, dtype=float)
     if surface.n_faces == 0:
         return _no_contact(surface, about)
     d = surface.qp_depth
     pos = d > 0.0
-    p, dp = pressure(np.where(pos, d, 0.0))
-    p = np.where(pos, p, 0.0)
-    dp = np.where(pos, dp, 0.0)
     w = surface.qp_weight
+    if callable(pressure):
+        p, dp = pressure(np.maximum(d, 0.0))
+        p = p * pos
+        dpw = dp * w * pos
+    else:                                           # linear law p = k·d
+        p = pressure * np.maximum(d, 0.0)
+        dpw = pressure * (w * pos)
     f = surface.qp_face
-    n = surface.normal[f]
-    x = surface.qp_point
     s = w * p
-    gq = (w * dp)[:, None] * surface.qp_depth_twist + p[:, None] * surface.qp_weight_twist
-    force, moment, tangent = _resultant(_normal_twist(surface), x, n, n * s[:, None], gq, f,
-                                        about)
+    gq = dpw[:, None] * surface.qp_depth_twist + p[:, None] * surface.qp_weight_twist
+    force, moment, tangent = _resultant(_normal_twist(surface), surface.qp_point,
+                                        surface.normal[f], s, gq, f, about)
     max_depth = surface.max_depth
-    p_max = float(pressure(np.array([max_depth]))[0][0]) if max_depth > 0 else 0.0
-    area = float(w[pos].sum())
+    if max_depth <= 0:
+        p_max = 0.0
+    elif callable(pressure):
+        p_max = float(pressure(np.array([max_depth]))[0][0])
+    else:
+        p_max = pressure * max_depth
+    area = float(w @ pos)
 
     def face_pressure() -> np.ndarray:
         out = np.zeros(surface.n_slave_faces)
@@ -224,15 +234,13 @@ def foundation(surface: ContactSurface, pressure: Callable[[np.ndarray], tuple[n
 def elastic_foundation(surface: ContactSurface, k_N_per_mm3: float, about=(0.0, 0.0, 0.0)
                        ) -> LawResult:
     """Linear EF law p = k·d (eq. 4.1-4.3); k in N/mm³ (see `ef_stiffness`)."""
-    k = float(k_N_per_mm3)
-    return foundation(surface, lambda d: (k * d, np.full_like(d, k)), about)
+    return foundation(surface, float(k_N_per_mm3), about)
 
 
 def volumetric(surface: ContactSurface, k_v_N_per_mm3: float, about=(0.0, 0.0, 0.0)
                ) -> LawResult:
     """Volumetric law F = k_V·V (eq. 4.9, v_n = 0 in statics): p = k_V·d, k_V in N/mm³."""
-    k = float(k_v_N_per_mm3)
-    return foundation(surface, lambda d: (k * d, np.full_like(d, k)), about)
+    return foundation(surface, float(k_v_N_per_mm3), about)
 
 
 def blankevoort_pressure(youngs_MPa: float, poisson: float, thickness_mm: float
@@ -299,7 +307,7 @@ def hertz(surface: ContactSurface, radius_mm: float, e_star_MPa: float,
     nt = _normal_twist(surface)
     force, moment, tangent = _resultant(
         None if nt is None else nt[face:face + 1], x[None, :], n[None, :],
-        (load * n)[None, :], g[None, :], None, about)
+        np.array([load]), g[None, :], None, about)
     centroids = surface.face_sum(surface.qp_point) / np.bincount(
         surface.qp_face, minlength=surface.n_faces)[:, None]
 

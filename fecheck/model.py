@@ -167,20 +167,46 @@ def build_compartments(scene: Scene) -> list[Compartment]:
     out = []
     opts = {"method": scene["contact.detection"], "area": scene["contact.area"],
             "margin_mm": scene["contact.margin_mm"]}
+    meshed = scene["contact.detection"] in MESH_DETECTION
     for c in COMPARTMENTS:
         centre, r = knee.condyle_center[c], knee.radius_mm(c)
         if scene["contact.master"] == "plateau":
-            from geometry.icosphere import icosphere
-
-            slave = icosphere(r, scene["mesh.sphere_subdivisions"], centre,
-                              method=scene["mesh.method"])
-            pair = ContactPair(slave, _plateau_master(scene, knee, c), **opts)
+            slave = _condyle_mesh(scene, knee, c)
+            master = _plateau_box(scene, knee, c) if meshed else _plateau_master(scene, knee, c)
+            pair = ContactPair(slave, master, **opts)
             out.append(Compartment(c, pair, law(r), False, r))
         else:
             slave = _plateau_mesh(scene, knee, c)
-            pair = ContactPair(slave, Sphere(centre, r), **opts)
+            master = _condyle_mesh(scene, knee, c) if meshed else Sphere(centre, r)
+            pair = ContactPair(slave, master, **opts)
             out.append(Compartment(c, pair, law(r), True, r))
     return out
+
+
+MESH_DETECTION = ("bvh", "ray-parity", "fcl")
+"""Detection methods that need a mesh master: the analytic surface is meshed instead."""
+
+
+def _condyle_mesh(scene: Scene, knee: Knee, c: str):
+    from geometry.icosphere import icosphere
+
+    return icosphere(knee.radius_mm(c), scene["mesh.sphere_subdivisions"],
+                     knee.condyle_center[c], method=scene["mesh.method"])
+
+
+def _plateau_box(scene: Scene, knee: Knee, c: str):
+    """The plateau plane as the top of a closed 40 x 40 x 10 mm box (mesh detection)."""
+    from geometry.plateau import plateau_box
+
+    if scene["plateau.kind"] == "polynomial":
+        raise FecheckError("mesh detection (contact.detection = 'bvh', 'ray-parity' or "
+                           "'fcl') needs plane plateaus here; use contact.detection = 'auto' "
+                           "for polynomial plateaus")
+    n = plateau_normals(scene)[c]
+    lam, gam = ((0.0, 0.0) if scene["plateau.kind"] == "transverse"
+                else scene[f"plateau.{c}_angles_deg"])
+    return plateau_box(knee.condyle_center[c] - knee.radius_mm(c) * n, 40.0, 40.0, 10.0,
+                       sagittal_deg=lam, frontal_deg=gam)
 
 
 def _plateau_master(scene: Scene, knee: Knee, c: str):

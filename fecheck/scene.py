@@ -71,7 +71,7 @@ SCHEMA: dict[str, Key] = {
                                   low=1.0, high=100.0),
     "mesh.plateau_size_mm": Key("float", 2.0, "plateau element size away from the contact, mm",
                                 low=0.01, high=20.0),
-    "mesh.plateau_refine_mm": Key("float", 0.7, "plateau element size under the contact, mm",
+    "mesh.plateau_refine_mm": Key("float", 0.8, "plateau element size under the contact, mm",
                                   low=0.01, high=20.0),
     "mesh.plateau_refine_radius_mm": Key("float", 9.0, "radius of the refined zone, mm",
                                          low=0.0, high=100.0),
