@@ -24,6 +24,10 @@ def add_parser(subparsers) -> None:
     p.add_argument("--csv", type=Path, metavar="PATH", help="write the result as a CSV row")
     p.add_argument("--plot", type=Path, metavar="DIR",
                    help="write off-screen PNGs of the face pressures (pyvista) into DIR")
+    p.add_argument("--explain", action="store_true",
+                   help="print the plan first (meshes built or cached, detection path per "
+                        "contact pair, optional parts) and check after the run that it kept "
+                        "to it")
     p.set_defaults(run=run)
 
 
@@ -31,7 +35,13 @@ def run(args: argparse.Namespace) -> int:
     from fecheck.model import run_scene
     from fecheck.scene import load_scene
 
-    result = run_scene(load_scene(args.scene, args.overrides))
+    scene = load_scene(args.scene, args.overrides)
+    if args.explain:
+        from fecheck.explain import plan_scene
+
+        plan = plan_scene(scene, plot=bool(args.plot))
+        print(plan.text(), flush=True)
+    result = run_scene(scene)
     print(result.table())
     if args.json:
         result.write_json(args.json)
@@ -42,4 +52,8 @@ def run(args: argparse.Namespace) -> int:
 
         for path in write_pressure_plots(result, args.plot):
             print(f"wrote {path}")
+    if args.explain:
+        deviations = plan.audit()
+        print("audit: " + ("the run kept to the plan" if not deviations
+                           else "; ".join(deviations)))
     return 0 if result.converged else 1
