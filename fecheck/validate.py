@@ -75,11 +75,20 @@ def select(scripts: dict[str, Path], only: Sequence[str] | None) -> dict[str, Pa
 
 
 def _load(vdir: Path, path: Path):
+    """Import a row script under its own name (row scripts may import each other)."""
     if str(vdir) not in sys.path:
         sys.path.insert(0, str(vdir))
-    spec = importlib.util.spec_from_file_location(f"fecheck_validation_{path.stem}", path)
+    known = sys.modules.get(path.stem)
+    if known is not None and Path(getattr(known, "__file__", "")).resolve() == path.resolve():
+        return known
+    spec = importlib.util.spec_from_file_location(path.stem, path)
     module = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(module)
+    sys.modules[path.stem] = module
+    try:
+        spec.loader.exec_module(module)
+    except BaseException:
+        del sys.modules[path.stem]
+        raise
     return module
 
 
