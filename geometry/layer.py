@@ -48,7 +48,7 @@ def cartilage_layer(footprint: str = "rectangle", center_xy: Sequence[float] = (
         is placed there), mm
     refine_size : element size at the refinement point, mm (default ``size``)
     refine_radius : radius of the disc around the point meshed at ``refine_size``, mm;
-        sizes grow linearly to ``size`` over a further ``2 * thickness + 4 * size``
+        sizes grow linearly to ``size`` over a further ``thickness + size``
     order : 1 (4-node tets) or 2 (10-node tets in Gmsh node order, mapped like the rest)
     cache : reuse a cached mesh built with the same parameters
 
@@ -155,7 +155,7 @@ def _refinement_field(gmsh, point_tag: int, refine_size: float, refine_radius: f
     field.setNumber(thr, "SizeMin", refine_size)
     field.setNumber(thr, "SizeMax", size)
     field.setNumber(thr, "DistMin", refine_radius)
-    field.setNumber(thr, "DistMax", refine_radius + 2 * thickness + 4 * size)
+    field.setNumber(thr, "DistMax", refine_radius + thickness + size)
     field.setAsBackgroundMesh(thr)
     gmsh.option.setNumber("Mesh.MeshSizeExtendFromBoundary", 0)
     gmsh.option.setNumber("Mesh.MeshSizeFromPoints", 0)

@@ -7,7 +7,8 @@ then geometric growth (ratio 1.15) to the layer's rim; in z, spacing grows from
 ``size_mm`` at the top to at most h/6 at the bone. A tensor grid needs no Gmsh call, puts
 nodes exactly on the axis and on the top, and grades separably, which is all a disc
 needs. The layer's top is z = 0, its bottom z = -h (fixed), its rim free; the sphere
-touches the top at the origin before loading. Contact: `fecheck.fe.contact`.
+touches the top at the origin before loading. Contact: `fecheck.fe.contact`, node-wise (the quadratic line facets have positive
+consistent loads 1/6, 2/3, 1/6), pressure recovered by `fecheck.fe.recovery`.
 """
 
 from __future__ import annotations
@@ -114,15 +115,15 @@ def axisym_sphere_on_layer(load_N: float, radius_mm: float, E_MPa: float, nu: fl
         on_axis = np.zeros(len(rc), dtype=bool)
     R = radius_mm
 
-    def gap0(u: np.ndarray) -> np.ndarray:
-        rr = rc if gap == "reference" else rc + np.where(on_axis, 0.0, u[cand_r])
+    def gap0(shift: np.ndarray | None) -> np.ndarray:
+        rr = rc if shift is None else rc + np.where(on_axis, 0.0, shift[:, 0])
         if np.any(rr >= R):
             raise FecheckError("contact candidates lie beyond the sphere's radius")
         return R - np.sqrt(R * R - rr * rr)
 
-    sol = solve_contact(K[free][:, free], cand, gap0, load_N, hertz.depth_mm, solver=solver,
-                        deformed_gap=(gap == "deformed"))
-    timing["contact"] = sol.solve_s
+    sol = solve_contact(K[free][:, free], cand, gap0, load_N, hertz.depth_mm,
+                        tangential=[cand_r], solver=solver, deformed_gap=(gap == "deformed"))
+    timing.update(sol.timing_s)
     t = time.perf_counter()
     seg = np.stack([np.arange(0, len(rt) - 2, 2), np.arange(1, len(rt) - 1, 2),
                     np.arange(2, len(rt), 2)], axis=1)
@@ -134,8 +135,8 @@ def axisym_sphere_on_layer(load_N: float, radius_mm: float, E_MPa: float, nu: fl
     points = np.column_stack([rc, np.zeros_like(rc), np.zeros_like(rc)])
     return FEContactResult(metrics=metrics, points=points, pressure_MPa=pressure,
                            nodal_force_N=sol.force_N, gap_mm=sol.gap_mm, active=sol.active,
-                           n_dofs=len(free), n_elements=mesh.t.shape[1], element="tri P2 (r, z)",
-                           min_size_mm=float(size_mm), iterations=sol.iterations, timing_s=timing,
+                           faces=np.zeros((0, 3), dtype=np.int64), n_dofs=len(free), n_elements=mesh.t.shape[1], element="tri P2 (r, z)",
+                           size_under_contact_mm=float(size_mm), iterations=sol.iterations, timing_s=timing,
                            max_penetration_mm=float(max(0.0, -sol.gap_mm.min())))
 
 

@@ -5,19 +5,24 @@ The layer's stiffness K (free dofs only, N/mm) is pressed by a rigid body moving
 ``w_i`` the upward displacement of the node and ``g0_i`` the gap when δ = 0; the node
 carries a downward force λ_i ≥ 0 with ``λ_i g_i = 0``, and ``Σ λ_i = F``.
 
-Method: primal-dual active set (Hintermüller-Ito-Kunisch), no penalty. For an active set
-A the constraint ``w_A = g0_A - δ`` is imposed as a Dirichlet condition; the solution is
-affine in δ, ``u = u0 + δ u1`` (two solves with one factorization), and δ follows from
-``Σ λ_A(δ) = F`` exactly. The set is updated with the nodes that pull (λ < 0, released)
-and those that penetrate (g < 0, added) until it no longer changes. Dirichlet rows are
-imposed by editing the values of K in place (same sparsity), so the symbolic
-factorization is computed once and each iteration is one numeric refactorization.
+Method, no penalty anywhere:
+
+1. Condense K onto the candidate dofs: one sparse Cholesky factorization (CHOLMOD; SuperLU
+   as the fallback) and one block solve for the unit loads at the m candidates give the
+   compliance C (m × m, ``w = -C λ``) and the tangential displacements per unit load.
+2. Solve the small mixed LCP ``g0 - δ + C λ ≥ 0, λ ≥ 0, λ·g = 0, Σλ = F`` with a
+   primal-dual active set (Hintermüller-Ito-Kunisch): for a set A the equalities
+   ``C_AA λ_A - δ = -g0_A`` and ``Σ λ_A = F`` are one dense symmetric solve; nodes that
+   pull are released and nodes that penetrate are added until the set stops changing.
+   With ``deformed_gap`` the gaps g0 are re-evaluated at the displaced node positions
+   (fixed point on the tangential displacements) until they stop changing.
+3. The displacement field is one more solve with the contact forces.
 """
 
 from __future__ import annotations
 
 import time
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 
 import numpy as np
@@ -30,124 +35,153 @@ SOLVERS = ("cholmod", "superlu")
 
 @dataclass(frozen=True, eq=False)
 class ContactSolution:
-    """u (all free dofs, mm), λ at the candidates (N), δ (mm), final gaps (mm)."""
+    """Solution of the contact problem.
+
+    u : all free dofs, mm; force_N : (m,) downward nodal contact forces λ, N;
+    multiplier : (k,) contact multipliers μ (λ = Dᵀμ: pressures in MPa for a mortar D,
+    nodal forces in N without one); delta_mm : indenter displacement, mm;
+    gap_mm : (m,) nodal gaps, mm; weighted_gap : (k,) D-weighted gaps (mm³ for a
+    mortar D); active : (k,) multipliers in contact.
+    """
 
     u: np.ndarray
     force_N: np.ndarray
+    multiplier: np.ndarray
     delta_mm: float
     gap_mm: np.ndarray
+    weighted_gap: np.ndarray
     active: np.ndarray
     iterations: int
-    solve_s: float
+    timing_s: dict
 
 
-class _Factorizer:
-    """Numeric refactorization of matrices sharing K's sparsity pattern."""
+def factorize(K: sp.spmatrix, solver: str = "cholmod") -> Callable[[np.ndarray], np.ndarray]:
+    """A function solving K x = b (b (n,) or (n, k)) with a sparse factorization of K."""
+    if solver not in SOLVERS:
+        raise FecheckError(f"FE solver must be one of {SOLVERS}, got {solver!r}")
+    K = sp.csc_matrix(K)
+    if solver == "cholmod":
+        from sksparse.cholmod import CholmodNotPositiveDefiniteError, cholesky
 
-    def __init__(self, K: sp.csc_matrix, solver: str) -> None:
-        if solver not in SOLVERS:
-            raise FecheckError(f"FE solver must be one of {SOLVERS}, got {solver!r}")
-        self.solver = solver
-        self._chol = None
-        if solver == "cholmod":
-            from sksparse.cholmod import analyze
+        try:
+            return cholesky(K).solve_A
+        except CholmodNotPositiveDefiniteError as err:
+            raise FecheckError("the layer's stiffness is not positive definite: check its "
+                               "supports and material (0 < E, -1 < ν < 0.5)") from err
+    from scipy.sparse.linalg import splu
 
-            self._chol = analyze(K)
-
-    def __call__(self, A: sp.csc_matrix) -> Callable[[np.ndarray], np.ndarray]:
-        if self.solver == "cholmod":
-            self._chol.cholesky_inplace(A)
-            return self._chol.solve_A
-        from scipy.sparse.linalg import splu
-
-        return splu(A, permc_spec="MMD_AT_PLUS_A").solve
+    return splu(K, permc_spec="MMD_AT_PLUS_A").solve
 
 
-def _dirichlet_values(K: sp.csc_matrix, dofs: np.ndarray) -> np.ndarray:
-    """K's values with the rows and columns of `dofs` zeroed and a unit diagonal."""
-    mask = np.zeros(K.shape[0], dtype=bool)
-    mask[dofs] = True
-    cols = np.repeat(np.arange(K.shape[1]), np.diff(K.indptr))
-    rows = K.indices
-    data = K.data.copy()
-    data[mask[rows] | mask[cols]] = 0.0
-    data[mask[rows] & (rows == cols)] = 1.0
-    return data
+def _active_set(C: np.ndarray, g0: np.ndarray, a: np.ndarray, load_N: float,
+                active: np.ndarray, max_iter: int) -> tuple[np.ndarray, float, np.ndarray, int]:
+    m = len(g0)
+    for it in range(1, max_iter + 1):
+        idx = np.flatnonzero(active)
+        k = len(idx)
+        kkt = np.zeros((k + 1, k + 1))
+        kkt[:k, :k] = C[np.ix_(idx, idx)]
+        kkt[:k, k] = -a[idx]
+        kkt[k, :k] = a[idx]
+        rhs = np.concatenate([-g0[idx], [load_N]])
+        sol = np.linalg.solve(kkt, rhs)
+        lam = np.zeros(m)
+        lam[idx] = sol[:k]
+        delta = float(sol[k])
+        gap = g0 - delta * a + C @ lam
+        new_active = np.where(active, lam > 0, gap < 0)
+        if not new_active.any():
+            new_active[np.argmin(gap)] = True
+        if np.array_equal(new_active, active):
+            return lam, delta, active, it
+        active = new_active
+    raise FecheckError(f"contact active set did not settle in {max_iter} iterations; "
+                       "refine the mesh under the contact or change the load")
 
 
 def solve_contact(K: sp.spmatrix, candidates: np.ndarray,
-                  gap0: Callable[[np.ndarray], np.ndarray], load_N: float,
-                  delta_guess_mm: float, *, solver: str = "cholmod",
-                  deformed_gap: bool = False, max_iter: int = 60) -> ContactSolution:
-    """Solve the load-controlled contact problem exactly (active set).
+                  gap0: Callable[[np.ndarray | None], np.ndarray], load_N: float,
+                  delta_guess_mm: float, *, mortar: np.ndarray | None = None,
+                  tangential: Sequence[np.ndarray] = (),
+                  solver: str = "cholmod", deformed_gap: bool = False,
+                  max_iter: int = 60, block: int = 128) -> ContactSolution:
+    """Solve the load-controlled contact problem exactly.
 
     Parameters
     ----------
     K : (n, n) symmetric positive definite stiffness of the free dofs, N/mm
-    candidates : (m,) indices of the vertical-displacement dofs that may touch
-    gap0 : function of the current displacement u (n,) returning the gaps g0 (m,) at δ = 0,
-        mm; it ignores u for the reference-configuration gap and uses the tangential
-        displacements for the deformed-configuration gap
-    load_N : total downward force the indenter must transmit, N (> 0)
+    candidates : (m,) indices of the vertical-displacement (up) dofs that may touch
+    gap0 : gaps g0 (m,) at δ = 0, mm, as a function of the tangential displacements
+        ((m, len(tangential)) array, mm) or of None (reference configuration)
+    load_N : total downward force the indenter transmits, N (> 0)
     delta_guess_mm : indentation used to guess the first active set, mm
+    mortar : optional (k, m) matrix D: the constraints become the weighted gaps
+        ``D g >= 0`` with multipliers μ >= 0 and nodal forces ``λ = Dᵀ μ`` (for
+        ``D_kj = ∫ ψ_k φ_j dA``, μ is a pressure field in the basis ψ); default: nodal
+    tangential : dof indices (m,) of each tangential displacement of the candidates
+        (needed with ``deformed_gap``)
     solver : "cholmod" (default, fastest measured) or "superlu"
-    deformed_gap : re-evaluate ``gap0(u)`` until it stops changing (fixed point)
-    max_iter : active-set iterations allowed
+    deformed_gap : re-evaluate the gaps at the displaced positions until they settle
+    max_iter : active-set iterations allowed (per gap update)
+    block : right-hand sides per block solve (one per multiplier: the cost is k solves)
 
     Returns
     -------
-    ContactSolution with λ ≥ 0, g ≥ 0 and λ·g = 0 at every candidate and Σλ = load_N.
+    ContactSolution with μ ≥ 0, D g ≥ 0, μ·(D g) = 0 and Σλ = load_N.
     """
     if not (np.isfinite(load_N) and load_N > 0):
         raise FecheckError(f"contact load must be positive and finite, got {load_N} N")
-    t0 = time.perf_counter()
-    K = sp.csc_matrix(K)
-    K.sort_indices()
-    factorizer = _Factorizer(K, solver)
+    timing = {}
+    t = time.perf_counter()
+    solve = factorize(K, solver)
+    timing["factorize"] = time.perf_counter() - t
+    t = time.perf_counter()
     cand = np.asarray(candidates, dtype=np.int64)
-    m = len(cand)
-    g0 = gap0(np.zeros(K.shape[0]))
-    active = g0 < delta_guess_mm
+    n, m = K.shape[0], len(cand)
+    D = np.eye(m) if mortar is None else np.asarray(mortar, dtype=np.float64)
+    k = D.shape[0]
+    rows = np.concatenate([cand, *tangential]) if tangential else cand
+    # G[:, c]: displacements (candidates, then tangential) under the nodal forces D[c]:
+    # one block solve per `block` multipliers; C = D G[:m] is the condensed compliance.
+    G = np.empty((len(rows), k))
+    for start in range(0, k, block):
+        cols = np.arange(start, min(start + block, k))
+        rhs = np.zeros((n, len(cols)))
+        rhs[cand] = D[cols].T
+        G[:, cols] = solve(rhs)[rows]
+    Cm = D @ G[:m]
+    Cm = 0.5 * (Cm + Cm.T)
+    a = D.sum(axis=1)
+    timing["condense"] = time.perf_counter() - t
+    t = time.perf_counter()
+    g0 = gap0(None)
+    active = D @ (g0 - delta_guess_mm) < 0
     if not active.any():
-        active[np.argmin(g0)] = True
+        active[np.argmin(D @ g0)] = True
     iterations = 0
     for _ in range(max_iter):
-        iterations += 1
-        dofs = cand[active]
-        A = sp.csc_matrix((_dirichlet_values(K, dofs), K.indices, K.indptr), shape=K.shape)
-        solve = factorizer(A)
-        rhs = np.zeros((K.shape[0], 2))
-        u_a = np.zeros((K.shape[0], 2))
-        u_a[dofs, 0] = g0[active]
-        u_a[dofs, 1] = -1.0
-        rhs[:] = -(K @ u_a)
-        rhs[dofs] = u_a[dofs]
-        U = solve(rhs)
-        R = -(K @ U)[cand]
-        lam0, lam1 = R[:, 0] * active, R[:, 1] * active
-        if lam1.sum() <= 0:
-            raise FecheckError("contact stiffness is not positive: check the layer's supports")
-        delta = (load_N - lam0.sum()) / lam1.sum()
-        u = U[:, 0] + delta * U[:, 1]
-        lam = lam0 + delta * lam1
-        if deformed_gap:
-            g0_new = gap0(u)
-            moved = np.max(np.abs(g0_new - g0))
-            g0 = g0_new
-        else:
-            moved = 0.0
-        gap = g0 - delta - u[cand]
-        new_active = np.where(active, lam > 0, gap < 0)
-        if np.array_equal(new_active, active) and moved < 1e-10:
+        mu, delta, active, it = _active_set(Cm, D @ g0, a, load_N, active, max_iter)
+        iterations += it
+        if not deformed_gap:
             break
-        if not new_active.any():
-            new_active[np.argmin(gap)] = True
-        active = new_active
+        shift = -(G[m:] @ mu).reshape(len(tangential), m).T
+        g_new = gap0(shift)
+        change = float(np.max(np.abs(g_new - g0)))
+        g0 = g_new
+        if change < 1e-10:
+            break
     else:
-        raise FecheckError(f"contact active set did not settle in {max_iter} iterations; "
-                           "refine the mesh under the contact or change the load")
-    if m and not np.all(np.isfinite(u)):
+        raise FecheckError("deformed-configuration gaps did not settle; use gap='reference'")
+    lam = D.T @ mu
+    gap = g0 - delta + G[:m] @ mu
+    timing["active_set"] = time.perf_counter() - t
+    t = time.perf_counter()
+    f = np.zeros(n)
+    f[cand] = -lam
+    u = solve(f)
+    timing["displacement"] = time.perf_counter() - t
+    if not (np.all(np.isfinite(u)) and np.isfinite(delta)):
         raise FecheckError("FE contact solve produced NaN: the stiffness matrix is singular")
-    return ContactSolution(u=u, force_N=np.where(active, lam, 0.0), delta_mm=float(delta),
-                           gap_mm=gap, active=active,
-                           iterations=iterations, solve_s=time.perf_counter() - t0)
+    return ContactSolution(u=u, force_N=lam, multiplier=mu, delta_mm=delta, gap_mm=gap,
+                           weighted_gap=D @ gap, active=active, iterations=iterations,
+                           timing_s=timing)

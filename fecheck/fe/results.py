@@ -40,8 +40,9 @@ class FEContactResult:
     nodal_force_N : (n,) contact force at each node (≥ 0, pressing down)
     gap_mm : (n,) vertical gap to the indenter after loading (≥ 0; 0 where in contact)
     active : (n,) nodes in contact
+    faces : (k, 3) triangles over ``points`` for plotting (empty for the axisymmetric model)
     n_dofs, n_elements : problem size; element : element kind, e.g. "tet P2"
-    min_size_mm : smallest element edge under the contact
+    size_under_contact_mm : median element edge on the top inside the contact
     iterations : active-set iterations; timing_s : wall times of the steps
     max_penetration_mm : worst overlap at the candidate contact nodes (≥ 0)
     """
@@ -52,17 +53,18 @@ class FEContactResult:
     nodal_force_N: np.ndarray
     gap_mm: np.ndarray
     active: np.ndarray
+    faces: np.ndarray
     n_dofs: int
     n_elements: int
     element: str
-    min_size_mm: float
+    size_under_contact_mm: float
     iterations: int
     timing_s: dict
     max_penetration_mm: float
 
     def as_dict(self) -> dict:
         return {**self.metrics.as_dict(), "n_dofs": self.n_dofs, "n_elements": self.n_elements,
-                "element": self.element, "min_size_mm": self.min_size_mm,
+                "element": self.element, "size_under_contact_mm": self.size_under_contact_mm,
                 "iterations": self.iterations, "max_penetration_mm": self.max_penetration_mm,
                 "min_nodal_force_N": float(self.nodal_force_N.min()),
                 "timing_s": dict(self.timing_s)}
