@@ -530,6 +530,15 @@ def table(result: dict) -> str:
     return "\n".join(lines)
 
 
+def write_json(result: dict, path: str) -> None:
+    """Write the bench result (rows, ratios, scaling, machine) as JSON."""
+    import json
+
+    with open(path, "w") as fh:
+        json.dump(result, fh, indent=2)
+        fh.write("\n")
+
+
 def pareto_front(rows: list[dict], key: str = "error") -> list[dict]:
     """Rows not beaten in both time and `key` error by another row."""
     front = []
