@@ -130,8 +130,8 @@ def _skew(v: np.ndarray) -> np.ndarray:
 
 
 def _cross(a: np.ndarray, b: np.ndarray) -> np.ndarray:
-    """Row-wise a × b for (Q, 3) arrays (cheaper than np.cross on small arrays)."""
-    out = np.empty(np.broadcast_shapes(a.shape, b.shape))
+    """Row-wise a × b for (Q, 3) arrays of one shape (cheaper than np.cross)."""
+    out = np.empty(a.shape)
     out[:, 0] = a[:, 1] * b[:, 2] - a[:, 2] * b[:, 1]
     out[:, 1] = a[:, 2] * b[:, 0] - a[:, 0] * b[:, 2]
     out[:, 2] = a[:, 0] * b[:, 1] - a[:, 1] * b[:, 0]
@@ -140,7 +140,7 @@ def _cross(a: np.ndarray, b: np.ndarray) -> np.ndarray:
 
 def _axial(c: np.ndarray) -> np.ndarray:
     """(3, …) axial part of c[j, k, …]: out[i] = ε_ijk c[j, k]."""
-    return np.stack([c[1, 2] - c[2, 1], c[2, 0] - c[0, 2], c[0, 1] - c[1, 0]])
+    return np.array([c[1, 2] - c[2, 1], c[2, 0] - c[0, 2], c[0, 1] - c[1, 0]])
 
 
 def _normal_twist(surface: ContactSurface) -> np.ndarray | None:
@@ -178,7 +178,7 @@ def _resultant(normal_twist: np.ndarray | None, x: np.ndarray, n: np.ndarray, s:
     # point motion: δx × F_q = −skew(F_q)(v − skew(x_q) ω)
     tangent[3:, :3] -= _skew(force)
     tangent[3:, 3:] += xf - np.trace(xf) * np.eye(3)
-    moment = wrench[3:] - np.cross(about, force)
+    moment = wrench[3:] - _axial(np.outer(about, force))
     tangent[3:] -= _skew(about) @ tangent[:3]
     return force.copy(), moment, tangent
 

@@ -23,7 +23,7 @@ from fecheck.knee import COMPARTMENTS, LIGAMENTS, Knee, plane_normal
 from fecheck.ligaments import rod_constraint, spring_wrench, transition_strain_check
 from fecheck.results import CompartmentResult, LigamentResult, RunResult
 from fecheck.scene import DOF_NAMES, Scene
-from fecheck.statics import Problem, point_force, pose, solve
+from fecheck.statics import Problem, cross3, point_force, pose, solve
 
 GRAVITY_MPS2 = 9.81
 WHOLE_FACE_NOTE = ("whole-face area counting (thesis Fig. 3.20) reproduces the thesis's bias: "
@@ -386,7 +386,7 @@ def _compartment_result(model: ContactModel, comp: Compartment, rot: np.ndarray,
                         t: np.ndarray) -> CompartmentResult:
     res = comp.last
     w = model.compartment_wrench(comp.name)
-    torque = w[3:] - np.cross(t, w[:3])
+    torque = w[3:] - cross3(t, w[:3])
     force = float(np.linalg.norm(w[:3]))
     mesh = comp.pair.slave
     points = mesh.points @ rot.T + t if comp.slave_is_tibia else mesh.points
