@@ -133,6 +133,16 @@ def require(module: str, owner: str):
         raise Missing(f"{module} is not available yet ({owner}): {err}") from None
 
 
+def require_knee_data():
+    """The scanned-knee folder (`fecheck.scanned.knee_dir`), or raise `Missing` saying
+    where it was looked for (../shared/data is not shipped with the repository)."""
+    scanned = require("fecheck.scanned", "H5")
+    try:
+        return scanned.knee_dir()
+    except Exception as err:  # noqa: BLE001 - FecheckError naming the folder
+        raise Missing(str(err)) from None
+
+
 def _fmt(x: float | None) -> str:
     if x is None:
         return "–"

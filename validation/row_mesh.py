@@ -5,7 +5,6 @@
 
 from __future__ import annotations
 
-import os
 from pathlib import Path
 
 import numpy as np
@@ -14,18 +13,17 @@ from report import (
     DEVIATES,
     REPRODUCED,
     Line,
+    Missing,
     Row,
     figure,
     guarded,
     main_for,
+    require_knee_data,
     save_figure,
     table_row,
     write_data_csv,
 )
 
-SHARED_DATA = Path(os.environ.get("FECHECK_SHARED_DATA",
-                                  Path(__file__).resolve().parents[2] / "shared" / "data"))
-KNEE_DIR = SHARED_DATA / "knee" / "lenhart2015"
 PROPERTIES = ("euler", "winding_consistent", "convex", "watertight", "empty")
 
 
@@ -38,9 +36,12 @@ def _meshes(quick: bool) -> dict[str, object]:
     out = {"plane box": plateau_box((0.0, 0.0, 0.0), 80.0, 60.0, 10.0),
            "icosphere gmsh": icosphere(tv.FIG_3_3_RADIUS_MM, level, method="gmsh"),
            "icosphere trimesh": icosphere(tv.FIG_3_3_RADIUS_MM, level, method="trimesh")}
-    if KNEE_DIR.is_dir():
-        out["tibia/femur split"] = load_mesh(KNEE_DIR / "lenhart2015_R_tibia_cartilage_medial.stl")
-        out["tibia/femur total"] = load_mesh(KNEE_DIR / "lenhart2015_R_tibia_bone.stl")
+    try:
+        knee = require_knee_data()
+    except Missing:
+        return out
+    out["tibia/femur split"] = load_mesh(knee / "lenhart2015_R_tibia_cartilage_medial.stl")
+    out["tibia/femur total"] = load_mesh(knee / "lenhart2015_R_tibia_bone.stl")
     return out
 
 
@@ -52,7 +53,7 @@ def table_3_1(quick: bool, out: Path) -> Row:
     for kind, expected in tv.TABLE_3_1.items():
         if kind not in meshes:
             lines.append(Line(f"{kind}: all", None, None,
-                              f"skipped: scanned meshes not found at {KNEE_DIR}"))
+                              "skipped: scanned knee data not found (../shared/data)"))
             continue
         rep = mesh_report(meshes[kind], name=kind).as_dict()
         for prop in PROPERTIES:

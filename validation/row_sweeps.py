@@ -25,6 +25,7 @@ from report import (
     figure,
     guarded,
     main_for,
+    require_knee_data,
     save_figure,
     table_row,
     write_data_csv,
@@ -93,8 +94,10 @@ def sweep(name: str | None, shifts: np.ndarray, overrides: tuple[str, ...] = ())
 
 
 def _require_scene(name: str) -> str:
+    """A scanned-knee scene name, or `Missing` (no scene file yet, or no knee data)."""
     if not (SCENES / f"{name}.toml").is_file():
         raise Missing(f"validation/scenes/{name}.toml is not there yet (H5)")
+    require_knee_data()
     return name
 
 
