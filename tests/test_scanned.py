@@ -157,3 +157,34 @@ def test_missing_data_in_a_scene_is_a_one_line_error(tmp_path):
 
 def test_default_folder_is_next_to_the_repository():
     assert scanned.DEFAULT_DIR == Path(REPO).parent / "shared" / "data" / "knee" / "lenhart2015"
+
+
+def test_knee_fits_follow_the_thesis_trends(tmp_path):
+    """Thesis §2.2.3 on the scanned knee: outlier removal and a free plane lower the plane
+    error; the polynomial errors fall with the degree (Tables 2.1, 2.4, 2.5)."""
+    require_knee_data()
+    sys.path.insert(0, str(REPO / "validation"))
+    try:
+        import knee_fits
+    finally:
+        sys.path.pop(0)
+    assert knee_fits.main(["--quick", "--out", str(tmp_path)]) == 0
+    t21 = knee_fits.table_2_1()
+    for side in ("medial", "lateral"):
+        w, wo = (next(r for r in t21 if r["side"] == side and r["case"] == case)
+                 for case in ("with outliers", "without outliers"))
+        assert wo["me_free_mm"] < w["me_free_mm"] < w["me_transverse_mm"]
+        assert wo["inliers"] < wo["points"]
+    for rows in (knee_fits.table_2_4(3), knee_fits.table_2_5(3)):
+        for side in ("medial", "lateral"):
+            me = [r["mean_error_mm"] for r in rows
+                  if r["side"] == side and r["degree"] != "sphere"]
+            # nested least-squares bases: the RMS error cannot rise; the mean |error|
+            # (eq. 2.1, 2.3) need not, but falls here as in the thesis
+            assert np.all(np.diff(me) < 0)
+    # the degree-0 spherical polynomial about the fitted centre is the sphere (radius = mean r)
+    t25 = knee_fits.table_2_5(0)
+    for side in ("medial", "lateral"):
+        sphere, deg0 = (r for r in t25 if r["side"] == side)
+        assert deg0["mean_error_mm"] == pytest.approx(sphere["mean_error_mm"], rel=0.05)
+    assert (tmp_path / "knee_fits_table_2_4.csv").is_file()
