@@ -14,9 +14,13 @@ Scenarios (R = 31.8 mm lateral condyle, icospheres of 20·4^n faces):
   closest-point depth d = R₂ - |x - c₂| over the slave surface inside the master:
   area 2πR₁h₁ and ∫d dA = (2πR₁/D)[R₂u²/2 - u³/3] between u = D - R₁ and R₂.
 
+* ``locality`` — a sphere master over plateaus of growing radius refined alike under the
+  contact: the time per call must follow the faces near the contact, not all faces.
+
 Methods: ``closed-form`` (analytic master), ``bvh`` (mesh master, libigl AABB), and the
 thesis stack: ``fcl`` (python-fcl per-face contacts through trimesh's converters, box or
-icosphere master) and ``ray-parity`` (trimesh ``contains`` with embree + cKDTree).
+icosphere master), ``ray-parity`` (trimesh ``contains`` with embree + cKDTree) and
+``ray-thesis`` (the same with trimesh's pure ray engine, as the thesis ran it).
 Times are medians over repeated calls; compare them as ratios within one run.
 """
 
@@ -36,22 +40,18 @@ DEPTH = 1.0
 LEVELS_FULL = (3, 4, 5, 6, 7)            # 1,280 … 327,680 faces
 LEVELS_QUICK = (3, 4, 5)                 # … 20,480 faces
 IDENTITY = (np.eye(3), np.zeros(3))
-
-
-def _median_time(fn, min_repeats: int = 3, budget_s: float = 0.3, max_repeats: int = 300):
-    """Median wall time of fn(), s, over at least `min_repeats` calls."""
-    times: list[float] = []
-    start = time.perf_counter()
-    while len(times) < min_repeats or (time.perf_counter() - start < budget_s
-                                       and len(times) < max_repeats):
-        t0 = time.perf_counter()
-        fn()
-        times.append(time.perf_counter() - t0)
-    return float(np.median(times))
+THESIS_RAY_LIMIT = 20480                 # the pure ray engine takes seconds per call there
 
 
 def _cap(d: float, R: float = R_SLAVE) -> tuple[float, float]:
+    """Projected base area and volume of a spherical cap of height d (plane masters)."""
     return np.pi * (2 * R * d - d * d), np.pi * d * d * (R - d / 3)
+
+
+def _zone(d: float, R: float = R_SLAVE) -> tuple[float, float]:
+    """Sphere surface within d of a plane and ∫ depth dA over it (surface areas, as mesh
+    masters and the thesis count them): 2πRd and πRd² (Archimedes)."""
+    return 2 * np.pi * R * d, np.pi * R * d * d
 
 
 def _lens(R1: float, R2: float, overlap: float) -> tuple[float, float]:
@@ -59,7 +59,11 @@ def _lens(R1: float, R2: float, overlap: float) -> tuple[float, float]:
     D = R1 + R2 - overlap
     lo, hi = D - R1, R2
     k = 2 * np.pi * R1 / D
-    return k * (hi**2 - lo**2) / 2, k * ((R2 * hi**2 / 2 - hi**3 / 3) - (R2 * lo**2 / 2 - lo**3 / 3))
+
+    def primitive(u: float) -> float:                       # ∫ (R₂ - u) u du
+        return R2 * u**2 / 2 - u**3 / 3
+
+    return k * (hi**2 - lo**2) / 2, k * (primitive(hi) - primitive(lo))
 
 
 def _nearby_poses(base, n: int = 8, step_mm: float = 0.02):
@@ -69,6 +73,84 @@ def _nearby_poses(base, n: int = 8, step_mm: float = 0.02):
     R, t = base
     return [(R @ rotation(0.0, 2e-4 * k, -1e-4 * k), t + step_mm * np.array([k, -k, 0.5 * k]))
             for k in range(n)]
+
+
+def _time_interleaved(calls: dict, min_repeats: int = 3, budget_s: float = 0.5,
+                      max_repeats: int = 200, slow_s: float = 1.0) -> dict:
+    """Median wall time (s) of each callable, calling them in turn so that all see the
+    same machine load (the machine is shared). A callable slower than `slow_s` is
+    timed once."""
+    times = {k: [] for k in calls}
+    start = time.perf_counter()
+    n = 0
+    while n < min_repeats or (time.perf_counter() - start < budget_s and n < max_repeats):
+        for key, fn in calls.items():
+            if times[key] and times[key][0] > slow_s:
+                continue
+            t0 = time.perf_counter()
+            fn()
+            times[key].append(time.perf_counter() - t0)
+        n += 1
+    return {k: float(np.median(v)) for k, v in times.items()}
+
+
+class _ThesisRayPair:
+    """Thesis Algorithm 3 with trimesh's pure ray engine (no embree), as the thesis ran
+    it, behind the ``evaluate(slave_pose, master_pose)`` call."""
+
+    def __init__(self, slave, master) -> None:
+        from fecheck.contact.thesis import RayParity
+
+        self._detector = RayParity(slave, master, "clipped", engine="triangle")
+
+    def evaluate(self, slave_pose, master_pose):
+        from fecheck.contact.pair import validate_pose
+
+        return self._detector.evaluate(*validate_pose(slave_pose, "slave"),
+                                       *validate_pose(master_pose, "master"))
+
+
+def _measure(scenario: str, n_faces: int, entries: list, poses, master_pose,
+             budget_s: float) -> list[dict]:
+    """Rows for several (method, pair, exact) entries timed together on the same poses;
+    our engine also from scratch (candidate set rebuilt every call)."""
+    import warnings
+
+    rows, calls, surfaces = [], {}, {}
+    counter = iter(range(10**9))
+
+    def caller(pair, scratch=False):
+        def call():
+            if scratch:
+                pair.cache.reset()
+            pair.evaluate(poses[next(counter) % len(poses)], master_pose)
+        return call
+
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        for method, pair, _ in entries:
+            try:
+                surfaces[method] = pair.evaluate(poses[0], master_pose)
+            except FecheckError as err:
+                rows.append({"scenario": scenario, "method": method, "n_faces": int(n_faces),
+                             "error": str(err)})
+                continue
+            calls[method] = caller(pair)
+            if method in ("closed-form", "bvh"):
+                calls[method + " scratch"] = caller(pair, scratch=True)
+        times = _time_interleaved(calls, budget_s=budget_s)
+    for method, pair, exact in entries:
+        if method not in surfaces:
+            continue
+        extra = {}
+        if method + " scratch" in times:
+            extra["time_from_scratch_ms"] = 1e3 * times[method + " scratch"]
+            pair.cache.reset()
+            pair.evaluate(poses[0], master_pose)
+            extra["n_candidate_faces"] = int(pair.cache.current.faces.size)
+        rows.append(_row(scenario, method, n_faces, surfaces[method], exact, times[method],
+                         **extra))
+    return rows
 
 
 def _row(scenario, method, n_faces, surface, exact, seconds, **extra):
@@ -87,73 +169,43 @@ def _row(scenario, method, n_faces, surface, exact, seconds, **extra):
     return row
 
 
-def _measure(scenario, method, pair, poses, master_pose, n_faces, exact, min_repeats):
-    """Rows for one pair: reused-candidate time and, for our engine, from-scratch time."""
-    import warnings
-
-    it = iter(range(10**9))
-
-    def call():
-        return pair.evaluate(poses[next(it) % len(poses)], master_pose)
-
-    with warnings.catch_warnings():
-        warnings.simplefilter("ignore")
-        try:
-            surface = pair.evaluate(poses[0], master_pose)
-            seconds = _median_time(call, min_repeats)
-        except FecheckError as err:
-            return [{"scenario": scenario, "method": method, "n_faces": int(n_faces),
-                     "error": str(err)}]
-    extra = {}
-    if method in ("closed-form", "bvh"):
-        def scratch():
-            pair.cache.reset()
-            call()
-        extra["time_from_scratch_ms"] = 1e3 * _median_time(scratch, min_repeats)
-        extra["n_candidate_faces"] = int(pair.cache.get(
-            *_relative(poses[0], master_pose)).faces.size)
-    return [_row(scenario, method, n_faces, surface, exact, seconds, **extra)]
-
-
-def _relative(slave_pose, master_pose):
-    Rm, tm = master_pose
-    return Rm.T @ slave_pose[0], Rm.T @ (slave_pose[1] - tm)
-
-
 def _box_master(half: float, depth: float):
-    from geometry.mesh import TriMesh
+    """A closed box whose top face is the plane z = 0 (mm)."""
     import trimesh
+
+    from geometry.mesh import TriMesh
 
     box = trimesh.creation.box(extents=[2 * half, 2 * half, depth])
     return TriMesh(np.asarray(box.vertices) - [0.0, 0.0, depth / 2], np.asarray(box.faces))
 
 
-def _plane_rows(levels, quick, progress):
+def _plane_rows(levels, ray_limit, progress, budget_s):
     from fecheck.contact import ContactPair, Plane
     from geometry.icosphere import icosphere
 
     rows = []
     plane = Plane([0.0, 0.0, 0.0], [0.0, 0.0, 1.0])
-    box = _box_master(2.5 * R_SLAVE, 2.5 * R_SLAVE)
+    box = _box_master(3 * R_SLAVE, 3 * R_SLAVE)     # sides ≥ 2R from any point of the cap
     for level in levels:
         sphere = icosphere(R_SLAVE, level)
         n = sphere.n_faces
         for scenario, d in (("bisect", R_SLAVE), ("statics", DEPTH)):
+            progress(f"{scenario} {n} faces")
             base = (np.eye(3), np.array([0.0, 0.0, R_SLAVE - d]))
             poses = _nearby_poses(base) if scenario == "statics" else [base]
-            exact = _cap(d)
-            for method, master in (("closed-form", plane), ("bvh", box), ("fcl", box),
-                                   ("ray-parity", box)):
-                if method == "ray-parity" and (n > 20480 if quick else n > 81920):
-                    continue
-                progress(f"{scenario} {method} {n} faces")
-                pair = ContactPair(sphere, master, method=method)
-                rows += _measure(scenario, method, pair, poses, IDENTITY, n, exact,
-                                 min_repeats=3)
+            entries = [("closed-form", ContactPair(sphere, plane), _cap(d)),
+                       ("bvh", ContactPair(sphere, box), _zone(d)),
+                       ("fcl", ContactPair(sphere, box, method="fcl"), _zone(d))]
+            if n <= ray_limit:
+                entries.append(("ray-parity", ContactPair(sphere, box, method="ray-parity"),
+                                _zone(d)))
+            if n <= THESIS_RAY_LIMIT:
+                entries.append(("ray-thesis", _ThesisRayPair(sphere, box), _zone(d)))
+            rows += _measure(scenario, n, entries, poses, IDENTITY, budget_s)
     return rows
 
 
-def _sphere_master_rows(sizes, progress):
+def _sphere_master_rows(sizes, progress, budget_s):
     from fecheck.contact import ContactPair, Sphere
     from geometry.icosphere import icosphere
     from geometry.plateau import plane_patch
@@ -163,18 +215,36 @@ def _sphere_master_rows(sizes, progress):
     condyle = icosphere(R_SLAVE, 4)                           # the thesis's ~5000 faces
     for size in sizes:
         plateau = plane_patch([0.0, 0.0, 0.0], [0.0, 0.0, 1.0], radius=30.0, size=size)
-        n = plateau.n_faces
-        progress(f"sphere-master {n} faces")
-        poses = _nearby_poses(IDENTITY)
-        rows += _measure("sphere-master", "closed-form",
-                         ContactPair(plateau, Sphere([0.0, 0.0, 0.0], R_SLAVE)), poses,
-                         master_pose, n, _cap(DEPTH), 3)
-        rows += _measure("sphere-master", "fcl", ContactPair(plateau, condyle, method="fcl"),
-                         poses, master_pose, n, _cap(DEPTH), 3)
+        progress(f"sphere-master {plateau.n_faces} faces")
+        entries = [("closed-form", ContactPair(plateau, Sphere([0.0, 0.0, 0.0], R_SLAVE)),
+                    _cap(DEPTH)),
+                   ("fcl", ContactPair(plateau, condyle, method="fcl"), _cap(DEPTH))]
+        rows += _measure("sphere-master", plateau.n_faces, entries, _nearby_poses(IDENTITY),
+                         master_pose, budget_s)
     return rows
 
 
-def _mesh_mesh_rows(levels, quick, progress):
+def _locality_rows(radii, progress, budget_s):
+    """A plateau refined (0.5 mm) within 12 mm of the contact, 1 mm beyond, growing in
+    radius: the faces near the contact stay, all faces grow."""
+    from fecheck.contact import ContactPair, Sphere
+    from geometry.plateau import plane_patch
+
+    rows = []
+    master_pose = (np.eye(3), np.array([0.0, 0.0, R_SLAVE - DEPTH]))
+    for radius in radii:
+        plateau = plane_patch([0.0, 0.0, 0.0], [0.0, 0.0, 1.0], radius=radius, size=1.0,
+                              refine_point=[0.0, 0.0, 0.0], refine_size=0.5,
+                              refine_radius=12.0)
+        progress(f"locality {plateau.n_faces} faces")
+        entries = [("closed-form", ContactPair(plateau, Sphere([0.0, 0.0, 0.0], R_SLAVE)),
+                    _cap(DEPTH))]
+        rows += _measure("locality", plateau.n_faces, entries, _nearby_poses(IDENTITY),
+                         master_pose, budget_s)
+    return rows
+
+
+def _mesh_mesh_rows(levels, ray_limit, progress, budget_s):
     from fecheck.contact import ContactPair
     from geometry.icosphere import icosphere
 
@@ -185,13 +255,14 @@ def _mesh_mesh_rows(levels, quick, progress):
         slave = icosphere(R_SLAVE, level)
         master = icosphere(R_MASTER, level, center=(0.0, 0.0, -distance))
         n = slave.n_faces
-        poses = _nearby_poses(IDENTITY)
-        for method in ("bvh", "ray-parity", "fcl"):
-            if method != "bvh" and (n > 20480 if quick else n > 81920):
-                continue
-            progress(f"mesh-mesh {method} {n} faces")
-            rows += _measure("mesh-mesh", method, ContactPair(slave, master, method=method),
-                             poses, IDENTITY, n, exact, 3)
+        progress(f"mesh-mesh {n} faces")
+        entries = [("bvh", ContactPair(slave, master), exact)]
+        if n <= ray_limit:
+            entries += [("ray-parity", ContactPair(slave, master, method="ray-parity"), exact),
+                        ("fcl", ContactPair(slave, master, method="fcl"), exact)]
+        if n <= THESIS_RAY_LIMIT:
+            entries.append(("ray-thesis", _ThesisRayPair(slave, master), exact))
+        rows += _measure("mesh-mesh", n, entries, _nearby_poses(IDENTITY), IDENTITY, budget_s)
     return rows
 
 
@@ -219,20 +290,41 @@ def _ratios(rows) -> dict:
             out[f"sphere_master_{n}_fcl_over_closed_form"] = fcl / ours
     ours, parity = t("mesh-mesh", "bvh", 20480), t("mesh-mesh", "ray-parity", 20480)
     if ours and parity:
-        out["mesh_mesh_20480_ray_parity_over_bvh"] = parity / ours
+        out["mesh_mesh_20480_ray_parity_embree_over_bvh"] = parity / ours
+    thesis = t("mesh-mesh", "ray-thesis", 20480)
+    if ours and thesis:
+        out["mesh_mesh_20480_ray_thesis_over_bvh"] = thesis / ours
     scratch = t("mesh-mesh", "bvh", 20480, "time_from_scratch_ms")
     if ours and scratch:
         out["mesh_mesh_20480_reused_over_from_scratch"] = ours / scratch
+    local = sorted((r for r in rows if r["scenario"] == "locality" and "time_ms" in r),
+                   key=lambda r: r["n_faces"])
+    if len(local) > 1:
+        out["locality_faces_ratio"] = local[-1]["n_faces"] / local[0]["n_faces"]
+        out["locality_time_ratio"] = local[-1]["time_ms"] / local[0]["time_ms"]
+        out["locality_from_scratch_time_ratio"] = (local[-1]["time_from_scratch_ms"]
+                                                   / local[0]["time_from_scratch_ms"])
     return out
 
 
-def run(quick: bool = False, progress=lambda message: None) -> dict:
-    """All scenarios: {"rows": [...], "ratios": {...}, "quick": bool}."""
-    levels = LEVELS_QUICK if quick else LEVELS_FULL
-    sizes = (2.0, 1.0, 0.5) if quick else (2.0, 1.0, 0.5, 0.25)
-    rows = _plane_rows(levels, quick, progress)
-    rows += _sphere_master_rows(sizes, progress)
-    rows += _mesh_mesh_rows(levels, quick, progress)
+def run(quick: bool = False, progress=lambda message: None, *,
+        levels: tuple[int, ...] | None = None,
+        plateau_sizes: tuple[float, ...] | None = None,
+        locality_radii: tuple[float, ...] | None = None, budget_s: float = 0.5) -> dict:
+    """All scenarios: {"rows": [...], "ratios": {...}, "quick": bool}.
+
+    `levels` (icosphere subdivision levels), `plateau_sizes` (mm), `locality_radii`
+    (mm) override the quick/full defaults, e.g. for a smoke test; `budget_s` is the
+    timing budget per group of methods (s).
+    """
+    levels = levels or (LEVELS_QUICK if quick else LEVELS_FULL)
+    sizes = plateau_sizes or ((2.0, 1.0, 0.5) if quick else (2.0, 1.0, 0.5, 0.25))
+    radii = locality_radii or ((15.0, 30.0, 60.0) if quick else (15.0, 30.0, 60.0, 90.0))
+    ray_limit = 20480 if quick else 81920
+    rows = _plane_rows(levels, ray_limit, progress, budget_s)
+    rows += _sphere_master_rows(sizes, progress, budget_s)
+    rows += _locality_rows(radii, progress, budget_s)
+    rows += _mesh_mesh_rows(levels, ray_limit, progress, budget_s)
     return {"quick": quick, "rows": rows, "ratios": _ratios(rows)}
 
 

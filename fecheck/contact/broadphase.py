@@ -11,6 +11,7 @@ set is reused: an evaluation then touches only candidate vertices and faces.
 
 from __future__ import annotations
 
+import math
 from collections.abc import Callable
 from dataclasses import dataclass
 
@@ -43,9 +44,10 @@ def motion_bound(R: np.ndarray, t: np.ndarray, R0: np.ndarray, t0: np.ndarray,
                  centroid: np.ndarray, radius: float) -> float:
     """Largest displacement of any slave vertex between two relative poses, mm (an upper
     bound): ``|(R - R0) o + t - t0| + 2 sin(θ/2) ρ``."""
-    cos_theta = min(max(((R * R0).sum() - 1.0) * 0.5, -1.0), 1.0)   # trace(R R0ᵀ) = Σ R∘R0
-    chord = np.sqrt(2.0 * (1.0 - cos_theta))                       # = 2 sin(θ/2)
-    return float(np.linalg.norm((R - R0) @ centroid + t - t0) + chord * radius)
+    cos_theta = min(max((float((R * R0).sum()) - 1.0) * 0.5, -1.0), 1.0)   # tr(R R0ᵀ)
+    chord = math.sqrt(2.0 * (1.0 - cos_theta))                             # 2 sin(θ/2)
+    shift = (R - R0) @ centroid + t - t0
+    return math.sqrt(float(shift @ shift)) + chord * radius
 
 
 class CandidateCache:
@@ -102,6 +104,11 @@ class CandidateCache:
         return Candidates(faces=faces, local_faces=local.reshape(-1, 3), vertices=vertices,
                           points=slave.points[vertices], normals=slave.face_normals[faces],
                           areas=slave.face_areas[faces])
+
+    @property
+    def current(self) -> Candidates | None:
+        """The candidate set of the last call (None before the first)."""
+        return self._current
 
     def reset(self) -> None:
         """Forget the cached set (the next call rebuilds it)."""

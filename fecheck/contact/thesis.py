@@ -2,8 +2,9 @@
 
 * ``ray-parity`` — thesis Algorithm 3: slave vertices inside the master's bounding box
   are tested by ray-casting parity (trimesh ``contains``; embree through embreex when
-  installed); the depth of a vertex is its distance to the nearest master VERTEX
-  (scipy cKDTree), as in the thesis. Its flaws are kept: parity is meaningless on open
+  installed, or trimesh's pure ray engine with ``engine="triangle"``, which is what made
+  the thesis's Fig. 3.25 quadratic); the depth of a vertex is its distance to the
+  nearest master VERTEX (scipy cKDTree), as in the thesis. Its flaws are kept: parity is meaningless on open
   meshes (rays escape through the hole), and the nearest-vertex distance is not a
   surface distance. Outside vertices of touched faces get minus that distance so the
   face can be clipped (or counted whole, ``area="whole-face"``). The gradient is the
@@ -52,11 +53,18 @@ class RayParity:
     uses_slave_normal = False
     normal_body = "slave"
 
-    def __init__(self, slave: TriMesh, master: TriMesh, area_mode: str) -> None:
+    def __init__(self, slave: TriMesh, master: TriMesh, area_mode: str,
+                 engine: str = "auto") -> None:
         from scipy.spatial import cKDTree
 
         self.slave, self.master, self.area_mode = slave, master, area_mode
         self._mesh = _trimesh(master)
+        if engine == "triangle":                    # trimesh's pure-NumPy/rtree ray engine
+            from trimesh.ray.ray_triangle import RayMeshIntersector
+
+            self._mesh.ray = RayMeshIntersector(self._mesh)
+        elif engine != "auto":
+            raise FecheckError(f"unknown ray engine {engine!r}; choose 'auto' or 'triangle'")
         self._engine = type(self._mesh.ray).__module__.rsplit(".", 1)[-1]
         self._tree = cKDTree(master.points)
         self._box = (master.points.min(axis=0), master.points.max(axis=0))

@@ -1,0 +1,40 @@
+"""`fecheck bench SUITE`: benchmarks (run time and accuracy, reported as ratios)."""
+
+from __future__ import annotations
+
+import argparse
+import os
+import sys
+from pathlib import Path
+
+SUITES = ("detection",)
+
+
+def add_parser(subparsers) -> None:
+    p = subparsers.add_parser(
+        "bench", help="run a benchmark suite (detection: thesis Figs. 3.21/3.25)",
+        description="Benchmarks measured in one run and reported as ratios. 'detection': "
+                    "contact detection time and area/volume errors against exact values, "
+                    "our engine vs the thesis stack (fcl, ray parity + cKDTree).")
+    p.add_argument("suite", choices=SUITES, help="benchmark suite")
+    p.add_argument("--quick", action="store_true", help="small sizes only (≤ 20,480 faces)")
+    p.add_argument("--json", type=Path, metavar="PATH", help="write rows and ratios as JSON")
+    p.add_argument("--plot", type=Path, metavar="DIR", help="write log-log PNGs into DIR")
+    p.set_defaults(run=run)
+
+
+def run(args: argparse.Namespace) -> int:
+    os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
+    os.environ.setdefault("OMP_NUM_THREADS", "1")
+    from fecheck.contact import bench
+
+    result = bench.run(quick=args.quick,
+                       progress=lambda m: print(f"  {m}", file=sys.stderr, flush=True))
+    print(bench.table(result))
+    if args.json:
+        bench.write_json(result, args.json)
+        print(f"wrote {args.json}")
+    if args.plot:
+        for path in bench.plot(result, args.plot):
+            print(f"wrote {path}")
+    return 0
