@@ -199,7 +199,10 @@ def cases() -> list[Case]:
             _pair("mesh: no faces", defect="empty", expect="clear-error"),
             _pair("mesh: 20 faces", level=0, quick=False),
             _pair("mesh: 327,680 faces", level=7, quick=False),
+            _pair("mesh master: closed sphere, BVH", master="sphere"),
             _pair("mesh master: open sphere, winding number", master="open-sphere",
+                  sign="winding", quick=False),
+            _pair("mesh master: open sphere, closest-face side", master="open-sphere",
                   quick=False),
             _pair("mesh master: inverted sphere", master="inverted-sphere"),
             _pair("pose nan", defect="nan-pose", expect="clear-error"),
@@ -212,6 +215,8 @@ def cases() -> list[Case]:
             _fe("FE axisym nu 0.5", model="axisym", nu=0.5, expect="clear-error"),
             _fe("FE axisym contact larger than the layer", model="axisym", load=1e4, E=0.1,
                 expect="clear-error"),
+            _fe("FE 3D 5 mm", model="3d", size=5.0),
+            _fe("FE 3D 2 mm, 2000 N", model="3d", load=2000.0, size=2.0, quick=False),
             _fe("FE 3D 5 mm nu 0.4999", model="3d", nu=0.4999, size=5.0, quick=False)]
     return out
 
@@ -362,7 +367,7 @@ def run_pair_case(params: dict) -> tuple[int, float, str]:
         slave = plane_patch((0.0, 0.0, 0.0), (0.0, 0.0, 1.0), radius=12.0, size=2.0,
                             refine_point=(0.0, 0.0, 0.0), refine_size=0.5, refine_radius=9.0)
         pair = ContactPair(slave, TriMesh(sphere.points, faces), method="bvh",
-                           mesh_sign="winding" if master == "open-sphere" else "normal")
+                           mesh_sign=params.get("sign", "normal"))
         direction = np.array([0.0, 0.0, 1.0])
     else:
         slave = _damaged(icosphere(radius, params.get("level", 4), (0.0, 0.0, radius)), defect)
