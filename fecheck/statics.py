@@ -192,12 +192,17 @@ def _dof_names(p: Problem, basis: np.ndarray) -> list[str]:
     return [DOF_LABELS[p.free[i]] for i in range(nf) if weight[i] > 0.1]
 
 
-def solve(p: Problem, z_start: np.ndarray | None = None) -> Solution:
+STEP_TOL_MM = 1e-5
+"""A converged solve's last step is below this (scaled: rotations · length scale), mm."""
+
+
+def solve(p: Problem) -> Solution:
     """Solve the equilibrium `p` by safeguarded Newton-Raphson.
 
-    Converged when the scaled residual norm is below `tolerance`·`force_scale_N` (N)
-    and the constraints hold to `tolerance`·`length_scale_mm` (mm). Raises
-    `FecheckError` when free DOFs have neither stiffness nor load.
+    Converged when the scaled residual norm is below `tolerance`·`force_scale_N` (N),
+    the constraints hold to `tolerance`·`length_scale_mm` (mm) and the last step was
+    below `STEP_TOL_MM`. Raises `FecheckError` when free DOFs have neither stiffness
+    nor load, or when the constraints leave no motion.
     """
     if p.constraints and len(p.constraints) >= len(p.free):
         raise FecheckError(f"{len(p.constraints)} constraints (ligament rods, equal forces) on "
@@ -206,9 +211,8 @@ def solve(p: Problem, z_start: np.ndarray | None = None) -> Solution:
                            f"more DOFs (dofs.free) or use ligaments.model = 'spring'")
     sysm = _System(p)
     nf = sysm.nf
-    z = np.zeros(nf + sysm.nc) if z_start is None else np.array(z_start, dtype=float)
-    if z_start is None:
-        z[:nf] = np.asarray(p.q_start)[list(p.free)] * sysm.sq
+    z = np.zeros(nf + sysm.nc)
+    z[:nf] = np.asarray(p.q_start)[list(p.free)] * sysm.sq
     f_tol = p.tolerance * p.force_scale_N
 
     def merit(res: np.ndarray) -> float:
@@ -219,16 +223,19 @@ def solve(p: Problem, z_start: np.ndarray | None = None) -> Solution:
     phi = merit(res)
     history = [phi]
     converged = False
+    step = np.inf
     it = 0
     for it in range(1, p.max_iterations + 1):
-        if _converged(res, nf, f_tol, p) and it > 1:
+        if _converged(res, nf, f_tol, p) and step <= STEP_TOL_MM:
             converged = True
             it -= 1
             break
-        z, res, jac, phi = _step(sysm, z, res, jac, phi, merit)
+        z_new, res, jac, phi = _step(sysm, z, res, jac, phi, merit)
+        step = float(np.linalg.norm((z_new - z)[:nf]))
+        z = z_new
         history.append(phi)
     else:
-        converged = _converged(res, nf, f_tol, p)
+        converged = _converged(res, nf, f_tol, p) and step <= STEP_TOL_MM
     null = _null_space(jac)
     if null.shape[1] and (converged or sysm.touching):
         raise FecheckError(_no_stiffness_message(p, null))
