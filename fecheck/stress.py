@@ -275,7 +275,7 @@ def _balance(scene, result) -> str:
         force_scale,
         free_indices,
     )
-    from fecheck.statics import pose, twist_basis
+    from fecheck.statics import Problem, pose, twist_basis
 
     q = np.asarray(result.extra["q"], dtype=float)
     theta_x = math.radians(scene["dofs.flexion_deg"])
@@ -283,19 +283,25 @@ def _balance(scene, result) -> str:
     contact = ContactModel(build_compartments(scene))
     w, _ = contact(rot, t)
     wl, _ = applied_load(scene)(rot, t)
-    if scene["ligaments.model"] != "none" or scene["constraints.equal_forces"]:
-        # ligament and constraint wrenches are not recomputed here: check contact forces only
-        residual = 0.0
-    else:
-        gen = (twist_basis(q, theta_x).T @ (w + wl))[list(free_indices(scene))]
-        scale = force_scale(scene)
-        gen = gen / np.where(np.array(free_indices(scene)) >= 3, 50.0, 1.0)
-        residual = float(np.linalg.norm(gen))
-        _finite("re-evaluated residual", residual)
-        if residual > BALANCE_TOL * scale:
-            raise Inconsistent("inconsistent", f"force balance fails when re-evaluated with "
-                               f"fresh contact pairs: residual {residual:.3g} N "
-                               f"(load scale {scale:.3g} N)")
+    w = w + wl
+    knee = scene.knee
+    for name, lig in result.ligaments.items():       # rods and springs: reported tension
+        x = rot @ knee.tibia_attachment[name] + t
+        u = knee.femur_attachment[name] - x
+        f = lig.force_N * u / np.linalg.norm(u)
+        w = w + np.concatenate([f, np.cross(x, f)])
+    if scene["constraints.equal_forces"]:
+        return "balance not re-checked (equal-force constraint multiplier)"
+    free = list(free_indices(scene))
+    gen = (twist_basis(q, theta_x).T @ w)[free]
+    gen = gen / np.where(np.array(free) >= 3, Problem.length_scale_mm, 1.0)   # N·mm → N
+    residual = float(np.linalg.norm(gen))
+    scale = force_scale(scene)
+    _finite("re-evaluated residual", residual)
+    if residual > BALANCE_TOL * scale:
+        raise Inconsistent("inconsistent", f"force balance fails when re-evaluated with "
+                           f"fresh contact pairs: residual {residual:.3g} N "
+                           f"(load scale {scale:.3g} N)")
     for name, c in result.compartments.items():
         f = contact.compartment_wrench(name)[:3]
         if f[2] > PRESSURE_TOL * max(1.0, abs(f).max()):
