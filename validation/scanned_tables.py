@@ -14,7 +14,10 @@ load on its mechanical axis at x = -1.8 mm, medial of the plateau centre, where 
 thesis put it 7.9 mm lateral: the medial compartment carries more here), exact clipped
 contact areas (the thesis counted whole faces: area up, depth down), and for the scanned
 models the cartilage thickness from the meshes (tibial + femoral ≈ 3.5 mm in series)
-instead of the thesis's uniform 6 mm (the ``uniform h = 6`` row isolates that effect).
+instead of the thesis's uniform 6 mm. Extra femur_tibia rows switch to the thesis's
+choices one at a time: ``uniform h = 6``; ``thesis lever`` (the load point that splits
+the load between the scanned contact points in the thesis's rigid-lever ratio, 58 %
+lateral); and all of them with whole-face area counting.
 
     python validation/scanned_tables.py [--quick] [--out DIR]
 
@@ -94,16 +97,31 @@ def pressure_png(result, scene, path: Path) -> Path:
     return path
 
 
+def thesis_lever_load_point(directory=None) -> list[float]:
+    """Load point (mm) splitting the load between the scanned contact points as the
+    thesis's x = +7.9 mm splits it between its own (-20.4 and 28.3 mm): 58.1 % lateral
+    for a rigid lever."""
+    lm = scanned.landmarks(directory)
+    share = (7.9 - (-20.4)) / (28.3 - (-20.4))
+    x_m, x_l = lm.contact_point["medial"][0], lm.contact_point["lateral"][0]
+    return [round(float(x_m + share * (x_l - x_m)), 3), *map(float, lm.load_point[1:])]
+
+
 def run_all(quick: bool, out: Path) -> list[dict]:
-    """Every scene (and femur_tibia with h = 6 mm), with its balance and PNGs."""
+    """Every scene, then femur_tibia with the thesis's choices one by one, with the
+    balance of each and the PNGs."""
     extra = ["scanned.decimate_faces=2000"] if quick else []
-    cases = [(n + s, []) for n in NAMES for s in ("", "_ligaments")]
-    cases.append(("femur_tibia", ["scanned.thickness='uniform'"]))
+    cases = [(n + s, "", []) for n in NAMES for s in ("", "_ligaments")]
+    uniform, lever = "scanned.thickness='uniform'", f"load.point_mm={thesis_lever_load_point()}"
+    cases += [("femur_tibia", " uniform h = 6", [uniform]),
+              ("femur_tibia", " thesis lever", [lever]),
+              ("femur_tibia", " as the thesis (h = 6, lever, whole faces)",
+               [uniform, lever, "contact.area='whole-face'"])]
     rows = []
-    for name, over in cases:
+    for name, suffix, over in cases:
         scene = load_scene(SCENES / f"{name}.toml", extra + over)
         result = run_scene(scene)
-        label = name + (" uniform h = 6" if over else "")
+        label = name + suffix
         row = {"scene": label, "converged": result.converged,
                "iterations": result.iterations, "solve_s": result.timing_s["solve"],
                "balance_rel": balance(scene, result)}
