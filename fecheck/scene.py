@@ -158,6 +158,20 @@ SCHEMA: dict[str, Key] = {
                                      low=0.0),
     "scanned.ligaments": Key("str", "none", "the scanned knee's 55 Blankevoort bundles as "
                              "springs", choices=("none", "bundles")),
+    # FE cross-check (fecheck.fe, `fecheck fe`).
+    "fe.size_mm": Key("float", 1.5, "3D FE element size under the contact, mm", low=0.05,
+                      high=10.0),
+    "fe.far_size_mm": Key("float", 5.0, "3D FE element size away from the contact, mm",
+                          low=0.1, high=20.0),
+    "fe.half_extent_mm": Key("float", 30.0, "FE layer half-extent (disc radius), mm",
+                             low=1.0, high=200.0),
+    "fe.footprint": Key("str", "ellipse", "FE layer outline", choices=("ellipse", "rectangle")),
+    "fe.gap": Key("str", "reference", "FE contact gap: vertical in the reference or the "
+                  "deformed configuration", choices=("reference", "deformed")),
+    "fe.solver": Key("str", "cholmod", "FE sparse factorization",
+                     choices=("cholmod", "superlu")),
+    "fe.axisym_size_mm": Key("float", 0.1, "axisymmetric FE element size under the contact, mm",
+                             low=0.005, high=2.0),
 }
 
 

@@ -6,15 +6,18 @@ from `geometry.layer.cartilage_layer`, refined to ``size_mm`` under the contact.
 bottom is fixed (bonded to rigid bone), the sides free. The sphere's centre lies above
 the origin; the layer is centred under the point where the sphere first touches its top.
 
-Contact is mortar-weighted (P2 displacement, P1 pressure) on the quadratic top facets
-near the contact (within 1.3 × the Hertz contact radius, an upper bound for a bonded
-layer): multipliers μ_k ≥ 0 at the facet vertices form a continuous piecewise-linear
-pressure, the constraints are the weighted gaps ∫ ψ_k g dA ≥ 0 (ψ_k the linear hat
-functions), and the nodal forces are ∫ φ_j p dA. Node-wise constraints fail for
-quadratic facets: their corner loads vanish under a uniform pressure, so corner nodes
-lift off inside the contact (measured: 2 µm gaps at the centre, p_max 1-5% high); a
-P1 pressure on the four sub-triangles of each facet was measured unstable (p_max +2%,
-area -5% at 1 mm). The solve itself is exact and load controlled (`fecheck.fe.contact`).
+Contact acts on the top vertices near the contact (within 1.3 × the Hertz contact
+radius, an upper bound for a bonded layer). There the vertical displacement of each top
+edge's midside node is tied to the mean of its end vertices (u = T ũ, K̃ = Tᵀ K T), so the
+top is piecewise linear in w and each vertex force is the positive lumped load of the
+pressure: p_i = λ_i / (tributary area). The solve is exact and load controlled
+(`fecheck.fe.contact`); the area is the zero contour of the extrapolated p²
+(`fecheck.fe.recovery.zero_contour_area`). Measured against the axisymmetric reference
+(baseline medial, 323.7 N), the alternatives were worse: node-wise constraints on all
+quadratic top nodes let corner nodes lift off inside the contact (their consistent loads
+vanish under a uniform pressure; 2 µm gaps at the centre, p_max +1%, area -12% at 1 mm);
+P2-P1 mortar constraints gave p_max +1.5%, area -4.6%; P1 multipliers on the four
+sub-triangles of each facet, p_max +2%, area -5%. Tied vertices: p_max -0.1%.
 """
 
 from __future__ import annotations
@@ -25,7 +28,7 @@ import numpy as np
 
 from fecheck.errors import FecheckError
 from fecheck.fe.contact import solve_contact
-from fecheck.fe.recovery import contact_metrics
+from fecheck.fe.recovery import contact_metrics, tributary_areas, zero_contour_area
 from fecheck.fe.references import hertz_sphere_on_plane
 from fecheck.fe.results import FEContactResult
 
@@ -149,12 +152,12 @@ def sphere_on_layer_3d(load_N: float, radius_mm: float, E_MPa: float, nu: float,
     faces = pos[tri]
     faces = faces[np.all(faces >= 0, axis=1)]
     pts = np.column_stack([xy, z0])
-    tributary = _tributary(pts, faces)
+    tributary = tributary_areas(pts, faces)
     pressure = np.divide(sol.force_N, tributary, out=np.zeros_like(sol.force_N),
                          where=tributary > 0)
-    area = float(tributary[sol.active].sum())
+    area = zero_contour_area(pts, faces, pressure, sol.active)
     metrics = contact_metrics(pressure, sol.force_N, area, sol.delta_mm)
-    return FEContactResult(metrics=metrics, points=pts, pressure_MPa=pressure,
+    return FEContactResult(metrics=metrics, points=pts, node_area_mm2=float(tributary[sol.active].sum()), pressure_MPa=pressure,
                            nodal_force_N=sol.force_N, gap_mm=sol.gap_mm, active=sol.active,
                            faces=faces, n_dofs=len(kept), n_elements=mesh.t.shape[1],
                            element="tet P2", size_under_contact_mm=_size_under(
@@ -176,15 +179,6 @@ def _tie_matrix(n: int, tied: np.ndarray, masters: np.ndarray):
     cols = np.concatenate([col[kept], col[masters[:, 0]], col[masters[:, 1]]])
     vals = np.concatenate([np.ones(len(kept)), np.full(2 * len(tied), 0.5)])
     return sp.csr_matrix((vals, (rows, cols)), shape=(n, len(kept))), kept
-
-
-def _tributary(points: np.ndarray, faces: np.ndarray) -> np.ndarray:
-    """Lumped area of each point: a third of the adjacent triangle areas, mm²."""
-    p = points[faces]
-    areas = 0.5 * np.linalg.norm(np.cross(p[:, 1] - p[:, 0], p[:, 2] - p[:, 0]), axis=1)
-    out = np.zeros(len(points))
-    np.add.at(out, faces.ravel(), np.repeat(areas / 3.0, 3))
-    return out
 
 
 def _edge_lookup(edges: np.ndarray, n: int):

@@ -45,6 +45,8 @@ class FEContactResult:
     size_under_contact_mm : median element edge on the top inside the contact
     iterations : active-set iterations; timing_s : wall times of the steps
     max_penetration_mm : worst overlap at the candidate contact nodes (≥ 0)
+    node_area_mm2 : area counted as the tributary areas of the nodes in contact
+        (``metrics.area_mm2`` is the better estimate; see each model)
     """
 
     metrics: ContactMetrics
@@ -61,10 +63,13 @@ class FEContactResult:
     iterations: int
     timing_s: dict
     max_penetration_mm: float
+    node_area_mm2: float
 
     def as_dict(self) -> dict:
         return {**self.metrics.as_dict(), "n_dofs": self.n_dofs, "n_elements": self.n_elements,
                 "element": self.element, "size_under_contact_mm": self.size_under_contact_mm,
                 "iterations": self.iterations, "max_penetration_mm": self.max_penetration_mm,
                 "min_nodal_force_N": float(self.nodal_force_N.min()),
+                "min_pressure_MPa": float(self.pressure_MPa.min()),
+                "node_area_mm2": self.node_area_mm2,
                 "timing_s": dict(self.timing_s)}
