@@ -98,9 +98,6 @@ def run_rigid(scene: Scene, warm_start: np.ndarray | None = None) -> RunResult:
     from fecheck.rigid import solve_rigid
 
     t0 = time.perf_counter()
-    if scene["constraints.equal_forces"]:
-        raise FecheckError("constraints.equal_forces is not available for the rigid model "
-                           "(its reactions are statically determined); use a contact model")
     if scene["ligaments.model"] == "spring":
         raise FecheckError("the rigid model takes ligaments as rods (ligaments.model = 'rod') "
                            "or none")
@@ -110,7 +107,7 @@ def run_rigid(scene: Scene, warm_start: np.ndarray | None = None) -> RunResult:
     rot, t = pose(q, theta_x)
     applied, _ = applied_load(scene)(rot, t)
     sol = solve_rigid(knee, plateau_normals(scene), applied, q, free_indices(scene),
-                      _ligament_names(scene), theta_x)
+                      _ligament_names(scene), theta_x, scene["constraints.equal_forces"])
     nan = math.nan
     comps = {}
     for c in COMPARTMENTS:

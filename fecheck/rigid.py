@@ -50,7 +50,7 @@ def unit_wrench(point: np.ndarray, direction: np.ndarray) -> np.ndarray:
 
 def solve_rigid(knee: Knee, normals: dict[str, np.ndarray], applied: np.ndarray,
                 q: np.ndarray, free: tuple[int, ...], ligaments: tuple[str, ...] = (),
-                theta_x: float = 0.0) -> RigidSolution:
+                theta_x: float = 0.0, equal_forces: bool = False) -> RigidSolution:
     """Reactions of the rigid model at pose `q` (x, y, z mm, θy, θz rad).
 
     Parameters
@@ -60,6 +60,8 @@ def solve_rigid(knee: Knee, normals: dict[str, np.ndarray], applied: np.ndarray,
     applied : (6,) applied wrench on the tibia (N, N·mm about the world origin)
     free : indices of the free DOFs in (x, y, z, θy, θz)
     ligaments : names of the ligaments modelled as rods
+    equal_forces : impose equal compartment forces (thesis Fig. 5.12): one unknown for
+        both condyles, so the ligaments must carry the rest
     """
     rot, t = pose(q, theta_x)
     b = twist_basis(q, theta_x)[:, list(free)]
@@ -75,6 +77,8 @@ def solve_rigid(knee: Knee, normals: dict[str, np.ndarray], applied: np.ndarray,
         d = knee.femur_attachment[name] - x
         lengths[name] = float(np.linalg.norm(d))
         columns.append(unit_wrench(x, d / lengths[name]))   # tension pulls toward the femur
+    if equal_forces:
+        columns = [columns[0] + columns[1]] + columns[2:]
     scale = np.ones(len(free))
     scale[np.asarray(free) >= 3] = 1.0 / 50.0                # moments N·mm → N
     a = (b.T @ np.column_stack(columns)) * scale[:, None]
@@ -92,6 +96,8 @@ def solve_rigid(knee: Knee, normals: dict[str, np.ndarray], applied: np.ndarray,
         raise FecheckError(f"the rigid model cannot carry the load in DOFs {unbalanced}: "
                            f"nothing resists them; drive them (remove from dofs.free) or add "
                            f"ligament rods")
+    if equal_forces:
+        lam = np.concatenate([[lam[0]], lam])
     forces = {c: float(lam[i]) for i, c in enumerate(COMPARTMENTS)}
     ligs = {name: float(lam[2 + i]) for i, name in enumerate(ligaments)}
     return RigidSolution(forces, points, world_normals, ligs, lengths, residual)

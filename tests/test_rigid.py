@@ -73,3 +73,22 @@ def test_a_load_nothing_resists_is_an_error():
 def test_rods_on_too_few_dofs_are_statically_indeterminate():
     with pytest.raises(FecheckError, match="statically indeterminate"):
         run_scene(load_scene(SCENES / "rigid_ligaments.toml", ["dofs.free=['z', 'abduction']"]))
+
+
+def test_equal_force_rods_follow_fig_5_12():
+    # Fig. 5.12 / thesis §5.2: with equal condyle forces the rods carry the imbalance:
+    # small near the contact points' midpoint x = 3.95 mm (not zero: the weight acts at
+    # x = 0), MCL in compression and ACL, PCL in tension when the load moves medially,
+    # the reverse laterally; linear in the load point (linear statics).
+    forces = {}
+    for x in (-0.1, 3.9, 7.9):
+        r = run_scene(load_scene(SCENES / "equal_force.toml",
+                                 [f"load.point_mm=[{x}, 12.8, -380.0]"]))
+        assert r.compartments["medial"].force_N == r.compartments["lateral"].force_N
+        forces[x] = {k: v.force_N for k, v in r.ligaments.items()}
+    assert forces[-0.1]["MCL"] < 0 < forces[7.9]["MCL"]
+    for lig in ("ACL", "PCL"):
+        assert forces[-0.1][lig] > 0 > forces[7.9][lig]
+        assert abs(forces[3.9][lig]) < 0.05 * abs(forces[7.9][lig])
+        mid = 0.5 * (forces[-0.1][lig] + forces[7.9][lig])
+        assert forces[3.9][lig] == pytest.approx(mid, abs=1e-9 * abs(forces[7.9][lig]))

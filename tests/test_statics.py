@@ -199,8 +199,10 @@ def test_rods_on_too_few_dofs_are_reported():
         run_scene(load_scene(SCENES / "ligaments.toml", ["dofs.free=['z', 'abduction']"]))
 
 
-def test_equal_force_constraint_holds(baseline):
-    r = run_scene(load_scene(SCENES / "equal_force.toml"))
+def test_equal_force_constraint_holds_in_the_contact_model():
+    # EF model with springs: the constraint |F_m| = |F_l| with a Lagrange multiplier
+    r = run_scene(load_scene(SCENES / "springs.toml", ["constraints.equal_forces=true"]))
+    assert r.converged
     assert r.compartments["medial"].force_N == pytest.approx(
         r.compartments["lateral"].force_N, abs=1e-6)
     assert "equal_forces_multiplier" in r.extra
