@@ -82,8 +82,11 @@ class ContactPair:
     method : "auto" (closed form for analytic masters, BVH for meshes), "closed-form",
         "bvh", or the thesis's algorithms "ray-parity" (Algorithm 3) and "fcl"
     area : "clipped" (exact in-contact part of each face) or "whole-face" (the thesis's
-        counting: every face with a vertex in contact counts whole, at the face's
-        largest vertex depth)
+        counting, its Fig. 3.20: every face with a vertex in contact counts whole, at
+        the face's largest vertex depth — what fcl reports per face. At the thesis's
+        loads and 5,120 faces this gives d 0.81/0.84 mm and p_max 3.62/3.77 MPa against
+        its Table 5.3 d 0.80/0.85 mm, p_max 3.59/3.81 MPa; exact: 0.955/1.015 mm)
+        The "fcl" method always counts whole faces.
     margin_mm : broad-phase reach; candidate faces are reused while no slave vertex can
         have moved more than half of it relative to the master
     mesh_sign : inside/outside test of a mesh master, "normal" (side of the closest

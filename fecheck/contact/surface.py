@@ -3,26 +3,36 @@
 Conventions (mm, world frame = the thesis frame, see `fecheck.frames`):
 
 * The **slave** is a triangle mesh; the **master** is an analytic surface or a mesh.
-* Depth is positive where the slave is inside the master. It is measured along the
-  **foundation normal** `normal` of each face: the direction in which the elastic
-  foundation's springs act and in which the pressure pushes the slave out of the
-  master. For a plane master it is the plane's normal; for an analytic sphere master
-  over a meshed plateau it is the slave face's own normal (depth along that normal
-  to the sphere, so that a flat plateau gets the exact cap volume); for a mesh master
-  it is the slave face normal and the depth is the signed closest-point distance.
+* Depth is positive where the slave is inside the master. `normal` is the unit
+  **foundation normal** of each face: the direction in which the elastic foundation's
+  springs act, i.e. the direction of the pressure ON THE SLAVE (out of the master).
+  - Plane master: the plane's outward normal; depth along it.
+  - Polynomial master z = f(x, y) (inside below): the upward surface normal at the
+    vertical foot of the face centroid; depth (f - z)/√(1 + |∇f|²), the first-order
+    normal distance (exact for a plane; see `fecheck.contact.analytic`).
+  - Analytic sphere master over a meshed plateau: MINUS the slave face's outward
+    normal (the plateau is pushed down into itself); depth along that line from the
+    slave point to the sphere, so that a flat plateau gets the exact cap volume.
+  - Mesh master: minus the slave face's outward normal; depth = signed closest-point
+    distance to the master (see `fecheck.contact.mesh_master`).
 * Depth is linear over each face (interpolated from its vertices). The in-contact
-  part of a face is the face clipped at zero depth (or the whole face, in the thesis's
-  ``whole-face`` mode). Integrals over it are given as a quadrature: points with
-  barycentric coordinates on their face and area weights. Weights are areas projected
-  onto the plane normal to `normal` (for a flat slave under its own normal, the
-  plain area), so that for a sphere against a plane Σ w·d is the cap volume.
+  part of a face is the face clipped at zero depth. In the thesis's ``whole-face``
+  mode every face with a vertex in contact counts whole and all its points carry its
+  largest vertex depth (this reproduces the thesis's Table 5.3 depths, see
+  `fecheck.contact.pair`). Integrals are given as a quadrature: points with
+  barycentric coordinates on their face and area weights. For master normals
+  (plane, polynomial) weights are areas projected onto the plane normal to `normal`,
+  so that for a sphere against a plane Σ w·d is the cap volume; for slave normals
+  (sphere and mesh masters) they are the plain slave areas.
 * A rule of degree 2 is exact for the linear EF law; nonlinear laws use the same points.
 
 Derivatives (for the analytic tangent) are with respect to a small rigid motion of the
 slave relative to the master, the twist ``ξ = (v, ω)``: a slave point moves by
 ``δx = v + ω × x`` (x in world coordinates, about the world origin), its normal by
 ``ω × n`` if the normal is fixed in the slave (``normal_body == "slave"``) and not at
-all if it is fixed in the master (``normal_body == "master"``). Quadrature points keep
+all if it is fixed in the master (``normal_body == "master"``), except for the
+polynomial master's normals, which slide with the contact (`normal_slide`;
+`normal_twist` gives the total ∂normal/∂ξ in every case). Quadrature points keep
 their barycentric coordinates under the motion: laws whose pressure vanishes at zero
 depth then get exact derivatives (Leibniz's boundary term is zero).
 """
