@@ -4,15 +4,17 @@ Vertices are binned in a uniform grid of cell size s; each occupied cell becomes
 vertex at the mean of its members; faces are re-indexed and those collapsed to a line or
 a point, duplicated, or flipped against their original normal are dropped. The winding
 (and so the outward side of an open sheet) is kept. The cell size is found by bisection
-to approach a target face count. The error is bounded by the cell diagonal √3·s (for
-the scanned cartilage at 5,000 faces s ≈ 1 mm), far coarser than quadric decimation's
-for the same count but adequate for contact at the patch scale (see the tests and
+to approach a target face count. On the scanned cartilage at half its faces (edges
+about 1 mm) the new vertices lie within 0.04 mm of the old surface and the old vertices
+within 0.5 mm (mean 0.015 mm) of the new one; the sheet's border moves inwards by up to a
+cell. That is coarser than quadric decimation for the same count but adequate at the
+patch scale (the solved forces change by < 0.1 N between 8,602 and 1,925 tibial faces,
 ``validation/scanned_speed.py``). Quadric decimation would need a new dependency
 (``fast-simplification``); this keeps the stack as it is.
 
 >>> from geometry.icosphere import icosphere
 >>> m = decimate(icosphere(10.0, 4, method="trimesh", cache=False), 1000)
->>> 800 < m.n_faces <= 1100
+>>> 800 < m.n_faces <= 1000
 True
 """
 
@@ -50,7 +52,8 @@ def cluster(mesh: TriMesh, cell_mm: float) -> TriMesh:
 
 
 def decimate(mesh: TriMesh, target_faces: int, *, iterations: int = 30) -> TriMesh:
-    """`mesh` reduced to about `target_faces` faces (at most 10% more) by clustering.
+    """`mesh` reduced to at most `target_faces` faces (usually over 90 % of it) by
+    clustering with a bisected cell size.
 
     Returns `mesh` itself when it already has no more than `target_faces` faces.
     """

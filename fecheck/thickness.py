@@ -124,6 +124,8 @@ def face_elastic_foundation(k_face_N_per_mm3: np.ndarray):
         kq = k_contact[surface.qp_face]
 
         def pressure(d: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+            # `laws.foundation` calls this with the quadrature depths, then once with the
+            # maximum depth alone for its p_max, which is replaced below
             k = kq if d.shape == kq.shape else k_contact.max()
             return k * d, np.broadcast_to(k, d.shape)
 
