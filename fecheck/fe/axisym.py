@@ -134,9 +134,11 @@ def axisym_sphere_on_layer(load_N: float, radius_mm: float, E_MPa: float, nu: fl
     metrics = contact_metrics(pressure, sol.force_N, area, sol.delta_mm)
     points = np.column_stack([rc, np.zeros_like(rc), np.zeros_like(rc)])
     return FEContactResult(metrics=metrics, points=points, pressure_MPa=pressure,
-                           nodal_force_N=sol.force_N, gap_mm=sol.gap_mm, active=sol.active,
-                           faces=np.zeros((0, 3), dtype=np.int64), n_dofs=len(free), n_elements=mesh.t.shape[1], element="tri P2 (r, z)",
-                           size_under_contact_mm=float(size_mm), iterations=sol.iterations, timing_s=timing,
+                           gap0_mm=gap0(None), nodal_force_N=sol.force_N, gap_mm=sol.gap_mm,
+                           active=sol.active, faces=np.zeros((0, 3), dtype=np.int64),
+                           n_dofs=len(free), n_elements=mesh.t.shape[1],
+                           element="tri P2 (r, z)", size_under_contact_mm=float(size_mm),
+                           iterations=sol.iterations, timing_s=timing,
                            max_penetration_mm=float(max(0.0, -sol.gap_mm.min())),
                            node_area_mm2=_node_area(rc, sol.active))
 

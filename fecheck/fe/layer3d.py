@@ -157,13 +157,15 @@ def sphere_on_layer_3d(load_N: float, radius_mm: float, E_MPa: float, nu: float,
                          where=tributary > 0)
     area = zero_contour_area(pts, faces, pressure, sol.active)
     metrics = contact_metrics(pressure, sol.force_N, area, sol.delta_mm)
-    return FEContactResult(metrics=metrics, points=pts, node_area_mm2=float(tributary[sol.active].sum()), pressure_MPa=pressure,
-                           nodal_force_N=sol.force_N, gap_mm=sol.gap_mm, active=sol.active,
-                           faces=faces, n_dofs=len(kept), n_elements=mesh.t.shape[1],
-                           element="tet P2", size_under_contact_mm=_size_under(
-                               layer.points, tri, touch, np.sqrt(area / np.pi)),
+    return FEContactResult(metrics=metrics, points=pts, pressure_MPa=pressure,
+                           gap0_mm=gap0(None), nodal_force_N=sol.force_N, gap_mm=sol.gap_mm,
+                           active=sol.active, faces=faces, n_dofs=len(kept),
+                           n_elements=mesh.t.shape[1], element="tet P2",
+                           size_under_contact_mm=_size_under(layer.points, tri, touch,
+                                                             np.sqrt(area / np.pi)),
                            iterations=sol.iterations, timing_s=timing,
-                           max_penetration_mm=float(max(0.0, -sol.gap_mm.min())))
+                           max_penetration_mm=float(max(0.0, -sol.gap_mm.min())),
+                           node_area_mm2=float(tributary[sol.active].sum()))
 
 
 def _tie_matrix(n: int, tied: np.ndarray, masters: np.ndarray):

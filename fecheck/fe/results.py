@@ -37,6 +37,7 @@ class FEContactResult:
     points : (n, 3) top-surface node positions (reference configuration), mm; for the
         axisymmetric model (r, 0, z)
     pressure_MPa : (n,) recovered contact pressure at those nodes
+    gap0_mm : (n,) vertical gap to the indenter before loading (0 where it first touches)
     nodal_force_N : (n,) contact force at each node (≥ 0, pressing down)
     gap_mm : (n,) vertical gap to the indenter after loading (≥ 0; 0 where in contact)
     active : (n,) nodes in contact
@@ -52,6 +53,7 @@ class FEContactResult:
     metrics: ContactMetrics
     points: np.ndarray
     pressure_MPa: np.ndarray
+    gap0_mm: np.ndarray
     nodal_force_N: np.ndarray
     gap_mm: np.ndarray
     active: np.ndarray
