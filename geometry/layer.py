@@ -23,6 +23,8 @@ from geometry.mesh import TetMesh
 from geometry.polynomial import Polynomial2D
 
 _FOOTPRINTS = ("rectangle", "ellipse")
+#: Bump when the meshes this module builds change (part of the cache key).
+_BUILDER_VERSION = 2
 
 
 def cartilage_layer(footprint: str = "rectangle", center_xy: Sequence[float] = (0.0, 0.0),
@@ -70,14 +72,14 @@ def cartilage_layer(footprint: str = "rectangle", center_xy: Sequence[float] = (
     rradius = 0.0 if refine_radius is None else float(refine_radius)
     if not np.isfinite(rradius) or rradius < 0:
         raise FecheckError(f"refine_radius must be a non-negative length, got {refine_radius}")
-    params = {"footprint": footprint, "center_xy": [float(c) for c in center_xy],
+    params = {"builder_version": _BUILDER_VERSION, "footprint": footprint, "center_xy": [float(c) for c in center_xy],
               "half_x": half_x, "half_y": half_y, "thickness": thickness, "top": top,
               "sagittal_deg": sagittal_deg, "frontal_deg": frontal_deg, "size": size,
               "refine_point": None if refine_point is None else [float(c) for c in refine_point],
               "refine_size": rsize, "refine_radius": rradius, "order": order}
 
     def build() -> TetMesh:
-        return _build_layer(**params)
+        return _build_layer(**{k: v for k, v in params.items() if k != "builder_version"})
 
     return cached_build("cartilage_layer", params, build, use_cache=cache)
 
@@ -111,7 +113,7 @@ def _build_layer(footprint: str, center_xy: list[float], half_x: float, half_y: 
                 occ.rotate([(2, disk)], cx, cy, 0.0, 0, 0, 1, np.pi / 2)
             base = disk
         volume = occ.extrude([(2, base)], 0, 0, thickness)
-        vol_tag = [tag for dim, tag in volume if dim == 3][0]
+        vol_tag = next(tag for dim, tag in volume if dim == 3)
         pt = None if refine_point is None else occ.addPoint(refine_point[0], refine_point[1],
                                                             thickness)
         occ.synchronize()

@@ -18,8 +18,12 @@ import numpy as np
 from fecheck.errors import FecheckError
 from fecheck.fe.axisym import axisym_sphere_on_layer
 from fecheck.fe.layer3d import sphere_on_layer_3d
-from fecheck.fe.references import (DONAHUE_2002, ef_sphere_on_plane, ef_stiffness,
-                                   hertz_sphere_on_plane)
+from fecheck.fe.references import (
+    DONAHUE_2002,
+    ef_sphere_on_plane,
+    ef_stiffness,
+    hertz_sphere_on_plane,
+)
 from fecheck.fe.results import ContactMetrics, FEContactResult
 
 COMPARTMENTS = ("medial", "lateral")
