@@ -146,10 +146,12 @@ SCHEMA: dict[str, Key] = {
     # Scanned knee (fecheck.scanned, fecheck.scanned_models): sphere-tibia, femur-tibia.
     "scanned.data_dir": Key("str", "", "scanned knee folder; '' = $FECHECK_KNEE_DIR or "
                             "<repo>/../shared/data/knee/lenhart2015"),
-    "scanned.thickness": Key("str", "uniform", "foundation thickness: contact.thickness_mm "
-                             "or per face, tibial + femoral cartilage to bone",
+    "scanned.thickness": Key("str", "uniform", "sphere-tibia/femur-tibia foundation "
+                             "thickness: contact.thickness_mm, or per face the tibial + "
+                             "femoral cartilage to bone",
                              choices=("uniform", "bone-distance")),
-    "scanned.decimate_faces": Key("int", 0, "0 = full meshes; N = about N tibial faces",
+    "scanned.decimate_faces": Key("int", 0, "sphere-tibia/femur-tibia: 0 = full meshes, "
+                                  "N = about N tibial faces",
                                   low=0),
     "scanned.condyle": Key("str", "sphere", "sphere-tibia condyles: spheres or hemispheres "
                            "cut towards the notch", choices=("sphere", "hemisphere")),
@@ -157,7 +159,7 @@ SCHEMA: dict[str, Key] = {
                                      "sagittal cut plane from the centre towards the notch, mm",
                                      low=0.0),
     "scanned.ligaments": Key("str", "none", "the scanned knee's 55 Blankevoort bundles as "
-                             "springs", choices=("none", "bundles")),
+                             "springs (any contact model)", choices=("none", "bundles")),
     # FE cross-check (fecheck.fe, `fecheck fe`).
     "fe.size_mm": Key("float", 1.5, "3D FE element size under the contact, mm", low=0.05,
                       high=10.0),

@@ -83,10 +83,10 @@ def pressure_png(result, scene, path: Path) -> Path:
         sheet.cell_data["pressure (MPa)"] = comp.face_pressure_MPa
         plotter.add_mesh(sheet, scalars="pressure (MPa)", cmap="viridis", clim=(0.0, top),
                          scalar_bar_args={"title": "pressure (MPa)", "vertical": True,
-                                          "position_x": 0.86, "position_y": 0.25},
+                                          "position_x": 0.9, "position_y": 0.25},
                          show_scalar_bar=name == "medial")
     plotter.view_xy()
-    plotter.camera.zoom(1.6)
+    plotter.camera.zoom(1.35)
     c = result.compartments
     plotter.add_text(f"{result.scene}: medial {c['medial'].force_N:.0f} N, p_max "
                      f"{c['medial'].max_pressure_MPa:.2f} MPa | lateral "
@@ -113,7 +113,8 @@ def run_all(quick: bool, out: Path) -> list[dict]:
     extra = ["scanned.decimate_faces=2000"] if quick else []
     cases = [(n + s, "", []) for n in NAMES for s in ("", "_ligaments")]
     uniform, lever = "scanned.thickness='uniform'", f"load.point_mm={thesis_lever_load_point()}"
-    cases += [("femur_tibia", " uniform h = 6", [uniform]),
+    cases += [("sphere_tibia", " full spheres (Fig. 5.13)", ["scanned.condyle='sphere'"]),
+              ("femur_tibia", " uniform h = 6", [uniform]),
               ("femur_tibia", " thesis lever", [lever]),
               ("femur_tibia", " as the thesis (h = 6, lever, whole faces)",
                [uniform, lever, "contact.area='whole-face'"])]
@@ -122,6 +123,7 @@ def run_all(quick: bool, out: Path) -> list[dict]:
         scene = load_scene(SCENES / f"{name}.toml", extra + over)
         result = run_scene(scene)
         label = name + suffix
+        deepest = max(result.compartments.values(), key=lambda c: c.max_depth_mm)
         row = {"scene": label, "converged": result.converged,
                "iterations": result.iterations, "solve_s": result.timing_s["solve"],
                "balance_rel": balance(scene, result)}
@@ -129,6 +131,8 @@ def run_all(quick: bool, out: Path) -> list[dict]:
             for key in tv.METRICS:
                 row[f"{side}_{key}"] = getattr(comp, key)
         row["ligament_tension_N"] = sum(max(v.force_N, 0.0) for v in result.ligaments.values())
+        hot = np.argmax(deepest.face_pressure_MPa)
+        row["peak_x_mm"] = float(deepest.slave_points[deepest.slave_faces[hot]].mean(axis=0)[0])
         rows.append(row)
         if name in PLOTTED and not over:
             pressure_png(result, scene, out / f"{name}_pressure.png")
@@ -141,7 +145,8 @@ def print_beside_thesis(rows: list[dict]) -> None:
         title, ref = THESIS[base]
         print(f"\n{row['scene']}: converged {row['converged']} in {row['iterations']} "
               f"iterations, solve {row['solve_s']:.2f} s, |ΣF|/load {row['balance_rel']:.1e}, "
-              f"ligament tension {row['ligament_tension_N']:.0f} N — beside {title}")
+              f"ligament tension {row['ligament_tension_N']:.0f} N, deepest patch's peak at "
+              f"x = {row['peak_x_mm']:.1f} mm — beside {title}")
         for key in tv.METRICS:
             cells = []
             for side in ("medial", "lateral"):
