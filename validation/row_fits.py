@@ -9,6 +9,7 @@ scanned data are absent.
 
 from __future__ import annotations
 
+from itertools import pairwise
 from pathlib import Path
 
 import numpy as np
@@ -87,7 +88,7 @@ def _degree_table(name: str, ref: str, title: str, rows: list[dict], out: Path,
     ax.grid(alpha=0.3)
     ax.legend(fontsize=8)
     png = save_figure(fig, out / f"{name}.png")
-    decreasing = all(all(b[1] <= a[1] + 1e-9 for a, b in zip(c, c[1:]))
+    decreasing = all(all(b[1] <= a[1] + 1e-9 for a, b in pairwise(c))
                      for c in curves.values())
     note = (f"{SUBJECT_NOTE} The thesis's trend, the mean error falling with the degree, is "
             f"{'reproduced' if decreasing else 'not reproduced'}. RD = rank deficient "

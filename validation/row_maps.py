@@ -37,7 +37,7 @@ def pressure_png(results: list, shifts: tuple[float, ...], title: str, path: Pat
     for k, (res, shift) in enumerate(zip(results, shifts)):
         plotter.subplot(0, k)
         hot_normals, hot_points = [], []
-        for name, comp in res.compartments.items():
+        for comp in res.compartments.values():
             faces = np.asarray(comp.slave_faces)
             cells = np.hstack([np.full((len(faces), 1), 3), faces]).ravel()
             mesh = pv.PolyData(np.asarray(comp.slave_points, dtype=float), cells)
