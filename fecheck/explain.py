@@ -46,8 +46,11 @@ class Plan:
     def text(self) -> str:
         """The plan as printed lines."""
         lines = [f"plan for scene {self.scene!r} (model {self.model}):"]
-        if self.meshes_built + self.meshes_cached == 0:
+        if not self.pairs:
             lines.append("  meshes: none (no mesh is built or read; Gmsh is not imported)")
+        elif self.meshes_built + self.meshes_cached == 0:
+            lines.append(f"  meshes: read from files in {self.mesh_time_s:.3f} s (no cache "
+                         "entry, nothing built)")
         else:
             lines.append(f"  meshes: {self.meshes_cached} from the cache, {self.meshes_built} "
                          f"built, in {self.mesh_time_s:.3f} s"
@@ -104,6 +107,9 @@ def plan_scene(scene, plot: bool = False) -> Plan:
     lig = scene["ligaments.model"]
     plan.parts["ligaments"] = ("skipped (ligaments.model = none)" if lig == "none"
                                else f"{lig}s (ACL, PCL, MCL)")
+    bundles = scene.values.get("scanned.ligaments", "none")
+    if bundles != "none":
+        plan.parts["ligaments"] = f"scanned ligament bundles ({bundles})"
     plan.parts["FE cross-check"] = "skipped (not a step of fecheck run)"
     plan.parts["plots"] = "pyvista, off-screen PNGs" if plot else "skipped (no --plot)"
     if plot:
