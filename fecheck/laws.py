@@ -129,15 +129,6 @@ def _skew(v: np.ndarray) -> np.ndarray:
     return np.array([[0.0, -v[2], v[1]], [v[2], 0.0, -v[0]], [-v[1], v[0], 0.0]])
 
 
-def _cross(a: np.ndarray, b: np.ndarray) -> np.ndarray:
-    """Row-wise a × b for (Q, 3) arrays of one shape (cheaper than np.cross)."""
-    out = np.empty(a.shape)
-    out[:, 0] = a[:, 1] * b[:, 2] - a[:, 2] * b[:, 1]
-    out[:, 1] = a[:, 2] * b[:, 0] - a[:, 0] * b[:, 2]
-    out[:, 2] = a[:, 0] * b[:, 1] - a[:, 1] * b[:, 0]
-    return out
-
-
 def _axial(c: np.ndarray) -> np.ndarray:
     """(3, …) axial part of c[j, k, …]: out[i] = ε_ijk c[j, k]."""
     return np.array([c[1, 2] - c[2, 1], c[2, 0] - c[0, 2], c[0, 1] - c[1, 0]])
@@ -160,10 +151,12 @@ def _resultant(normal_twist: np.ndarray | None, x: np.ndarray, n: np.ndarray, s:
     """
     arm = np.empty((len(s), 6))                     # unit wrenches [n, x × n]
     arm[:, :3] = n
-    arm[:, 3:] = _cross(x, n)
+    arm[:, 3] = x[:, 1] * n[:, 2] - x[:, 2] * n[:, 1]
+    arm[:, 4] = x[:, 2] * n[:, 0] - x[:, 0] * n[:, 2]
+    arm[:, 5] = x[:, 0] * n[:, 1] - x[:, 1] * n[:, 0]
     wrench = arm.T @ s
     tangent = arm.T @ gq
-    force = wrench[:3]
+    f0, f1, f2 = wrench[:3].tolist()
     xf = x.T @ (n * s[:, None])                     # Σ x_q F_qᵀ
     if normal_twist is not None:
         m = len(normal_twist)
@@ -176,11 +169,20 @@ def _resultant(normal_twist: np.ndarray | None, x: np.ndarray, n: np.ndarray, s:
         tangent[:3] += np.einsum("m,mij->ij", s_face, normal_twist)
         tangent[3:] += _axial(np.einsum("mj,mkl->jkl", xs_face, normal_twist))
     # point motion: δx × F_q = −skew(F_q)(v − skew(x_q) ω)
-    tangent[3:, :3] -= _skew(force)
-    tangent[3:, 3:] += xf - np.trace(xf) * np.eye(3)
-    moment = wrench[3:] - _axial(np.outer(about, force))
-    tangent[3:] -= _skew(about) @ tangent[:3]
-    return force.copy(), moment, tangent
+    tangent[3, 1] += f2                             # tangent[3:, :3] −= skew(F)
+    tangent[3, 2] -= f1
+    tangent[4, 0] -= f2
+    tangent[4, 2] += f0
+    tangent[5, 0] += f1
+    tangent[5, 1] -= f0
+    xf.flat[::4] -= xf.trace()
+    tangent[3:, 3:] += xf
+    force = wrench[:3].copy()
+    moment = wrench[3:]
+    if about.any():
+        moment = moment - _axial(np.outer(about, force))
+        tangent[3:] -= _skew(about) @ tangent[:3]
+    return force, moment, tangent
 
 
 def foundation(surface: ContactSurface,
