@@ -372,7 +372,7 @@ def run_contact_model(scene: Scene, warm_start: np.ndarray | None = None) -> Run
         extra["equal_forces_multiplier"] = float(sol.multipliers[-1])
     timing = {"total": time.perf_counter() - t_start, "build": t_built - t_start,
               "solve": t_solved - t_solve, "contact": contact.contact_seconds,
-              "per_evaluation_us": 1e6 * contact.contact_seconds / max(contact.evaluations, 1)}
+              "per_evaluation": contact.contact_seconds / max(contact.evaluations, 1)}
     return RunResult(scene["name"] or scene.source, scene["model.kind"], scene["contact.law"],
                      sol.converged, sol.iterations, sol.residual_norm, pose_dict(sol.q),
                      compartments, ligaments, timing, exact_reference(scene, compartments),

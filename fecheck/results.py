@@ -71,7 +71,9 @@ class RunResult:
     compartments : {"medial"|"lateral": CompartmentResult}
     ligaments : {name: LigamentResult}
     timing_s : {"total", "solve", …} wall-clock seconds (solve = the equilibrium solve
-        with its contact evaluations, without mesh building and imports)
+        with its contact evaluations, without mesh building and imports; build = meshes
+        and contact pairs; contact = all contact-and-tangent evaluations; per_evaluation
+        = one evaluation of every compartment)
     exact : closed-form references and deviations (sphere-plane EF), else {}
     extra : other outputs (multipliers, evaluation counts, …)
     """
