@@ -25,6 +25,7 @@ from report import (
     figure,
     guarded,
     main_for,
+    require,
     require_knee_data,
     save_figure,
     table_row,
@@ -64,23 +65,14 @@ def ligament_group(name: str) -> str:
 
 
 def sweep(name: str | None, shifts: np.ndarray, overrides: tuple[str, ...] = ()) -> Sweep:
-    """Solve scene `name` with the load point moved by each shift (mm) along x."""
-    from fecheck.model import run_scene
-
+    """Solve scene `name` with the load point moved by each shift (mm) along x
+    (`fecheck.sweep.run_sweep`: serial, each point warm-started from the previous)."""
+    run_sweep = require("fecheck.sweep", "H3").run_sweep
     base = scene(name, *overrides)
-    x0, y0, z0 = base["load.point_mm"]
-    order = np.argsort(np.abs(shifts), kind="stable")       # from the reference outward
-    results: dict[int, object] = {}
-    for i in order:
-        s = shifts[i]
-        near = [j for j in results if np.sign(shifts[j]) in (0, np.sign(s))]
-        warm = None
-        if near:
-            j = min(near, key=lambda j: abs(shifts[j] - s))
-            warm = np.asarray(results[j].extra["q"])
-        sc = scene(name, *overrides, f"load.point_mm=[{x0 + s}, {y0}, {z0}]")
-        results[i] = run_scene(sc, warm_start=warm)
-    rs = [results[i] for i in range(len(shifts))]
+    x0 = base["load.point_mm"][0]
+    points = run_sweep(base, "load.point_mm[0]", [float(x0 + s) for s in shifts],
+                       progress=False)
+    rs = [p.result for p in points]
     force = {c: np.array([r.compartments[c].force_N for r in rs]) for c in COMPARTMENTS}
     pmax = {c: np.array([r.compartments[c].max_pressure_MPa for r in rs]) for c in COMPARTMENTS}
     torque = {c: np.array([r.compartments[c].torque_vector_Nmm[1] for r in rs])
@@ -295,25 +287,34 @@ def fig_5_11(quick: bool, out: Path) -> Row:
 def fig_5_12(quick: bool, out: Path) -> Row:
     s = shifts_mm(quick)
     sw = sweep("equal_force", s)
+    rigid = forces_along("rigid", s)
+    eq = equal_force_shift(s, rigid["medial"], rigid["lateral"])
     fig, (ax,) = figure()
     _ligament_axes(ax, sw)
-    ax.set_title("Fig. 5.12: ligament springs with equal compartment forces")
+    ax.axvline(eq, color="gray", ls=":", label="equal forces without the constraint")
+    ax.legend(fontsize=7, ncol=2)
+    ax.set_title("Fig. 5.12: ligament rods with equal compartment forces")
+    zero = {k: equal_force_shift(s, v, np.zeros_like(v)) for k, v in sw.ligament_N.items()}
+    left = int(np.argmin(s))
+    signs = {k: v[left] for k, v in sw.ligament_N.items()}
     lines = [Line("max |F_medial − F_lateral| N", 0.0,
                   float(np.max(np.abs(sw.force_N["medial"] - sw.force_N["lateral"]))),
                   "the constraint holds", compare=False)]
-    lines += [Line(f"{k} force range N", None, float(np.ptp(v)),
-                   f"{float(v.min()):.1f} to {float(v.max()):.1f} N")
-              for k, v in sw.ligament_N.items()]
-    note = ("fecheck imposes F_medial = F_lateral with a Lagrange multiplier. With rods the "
-            "problem is over-constrained (three rods and the equality on five DOFs leave the "
-            "rod forces indeterminate), so fecheck uses Blankevoort springs (Lenhart 2015 "
-            "stiffnesses, `validation/scenes/equal_force.toml`); the thesis used rods. The "
-            "MCL spring is pre-strained at the reference pose (2.9 %) and the cruciates are "
-            "slack, so the ligament loads do not all vanish at one shift as the thesis's rod "
-            "forces do; the figure's point (the constraint's reaction is carried by the "
-            "ligaments and grows with the offset) is reproduced only qualitatively.")
+    lines += [Line(f"{k}: shift where unloaded mm", tv.FIG_5_2_EQUAL_FORCE_SHIFT_MM, z,
+                   f"thesis: where the free model has equal forces (fecheck: {eq:+.2f} mm)")
+              for k, z in zero.items()]
+    lines += [Line(f"{k} force at shift {s[left]:+g} mm N", None, float(v),
+                   "medial side loaded") for k, v in signs.items()]
+    pattern = signs.get("MCL", 0) < 0 < min(signs.get("ACL", 0), signs.get("PCL", 0))
+    note = ("Rigid model with the three rods and the constraint F_medial = F_lateral "
+            "(`validation/scenes/equal_force.toml`). As the thesis says, the rods are "
+            "unloaded where the free model has equal forces, and with the load on the medial "
+            "side the MCL is in compression and the ACL and PCL in tension "
+            f"({'reproduced' if pattern else 'not reproduced'}), the reverse on the lateral "
+            "side.")
+    ok = pattern and all(abs(z - eq) < 0.5 for z in zero.values() if np.isfinite(z))
     return _finish("fig_5_12", "equal compartment forces: ligament forces", "Fig. 5.12", lines,
-                   out, DEVIATES, note, fig, sw)
+                   out, REPRODUCED if ok else DEVIATES, note, fig, sw)
 
 
 def fig_5_14(quick: bool, out: Path) -> Row:
