@@ -1,0 +1,94 @@
+"""3D FE layer solve (fecheck.fe.layer3d) against the axisymmetric reference, and the CLI."""
+
+from __future__ import annotations
+
+import json
+
+import numpy as np
+import pytest
+
+from fecheck.cli import main
+from fecheck.fe.axisym import axisym_sphere_on_layer
+from fecheck.fe.layer3d import sphere_on_layer_3d
+
+MEDIAL = (323.71, 25.5)      # DESIGN §4: rigid-model medial load (N) and condyle radius (mm)
+
+
+@pytest.fixture(scope="module")
+def reference():
+    # Converged: p_max changes < 0.01% from 0.1 to 0.025 mm, area < 0.5%.
+    return axisym_sphere_on_layer(*MEDIAL, 20.0, 0.3, 6.0, size_mm=0.1)
+
+
+@pytest.fixture(scope="module")
+def medial_3d():
+    return sphere_on_layer_3d(*MEDIAL, 20.0, 0.3, 6.0, size_mm=1.5)
+
+
+def test_3d_matches_the_axisymmetric_solution_at_the_default_size(medial_3d, reference):
+    # Measured at the default 1.5 mm: p_max -1.2%, area +2.6%, depth +0.9% (the area
+    # converges like the element size: +5.8% at 2 mm, +2.5% at 1 mm).
+    fe, ref = medial_3d.metrics, reference.metrics
+    assert fe.max_pressure_MPa == pytest.approx(ref.max_pressure_MPa, rel=0.02)
+    assert fe.area_mm2 == pytest.approx(ref.area_mm2, rel=0.035)
+    assert fe.depth_mm == pytest.approx(ref.depth_mm, rel=0.02)
+
+
+def test_3d_contact_balances_the_load_without_tension_or_penetration(medial_3d):
+    assert medial_3d.metrics.force_N == pytest.approx(MEDIAL[0], rel=1e-9)
+    assert medial_3d.nodal_force_N.min() >= 0.0
+    assert medial_3d.pressure_MPa.min() >= 0.0
+    assert medial_3d.max_penetration_mm <= 1e-6
+    # The pressure peaks where the sphere first touches (the origin).
+    peak = medial_3d.points[np.argmax(medial_3d.pressure_MPa)]
+    assert np.hypot(*peak[:2]) < 1.5
+
+
+def test_nearly_incompressible_3d_layer_does_not_lock():
+    # Quadratic tets at ν = 0.49 against the axisymmetric P2 reference (which converges
+    # there, tests/test_fe_axisym.py): a locking element would be far too stiff (higher
+    # p_max, smaller area). Measured at 2 mm: p_max -0.5%, area +3.0%.
+    fe = sphere_on_layer_3d(*MEDIAL, 20.0, 0.49, 6.0, size_mm=2.0).metrics
+    ref = axisym_sphere_on_layer(*MEDIAL, 20.0, 0.49, 6.0, size_mm=0.1).metrics
+    assert fe.max_pressure_MPa == pytest.approx(ref.max_pressure_MPa, rel=0.02)
+    assert fe.area_mm2 == pytest.approx(ref.area_mm2, rel=0.06)
+
+
+def test_inclined_plateau_is_touched_downhill_and_carries_the_load(medial_3d):
+    # Medial plane of thesis Table 2.1 (λ -0.36°, γ -5.93°): the sphere first touches
+    # R·sin γ ≈ 2.6 mm from below its centre; a 6° tilt changes the vertical-gap geometry
+    # by < 1%, so the answer stays within 3% of the flat one (measured +0.8% on p_max).
+    fe = sphere_on_layer_3d(*MEDIAL, 20.0, 0.3, 6.0, size_mm=1.5, sagittal_deg=-0.36,
+                            frontal_deg=-5.93)
+    touch = fe.points[np.argmin(fe.gap0_mm)]
+    assert touch[0] == pytest.approx(-25.5 * np.sin(np.radians(5.93)), abs=0.8)
+    assert fe.metrics.force_N == pytest.approx(MEDIAL[0], rel=1e-9)
+    assert fe.max_penetration_mm <= 1e-6
+    assert fe.metrics.max_pressure_MPa == pytest.approx(medial_3d.metrics.max_pressure_MPa,
+                                                        rel=0.03)
+
+
+def test_fe_command_writes_the_comparison_json(tmp_path, capsys):
+    out = tmp_path / "fe.json"
+    assert main(["fe", "--size", "2", "--json", str(out)]) == 0
+    data = json.loads(out.read_text())
+    assert set(data["compartments"]) == {"medial", "lateral"}
+    for c in ("medial", "lateral"):
+        comp = data["compartments"][c]
+        for key in ("fe", "ef", "hertz"):
+            assert {"max_pressure_MPa", "mean_pressure_MPa", "area_mm2",
+                    "depth_mm"} <= set(comp[key])
+        # The FE layer carries exactly the EF equilibrium's compartment force.
+        assert comp["fe"]["force_N"] == pytest.approx(comp["load_N"], rel=1e-9)
+        assert comp["ef_model"]["force_N"] == pytest.approx(comp["load_N"], rel=1e-12)
+    # Baseline EF equilibrium: 800 N minus the tibia's weight shared as in Table 5.3.
+    total = sum(data["compartments"][c]["load_N"] for c in ("medial", "lateral"))
+    assert total == pytest.approx(800.0 - 2.0 * 9.81, rel=1e-6)
+    assert data["mesh"]["element"] == "tet P2"
+    assert "fe_3d_over_ef_equilibrium" in data["timing_s"]["medial"]
+    assert "3D vs axisymmetric" in capsys.readouterr().out
+
+
+def test_fe_command_rejects_a_bad_size(capsys):
+    assert main(["fe", "--size", "-1"]) == 2
+    assert "--size" in capsys.readouterr().err
