@@ -69,8 +69,13 @@ def figs_3_21_3_25(quick: bool, out: Path) -> Row:
     a2.set_xlabel("icosphere faces")
     a2.set_ylabel("|contact area error| against πR², –")
     a2.set_title("contact area error of the same runs")
+    from matplotlib.ticker import NullFormatter
+
+    faces = sorted({n for v in series.values() for n in v[0]})
     for ax in (a1, a2):
         ax.grid(alpha=0.3, which="both")
+        ax.set_xticks(faces, [f"{n:,}" for n in faces])
+        ax.xaxis.set_minor_formatter(NullFormatter())
     a2.legend(fontsize=7, loc="upper left", bbox_to_anchor=(1.02, 1.0))
     png = save_figure(fig, out / "fig_3_21.png")
     lines = []

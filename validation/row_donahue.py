@@ -81,6 +81,8 @@ def _row(name: str, ref: str, c: str, thesis_ef: dict, data: dict, out: Path) ->
             note = "Donahue 2002 (thesis Table a) vs fecheck FE"
             lines.append(Line(f"FE {s:g} mm: {LABELS[key]}", getattr(don, key),
                               getattr(fe.fe.metrics, key), note))
+    from matplotlib.ticker import NullFormatter
+
     fig, axes = figure(ncols=2, width=5.2)
     xs = np.array(sizes)
     for ax, key in zip(axes, ("max_pressure_MPa", "area_mm2")):
@@ -96,6 +98,7 @@ def _row(name: str, ref: str, c: str, thesis_ef: dict, data: dict, out: Path) ->
         ax.axhline(exact[key], color="tab:blue", label="fecheck EF exact")
         ax.set_xscale("log")
         ax.set_xticks([1, 2, 5], ["1", "2", "5"])
+        ax.xaxis.set_minor_formatter(NullFormatter())
         ax.set_xlabel("element size under the contact, mm")
         ax.set_ylabel(LABELS[key].replace(" MPa", ", MPa").replace(" mm²", ", mm²"))
         ax.grid(alpha=0.3, which="both")

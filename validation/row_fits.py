@@ -61,8 +61,31 @@ def table_2_1(out: Path) -> Row:
             f"the frontal angles γ have opposite signs, a difference of subjects and of the "
             f"surface fitted (cartilage sheets, `fecheck.scanned`), not of the method, "
             f"which `tests/test_fits.py` checks on synthetic planes.")
+    png = _table_2_1_png(lines, out / "table_2_1.png")
     return table_row("table_2_1", "plateau planes with and without outliers", "Table 2.1",
-                     lines, out, DEVIATES, note)
+                     lines, out, DEVIATES, note, (png,))
+
+
+def _table_2_1_png(lines: list[Line], path: Path) -> Path:
+    """Grouped bars, thesis against fecheck: plane angles (deg) and mean errors (mm)."""
+    fig, axes = figure(ncols=2, width=5.6, height=5.0)
+    for ax, unit, title in ((axes[0], "deg", "plane angles λ, γ"),
+                            (axes[1], "mm", "mean distance to the plane")):
+        sel = [ln for ln in lines if ln.quantity.endswith(unit)]
+        y = np.arange(len(sel))
+        ax.barh(y - 0.2, [ln.thesis for ln in sel], height=0.4, color="tab:gray",
+                label="thesis (its scan)")
+        ax.barh(y + 0.2, [ln.fecheck for ln in sel], height=0.4, color="tab:blue",
+                label="fecheck (lenhart2015)")
+        ax.set_yticks(y, [ln.quantity.removesuffix(f" {unit}") for ln in sel], fontsize=7)
+        ax.invert_yaxis()
+        ax.axvline(0.0, color="k", lw=0.6)
+        ax.set_xlabel(f"{title}, {unit}")
+        ax.grid(axis="x", alpha=0.3)
+        ax.set_title(f"Table 2.1: {title}")
+    fig.legend(*axes[0].get_legend_handles_labels(), loc="lower center", ncol=2, fontsize=8,
+               bbox_to_anchor=(0.5, -0.04))
+    return save_figure(fig, path)
 
 
 def _degree_table(name: str, ref: str, title: str, rows: list[dict], out: Path,
