@@ -80,13 +80,13 @@ def pressure_png(result, scene, path: Path) -> Path:
     top = max(float(c.face_pressure_MPa.max()) for c in result.compartments.values())
     for name, comp in result.compartments.items():
         sheet = poly(comp.slave_points + 0.05 * np.array([0.0, 0.0, 1.0]), comp.slave_faces)
-        sheet.cell_data["pressure (MPa)"] = comp.face_pressure_MPa
-        plotter.add_mesh(sheet, scalars="pressure (MPa)", cmap="viridis", clim=(0.0, top),
-                         scalar_bar_args={"title": "pressure (MPa)", "vertical": True,
-                                          "position_x": 0.9, "position_y": 0.25},
+        sheet.cell_data["face pressure (MPa)"] = comp.face_pressure_MPa
+        plotter.add_mesh(sheet, scalars="face pressure (MPa)", cmap="viridis", clim=(0.0, top),
+                         scalar_bar_args={"title": "face pressure (MPa)", "position_x": 0.25,
+                                          "position_y": 0.02, "width": 0.5},
                          show_scalar_bar=name == "medial")
     plotter.view_xy()
-    plotter.camera.zoom(1.35)
+    plotter.camera.zoom(1.25)
     c = result.compartments
     plotter.add_text(f"{result.scene}: medial {c['medial'].force_N:.0f} N, p_max "
                      f"{c['medial'].max_pressure_MPa:.2f} MPa | lateral "
