@@ -100,6 +100,8 @@ class Row:
     error_area: float
     error: float
     error_vs_fe: float
+    error_vs_fe_pmax: float
+    error_vs_fe_area: float
     iterations: int = 0
 
 
@@ -321,10 +323,11 @@ class Bench:
             fe_ref: tuple[float, float]) -> Row:
         out, times = timed(run, self.config.repeats, self.config.slow_s)
         ep, ea = _rel(out.max_pressure_MPa, ref[0]), _rel(out.area_mm2, ref[1])
-        efe = max(_rel(out.max_pressure_MPa, fe_ref[0]), _rel(out.area_mm2, fe_ref[1]))
+        fp, fa = _rel(out.max_pressure_MPa, fe_ref[0]), _rel(out.area_mm2, fe_ref[1])
+        efe = max(fp, fa)
         row = Row(method, compartment, resolution, out.n_faces, statistics.median(times),
                   min(times), max(times), len(times), out.max_pressure_MPa, out.area_mm2,
-                  ep, ea, max(ep, ea), efe, out.iterations)
+                  ep, ea, max(ep, ea), efe, fp, fa, out.iterations)
         self.rows.append(row)
         self.log(f"{method:19s} {compartment:8s} {resolution:>10s} {row.n_faces:8d} "
                  f"{row.time_s:10.4f} s  error {row.error:9.2e}  vs FE {efe:8.2e}")
@@ -560,11 +563,17 @@ def plot(result: dict, folder: str) -> list[str]:
     for key, title in (("error", "error against the model's converged reference"),
                        ("error_vs_fe", "error against the converged FE")):
         fig, ax = plt.subplots(figsize=(7, 5))
+        colors = {}
         for method in dict.fromkeys(r["method"] for r in result["rows"]):
-            rs = [r for r in result["rows"] if r["method"] == method and r[key] > EXACT]
-            if rs:
-                ax.plot([r["time_s"] for r in rs], [r[key] for r in rs], "o-", label=method,
-                        ms=4)
+            for c, style in zip(COMPARTMENTS, ("o-", "s--")):
+                rs = [r for r in result["rows"] if (r["method"], r["compartment"]) == (method, c)
+                      and r[key] > EXACT]
+                if not rs:
+                    continue
+                line, = ax.plot([r["time_s"] for r in rs], [r[key] for r in rs], style, ms=4,
+                                color=colors.get(method),
+                                label=f"{method} ({c})")
+                colors[method] = line.get_color()
         front = pareto_front([r for r in result["rows"] if r[key] > EXACT], key)
         ax.plot([r["time_s"] for r in front], [r[key] for r in front], "k--", lw=1,
                 label="Pareto front")

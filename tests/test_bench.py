@@ -83,7 +83,7 @@ def test_evaluation_time_follows_the_faces_near_the_contact(result):
 
 
 def test_time_to_error_interpolates_log_log():
-    rows = [bench.Row("m", "c", str(i), 0, t, t, t, 1, 1.0, 1.0, e, e, e, e)
+    rows = [bench.Row("m", "c", str(i), 0, t, t, t, 1, 1.0, 1.0, e, e, e, e, e, e)
             for i, (t, e) in enumerate([(1.0, 0.04), (10.0, 0.0025)])]
     # error falls by 16 over 10x time: 1% is reached at 10^(log(4)/log(16)) = 10^0.5 s
     assert bench.time_to_error(rows, 0.01) == pytest.approx(10 ** 0.5)
