@@ -17,7 +17,8 @@ models the cartilage thickness from the meshes (tibial + femoral ≈ 3.5 mm in s
 instead of the thesis's uniform 6 mm. Extra femur_tibia rows switch to the thesis's
 choices one at a time: ``uniform h = 6``; ``thesis lever`` (the load point that splits
 the load between the scanned contact points in the thesis's rigid-lever ratio, 58 %
-lateral); and all of them with whole-face area counting.
+lateral); and all of them with whole-face area counting. A last row runs the thesis's
+ray-parity detection on the open femoral sheet, to show how it fails there.
 
     python validation/scanned_tables.py [--quick] [--out DIR]
 
@@ -48,6 +49,9 @@ THESIS = {"inclined": ("Table 5.9", tv.TABLE_5_9_INCLINED),
           "sphere_tibia": ("Table 5.9 (the thesis: 'very similar')", tv.TABLE_5_9_INCLINED),
           "femur_tibia": ("Table 5.11", tv.TABLE_5_11_SCANNED)}
 PLOTTED = ("sphere_tibia", "femur_tibia", "femur_tibia_ligaments")
+RAY_PARITY = " with the thesis's ray parity (open sheet: expected to fail)"
+"""A demonstration, not an acceptance case: parity rays escape through the open femoral
+sheet, so inside tibial vertices are missed (tests/test_scanned.py)."""
 
 
 def balance(scene, result) -> float:
@@ -117,7 +121,8 @@ def run_all(quick: bool, out: Path) -> list[dict]:
               ("femur_tibia", " uniform h = 6", [uniform]),
               ("femur_tibia", " thesis lever", [lever]),
               ("femur_tibia", " as the thesis (h = 6, lever, whole faces)",
-               [uniform, lever, "contact.area='whole-face'"])]
+               [uniform, lever, "contact.area='whole-face'"]),
+              ("femur_tibia", RAY_PARITY, ["contact.detection='ray-parity'"])]
     rows = []
     for name, suffix, over in cases:
         scene = load_scene(SCENES / f"{name}.toml", extra + over)
@@ -169,7 +174,8 @@ def main(argv: list[str] | None = None) -> int:
         w.writerows(rows)
     print("fecheck | thesis (deviation); medial then lateral")
     print_beside_thesis(rows)
-    bad = [r["scene"] for r in rows if not r["converged"] or r["balance_rel"] > 1e-6]
+    bad = [r["scene"] for r in rows if (not r["converged"] or r["balance_rel"] > 1e-6)
+           and not r["scene"].endswith(RAY_PARITY)]
     print("\nacceptance: every scene converged with |ΣF|/load < 1e-6:", not bad, bad or "")
     return 0 if not bad else 1
 
