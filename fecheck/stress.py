@@ -98,7 +98,8 @@ KNOWN: dict[str, str] = {
     "mass inf": _INF,
     "load 0.1 N": "contact radius 0.9 mm on the 0.8 mm plateau mesh: " + _COARSE,
     "grazing: 1e-6 N": _GRAZING,
-    "grazing: 1e-6 N, plateau master": _GRAZING,
+    "grazing: 1e-6 N, plateau master": "a 2 µm deep contact on a 5,120-face icosphere: "
+                                        + _COARSE,
     "icosphere level 1 (80 faces)": _COARSE,
     "icosphere level 2 (320 faces)": _COARSE,
     "mesh: duplicate faces": ("ContactPair accepts duplicate faces and counts them twice "
