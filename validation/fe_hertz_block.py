@@ -1,0 +1,114 @@
+"""FE on a thick block against Hertz (issue 5 acceptance: p_max and contact radius to 3%).
+
+Scene `validation/scenes/fe_hertz_block.toml`: the medial condyle sphere pressed with
+load.force_N on a layer of thickness contact.thickness_mm (60 mm: contact radius / h ≈
+0.04) and radius fe.half_extent_mm, bonded at its base. The axisymmetric and 3D FE
+solutions are compared with Hertz (rigid sphere on an elastic half-space). The depth
+is reported but not judged: a finite block's displacement under the contact depends on
+its far field (the half-space's decays like 1/r), so it sits a few percent below Hertz.
+
+    python validation/fe_hertz_block.py [--quick] [--out DIR]
+
+--quick skips the 3D solve. Writes DIR/fe_hertz_block.csv and DIR/fe_hertz_block.png.
+"""
+
+from __future__ import annotations
+
+import argparse
+import csv
+import time
+from pathlib import Path
+
+import numpy as np
+
+from fecheck.fe.axisym import axisym_sphere_on_layer
+from fecheck.fe.crosscheck import FESettings
+from fecheck.fe.layer3d import sphere_on_layer_3d
+from fecheck.fe.references import hertz_sphere_on_plane
+from fecheck.scene import load_scene
+
+SCENE = Path(__file__).resolve().parent / "scenes" / "fe_hertz_block.toml"
+TOLERANCE = 0.03
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--quick", action="store_true")
+    parser.add_argument("--out", type=Path, default=Path("out/fe"))
+    args = parser.parse_args()
+    scene = load_scene(SCENE)
+    fe = FESettings.from_scene(scene)
+    load = scene["load.force_N"]
+    radius = scene.knee.radius_mm("medial")
+    mat = (scene["contact.youngs_MPa"], scene["contact.poisson"], scene["contact.thickness_mm"])
+    hertz = hertz_sphere_on_plane(load, radius, mat[0], mat[1])
+    a_hertz = np.sqrt(hertz.area_mm2 / np.pi)
+    print(f"Hertz: {load} N, R {radius:.1f} mm: p0 {hertz.max_pressure_MPa:.4f} MPa, "
+          f"a {a_hertz:.4f} mm, d {hertz.depth_mm:.4f} mm; a/h = {a_hertz / mat[2]:.3f}")
+    runs = {}
+    t = time.perf_counter()
+    runs["axisymmetric"] = axisym_sphere_on_layer(load, radius, *mat,
+                                                  layer_radius_mm=fe.half_extent_mm,
+                                                  size_mm=fe.axisym_size_mm), \
+        time.perf_counter() - t
+    if not args.quick:
+        t = time.perf_counter()
+        runs["3d"] = sphere_on_layer_3d(load, radius, *mat, half_extent_mm=fe.half_extent_mm,
+                                        size_mm=fe.size_mm, far_size_mm=fe.far_size_mm), \
+            time.perf_counter() - t
+    rows = []
+    for name, (res, sec) in runs.items():
+        m = res.metrics
+        a = np.sqrt(m.area_mm2 / np.pi)
+        row = {"model": name, "n_dofs": res.n_dofs, "time_s": round(sec, 3),
+               "max_pressure_MPa": m.max_pressure_MPa, "contact_radius_mm": a,
+               "depth_mm": m.depth_mm,
+               "err_max_pressure": m.max_pressure_MPa / hertz.max_pressure_MPa - 1,
+               "err_contact_radius": a / a_hertz - 1, "err_depth": m.depth_mm / hertz.depth_mm - 1}
+        ok = max(abs(row["err_max_pressure"]), abs(row["err_contact_radius"])) <= TOLERANCE
+        row["within_3pct"] = ok
+        rows.append(row)
+        print(f"{name:13s} {res.n_dofs:7d} dofs {sec:6.2f} s: p_max "
+              f"{100 * row['err_max_pressure']:+.2f}%, contact radius "
+              f"{100 * row['err_contact_radius']:+.2f}%, depth {100 * row['err_depth']:+.2f}% "
+              f"-> {'PASS' if ok else 'FAIL'} (3% on p_max and radius)")
+    args.out.mkdir(parents=True, exist_ok=True)
+    path = args.out / "fe_hertz_block.csv"
+    with path.open("w", newline="") as fh:
+        writer = csv.DictWriter(fh, fieldnames=list(rows[0]))
+        writer.writeheader()
+        writer.writerows(rows)
+    print(f"wrote {path}")
+    plot(runs, hertz, a_hertz, args.out / "fe_hertz_block.png")
+
+
+def plot(runs: dict, hertz, a_hertz: float, path: Path) -> None:
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    fig, ax = plt.subplots(figsize=(7, 4.5))
+    for name, (res, _) in runs.items():
+        center = res.points[np.argmin(res.gap0_mm), :2]
+        r = np.hypot(res.points[:, 0] - center[0], res.points[:, 1] - center[1])
+        style = "-" if name == "axisymmetric" else "."
+        order = np.argsort(r) if name == "axisymmetric" else slice(None)
+        ax.plot(r[order], res.pressure_MPa[order], style, ms=3, label=f"FE {name}")
+    r = np.linspace(0, 1.5 * a_hertz, 300)
+    ax.plot(r, hertz.max_pressure_MPa * np.sqrt(np.clip(1 - (r / a_hertz) ** 2, 0, None)),
+            "--k", label="Hertz")
+    ax.set_xlim(0, 1.5 * a_hertz)
+    ax.set_xlabel("r (mm)")
+    ax.set_ylabel("contact pressure (MPa)")
+    ax.set_title("thick block vs Hertz")
+    ax.grid(alpha=0.3)
+    ax.legend()
+    fig.tight_layout()
+    fig.savefig(path, dpi=130)
+    plt.close(fig)
+    print(f"wrote {path}")
+
+
+if __name__ == "__main__":
+    main()
