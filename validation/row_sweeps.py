@@ -339,9 +339,17 @@ def fig_5_14(quick: bool, out: Path) -> Row:
                    for c in COMPARTMENTS)
         lines.append(Line("max |BVH − ray parity| force N", 0.0, diff,
                           "thesis: 'a few negligible errors'", compare=False))
-        note += ("The thesis's ray parity needs a watertight master; on the open scanned "
-                 "cartilage sheets it misclassifies vertices, which is why fecheck's "
-                 "closest-point depth with face-normal sign is the default." + _unconverged(a2))
+        note += ("The thesis's Algorithm 2 as re-implemented (`fecheck.contact.thesis`: ray "
+                 "parity against the closed hemisphere master, depth = distance to the "
+                 "nearest master VERTEX by cKDTree) gives a depth that is not a surface "
+                 "distance: piecewise, too large between vertices, with a jumping gradient. "
+                 "The equilibrium then differs from fecheck's closest-point detection by the "
+                 "force above" + (", and Newton does not converge on it." if not
+                                  a2.converged.all() else ".")
+                 + " The thesis's 'same results, apart from a few negligible errors' is not "
+                 "reproduced by this faithful re-implementation; fecheck's AABB closest-point "
+                 "depth is the default." + _unconverged(a2).replace("Not converged",
+                                                                    "Ray parity not converged"))
     ax.set_title("Fig. 5.14: spheres on the scanned tibia")
     ax.legend(fontsize=7)
     return _finish("fig_5_14", "spheres on the scanned tibia, two detections", "Fig. 5.14",
