@@ -108,11 +108,8 @@ def axisym_sphere_on_layer(load_N: float, radius_mm: float, E_MPa: float, nu: fl
     n_reach = int(np.sum(rt <= 1.3 * a_max)) | 1
     in_reach = np.arange(len(rt)) < n_reach
     cand, cand_r, rc = index[top[in_reach]], index[top_r[in_reach]], rt[in_reach]
-    if np.any(cand_r < 0):
-        cand_r = np.where(cand_r < 0, 0, cand_r)
-        on_axis = rc == 0.0
-    else:
-        on_axis = np.zeros(len(rc), dtype=bool)
+    on_axis = cand_r < 0                 # u_r is fixed on the axis: no tangential shift there
+    cand_r = np.maximum(cand_r, 0)
     R = radius_mm
 
     def gap0(shift: np.ndarray | None) -> np.ndarray:

@@ -1,25 +1,21 @@
-"""Contact pressure and summary metrics recovered from nodal contact forces.
+"""Contact pressure, contact area and summary metrics from nodal contact forces.
 
-The nodal contact forces λ_i (N) are the consistent loads ∫ φ_i p dA of the traction p
-on the top surface. The pressure field is recovered variationally: the field p_h in the
-same (quadratic) space whose consistent nodal loads are exactly λ, i.e. M p = λ with M the
-surface mass matrix ∫ φ_i φ_j dA (mm²). It is exact for any pressure the space can hold.
+Axisymmetric model: the nodal contact forces λ_i (N) are the consistent loads ∫ φ_i p dA
+of the pressure on the quadratic top edge; the pressure is recovered variationally as the
+field in the same space whose consistent loads are exactly λ (M p = λ, M the surface mass
+matrix ∫ φ_i φ_j dA, mm²), exact for any pressure that space can hold. 3D model: lumped
+vertex loads over tributary areas (`tributary_areas`) and the zero-contour area.
 """
 
 from __future__ import annotations
 
 import numpy as np
-import scipy.sparse as sp
 
 from fecheck.fe.results import ContactMetrics
 
 
-def project_pressure(mass: np.ndarray | sp.spmatrix, force_N: np.ndarray) -> np.ndarray:
-    """Pressure (MPa) at the nodes solving ``mass @ p = force_N`` (mass in mm²)."""
-    if sp.issparse(mass):
-        from scipy.sparse.linalg import spsolve
-
-        return spsolve(sp.csc_matrix(mass), force_N)
+def project_pressure(mass: np.ndarray, force_N: np.ndarray) -> np.ndarray:
+    """Pressure (MPa) at the nodes solving ``mass @ p = force_N`` (dense mass, mm²)."""
     return np.linalg.solve(mass, force_N)
 
 
