@@ -54,11 +54,11 @@ def override_for(scene: Scene, param: str, value: float) -> str:
         raise FecheckError(f"--param {param!r}: unknown scene key {key!r}")
     kind = SCHEMA[key].kind
     if match:
-        current = list(scene[key])
+        current = [float(v) for v in scene[key]]
         index = int(match["index"])
         if index >= len(current):
             raise FecheckError(f"--param {param!r}: {key} has {len(current)} components")
-        current[index] = value
+        current[index] = float(value)
         return f"{key}={current!r}"
     if kind == "int":
         if value != int(value):
@@ -67,7 +67,7 @@ def override_for(scene: Scene, param: str, value: float) -> str:
     if kind != "float":
         raise FecheckError(f"--param {param!r}: sweeps take numeric keys (or key[i] of a "
                            f"vector key); {key} is a {kind}")
-    return f"{key}={value!r}"
+    return f"{key}={float(value)!r}"
 
 
 @dataclass(frozen=True)

@@ -83,3 +83,17 @@ def test_missing_dask_is_a_clear_error(capsys):
     assert main(["sweep", "--param", "contact.youngs_MPa", "--values", "9,15",
                  "--scheduler", "tcp://127.0.0.1:8786"]) == 2
     assert "fecheck[dask]" in capsys.readouterr().err
+
+
+def test_numpy_values_give_overrides_the_scene_parser_reads():
+    # np.linspace hands sweeps np.float64 values; their repr ("np.float64(3.5)") is not TOML.
+    import numpy as np
+
+    from fecheck.scene import load_scene
+    from fecheck.sweep import override_for
+
+    scene = load_scene()
+    text = override_for(scene, "load.point_mm[0]", np.float64(3.5))
+    assert load_scene(None, [text])["load.point_mm"][0] == 3.5
+    text = override_for(scene, "contact.poisson", np.float64(0.4))
+    assert load_scene(None, [text])["contact.poisson"] == 0.4
