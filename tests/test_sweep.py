@@ -87,11 +87,6 @@ def test_missing_dask_is_a_clear_error(capsys):
 
 def test_numpy_values_give_overrides_the_scene_parser_reads():
     # np.linspace hands sweeps np.float64 values; their repr ("np.float64(3.5)") is not TOML.
-    import numpy as np
-
-    from fecheck.scene import load_scene
-    from fecheck.sweep import override_for
-
     scene = load_scene()
     text = override_for(scene, "load.point_mm[0]", np.float64(3.5))
     assert load_scene(None, [text])["load.point_mm"][0] == 3.5
