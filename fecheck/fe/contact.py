@@ -38,18 +38,14 @@ class ContactSolution:
     """Solution of the contact problem.
 
     u : all free dofs, mm; force_N : (m,) downward nodal contact forces λ, N;
-    multiplier : (k,) contact multipliers μ (λ = Dᵀμ: pressures in MPa for a mortar D,
-    nodal forces in N without one); delta_mm : indenter displacement, mm;
-    gap_mm : (m,) nodal gaps, mm; weighted_gap : (k,) D-weighted gaps (mm³ for a
-    mortar D); active : (k,) multipliers in contact.
+    delta_mm : indenter displacement, mm; gap_mm : (m,) final gaps, mm;
+    active : (m,) candidates in contact.
     """
 
     u: np.ndarray
     force_N: np.ndarray
-    multiplier: np.ndarray
     delta_mm: float
     gap_mm: np.ndarray
-    weighted_gap: np.ndarray
     active: np.ndarray
     iterations: int
     timing_s: dict
@@ -73,22 +69,22 @@ def factorize(K: sp.spmatrix, solver: str = "cholmod") -> Callable[[np.ndarray],
     return splu(K, permc_spec="MMD_AT_PLUS_A").solve
 
 
-def _active_set(C: np.ndarray, g0: np.ndarray, a: np.ndarray, load_N: float,
-                active: np.ndarray, max_iter: int) -> tuple[np.ndarray, float, np.ndarray, int]:
+def _active_set(C: np.ndarray, g0: np.ndarray, load_N: float, active: np.ndarray,
+                max_iter: int) -> tuple[np.ndarray, float, np.ndarray, int]:
     m = len(g0)
     for it in range(1, max_iter + 1):
         idx = np.flatnonzero(active)
         k = len(idx)
         kkt = np.zeros((k + 1, k + 1))
         kkt[:k, :k] = C[np.ix_(idx, idx)]
-        kkt[:k, k] = -a[idx]
-        kkt[k, :k] = a[idx]
+        kkt[:k, k] = -1.0
+        kkt[k, :k] = 1.0
         rhs = np.concatenate([-g0[idx], [load_N]])
         sol = np.linalg.solve(kkt, rhs)
         lam = np.zeros(m)
         lam[idx] = sol[:k]
         delta = float(sol[k])
-        gap = g0 - delta * a + C @ lam
+        gap = g0 - delta + C @ lam
         new_active = np.where(active, lam > 0, gap < 0)
         if not new_active.any():
             new_active[np.argmin(gap)] = True
@@ -101,8 +97,7 @@ def _active_set(C: np.ndarray, g0: np.ndarray, a: np.ndarray, load_N: float,
 
 def solve_contact(K: sp.spmatrix, candidates: np.ndarray,
                   gap0: Callable[[np.ndarray | None], np.ndarray], load_N: float,
-                  delta_guess_mm: float, *, mortar: np.ndarray | None = None,
-                  tangential: Sequence[np.ndarray] = (),
+                  delta_guess_mm: float, *, tangential: Sequence[np.ndarray] = (),
                   solver: str = "cholmod", deformed_gap: bool = False,
                   max_iter: int = 60, block: int = 128) -> ContactSolution:
     """Solve the load-controlled contact problem exactly.
@@ -115,19 +110,16 @@ def solve_contact(K: sp.spmatrix, candidates: np.ndarray,
         ((m, len(tangential)) array, mm) or of None (reference configuration)
     load_N : total downward force the indenter transmits, N (> 0)
     delta_guess_mm : indentation used to guess the first active set, mm
-    mortar : optional (k, m) matrix D: the constraints become the weighted gaps
-        ``D g >= 0`` with multipliers μ >= 0 and nodal forces ``λ = Dᵀ μ`` (for
-        ``D_kj = ∫ ψ_k φ_j dA``, μ is a pressure field in the basis ψ); default: nodal
     tangential : dof indices (m,) of each tangential displacement of the candidates
         (needed with ``deformed_gap``)
     solver : "cholmod" (default, fastest measured) or "superlu"
     deformed_gap : re-evaluate the gaps at the displaced positions until they settle
     max_iter : active-set iterations allowed (per gap update)
-    block : right-hand sides per block solve (one per multiplier: the cost is k solves)
+    block : right-hand sides per block solve (the cost is m solves)
 
     Returns
     -------
-    ContactSolution with μ ≥ 0, D g ≥ 0, μ·(D g) = 0 and Σλ = load_N.
+    ContactSolution with λ ≥ 0, g ≥ 0, λ·g = 0 at every candidate and Σλ = load_N.
     """
     if not (np.isfinite(load_N) and load_N > 0):
         raise FecheckError(f"contact load must be positive and finite, got {load_N} N")
@@ -138,33 +130,29 @@ def solve_contact(K: sp.spmatrix, candidates: np.ndarray,
     t = time.perf_counter()
     cand = np.asarray(candidates, dtype=np.int64)
     n, m = K.shape[0], len(cand)
-    D = np.eye(m) if mortar is None else np.asarray(mortar, dtype=np.float64)
-    k = D.shape[0]
     rows = np.concatenate([cand, *tangential]) if tangential else cand
-    # G[:, c]: displacements (candidates, then tangential) under the nodal forces D[c]:
-    # one block solve per `block` multipliers; C = D G[:m] is the condensed compliance.
-    G = np.empty((len(rows), k))
-    for start in range(0, k, block):
-        cols = np.arange(start, min(start + block, k))
+    # G[:, c]: displacements (candidates, then tangential) under a unit upward force at
+    # candidate c; `block` right-hand sides per solve. C = G[:m] is the compliance.
+    G = np.empty((len(rows), m))
+    for start in range(0, m, block):
+        cols = np.arange(start, min(start + block, m))
         rhs = np.zeros((n, len(cols)))
-        rhs[cand] = D[cols].T
+        rhs[cand[cols], np.arange(len(cols))] = 1.0
         G[:, cols] = solve(rhs)[rows]
-    Cm = D @ G[:m]
-    Cm = 0.5 * (Cm + Cm.T)
-    a = D.sum(axis=1)
+    C = 0.5 * (G[:m] + G[:m].T)
     timing["condense"] = time.perf_counter() - t
     t = time.perf_counter()
     g0 = gap0(None)
-    active = D @ (g0 - delta_guess_mm) < 0
+    active = g0 < delta_guess_mm
     if not active.any():
-        active[np.argmin(D @ g0)] = True
+        active[np.argmin(g0)] = True
     iterations = 0
     for _ in range(max_iter):
-        mu, delta, active, it = _active_set(Cm, D @ g0, a, load_N, active, max_iter)
+        lam, delta, active, it = _active_set(C, g0, load_N, active, max_iter)
         iterations += it
         if not deformed_gap:
             break
-        shift = -(G[m:] @ mu).reshape(len(tangential), m).T
+        shift = -(G[m:] @ lam).reshape(len(tangential), m).T
         g_new = gap0(shift)
         change = float(np.max(np.abs(g_new - g0)))
         g0 = g_new
@@ -172,8 +160,7 @@ def solve_contact(K: sp.spmatrix, candidates: np.ndarray,
             break
     else:
         raise FecheckError("deformed-configuration gaps did not settle; use gap='reference'")
-    lam = D.T @ mu
-    gap = g0 - delta + G[:m] @ mu
+    gap = g0 - delta + C @ lam
     timing["active_set"] = time.perf_counter() - t
     t = time.perf_counter()
     f = np.zeros(n)
@@ -182,6 +169,5 @@ def solve_contact(K: sp.spmatrix, candidates: np.ndarray,
     timing["displacement"] = time.perf_counter() - t
     if not (np.all(np.isfinite(u)) and np.isfinite(delta)):
         raise FecheckError("FE contact solve produced NaN: the stiffness matrix is singular")
-    return ContactSolution(u=u, force_N=lam, multiplier=mu, delta_mm=delta, gap_mm=gap,
-                           weighted_gap=D @ gap, active=active, iterations=iterations,
-                           timing_s=timing)
+    return ContactSolution(u=u, force_N=lam, delta_mm=delta, gap_mm=gap, active=active,
+                           iterations=iterations, timing_s=timing)
