@@ -74,8 +74,8 @@ def main() -> None:
             for s in model_sizes:
                 res, sec = solve(model, load, radius, s)
                 m = res.metrics
-                for key in errs:
-                    errs[key].append(abs(getattr(m, key) / getattr(r, key) - 1))
+                for key, e in errs.items():
+                    e.append(abs(getattr(m, key) / getattr(r, key) - 1))
                 order = {key: observed_order(model_sizes[:len(e)], e)[-1]
                          for key, e in errs.items()}
                 rows.append({"compartment": comp, "model": model, "size_mm": s,
