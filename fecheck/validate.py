@@ -11,6 +11,7 @@ summary and one section per row. A script that fails to import or raises becomes
 from __future__ import annotations
 
 import importlib.util
+import re
 import sys
 import time
 from collections.abc import Sequence
@@ -139,8 +140,17 @@ def run_validation(out: Path, quick: bool = False, only: Sequence[str] | None = 
     return report, rows
 
 
+def thesis_order(reference: str) -> tuple[int, int, int]:
+    """Sort key of "Table 5.3" / "Fig. 4.4" / "Figs. 3.21/3.25": chapter, tables before
+    figures, number."""
+    m = re.search(r"(\d+)\.(\d+)", reference)
+    chapter, number = (int(m[1]), int(m[2])) if m else (99, 99)
+    return chapter, 0 if reference.startswith("Table") else 1, number
+
+
 def render(rows: list, quick: bool, total_s: float, row_markdown, out: Path) -> str:
-    """The whole report.md text."""
+    """The whole report.md text (rows in the thesis's order)."""
+    rows = sorted(rows, key=lambda r: thesis_order(r.reference))
     counts: dict[str, int] = {}
     for r in rows:
         key = r.status.split(":")[0]
