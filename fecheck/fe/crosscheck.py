@@ -114,7 +114,7 @@ class CrossCheck:
             for chk in self.compartments.values():
                 m = getattr(chk, attr)
                 m = m.metrics if isinstance(m, FEContactResult) else m
-                line += ("" if m is None else
+                line += (f"{'(flat layers only)':>34s}" if m is None else
                          f"{m.max_pressure_MPa:9.3f}{m.mean_pressure_MPa:8.3f}"
                          f"{m.area_mm2:9.1f}{m.depth_mm:8.3f}")
             rows.append(line)
