@@ -37,6 +37,7 @@ import numpy as np
 
 from fecheck.contact.surface import ContactSurface
 from fecheck.errors import FecheckError
+from fecheck.law_kernel import pressure_resultant
 
 BLANKEVOORT_LINEAR_FROM = 0.9      # fraction of h beyond which the log law is continued linearly
 
@@ -125,66 +126,6 @@ def _no_contact(surface: ContactSurface, about: np.ndarray) -> LawResult:
                      face_pressure_fn=lambda: np.zeros(n))
 
 
-def _skew(v: np.ndarray) -> np.ndarray:
-    return np.array([[0.0, -v[2], v[1]], [v[2], 0.0, -v[0]], [-v[1], v[0], 0.0]])
-
-
-def _axial(c: np.ndarray) -> np.ndarray:
-    """(3, …) axial part of c[j, k, …]: out[i] = ε_ijk c[j, k]."""
-    return np.array([c[1, 2] - c[2, 1], c[2, 0] - c[0, 2], c[0, 1] - c[1, 0]])
-
-
-def _normal_twist(surface: ContactSurface) -> np.ndarray | None:
-    """∂normal/∂ξ per contact face, or None when the normals do not move (plane master)."""
-    if surface.normal_body == "slave" or surface.normal_slide is not None:
-        return surface.normal_twist
-    return None
-
-
-def _resultant(normal_twist: np.ndarray | None, x: np.ndarray, n: np.ndarray, s: np.ndarray,
-               gq: np.ndarray, face: np.ndarray | None, about: np.ndarray
-               ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """Wrench and tangent of point forces s_q·n_q at x_q (summed over q).
-
-    gq (Q, 6) = ds_q/dξ; `face` (Q,) maps points to the rows of `normal_twist` (m, 3, 6)
-    (None: one row per point); `normal_twist` None: the normals do not move.
-    """
-    arm = np.empty((len(s), 6))                     # unit wrenches [n, x × n]
-    arm[:, :3] = n
-    arm[:, 3] = x[:, 1] * n[:, 2] - x[:, 2] * n[:, 1]
-    arm[:, 4] = x[:, 2] * n[:, 0] - x[:, 0] * n[:, 2]
-    arm[:, 5] = x[:, 0] * n[:, 1] - x[:, 1] * n[:, 0]
-    wrench = arm.T @ s
-    tangent = arm.T @ gq
-    f0, f1, f2 = wrench[:3].tolist()
-    xf = x.T @ (n * s[:, None])                     # Σ x_q F_qᵀ
-    if normal_twist is not None:
-        m = len(normal_twist)
-        if face is None:
-            s_face, xs_face = s, x * s[:, None]
-        else:
-            s_face = np.bincount(face, s, minlength=m)
-            xs_face = np.column_stack([np.bincount(face, x[:, i] * s, minlength=m)
-                                       for i in range(3)])
-        tangent[:3] += np.einsum("m,mij->ij", s_face, normal_twist)
-        tangent[3:] += _axial(np.einsum("mj,mkl->jkl", xs_face, normal_twist))
-    # point motion: δx × F_q = −skew(F_q)(v − skew(x_q) ω)
-    tangent[3, 1] += f2                             # tangent[3:, :3] −= skew(F)
-    tangent[3, 2] -= f1
-    tangent[4, 0] -= f2
-    tangent[4, 2] += f0
-    tangent[5, 0] += f1
-    tangent[5, 1] -= f0
-    xf.flat[::4] -= xf.trace()
-    tangent[3:, 3:] += xf
-    force = wrench[:3].copy()
-    moment = wrench[3:]
-    if about.any():
-        moment = moment - _axial(np.outer(about, force))
-        tangent[3:] -= _skew(about) @ tangent[:3]
-    return force, moment, tangent
-
-
 def foundation(surface: ContactSurface,
                pressure: Callable[[np.ndarray], tuple[np.ndarray, np.ndarray]] | float,
                about=(0.0, 0.0, 0.0)) -> LawResult:
@@ -197,21 +138,20 @@ def foundation(surface: ContactSurface,
     about = np.asarray(about, dtype=float)
     if surface.n_faces == 0:
         return _no_contact(surface, about)
-    d = surface.qp_depth
-    pos = d > 0.0
+    f = surface.qp_face
     w = surface.qp_weight
     if callable(pressure):
-        p, dp = pressure(np.maximum(d, 0.0))
-        p = p * pos
-        dpw = dp * w * pos
+        d = np.maximum(surface.qp_depth, 0.0)
+        values, slopes = (np.ascontiguousarray(np.broadcast_to(v, d.shape), dtype=float)
+                          for v in pressure(d))
+        stiffness = 0.0
     else:                                           # linear law p = k·d
-        p = pressure * np.maximum(d, 0.0)
-        dpw = pressure * (w * pos)
-    f = surface.qp_face
-    s = w * p
-    gq = dpw[:, None] * surface.qp_depth_twist + p[:, None] * surface.qp_weight_twist
-    force, moment, tangent = _resultant(_normal_twist(surface), surface.qp_point,
-                                        surface.normal[f], s, gq, f, about)
+        values = slopes = None
+        stiffness = float(pressure)
+    p, force, moment, tangent, area = pressure_resultant(
+        stiffness, values, slopes, surface.qp_depth, w, surface.qp_depth_twist,
+        surface.qp_weight_twist, surface.qp_point, surface.normal, f,
+        surface.normal_body == "slave", surface.normal_slide, about)
     max_depth = surface.max_depth
     if max_depth <= 0:
         p_max = 0.0
@@ -219,12 +159,11 @@ def foundation(surface: ContactSurface,
         p_max = float(pressure(np.array([max_depth]))[0][0])
     else:
         p_max = pressure * max_depth
-    area = float(w @ pos)
 
     def face_pressure() -> np.ndarray:
         out = np.zeros(surface.n_slave_faces)
         fa = np.bincount(f, w, minlength=surface.n_faces)
-        fs = np.bincount(f, s, minlength=surface.n_faces)
+        fs = np.bincount(f, w * p, minlength=surface.n_faces)
         ok = fa > 0
         out[surface.face[ok]] = fs[ok] / fa[ok]
         return out
@@ -305,11 +244,12 @@ def hertz(surface: ContactSurface, radius_mm: float, e_star_MPa: float,
     load = 4.0 / 3.0 * e_star_MPa * math.sqrt(r) * d ** 1.5
     a = math.sqrt(r * d)
     p0 = 3 * load / (2 * math.pi * a * a)
-    g = (1.5 * load / d) * dd
-    nt = _normal_twist(surface)
-    force, moment, tangent = _resultant(
-        None if nt is None else nt[face:face + 1], x[None, :], n[None, :],
-        np.array([load]), g[None, :], None, about)
+    slide = surface.normal_slide
+    _, force, moment, tangent, _ = pressure_resultant(
+        0.0, np.array([load]), np.array([1.5 * load / d]), np.array([d]), np.ones(1),
+        dd[None, :], np.zeros((1, 6)), x[None, :], n[None, :], np.zeros(1, dtype=np.int64),
+        surface.normal_body == "slave", None if slide is None else slide[face:face + 1],
+        about)
     centroids = surface.face_sum(surface.qp_point) / np.bincount(
         surface.qp_face, minlength=surface.n_faces)[:, None]
 

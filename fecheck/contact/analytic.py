@@ -26,6 +26,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from fecheck.contact.kernels import sphere_depths
 from geometry.errors import FecheckError
 from geometry.polynomial import Polynomial2D
 
@@ -113,30 +114,21 @@ class Sphere:
         r = y - self.center
         return self.radius - np.sqrt(np.einsum("...i,...i->...", r, r))
 
-    def _roots(self, y: np.ndarray, u: np.ndarray):
-        r = y - self.center
-        b = np.einsum("...i,...i->...", u, r)
-        rr = np.einsum("...i,...i->...", r, r)
-        disc = b * b - rr + self.radius**2
-        hit = disc >= 0.0
-        depth = np.where(hit, np.sqrt(np.maximum(disc, 0.0)) - b, self.radius - np.sqrt(rr))
-        return depth, hit, r, rr
+    def _depths(self, y: np.ndarray, u: np.ndarray):
+        y, u = np.broadcast_arrays(np.asarray(y, dtype=float), np.asarray(u, dtype=float))
+        shape = y.shape
+        d, g, h = sphere_depths(np.ascontiguousarray(y.reshape(-1, 3)),
+                                np.ascontiguousarray(u.reshape(-1, 3)), self.center,
+                                self.radius)
+        return d.reshape(shape[:-1]), g.reshape(shape), h.reshape(shape)
 
     def depth_values(self, y: np.ndarray, u: np.ndarray | None = None) -> np.ndarray:
         """(…,) depth along `u`, mm; where the line misses the ball, R - |y - c| (< 0)."""
-        return self._roots(y, u)[0]
+        return self._depths(y, u)[0]
 
     def depth_gradients(self, y: np.ndarray, u: np.ndarray):
         """(∂d/∂y, ∂d/∂u), each (…, 3)."""
-        depth, hit, r, rr = self._roots(y, u)
-        q = r + depth[..., None] * u                      # sphere point minus centre
-        qu = np.einsum("...i,...i->...", q, u)
-        safe = hit & (np.abs(qu) > 1e-12 * self.radius)
-        g_ray = -q / np.where(safe, qu, 1.0)[..., None]
-        g_rad = -r / np.sqrt(np.maximum(rr, 1e-300))[..., None]
-        g = np.where(safe[..., None], g_ray, g_rad)
-        h = np.where(safe[..., None], depth[..., None] * g_ray, 0.0)
-        return g, h
+        return self._depths(y, u)[1:]
 
     def foundation_normals(self, triangles: np.ndarray):
         raise FecheckError("the sphere master uses the slave face normals")

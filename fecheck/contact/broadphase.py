@@ -71,6 +71,8 @@ class CandidateCache:
         self.margin_mm = float(margin_mm)
         self.reuse_fraction = float(reuse_fraction)
         self.prefilter = prefilter
+        self._normals = slave.face_normals          # per-face data, computed once per body
+        self._areas = slave.face_areas
         self.centroid = slave.points.mean(axis=0)
         self.radius = float(np.linalg.norm(slave.points - self.centroid, axis=1).max())
         self.n_rebuilds = 0
@@ -100,10 +102,15 @@ class CandidateCache:
         if test.size:
             near[test] = self.reach(y[test]) > -self.margin_mm
         faces = np.flatnonzero(near[slave.faces].any(axis=1))
-        vertices, local = np.unique(slave.faces[faces], return_inverse=True)
-        return Candidates(faces=faces, local_faces=local.reshape(-1, 3), vertices=vertices,
-                          points=slave.points[vertices], normals=slave.face_normals[faces],
-                          areas=slave.face_areas[faces])
+        corners = slave.faces[faces]
+        used = np.zeros(slave.n_points, dtype=bool)
+        used[corners] = True
+        vertices = np.flatnonzero(used)
+        index = np.empty(slave.n_points, dtype=np.int64)     # slave vertex → candidate point
+        index[vertices] = np.arange(vertices.size)
+        return Candidates(faces=faces, local_faces=index[corners], vertices=vertices,
+                          points=slave.points[vertices], normals=self._normals[faces],
+                          areas=self._areas[faces])
 
     @property
     def current(self) -> Candidates | None:

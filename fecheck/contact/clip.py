@@ -6,15 +6,19 @@ whole face (three). Sub-triangles are given by the barycentric coordinates of th
 corners on the parent face; each carries the 3-point interior rule of degree 2
 (points (2/3, 1/6, 1/6) and permutations, weights 1/3), exact for the quadratic
 integrands of the linear elastic foundation and its tangent.
+
+The per-face rule `face_rule` is compiled with numba: the contact kernels of
+`fecheck.contact.kernels` call it face by face; `clipped_quadrature` applies it to an
+array of faces.
 """
 
 from __future__ import annotations
 
 import numpy as np
+from numba import njit
 
-_EYE = np.eye(3)
 # Rows: barycentric coordinates of the 3 rule points on a sub-triangle's corners.
-_RULE = np.array([[4.0, 1.0, 1.0], [1.0, 4.0, 1.0], [1.0, 1.0, 4.0]]) / 6.0
+RULE = np.array([[4.0, 1.0, 1.0], [1.0, 4.0, 1.0], [1.0, 1.0, 4.0]]) / 6.0
 # Corner points of a face: 0, 1, 2 its vertices, 3, 4, 5 the zero-depth points on the
 # edges 0→1, 1→2, 2→0 (at parameter t_e = d_e / (d_e - d_{e+1}) from vertex e). For
 # each sign pattern (bit i set when vertex i is in contact), the in-contact
@@ -29,55 +33,69 @@ _TABLE = np.array([
     [[1, 2, 5], [1, 5, 3]],      # vertices 1, 2
     [[0, 1, 2], [-1, -1, -1]],   # all three
 ])
-_ROLL = [1, 2, 0]
-_BITS = np.array([1, 2, 4])
+# Number of rule points per sign pattern (3 per sub-triangle).
+N_POINTS = np.array([0, 3, 3, 6, 3, 6, 6, 3])
 
 
-def _corner_polynomials() -> tuple[np.ndarray, np.ndarray]:
-    """Per corner point, its barycentric coordinates as a linear function of
-    (1, t0, t1, t2): (6, 3, 4)."""
-    lin = np.zeros((6, 3, 4))
+@njit(cache=True, fastmath=False)
+def pattern_of(d0: float, d1: float, d2: float) -> int:
+    """Sign pattern of a face: bit i set when vertex i has a positive depth."""
+    return (d0 > 0.0) + 2 * (d1 > 0.0) + 4 * (d2 > 0.0)
+
+
+@njit(cache=True, fastmath=False)
+def face_rule(d0: float, d1: float, d2: float, bary: np.ndarray, fraction: np.ndarray,
+              start: int, corner: np.ndarray) -> int:
+    """Degree-2 rule on the positive part of one face with vertex depths d0, d1, d2 (mm).
+
+    Writes the points' barycentric coordinates into ``bary[start:]`` and their weights as
+    fractions of the face's area into ``fraction[start:]``; returns the next free row.
+    `corner` (6, 3) is scratch space.
+    """
+    pattern = pattern_of(d0, d1, d2)
+    d = (d0, d1, d2)
+    corner[:] = 0.0
     for i in range(3):
-        lin[i, i, 0] = 1.0
-        j = (i + 1) % 3                     # edge point i: (1 - t_i) e_i + t_i e_j
-        lin[3 + i, i, 0] = 1.0
-        lin[3 + i, i, 1 + i] = -1.0
-        lin[3 + i, j, 1 + i] = 1.0
-    return lin
+        j = (i + 1) % 3
+        step = d[i] - d[j]
+        t = d[i] / (step if step != 0.0 else 1.0)   # zero crossing along edge i → j
+        corner[i, i] = 1.0
+        corner[3 + i, i] = 1.0 - t
+        corner[3 + i, j] = t
+    row = start
+    for slot in range(2):
+        c0, c1, c2 = _TABLE[pattern, slot, 0], _TABLE[pattern, slot, 1], _TABLE[pattern, slot, 2]
+        if c0 < 0:
+            continue
+        a0, a1, a2 = corner[c0, 0], corner[c0, 1], corner[c0, 2]
+        b0, b1, b2 = corner[c1, 0], corner[c1, 1], corner[c1, 2]
+        e0, e1, e2 = corner[c2, 0], corner[c2, 1], corner[c2, 2]
+        det = a0 * (b1 * e2 - b2 * e1) - a1 * (b0 * e2 - b2 * e0) + a2 * (b0 * e1 - b1 * e0)
+        for q in range(3):
+            r0, r1, r2 = RULE[q, 0], RULE[q, 1], RULE[q, 2]
+            bary[row, 0] = r0 * a0 + r1 * b0 + r2 * e0
+            bary[row, 1] = r0 * a1 + r1 * b1 + r2 * e1
+            bary[row, 2] = r0 * a2 + r1 * b2 + r2 * e2
+            fraction[row] = abs(det) / 3.0
+            row += 1
+    return row
 
 
-def _tables() -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """Per pattern: rule points (6, 3, 4) linear in (1, t0, t1, t2); sub-triangle area
-    fractions (2, 7) as polynomials in (1, t0, t1, t2, t0·t1, t1·t2, t2·t0); which of
-    the 6 rule points exist (6,). Each corner depends on at most one t and no two
-    corners of a sub-triangle on the same t, so the area (a determinant multilinear in
-    the corners) has only those monomials."""
-    lin = _corner_polynomials()
-    monomial = {(): 0, (0,): 1, (1,): 2, (2,): 3, (0, 1): 4, (1, 2): 5, (0, 2): 6}
-    points = np.zeros((8, 6, 3, 4))
-    area = np.zeros((8, 2, 7))
-    valid = np.zeros((8, 6), dtype=bool)
-    for pattern in range(8):
-        for slot in range(2):
-            corners = _TABLE[pattern, slot]
-            if corners[0] < 0:
-                continue
-            c = lin[corners]                                  # (3 corners, 3, 4)
-            points[pattern, 3 * slot:3 * slot + 3] = np.einsum("qc,cjk->qjk", _RULE, c)
-            valid[pattern, 3 * slot:3 * slot + 3] = True
-            # Expand det[c0; c1; c2] row by row: constant part or the t part of a row.
-            edge = [int(np.flatnonzero(np.abs(ci[:, 1:]).sum(axis=0))[0])
-                    if np.abs(ci[:, 1:]).any() else None for ci in c]
-            for choice in np.ndindex(2, 2, 2):
-                if any(ch and e is None for ch, e in zip(choice, edge)):
-                    continue
-                rows = [ci[:, 1 + e] if ch else ci[:, 0] for ci, ch, e in zip(c, choice, edge)]
-                ts = tuple(sorted(e for ch, e in zip(choice, edge) if ch))
-                area[pattern, slot, monomial[ts]] += np.linalg.det(np.array(rows))
-    return points, area, valid
-
-
-_POINTS, _AREA, _VALID = _tables()
+@njit(cache=True, fastmath=False)
+def _clip_faces(depth: np.ndarray):
+    n_q = 0
+    for f in range(depth.shape[0]):
+        n_q += N_POINTS[pattern_of(depth[f, 0], depth[f, 1], depth[f, 2])]
+    face = np.empty(n_q, dtype=np.int64)
+    bary = np.empty((n_q, 3))
+    fraction = np.empty(n_q)
+    corner = np.empty((6, 3))
+    row = 0
+    for f in range(depth.shape[0]):
+        end = face_rule(depth[f, 0], depth[f, 1], depth[f, 2], bary, fraction, row, corner)
+        face[row:end] = f
+        row = end
+    return face, bary, fraction
 
 
 def clipped_quadrature(depth: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -97,17 +115,10 @@ def clipped_quadrature(depth: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.nd
     >>> float(frac.sum())
     0.25
     """
-    pattern = (depth > 0.0) @ _BITS
-    step = depth - depth[:, _ROLL]
-    t = depth / np.where(step == 0.0, 1.0, step)        # zero crossing along edge e → e+1
-    mono = np.concatenate([np.ones((len(depth), 1)), t, t * t[:, _ROLL]], axis=1)
-    points = np.einsum("fqjk,fk->fqj", _POINTS[pattern], mono[:, :4])
-    fraction = np.abs(np.einsum("fsk,fk->fs", _AREA[pattern], mono)) / 3.0
-    face, slot = np.nonzero(_VALID[pattern])
-    return face, points[face, slot], fraction[face, slot // 3]
+    return _clip_faces(np.ascontiguousarray(depth, dtype=float))
 
 
 def whole_face_quadrature(n_faces: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Degree-2 rule on the whole of every face (the thesis's counting)."""
-    return (np.repeat(np.arange(n_faces), 3), np.tile(_RULE, (n_faces, 1)),
+    return (np.repeat(np.arange(n_faces), 3), np.tile(RULE, (n_faces, 1)),
             np.full(3 * n_faces, 1.0 / 3.0))

@@ -19,7 +19,7 @@ import numpy as np
 
 from fecheck.contact.analytic import Plane, PolynomialSurface, Sphere
 from fecheck.contact.broadphase import CandidateCache
-from fecheck.contact.clip import clipped_quadrature, whole_face_quadrature
+from fecheck.contact.kernels import plane_surface, sphere_surface, surface_quadrature
 from fecheck.contact.surface import ContactSurface
 from geometry.errors import FecheckError
 from geometry.mesh import TriMesh
@@ -27,15 +27,14 @@ from geometry.mesh import TriMesh
 METHODS = ("auto", "closed-form", "bvh", "ray-parity", "fcl")
 AREAS = ("clipped", "whole-face")
 _EYE = np.eye(3)
-_ROLL1, _ROLL2 = [1, 2, 0], [2, 0, 1]
 
 
 def validate_pose(pose, name: str) -> tuple[np.ndarray, np.ndarray]:
     """(R, t) as float arrays; FecheckError unless R is a finite proper rotation."""
     try:
         R, t = pose
-        R = np.asarray(R, dtype=float)
-        t = np.asarray(t, dtype=float)
+        R = np.ascontiguousarray(R, dtype=float)
+        t = np.ascontiguousarray(t, dtype=float)
     except (TypeError, ValueError) as err:
         raise FecheckError(f"{name} pose must be a pair (R (3, 3), t (3,) mm)") from err
     if R.shape != (3, 3) or t.shape != (3,):
@@ -65,11 +64,6 @@ def _cross(a: np.ndarray, b: np.ndarray) -> np.ndarray:
     a0, a1, a2 = a[..., 0], a[..., 1], a[..., 2]
     b0, b1, b2 = b[..., 0], b[..., 1], b[..., 2]
     return np.stack([a1 * b2 - a2 * b1, a2 * b0 - a0 * b2, a0 * b1 - a1 * b0], axis=-1)
-
-
-def _skew(v: np.ndarray) -> np.ndarray:
-    """(3, 3) cross-product matrix of v; for row vectors x, x @ _skew(v) == x × v."""
-    return np.array([[0.0, -v[2], v[1]], [v[2], 0.0, -v[0]], [-v[1], v[0], 0.0]])
 
 
 class ContactPair:
@@ -133,6 +127,11 @@ class ContactPair:
             from fecheck.contact.thesis import thesis_detector
             self.master = master
             self._thesis = thesis_detector(method, slave, master, area)
+        self._kernel, self._kernel_args = None, ()
+        if isinstance(self.master, Plane):
+            self._kernel, self._kernel_args = plane_surface, (master.point, master.normal)
+        elif isinstance(self.master, Sphere):
+            self._kernel, self._kernel_args = sphere_surface, (master.center, master.radius)
         if self._thesis is None:
             self._cache = CandidateCache(slave, self.master.reach, self.margin_mm,
                                          prefilter=getattr(self.master, "prefilter", None))
@@ -169,23 +168,27 @@ class ContactPair:
         R = Rm.T @ Rs
         t = Rm.T @ (ts - tm)
         master = self.master
-        body = master.normal_body
         cand = self._cache.get(R, t)
         if cand.faces.size == 0:
-            return ContactSurface.empty(self.slave.n_faces, body)
+            return ContactSurface.empty(self.slave.n_faces, master.normal_body)
+        if self._kernel is not None:
+            hit, normal, depth, *qp = self._kernel(
+                self.area_mode == "clipped", cand.points, cand.local_faces, cand.normals,
+                cand.areas, R, t, Rm, tm, Rs, *self._kernel_args)
+            if hit.size == 0:
+                return ContactSurface.empty(self.slave.n_faces, master.normal_body)
+            return ContactSurface(cand.faces[hit], normal, depth, *qp, master.normal_body,
+                                  self.slave.n_faces)
         y = cand.points @ R.T + t
-        grad = None
-        if master.uses_slave_normal:
-            u = _apply(cand.normals, -R)
-            d = master.depth_values(y[cand.local_faces], u[:, None, :])
-        elif hasattr(master, "depth_and_gradients"):        # one BVH query for both
+        if hasattr(master, "depth_and_gradients"):        # one BVH query for both
             dv, grad = master.depth_and_gradients(y)
             d = dv[cand.local_faces]
         else:
-            d = master.depth_values(y)[cand.local_faces]
+            dv, grad = master.depth_values(y), None
+            d = dv[cand.local_faces]
         hit = np.nonzero(d.max(axis=1) > 0.0)[0]
         if hit.size == 0:
-            return ContactSurface.empty(self.slave.n_faces, body)
+            return ContactSurface.empty(self.slave.n_faces, master.normal_body)
         faces = cand.local_faces[hit]
         return build_surface(master, self.area_mode, self.slave.n_faces, cand, hit, d[hit],
                              y[faces], R, Rm, tm, Rs, None if grad is None else grad[faces])
@@ -195,79 +198,42 @@ def build_surface(master, area_mode: str, n_slave_faces: int, cand, hit: np.ndar
                   D: np.ndarray, Y: np.ndarray, R: np.ndarray, Rm: np.ndarray,
                   tm: np.ndarray, Rs: np.ndarray, g: np.ndarray | None = None
                   ) -> ContactSurface:
-    """Quadrature, twist derivatives and normals of the contact faces `hit` of `cand`.
+    """Quadrature, twist derivatives and normals of the contact faces `hit` of `cand`,
+    for masters with a depth gradient per point (polynomial, meshes, the thesis's ray
+    parity; `Plane` and `Sphere` have compiled kernels, `fecheck.contact.kernels`).
 
     D (m, 3) vertex depths and Y (m, 3, 3) vertex positions in the master frame (mm);
     R the slave-to-master rotation; (Rm, tm) the master pose; Rs the slave rotation;
-    g (m, 3, 3) the depth gradients if already known (master frame). A gradient of
-    shape (3,) (a plane) is constant: its twist is then formed at the points directly.
+    g (m, 3, 3) the depth gradients if already known (master frame).
     """
     m = len(hit)
     X = _apply(Y, Rm, tm)                                 # (m, 3, 3) world vertices
-    if master.uses_slave_normal:
-        U = np.broadcast_to(_apply(cand.normals[hit], -R)[:, None, :], Y.shape)
-        g, h = master.depth_gradients(Y, U)
-        gw = _apply(g, Rm)
-        rot = _cross(X + D[:, :, None] * _apply(U, Rm), gw)     # (x + d u) × g
-    elif g is None:
+    if g is None:
         g = master.depth_gradients(Y)[0]
-    constant = g.ndim == 1
-    if constant:                                          # interpolate depth and position
-        gw = Rm @ g
-        vertex = np.concatenate([D[:, :, None], X], axis=-1)
-    else:                                                 # … and ∂d/∂v, ∂d/∂ω per vertex
-        if not master.uses_slave_normal:
-            gw = _apply(g, Rm)
-            rot = _cross(X, gw)
-        vertex = np.concatenate([D[:, :, None], X, gw, rot], axis=-1)
-
-    if area_mode == "clipped":
-        qp_face, bary, qfrac = clipped_quadrature(D)
-    else:
-        qp_face, bary, qfrac = whole_face_quadrature(m)
-    qp = np.einsum("qi,qij->qj", bary, vertex[qp_face])
-    qp_point = qp[:, 1:4]
-    if area_mode == "whole-face":                        # the deepest vertex's depth
-        qp = vertex[np.arange(m), np.argmax(D, axis=1)][qp_face]
-    qp_depth = qp[:, 0]
-    if constant:
-        qp_depth_twist = np.empty((len(qp_face), 6))
-        qp_depth_twist[:, :3] = gw
-        qp_depth_twist[:, 3:] = (qp_point if area_mode == "clipped" else qp[:, 1:4]) @ _skew(gw)
-    else:
-        qp_depth_twist = qp[:, 4:]
-    area = qfrac * cand.areas[hit][qp_face]
-
+    gw = _apply(g, Rm)
+    T = np.concatenate([gw, _cross(X, gw)], axis=-1)      # ∂d/∂v, ∂d/∂ω per vertex
     slide = None
     if master.normal_body == "slave":
         N = -_apply(cand.normals[hit], Rs)
-        weight, weight_twist = area, np.zeros((len(qp_face), 6))
+        cos_abs, rate = np.ones(m), np.zeros((m, 6))
     else:
         nf_w = _apply(cand.normals[hit], Rs)
         Nm, dN = master.foundation_normals(Y)
-        if Nm.ndim == 1:                                  # one normal for every face
-            n_w = Rm @ Nm
-            N = np.empty((m, 3))
-            N[:] = n_w
-            cos = nf_w @ n_w
-            dcos = np.zeros((m, 6))
-            dcos[:, 3:] = nf_w @ _skew(n_w)
-        else:
-            N = _apply(Nm, Rm)
-            cos = np.einsum("ij,ij->i", nf_w, N)
-            dcos = np.zeros((m, 6))
-            dcos[:, 3:] = _cross(nf_w, N)
+        N = _apply(Nm, Rm)
+        cos = np.einsum("ij,ij->i", nf_w, N)
+        dcos = np.zeros((m, 6))
+        dcos[:, 3:] = _cross(nf_w, N)
         if dN is not None:
             A = Rm @ dN @ Rm.T                           # ∂N/∂(centroid), world
             slide = np.concatenate([A, -A @ _skew_rows(X.sum(axis=1) / 3.0)], axis=-1)
             dcos += np.einsum("ij,ijk->ik", nf_w, slide)
-        weight = area * np.abs(cos)[qp_face]
-        weight_twist = (area * np.sign(cos)[qp_face])[:, None] * dcos[qp_face]
-    return ContactSurface(
-        face=cand.faces[hit], normal=N, vertex_depth=D, qp_face=qp_face, qp_bary=bary,
-        qp_point=qp_point, qp_depth=qp_depth, qp_weight=weight,
-        qp_depth_twist=qp_depth_twist, qp_weight_twist=weight_twist,
-        normal_body=master.normal_body, n_slave_faces=n_slave_faces, normal_slide=slide)
+        cos_abs, rate = np.abs(cos), np.sign(cos)[:, None] * dcos
+    qp = surface_quadrature(area_mode == "clipped", np.ascontiguousarray(D),
+                            np.ascontiguousarray(X), np.ascontiguousarray(T),
+                            np.ascontiguousarray(cand.areas[hit], dtype=float), cos_abs,
+                            np.ascontiguousarray(rate))
+    return ContactSurface(cand.faces[hit], N, D, *qp, master.normal_body, n_slave_faces,
+                          normal_slide=slide)
 
 
 def _skew_rows(v: np.ndarray) -> np.ndarray:

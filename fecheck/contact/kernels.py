@@ -1,0 +1,301 @@
+"""Compiled (numba) contact kernels: candidate faces → the arrays of a `ContactSurface`.
+
+One evaluation of a contact pair is a few hundred faces of arithmetic; in NumPy it costs
+~90 small array operations of 1-5 µs each, so these loops are compiled instead
+(``@njit(cache=True)``: compiled once, then loaded from ``__pycache__``).
+
+* `surface_quadrature` — the shared core: vertex depths, world positions and depth twists
+  of the contact faces → quadrature points (clipped at zero depth, or whole faces at the
+  deepest vertex's depth, see `fecheck.contact.surface`), their weights and twists.
+* `plane_surface`, `sphere_surface` — the analytic masters of the statics' hot path:
+  depths of the candidate faces in closed form, the contact faces, their normals and
+  the vertex data, then `surface_quadrature`. Other masters (polynomial, meshes, the
+  thesis's detectors) form the vertex data in NumPy (`fecheck.contact.pair.build_surface`)
+  and call `surface_quadrature` directly.
+
+Conventions (mm, world frame): a vertex twist row is ``(∂d/∂v, ∂d/∂ω)``; poses are
+``y = R p + t`` (slave → master frame) and ``x = Rm y + tm`` (master → world).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from numba import njit
+
+from fecheck.contact.clip import N_POINTS, RULE, face_rule, pattern_of
+
+
+@njit(cache=True, fastmath=False)
+def surface_quadrature(clipped: bool, D: np.ndarray, X: np.ndarray, T: np.ndarray,
+                       area: np.ndarray, cos_abs: np.ndarray, weight_rate: np.ndarray):
+    """Quadrature of m contact faces.
+
+    Parameters
+    ----------
+    clipped : True: the positive part of each face; False: whole faces at the depth (and
+        depth twist) of their deepest vertex
+    D : (m, 3) vertex depths, mm;  X : (m, 3, 3) world vertices, mm
+    T : (m, 3, 6) vertex depth twists ∂d/∂ξ, (1, mm)
+    area : (m,) face areas, mm²
+    cos_abs : (m,) weight per unit area (|cos| of the projection; 1: plain areas)
+    weight_rate : (m, 6) ∂cos_abs/∂ξ (zero for plain areas)
+
+    Returns
+    -------
+    qp_face (Q,), qp_bary (Q, 3), qp_point (Q, 3), qp_depth (Q,), qp_weight (Q,),
+    qp_depth_twist (Q, 6), qp_weight_twist (Q, 6)
+    """
+    m = D.shape[0]
+    n_q = 0
+    for f in range(m):
+        n_q += N_POINTS[pattern_of(D[f, 0], D[f, 1], D[f, 2])] if clipped else 3
+    face = np.empty(n_q, dtype=np.int64)
+    bary = np.empty((n_q, 3))
+    frac = np.empty(n_q)
+    point = np.empty((n_q, 3))
+    depth = np.empty(n_q)
+    weight = np.empty(n_q)
+    depth_twist = np.empty((n_q, 6))
+    weight_twist = np.empty((n_q, 6))
+    corner = np.empty((6, 3))
+    row = 0
+    for f in range(m):
+        if clipped:
+            end = face_rule(D[f, 0], D[f, 1], D[f, 2], bary, frac, row, corner)
+        else:
+            end = row + 3
+            for q in range(3):
+                for k in range(3):
+                    bary[row + q, k] = RULE[q, k]
+                frac[row + q] = 1.0 / 3.0
+        deepest = 0
+        for j in range(1, 3):
+            if D[f, j] > D[f, deepest]:
+                deepest = j
+        for q in range(row, end):
+            b0, b1, b2 = bary[q, 0], bary[q, 1], bary[q, 2]
+            face[q] = f
+            for k in range(3):
+                point[q, k] = b0 * X[f, 0, k] + b1 * X[f, 1, k] + b2 * X[f, 2, k]
+            if clipped:
+                depth[q] = b0 * D[f, 0] + b1 * D[f, 1] + b2 * D[f, 2]
+                for k in range(6):
+                    depth_twist[q, k] = b0 * T[f, 0, k] + b1 * T[f, 1, k] + b2 * T[f, 2, k]
+            else:
+                depth[q] = D[f, deepest]
+                for k in range(6):
+                    depth_twist[q, k] = T[f, deepest, k]
+            a = frac[q] * area[f]
+            weight[q] = a * cos_abs[f]
+            for k in range(6):
+                weight_twist[q, k] = a * weight_rate[f, k]
+        row = end
+    return face, bary, point, depth, weight, depth_twist, weight_twist
+
+
+@njit(cache=True, fastmath=False)
+def _mul(A: np.ndarray, v0: float, v1: float, v2: float) -> tuple[float, float, float]:
+    """A v for a (3, 3) matrix A."""
+    return (A[0, 0] * v0 + A[0, 1] * v1 + A[0, 2] * v2,
+            A[1, 0] * v0 + A[1, 1] * v1 + A[1, 2] * v2,
+            A[2, 0] * v0 + A[2, 1] * v1 + A[2, 2] * v2)
+
+
+@njit(cache=True, fastmath=False)
+def _vertex(T: np.ndarray, X: np.ndarray, i: int, j: int, x: tuple, g: tuple,
+            arm: tuple) -> None:
+    """Store world vertex x in X[i, j] and its depth twist (g, arm × g) in T[i, j]."""
+    X[i, j, 0], X[i, j, 1], X[i, j, 2] = x
+    T[i, j, 0], T[i, j, 1], T[i, j, 2] = g
+    T[i, j, 3] = arm[1] * g[2] - arm[2] * g[1]
+    T[i, j, 4] = arm[2] * g[0] - arm[0] * g[2]
+    T[i, j, 5] = arm[0] * g[1] - arm[1] * g[0]
+
+
+@njit(cache=True, fastmath=False)
+def _slave_to_master(points: np.ndarray, R: np.ndarray, t: np.ndarray) -> np.ndarray:
+    """y = R p + t for the candidate points (n, 3)."""
+    y = np.empty_like(points)
+    for i in range(points.shape[0]):
+        y0, y1, y2 = _mul(R, points[i, 0], points[i, 1], points[i, 2])
+        y[i, 0], y[i, 1], y[i, 2] = y0 + t[0], y1 + t[1], y2 + t[2]
+    return y
+
+
+@njit(cache=True, fastmath=False)
+def _contact_faces(D: np.ndarray) -> np.ndarray:
+    """Indices of the faces with a positive vertex depth."""
+    keep = np.empty(D.shape[0], dtype=np.int64)
+    m = 0
+    for f in range(D.shape[0]):
+        if D[f, 0] > 0.0 or D[f, 1] > 0.0 or D[f, 2] > 0.0:
+            keep[m] = f
+            m += 1
+    return keep[:m]
+
+
+@njit(cache=True, fastmath=False)
+def sphere_ray_depth(y0: float, y1: float, y2: float, u0: float, u1: float, u2: float,
+                     center: np.ndarray, radius: float):
+    """Depth (mm) of point y along unit u to the sphere: the larger root ``s`` with
+    ``y + s·u`` on it, or ``R - |y - c|`` where the line misses the ball. Returns
+    (depth, ∂d/∂y as 3 floats, ray) with ray False where the radial gradient is used
+    (missed line, or a ray tangent to the sphere)."""
+    r0, r1, r2 = y0 - center[0], y1 - center[1], y2 - center[2]
+    b = u0 * r0 + u1 * r1 + u2 * r2
+    rr = r0 * r0 + r1 * r1 + r2 * r2
+    disc = b * b - rr + radius * radius
+    if disc >= 0.0:
+        d = np.sqrt(disc) - b
+        q0, q1, q2 = r0 + d * u0, r1 + d * u1, r2 + d * u2        # sphere point - c
+        qu = q0 * u0 + q1 * u1 + q2 * u2
+        if abs(qu) > 1e-12 * radius:
+            return d, -q0 / qu, -q1 / qu, -q2 / qu, True
+    else:
+        d = radius - np.sqrt(rr)
+    s = np.sqrt(max(rr, 1e-300))
+    return d, -r0 / s, -r1 / s, -r2 / s, False
+
+
+@njit(cache=True, fastmath=False)
+def sphere_depths(y: np.ndarray, u: np.ndarray, center: np.ndarray, radius: float):
+    """`sphere_ray_depth` over points y (n, 3) and unit directions u (n, 3): depth (n,),
+    ∂d/∂y (n, 3), ∂d/∂u (n, 3) (d·∂d/∂y on a ray, zero with the radial gradient)."""
+    n = y.shape[0]
+    depth = np.empty(n)
+    g = np.empty((n, 3))
+    h = np.zeros((n, 3))
+    for i in range(n):
+        d, g0, g1, g2, ray = sphere_ray_depth(y[i, 0], y[i, 1], y[i, 2],
+                                              u[i, 0], u[i, 1], u[i, 2], center, radius)
+        depth[i], g[i, 0], g[i, 1], g[i, 2] = d, g0, g1, g2
+        if ray:
+            h[i, 0], h[i, 1], h[i, 2] = d * g0, d * g1, d * g2
+    return depth, g, h
+
+
+@njit(cache=True, fastmath=False)
+def plane_surface(clipped: bool, points: np.ndarray, local_faces: np.ndarray,
+                  normals: np.ndarray, areas: np.ndarray, R: np.ndarray, t: np.ndarray,
+                  Rm: np.ndarray, tm: np.ndarray, Rs: np.ndarray, plane_point: np.ndarray,
+                  plane_normal: np.ndarray):
+    """Contact of candidate slave faces with the half-space below a plane.
+
+    points (n, 3), local_faces (mc, 3), normals (mc, 3) outward, areas (mc,): the
+    candidates in the slave frame (mm, mm²). Depth along the plane normal n (master
+    frame), foundation normal n (fixed in the master), weights projected on the plane:
+    area·|cos|, cos = (Rs n_face)·(Rm n).
+
+    Returns (hit (m,) indices into the candidates, normal (m, 3), vertex_depth (m, 3))
+    followed by the arrays of `surface_quadrature`.
+    """
+    n0, n1, n2 = plane_normal[0], plane_normal[1], plane_normal[2]
+    offset = plane_point[0] * n0 + plane_point[1] * n1 + plane_point[2] * n2
+    y = _slave_to_master(points, R, t)
+    dv = np.empty(points.shape[0])
+    for i in range(points.shape[0]):
+        dv[i] = offset - (y[i, 0] * n0 + y[i, 1] * n1 + y[i, 2] * n2)
+    Dc = np.empty((local_faces.shape[0], 3))
+    for f in range(local_faces.shape[0]):
+        for j in range(3):
+            Dc[f, j] = dv[local_faces[f, j]]
+    hit = _contact_faces(Dc)
+    m = hit.size
+    nw = _mul(Rm, n0, n1, n2)
+    g = (-nw[0], -nw[1], -nw[2])
+    D = np.empty((m, 3))
+    X = np.empty((m, 3, 3))
+    T = np.empty((m, 3, 6))
+    N = np.empty((m, 3))
+    area = np.empty(m)
+    cos_abs = np.empty(m)
+    rate = np.zeros((m, 6))
+    for i in range(m):
+        f = hit[i]
+        for j in range(3):
+            v = local_faces[f, j]
+            D[i, j] = Dc[f, j]
+            x0, x1, x2 = _mul(Rm, y[v, 0], y[v, 1], y[v, 2])
+            x = (x0 + tm[0], x1 + tm[1], x2 + tm[2])
+            _vertex(T, X, i, j, x, g, x)
+        N[i, 0], N[i, 1], N[i, 2] = nw
+        area[i] = areas[f]
+        a0, a1, a2 = _mul(Rs, normals[f, 0], normals[f, 1], normals[f, 2])
+        cos = a0 * nw[0] + a1 * nw[1] + a2 * nw[2]
+        sign = 1.0 if cos > 0.0 else (-1.0 if cos < 0.0 else 0.0)
+        cos_abs[i] = abs(cos)
+        rate[i, 3] = sign * (a1 * nw[2] - a2 * nw[1])          # ∂cos/∂ω = n_face × n
+        rate[i, 4] = sign * (a2 * nw[0] - a0 * nw[2])
+        rate[i, 5] = sign * (a0 * nw[1] - a1 * nw[0])
+    return (hit, N, D) + surface_quadrature(clipped, D, X, T, area, cos_abs, rate)
+
+
+@njit(cache=True, fastmath=False)
+def sphere_surface(clipped: bool, points: np.ndarray, local_faces: np.ndarray,
+                   normals: np.ndarray, areas: np.ndarray, R: np.ndarray, t: np.ndarray,
+                   Rm: np.ndarray, tm: np.ndarray, Rs: np.ndarray, center: np.ndarray,
+                   radius: float):
+    """Contact of candidate slave faces with a solid ball (`fecheck.contact.analytic.Sphere`).
+
+    Depth of a vertex along the face's foundation normal u = -R n_face (master frame)
+    to the sphere (`sphere_ray_depth`); foundation normal -Rs n_face (fixed in the
+    slave), plain slave areas. The depth twist of a vertex is (g, (x + d u) × g) with
+    g = ∂d/∂y (world), which accounts for the turn of u with the slave. Arguments and
+    returns as `plane_surface`.
+    """
+    n_c = local_faces.shape[0]
+    y = _slave_to_master(points, R, t)
+    r2 = radius * radius
+    rr = np.empty(points.shape[0])              # |y - c|², mm²
+    for v in range(points.shape[0]):
+        rr[v] = ((y[v, 0] - center[0]) ** 2 + (y[v, 1] - center[1]) ** 2
+                 + (y[v, 2] - center[2]) ** 2)
+    # A vertex has a positive depth iff it is inside the ball, or the line along u meets
+    # the ball ahead of it (b = u·(y - c) < 0 and a real root): faces with such a vertex
+    # are kept, and their depths computed exactly below.
+    near = np.empty(n_c, dtype=np.int64)
+    m = 0
+    for f in range(n_c):
+        u0, u1, u2 = _mul(R, -normals[f, 0], -normals[f, 1], -normals[f, 2])
+        for j in range(3):
+            v = local_faces[f, j]
+            b = (u0 * (y[v, 0] - center[0]) + u1 * (y[v, 1] - center[1])
+                 + u2 * (y[v, 2] - center[2]))
+            if rr[v] < r2 or (b < 0.0 and b * b - rr[v] + r2 >= 0.0):
+                near[m] = f
+                m += 1
+                break
+    Dc = np.empty((m, 3))
+    G = np.empty((m, 3, 3))                   # ∂d/∂y, master frame
+    for i in range(m):
+        f = near[i]
+        u0, u1, u2 = _mul(R, -normals[f, 0], -normals[f, 1], -normals[f, 2])
+        for j in range(3):
+            v = local_faces[f, j]
+            d, g0, g1, g2, _ = sphere_ray_depth(y[v, 0], y[v, 1], y[v, 2], u0, u1, u2,
+                                                center, radius)
+            Dc[i, j], G[i, j, 0], G[i, j, 1], G[i, j, 2] = d, g0, g1, g2
+    keep = _contact_faces(Dc)
+    m = keep.size
+    hit = near[keep]
+    D = np.empty((m, 3))
+    X = np.empty((m, 3, 3))
+    T = np.empty((m, 3, 6))
+    N = np.empty((m, 3))
+    area = np.empty(m)
+    for i in range(m):
+        f = hit[i]
+        k = keep[i]
+        nw = _mul(Rs, -normals[f, 0], -normals[f, 1], -normals[f, 2])   # = Rm u
+        for j in range(3):
+            v = local_faces[f, j]
+            d = Dc[k, j]
+            D[i, j] = d
+            x0, x1, x2 = _mul(Rm, y[v, 0], y[v, 1], y[v, 2])
+            x = (x0 + tm[0], x1 + tm[1], x2 + tm[2])
+            g = _mul(Rm, G[k, j, 0], G[k, j, 1], G[k, j, 2])
+            _vertex(T, X, i, j, x, g, (x[0] + d * nw[0], x[1] + d * nw[1], x[2] + d * nw[2]))
+        N[i, 0], N[i, 1], N[i, 2] = nw
+        area[i] = areas[f]
+    return (hit, N, D) + surface_quadrature(clipped, D, X, T, area, np.ones(m),
+                                            np.zeros((m, 6)))
