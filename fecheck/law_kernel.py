@@ -14,22 +14,22 @@ from numba import njit
 
 
 @njit(cache=True, fastmath=False)
-def pressure_resultant(stiffness: float, pressure: np.ndarray | None,
-                       slope: np.ndarray | None, depth: np.ndarray, weight: np.ndarray,
-                       depth_twist: np.ndarray, weight_twist: np.ndarray, point: np.ndarray,
-                       normal: np.ndarray, face: np.ndarray, slave_normals: bool,
-                       normal_slide: np.ndarray | None, about: np.ndarray):
+def pressure_resultant(stiffness: float, pressure: np.ndarray, slope: np.ndarray,
+                       depth: np.ndarray, weight: np.ndarray, depth_twist: np.ndarray,
+                       weight_twist: np.ndarray, point: np.ndarray, normal: np.ndarray,
+                       face: np.ndarray, slave_normals: bool, normal_slide: np.ndarray,
+                       about: np.ndarray):
     """Wrench and tangent of the pressures at Q points; points with depth ≤ 0 carry none.
 
     Parameters
     ----------
-    stiffness : k (N/mm³) of the linear law p = k·d, used when `pressure` is None
-    pressure, slope : (Q,) p (MPa) and dp/dd (MPa/mm) at the points, or None
+    stiffness : k (N/mm³) of the linear law p = k·d, used when `pressure` is empty
+    pressure, slope : (Q,) p (MPa) and dp/dd (MPa/mm) at the points, or empty (0,)
     depth (Q,) mm, weight (Q,) mm², depth_twist (Q, 6), weight_twist (Q, 6),
     point (Q, 3) mm, face (Q,): the quadrature of a `ContactSurface`
     normal : (m, 3) unit normal of each face (direction of the pressure on the slave)
     slave_normals : the normals turn with the slave (∂n/∂ω = -[n]×)
-    normal_slide : (m, 3, 6) extra ∂n/∂ξ of sliding master normals, or None
+    normal_slide : (m, 3, 6) extra ∂n/∂ξ of sliding master normals, or empty (0, 3, 6)
     about : (3,) moment reference point, mm
 
     Returns
@@ -38,6 +38,8 @@ def pressure_resultant(stiffness: float, pressure: np.ndarray | None,
     weight of the points with positive depth)
     """
     n_q = depth.shape[0]
+    linear = pressure.size == 0
+    sliding = normal_slide.shape[0] > 0
     p_out = np.zeros(n_q)
     arm = np.zeros((n_q, 6))                      # unit wrenches [n, x × n]
     gq = np.zeros((n_q, 6))                       # d(w·p)/dξ
@@ -49,7 +51,7 @@ def pressure_resultant(stiffness: float, pressure: np.ndarray | None,
         if depth[q] <= 0.0:
             continue
         w = weight[q]
-        if pressure is None:
+        if linear:
             p = stiffness * depth[q]
             dpw = stiffness * w
         else:
@@ -80,7 +82,7 @@ def pressure_resultant(stiffness: float, pressure: np.ndarray | None,
         xf20 += x2 * n0 * s
         xf21 += x2 * n1 * s
         xf22 += x2 * n2 * s
-        if normal_slide is not None:              # sliding master normals
+        if sliding:                               # sliding master normals
             nt[:, :] = normal_slide[f]
             for k in range(6):
                 c0, c1, c2 = nt[0, k], nt[1, k], nt[2, k]
@@ -130,3 +132,15 @@ def pressure_resultant(stiffness: float, pressure: np.ndarray | None,
             tangent[4, k] -= a2 * t0 - a0 * t2
             tangent[5, k] -= a0 * t1 - a1 * t0
     return p_out, force, moment, tangent, area
+
+
+NO_VALUES = np.zeros(0)
+NO_SLIDE = np.zeros((0, 3, 6))
+
+
+def warm_up() -> None:
+    """Compile `pressure_resultant`, or load it from numba's on-disk cache (~1 s in a
+    fresh process), so that the first contact evaluation does not pay for it."""
+    pressure_resultant(0.0, NO_VALUES, NO_VALUES, NO_VALUES, NO_VALUES, np.zeros((0, 6)),
+                       np.zeros((0, 6)), np.zeros((0, 3)), np.zeros((0, 3)),
+                       np.zeros(0, dtype=np.int64), False, NO_SLIDE, np.zeros(3))

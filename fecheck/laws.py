@@ -37,7 +37,7 @@ import numpy as np
 
 from fecheck.contact.surface import ContactSurface
 from fecheck.errors import FecheckError
-from fecheck.law_kernel import pressure_resultant
+from fecheck.law_kernel import NO_SLIDE, NO_VALUES, pressure_resultant
 
 BLANKEVOORT_LINEAR_FROM = 0.9      # fraction of h beyond which the log law is continued linearly
 
@@ -146,12 +146,13 @@ def foundation(surface: ContactSurface,
                           for v in pressure(d))
         stiffness = 0.0
     else:                                           # linear law p = k·d
-        values = slopes = None
+        values = slopes = NO_VALUES
         stiffness = float(pressure)
+    slide = surface.normal_slide
     p, force, moment, tangent, area = pressure_resultant(
         stiffness, values, slopes, surface.qp_depth, w, surface.qp_depth_twist,
         surface.qp_weight_twist, surface.qp_point, surface.normal, f,
-        surface.normal_body == "slave", surface.normal_slide, about)
+        surface.normal_body == "slave", NO_SLIDE if slide is None else slide, about)
     max_depth = surface.max_depth
     if max_depth <= 0:
         p_max = 0.0
@@ -247,9 +248,9 @@ def hertz(surface: ContactSurface, radius_mm: float, e_star_MPa: float,
     slide = surface.normal_slide
     _, force, moment, tangent, _ = pressure_resultant(
         0.0, np.array([load]), np.array([1.5 * load / d]), np.array([d]), np.ones(1),
-        dd[None, :], np.zeros((1, 6)), x[None, :], n[None, :], np.zeros(1, dtype=np.int64),
-        surface.normal_body == "slave", None if slide is None else slide[face:face + 1],
-        about)
+        np.array([dd]), np.zeros((1, 6)), np.array([x]), np.array([n]),
+        np.zeros(1, dtype=np.int64), surface.normal_body == "slave",
+        NO_SLIDE if slide is None else slide[face:face + 1], about)
     centroids = surface.face_sum(surface.qp_point) / np.bincount(
         surface.qp_face, minlength=surface.n_faces)[:, None]
 

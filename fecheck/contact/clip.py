@@ -53,6 +53,12 @@ def face_rule(d0: float, d1: float, d2: float, bary: np.ndarray, fraction: np.nd
     `corner` (6, 3) is scratch space.
     """
     pattern = pattern_of(d0, d1, d2)
+    if pattern == 7:                                # the whole face: the rule itself
+        for q in range(3):
+            for k in range(3):
+                bary[start + q, k] = RULE[q, k]
+            fraction[start + q] = 1.0 / 3.0
+        return start + 3
     d = (d0, d1, d2)
     corner[:] = 0.0
     for i in range(3):
