@@ -16,6 +16,7 @@ from collections.abc import Callable
 from dataclasses import dataclass
 
 import numpy as np
+from numba import njit
 
 from geometry.mesh import TriMesh
 
@@ -48,6 +49,35 @@ def motion_bound(R: np.ndarray, t: np.ndarray, R0: np.ndarray, t0: np.ndarray,
     chord = math.sqrt(2.0 * (1.0 - cos_theta))                             # 2 sin(θ/2)
     shift = (R - R0) @ centroid + t - t0
     return math.sqrt(float(shift @ shift)) + chord * radius
+
+
+@njit(cache=True, fastmath=False)
+def _select(near: np.ndarray, faces: np.ndarray):
+    """Faces with a vertex flagged `near`, their vertices (sorted) and the faces' corners
+    as indices into those vertices."""
+    keep = np.empty(faces.shape[0], dtype=np.int64)
+    index = np.full(near.size, -1, dtype=np.int64)
+    m = 0
+    for f in range(faces.shape[0]):
+        a, b, c = faces[f, 0], faces[f, 1], faces[f, 2]
+        if near[a] or near[b] or near[c]:
+            keep[m] = f
+            m += 1
+            index[a] = index[b] = index[c] = 0
+    n = 0
+    for v in range(near.size):                  # slave vertex → candidate point
+        if index[v] == 0:
+            index[v] = n
+            n += 1
+    vertices = np.empty(n, dtype=np.int64)
+    for v in range(near.size):
+        if index[v] >= 0:
+            vertices[index[v]] = v
+    local = np.empty((m, 3), dtype=np.int64)
+    for i in range(m):
+        for j in range(3):
+            local[i, j] = index[faces[keep[i], j]]
+    return keep[:m].copy(), vertices, local
 
 
 class CandidateCache:
@@ -101,14 +131,8 @@ class CandidateCache:
             test = test[self.prefilter(y)]
         if test.size:
             near[test] = self.reach(y[test]) > -self.margin_mm
-        faces = np.flatnonzero(near[slave.faces].any(axis=1))
-        corners = slave.faces[faces]
-        used = np.zeros(slave.n_points, dtype=bool)
-        used[corners] = True
-        vertices = np.flatnonzero(used)
-        index = np.empty(slave.n_points, dtype=np.int64)     # slave vertex → candidate point
-        index[vertices] = np.arange(vertices.size)
-        return Candidates(faces=faces, local_faces=index[corners], vertices=vertices,
+        faces, vertices, local_faces = _select(near, slave.faces)
+        return Candidates(faces=faces, local_faces=local_faces, vertices=vertices,
                           points=slave.points[vertices], normals=self._normals[faces],
                           areas=self._areas[faces])
 
