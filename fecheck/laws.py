@@ -18,9 +18,12 @@ Laws (thesis chapter 4):
   p = −(1−ν)E/((1+ν)(1−2ν)) · ln(1 − d/h). It stiffens without bound as d → h; beyond
   d = 0.9·h it is continued linearly (C¹) so that a Newton iterate that overshoots stays
   finite (the equilibrium itself is reported with its depth; d > 0.9 h is flagged).
-* `hertz` (eq. 4.4-4.8): from the maximum depth d only, P = 4/3·E*·√R·d^{3/2} along the
-  contact normal at the deepest point; E* = E/(1−ν²) for a rigid indenter or
-  1/E* = Σ (1−ν_i²)/E_i for two deformable bodies; a = √(R d), p0 = 3P/(2πa²).
+* Hertz (eq. 4.4-4.8): from the maximum depth d only, P = 4/3·E*·√R·d^{3/2}; E* = E/(1−ν²)
+  for a rigid indenter or 1/E* = Σ (1−ν_i²)/E_i for two deformable bodies; a = √(R d),
+  p0 = 3P/(2πa²). `hertz_point` takes d from a convex point contact
+  (`fecheck.contact.convex`, smooth in the pose); `hertz` from the deepest vertex of a
+  meshed slave, which is NOT smooth (the deepest vertex switches as the slave tilts, and
+  Newton may stall): it is kept for polynomial plateaus and mesh detection.
 
 >>> round(ef_stiffness(20.0, 0.3, 6.0), 4)
 4.4872
@@ -35,6 +38,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from fecheck.contact.convex import PointContact
 from fecheck.contact.surface import ContactSurface
 from fecheck.errors import FecheckError
 from fecheck.law_kernel import NO_SLIDE, NO_VALUES, pressure_resultant
@@ -89,16 +93,17 @@ def hertz_modulus(youngs_MPa: float, poisson: float, indenter_youngs_MPa: float 
 
 @dataclass(frozen=True, eq=False)
 class LawResult:
-    """A law's output for one contact surface (forces on the slave).
+    """A law's output for one contact (forces on the slave).
 
-    pressure : (Q,) pressure at the quadrature points, MPa
+    surface : the contact the law read (a `PointContact` for `hertz_point`)
+    pressure : (Q,) pressure at the quadrature points, MPa (none for a point contact)
     force : (3,) N;  moment : (3,) N·mm about `about`;  tangent : (6, 6) d[F, M]/dξ
     max_pressure : MPa at the deepest point;  max_depth : mm;  area : mm² (law's own
     contact area: the clipped area for foundation laws, πa² for Hertz)
     extra : law-specific values (Hertz: contact_radius_mm, p0_MPa, …)
     """
 
-    surface: ContactSurface
+    surface: ContactSurface | PointContact
     pressure: np.ndarray
     force: np.ndarray
     moment: np.ndarray
@@ -230,10 +235,11 @@ def _deepest_vertex(surface: ContactSurface) -> tuple[int, np.ndarray, float, np
 
 def hertz(surface: ContactSurface, radius_mm: float, e_star_MPa: float,
           about=(0.0, 0.0, 0.0)) -> LawResult:
-    """Hertz law from the maximum depth d (eq. 4.4-4.8): P = 4/3·E*·√R·d^{3/2} (N).
+    """Hertz law from the deepest slave vertex (eq. 4.4-4.8): P = 4/3·E*·√R·d^{3/2} (N).
 
     The force acts along the foundation normal of the deepest face at the deepest
-    vertex. `radius_mm` is the indenter radius R, `e_star_MPa` from `hertz_modulus`.
+    vertex. Not smooth in the pose: the deepest vertex switches as the slave tilts, so
+    Newton may stall; use `hertz_point` on a convex pair where there is one. `radius_mm` is the indenter radius R, `e_star_MPa` from `hertz_modulus`.
     Reports a = √(R d) (mm), p0 = 3P/(2πa²), mean pressure P/(πa²) and area πa².
     """
     about = np.asarray(about, dtype=float)
@@ -266,3 +272,53 @@ def hertz(surface: ContactSurface, radius_mm: float, e_star_MPa: float,
              "area_mm2": math.pi * a * a, "force_N": load}
     return LawResult(surface, np.zeros(len(surface.qp_depth)), force, moment, tangent, p0,
                      math.pi * a * a, d, extra, face_pressure_fn=face_pressure)
+
+
+def hertz_point(contact: PointContact, radius_mm: float, e_star_MPa: float,
+                about=(0.0, 0.0, 0.0)) -> LawResult:
+    """Hertz law on a convex point contact (eq. 4.4-4.8), smooth in the pose.
+
+    F = P(d)·u (N) with P = 4/3·E*·√R·d^{3/2}, d = `contact.depth_mm`, u =
+    `contact.direction`; M = (c − about) × F (N·mm), c = `contact.point` (fixed in the
+    master). Exact tangent: dF = P'(d)·u ⊗ ∂d/∂ξ + P·∂u/∂ξ, dM = (c − about) × dF.
+    Reports a = √(R d) (mm), p0 = 3P/(2πa²) (MPa, `max_pressure`), mean pressure
+    P/(πa²) and area πa²; `face_pressure()` draws p0·√(1 − r²/a²) (r from the line of
+    action) on the faces of `contact.face_centroids`, evaluated only when asked.
+    """
+    about = np.asarray(about, dtype=float)
+    d = float(contact.depth_mm)
+    if math.isnan(d):
+        raise FecheckError("the contact depth is NaN; check the poses passed to the pair")
+    centroids = contact.face_centroids
+
+    def no_mesh() -> np.ndarray:
+        raise FecheckError("this point contact has no slave mesh to draw the pressure on; "
+                           "give the pair a mesh")
+
+    z3 = np.zeros(3)
+    if d <= 0:
+        return LawResult(contact, np.zeros(0), z3, z3.copy(), np.zeros((6, 6)), 0.0, 0.0, 0.0,
+                         face_pressure_fn=no_mesh if centroids is None
+                         else lambda: np.zeros(len(centroids())))
+    r = float(radius_mm)
+    u, c = contact.direction, contact.point
+    load = 4.0 / 3.0 * e_star_MPa * math.sqrt(r) * d ** 1.5
+    force = load * u
+    arm = c - about
+    moment = np.cross(arm, force)
+    dforce = np.outer(u, 1.5 * load / d * contact.depth_twist) + load * contact.direction_twist
+    tangent = np.vstack([dforce, np.cross(arm, dforce, axisa=0, axisb=0, axisc=0)])
+    a = math.sqrt(r * d)
+    area = math.pi * a * a
+    p0 = 3 * load / (2 * area)
+
+    def face_pressure() -> np.ndarray:
+        rel = centroids() - c
+        rel -= np.outer(rel @ u, u)
+        ratio = 1.0 - np.einsum("ij,ij->i", rel, rel) / (a * a)
+        return p0 * np.sqrt(np.clip(ratio, 0.0, None))
+
+    extra = {"contact_radius_mm": a, "p0_MPa": p0, "mean_pressure_MPa": load / area,
+             "area_mm2": area, "force_N": load, "depth_mm": d}
+    return LawResult(contact, np.zeros(0), force, moment, tangent, p0, area, d, extra,
+                     face_pressure_fn=no_mesh if centroids is None else face_pressure)
