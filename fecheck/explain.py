@@ -100,7 +100,7 @@ def plan_scene(scene, plot: bool = False) -> Plan:
         plan.meshes_cached = cache.STATS.hits - hits
         plan.meshes_built = cache.STATS.builds - builds
         for comp in comps:
-            plan.pairs[comp.name] = (comp.pair.slave.n_faces, comp.pair.describe())
+            plan.pairs[comp.name] = (comp.pair.slave.n_faces, comp.describe())
             plan.allowed |= _pair_modules(comp.pair)
     plan.allowed |= {m for m in HEAVY if m in sys.modules and m not in before}
     plan.allowed |= {m for m in HEAVY if m in before}

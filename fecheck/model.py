@@ -4,7 +4,10 @@
 (kind → function of the scene returning a `RunResult`); to add one (e.g. the scanned
 ``sphere-tibia`` / ``femur-tibia`` models), write its runner, register it here and add
 the kind to `fecheck.scene.MODEL_KINDS`. The contact models share `ContactModel`:
-per compartment a `ContactPair` and a law; femur fixed, tibia pose (R, t).
+per compartment a contact pair and a law; femur fixed, tibia pose (R, t). The Hertz law on
+plane plateaus with analytic detection uses the closed-form sphere-plane point contact
+(`fecheck.contact.convex`, smooth in the pose); on polynomial plateaus or with mesh
+detection it takes the deepest slave vertex, which is not smooth (Newton may stall).
 """
 
 from __future__ import annotations
@@ -17,6 +20,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from fecheck import laws
+from fecheck.contact.surface import ContactSurface
 from fecheck.errors import FecheckError
 from fecheck.frames import skew
 from fecheck.knee import COMPARTMENTS, LIGAMENTS, Knee, plane_normal
@@ -125,7 +129,10 @@ def run_rigid(scene: Scene, warm_start: np.ndarray | None = None) -> RunResult:
 # ----------------------------------------------------------------------- contact models
 @dataclass
 class Compartment:
-    """One compartment's contact: pair, law and which body the slave belongs to."""
+    """One compartment's contact: pair, law and which body the slave belongs to.
+
+    note : a caveat of this pair with this law, appended to `describe()`
+    """
 
     name: str
     pair: object
@@ -133,6 +140,11 @@ class Compartment:
     slave_is_tibia: bool
     radius_mm: float
     last: laws.LawResult | None = None
+    note: str = ""
+
+    def describe(self) -> str:
+        """How the pair is evaluated, with the law's caveat (for ``--explain``)."""
+        return self.pair.describe() + self.note
 
 
 def law_factory(scene: Scene) -> Callable[[float], Callable[[object], laws.LawResult]]:
@@ -154,13 +166,47 @@ def law_factory(scene: Scene) -> Callable[[float], Callable[[object], laws.LawRe
     return lambda r: lambda s: laws.hertz(s, r, e_star)
 
 
+DEEPEST_VERTEX_NOTE = ("; Hertz from the deepest slave vertex: not smooth in the pose "
+                       "(Newton may stall)")
+
+
+def hertz_point_contact(scene: Scene) -> bool:
+    """Whether the scene's Hertz compartments use the closed-form sphere-plane contact
+    (Hertz law, plane plateaus, analytic detection)."""
+    return (scene["contact.law"] == "hertz"
+            and scene["plateau.kind"] in ("transverse", "inclined")
+            and scene["contact.detection"] not in MESH_DETECTION)
+
+
+def _hertz_point_compartments(scene: Scene) -> list[Compartment]:
+    """Closed-form sphere (femur) on plane (tibia) pairs: smooth maximum depth. The
+    plateau mesh only draws the pressure and is built on first use, never in the solve."""
+    from fecheck.contact.convex import SpherePlanePair
+
+    knee = scene.knee
+    e_star = laws.hertz_modulus(scene["contact.youngs_MPa"], scene["contact.poisson"],
+                                scene["contact.indenter_youngs_MPa"],
+                                scene["contact.indenter_poisson"])
+    out = []
+    for c, n in plateau_normals(scene).items():
+        centre, r = knee.condyle_center[c], knee.radius_mm(c)
+        pair = SpherePlanePair(centre, r, centre - r * n, n,
+                               mesh=lambda c=c: _plateau_mesh(scene, knee, c))
+        out.append(Compartment(c, pair, lambda s, r=r: laws.hertz_point(s, r, e_star),
+                               True, r))
+    return out
+
+
 def build_compartments(scene: Scene) -> list[Compartment]:
     """Contact pairs of the sphere-plane model (meshes built or read from the cache)."""
     from fecheck.contact.analytic import Sphere
     from fecheck.contact.pair import ContactPair
 
+    if hertz_point_contact(scene):
+        return _hertz_point_compartments(scene)
     knee = scene.knee
     law = law_factory(scene)
+    note = DEEPEST_VERTEX_NOTE if scene["contact.law"] == "hertz" else ""
     out = []
     opts = {"method": scene["contact.detection"], "area": scene["contact.area"],
             "margin_mm": scene["contact.margin_mm"]}
@@ -171,12 +217,12 @@ def build_compartments(scene: Scene) -> list[Compartment]:
             slave = _condyle_mesh(scene, knee, c)
             master = _plateau_box(scene, knee, c) if meshed else _plateau_master(scene, knee, c)
             pair = ContactPair(slave, master, **opts)
-            out.append(Compartment(c, pair, law(r), False, r))
+            out.append(Compartment(c, pair, law(r), False, r, note=note))
         else:
             slave = _plateau_mesh(scene, knee, c)
             master = _condyle_mesh(scene, knee, c) if meshed else Sphere(centre, r)
             pair = ContactPair(slave, master, **opts)
-            out.append(Compartment(c, pair, law(r), True, r))
+            out.append(Compartment(c, pair, law(r), True, r, note=note))
     return out
 
 
@@ -249,24 +295,24 @@ class ContactModel:
         dw = np.zeros((6, 6))
         t0 = time.perf_counter()
         touching = False
+        fixed, tibia = (self._eye, self._zero), (rot, t)
         for comp in self.compartments:
             if comp.slave_is_tibia:
-                surf = comp.pair.evaluate((rot, t), (self._eye, self._zero))
-                res = comp.law(surf)
-                wc, tc = np.concatenate([res.force, res.moment]), res.tangent
-            else:
-                surf = comp.pair.evaluate((self._eye, self._zero), (rot, t))
-                res = comp.law(surf)
-                wc = -np.concatenate([res.force, res.moment])
-                fs, ms = skew(wc[:3]), skew(wc[3:])
-                tc = res.tangent.copy()
-                tc[:3, 3:] -= fs
-                tc[3:, :3] -= fs
-                tc[3:, 3:] -= ms
+                res = comp.law(comp.pair.evaluate(tibia, fixed))
+                w[:3] += res.force
+                w[3:] += res.moment
+                dw += res.tangent
+            else:                   # minus the wrench on the femur, for the tibia's twist
+                res = comp.law(comp.pair.evaluate(fixed, tibia))
+                w[:3] -= res.force
+                w[3:] -= res.moment
+                fs = skew(res.force)
+                dw += res.tangent
+                dw[:3, 3:] += fs
+                dw[3:, :3] += fs
+                dw[3:, 3:] += skew(res.moment)
             comp.last = res
             touching = touching or res.surface.n_faces > 0
-            w += wc
-            dw += tc
         self.contact_seconds += time.perf_counter() - t0
         self.evaluations += 1
         self.touching = touching
@@ -359,7 +405,7 @@ def run_contact_model(scene: Scene, warm_start: np.ndarray | None = None) -> Run
             force = float(sol.multipliers[i])
         ligaments[n] = LigamentResult(force, length)
     notes = []
-    if scene["contact.area"] == "whole-face":
+    if scene["contact.area"] == "whole-face" and not hertz_point_contact(scene):
         notes.append(WHOLE_FACE_NOTE)
     if not sol.converged:
         notes.append(f"did not converge in {sol.iterations} iterations "
@@ -371,7 +417,7 @@ def run_contact_model(scene: Scene, warm_start: np.ndarray | None = None) -> Run
             notes.append(f"depth beyond 0.9 h in {deep}: the log law was continued linearly")
     extra = {"evaluations": contact.evaluations,
              "contact_faces": {c.name: c.pair.slave.n_faces for c in comps},
-             "detection": {c.name: c.pair.describe() for c in comps},
+             "detection": {c.name: c.describe() for c in comps},
              "residual_history": list(sol.history)}
     if scene["constraints.equal_forces"]:
         extra["equal_forces_multiplier"] = float(sol.multipliers[-1])
@@ -393,13 +439,18 @@ def _compartment_result(model: ContactModel, comp: Compartment, rot: np.ndarray,
     mesh = comp.pair.slave
     points = mesh.points @ rot.T + t if comp.slave_is_tibia else mesh.points
     area, mean = res.area, res.mean_pressure
-    if comp.pair.area_mode == "whole-face" and res.surface.n_faces:
+    face_pressure = res.face_pressure()
+    if isinstance(res.surface, ContactSurface):
+        faces = res.surface.n_faces
+    else:                                           # point contact: faces under the pressure
+        faces = int(np.count_nonzero(face_pressure))
+    if getattr(comp.pair, "area_mode", "") == "whole-face" and faces:
         # the thesis's area: the full (unprojected) area of every face touching the master
         area = float(mesh.face_areas[res.surface.face].sum())
         mean = force / area
     return CompartmentResult(force, res.max_pressure, mean, area, res.max_depth,
-                             float(np.linalg.norm(torque)), torque, res.surface.n_faces,
-                             res.face_pressure(), points, mesh.faces)
+                             float(np.linalg.norm(torque)), torque, faces,
+                             face_pressure, points, mesh.faces)
 
 
 def ef_sphere_plane(force_N: float, radius_mm: float, k_N_per_mm3: float) -> dict[str, float]:
