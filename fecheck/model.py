@@ -312,7 +312,7 @@ class ContactModel:
                 dw[3:, :3] += fs
                 dw[3:, 3:] += skew(res.moment)
             comp.last = res
-            touching = touching or res.surface.n_faces > 0
+            touching = touching or res.max_depth > 0
         self.contact_seconds += time.perf_counter() - t0
         self.evaluations += 1
         self.touching = touching
