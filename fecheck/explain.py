@@ -96,12 +96,12 @@ def plan_scene(scene, plot: bool = False) -> Plan:
         hits, builds = cache.STATS.hits, cache.STATS.builds
         t = time.perf_counter()
         comps = build_compartments(scene)
+        for comp in comps:          # a point contact's mesh (pressure plots) is lazy
+            plan.pairs[comp.name] = (comp.pair.slave.n_faces, comp.describe())
+            plan.allowed |= _pair_modules(comp.pair)
         plan.mesh_time_s = time.perf_counter() - t
         plan.meshes_cached = cache.STATS.hits - hits
         plan.meshes_built = cache.STATS.builds - builds
-        for comp in comps:
-            plan.pairs[comp.name] = (comp.pair.slave.n_faces, comp.describe())
-            plan.allowed |= _pair_modules(comp.pair)
     plan.allowed |= {m for m in HEAVY if m in sys.modules and m not in before}
     plan.allowed |= {m for m in HEAVY if m in before}
     lig = scene["ligaments.model"]

@@ -97,7 +97,8 @@ class SpherePlanePair:
 
     def describe(self) -> str:
         """One line on how this pair is evaluated (for ``--explain``)."""
-        return "closed form sphere-plane (Hertz: maximum depth only), no mesh"
+        return ("closed form sphere-plane (Hertz: maximum depth only), no mesh (the slave "
+                "mesh only draws the pressure)")
 
     @cached_property
     def slave(self) -> TriMesh:
