@@ -6,8 +6,9 @@
 the kind to `fecheck.scene.MODEL_KINDS`. The contact models share `ContactModel`:
 per compartment a contact pair and a law; femur fixed, tibia pose (R, t). The Hertz law on
 plane plateaus with analytic detection uses the closed-form sphere-plane point contact
-(`fecheck.contact.convex`, smooth in the pose); on polynomial plateaus or with mesh
-detection it takes the deepest slave vertex, which is not smooth (Newton may stall).
+(`fecheck.contact.convex`, smooth in the pose); on polynomial plateaus, with mesh
+detection or the thesis's whole-face counting it takes the deepest slave vertex, which is
+not smooth (Newton may stall).
 """
 
 from __future__ import annotations
@@ -171,11 +172,13 @@ DEEPEST_VERTEX_NOTE = ("; Hertz from the deepest slave vertex: not smooth in the
 
 
 def hertz_point_contact(scene: Scene) -> bool:
-    """Whether the scene's Hertz compartments use the closed-form sphere-plane contact
-    (Hertz law, plane plateaus, analytic detection)."""
+    """Whether the scene's Hertz compartments use the closed-form sphere-plane contact:
+    Hertz law, plane plateaus, analytic detection, clipped areas (``whole-face`` asks for
+    the thesis's counting of mesh faces, so it keeps the meshed, deepest-vertex path)."""
     return (scene["contact.law"] == "hertz"
             and scene["plateau.kind"] in ("transverse", "inclined")
-            and scene["contact.detection"] not in MESH_DETECTION)
+            and scene["contact.detection"] not in MESH_DETECTION
+            and scene["contact.area"] == "clipped")
 
 
 def _hertz_point_compartments(scene: Scene) -> list[Compartment]:
@@ -405,7 +408,7 @@ def run_contact_model(scene: Scene, warm_start: np.ndarray | None = None) -> Run
             force = float(sol.multipliers[i])
         ligaments[n] = LigamentResult(force, length)
     notes = []
-    if scene["contact.area"] == "whole-face" and not hertz_point_contact(scene):
+    if scene["contact.area"] == "whole-face":
         notes.append(WHOLE_FACE_NOTE)
     if not sol.converged:
         notes.append(f"did not converge in {sol.iterations} iterations "
