@@ -52,28 +52,37 @@ def _axes(q: np.ndarray, theta_x: float) -> tuple[np.ndarray, np.ndarray]:
     return rx @ E_Y, rx @ rot_y(q[3]) @ E_Z
 
 
+def _basis(q: np.ndarray, a_y: np.ndarray, a_z: np.ndarray) -> np.ndarray:
+    """B (6, 5) from the abduction and internal-rotation axes a_y, a_z (world)."""
+    b = np.zeros((6, 5))
+    b[0, 0] = b[1, 1] = b[2, 2] = 1.0
+    b[:3, 3] = cross3(q[:3], a_y)
+    b[:3, 4] = cross3(q[:3], a_z)
+    b[3:, 3] = a_y
+    b[3:, 4] = a_z
+    return b
+
+
+def _geometric(q: np.ndarray, wrench: np.ndarray, a_y: np.ndarray, a_z: np.ndarray
+               ) -> np.ndarray:
+    """Σ_k (∂B/∂q_k)ᵀ·W e_kᵀ (5, 5) from the axes a_y, a_z (world)."""
+    f, m = wrench[:3], wrench[3:]
+    k = np.zeros((5, 5))
+    k[3, :3] = cross3(a_y, f)              # row k of (F × e_k)·a = (a × F)_k
+    k[4, :3] = cross3(a_z, f)
+    b = cross3(a_y, a_z)
+    k[4, 3] = cross3(q[:3], b) @ f + b @ m
+    return k
+
+
 def twist_basis(q: np.ndarray, theta_x: float = 0.0) -> np.ndarray:
     """B (6, 5): the twist ξ = (v, ω) about the world origin for δq (mm, rad)."""
-    a_y, a_z = _axes(q, theta_x)
-    a = np.column_stack([a_y, a_z])
-    b = np.zeros((6, 5))
-    b[:3, :3] = np.eye(3)
-    b[:3, 3:] = skew(q[:3]) @ a
-    b[3:, 3:] = a
-    return b
+    return _basis(q, *_axes(q, theta_x))
 
 
 def geometric_tangent(q: np.ndarray, wrench: np.ndarray, theta_x: float = 0.0) -> np.ndarray:
     """Σ_k (∂B/∂q_k)ᵀ·W e_kᵀ (5, 5): the tangent part from B's dependence on q."""
-    a_y, a_z = _axes(q, theta_x)
-    f, m = wrench[:3], wrench[3:]
-    k = np.zeros((5, 5))
-    fx = skew(f).T                         # row k: F × e_k
-    k[3, :3] = fx @ a_y
-    k[4, :3] = fx @ a_z
-    b = cross3(a_y, a_z)
-    k[4, 3] = cross3(q[:3], b) @ f + b @ m
-    return k
+    return _geometric(q, wrench, *_axes(q, theta_x))
 
 
 def point_force(x: np.ndarray, f: np.ndarray, df_dx: np.ndarray | None = None
@@ -83,12 +92,15 @@ def point_force(x: np.ndarray, f: np.ndarray, df_dx: np.ndarray | None = None
     `df_dx` (3, 3) is how the force changes as the point moves (None: constant force).
     """
     w = np.concatenate([f, cross3(x, f)])
+    sf = skew(f)
+    if df_dx is None:                              # dM/dξ = -[F]× [I, -[x]×]
+        out = np.zeros((6, 6))
+        out[3:, :3] = -sf
+        out[3:, 3:] = sf @ skew(x)
+        return w, out
     dx = np.hstack([np.eye(3), -skew(x)])          # δx = dx @ ξ
-    dm = -skew(f) @ dx
-    if df_dx is None:
-        return w, np.vstack([np.zeros((3, 6)), dm])
     dfx = df_dx @ dx
-    return w, np.vstack([dfx, dm + skew(x) @ dfx])
+    return w, np.vstack([dfx, -sf @ dx + skew(x) @ dfx])
 
 
 @dataclass(frozen=True)
@@ -138,21 +150,28 @@ class _System:
         self.nc = len(p.constraints)
         s = np.ones(5)
         s[3:] = p.length_scale_mm
-        self.sq = s[list(p.free)]              # scaled δq = sq · δq_true (mm)
+        self.free = list(p.free)
+        self.sq = s[self.free]                 # scaled δq = sq · δq_true (mm)
+        self.block = np.ix_(self.free, self.free)
+        self.sq2 = np.outer(self.sq, self.sq)
+        self.rx = rot_x(p.theta_x)
+        self.a_y = self.rx @ E_Y
         self.evaluations = 0
         self.touching = True
 
     def q_of(self, z: np.ndarray) -> np.ndarray:
         q = np.array(self.p.q_start, dtype=float)
-        q[list(self.p.free)] = z[:self.nf] / self.sq
+        q[self.free] = z[:self.nf] / self.sq
         return q
 
     def __call__(self, z: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        p, nf = self.p, self.nf
+        p, nf, free = self.p, self.nf, self.free
         q = self.q_of(z)
         lam = z[nf:]
-        r, t = pose(q, p.theta_x)
-        b = twist_basis(q, p.theta_x)
+        rxy = self.rx @ rot_y(q[3])
+        r, t = rxy @ rot_z(q[4]), q[:3]             # `pose`
+        a_z = rxy[:, 2].copy()                      # rx ry e_z
+        b = _basis(q, self.a_y, a_z)                # `twist_basis`
         w, dw = p.wrench(r, t)
         self.evaluations += 1
         self.touching = True if p.touching is None else bool(p.touching())
@@ -165,14 +184,12 @@ class _System:
             g, wc, dwc = con(r, t)
             w_tot += lam[i] * wc
             k_full += lam[i] * (b.T @ dwc @ b)
-            qc = (b.T @ wc)[list(p.free)]
+            qc = (b.T @ wc)[free]
             cols.append(qc)
             res[nf + i] = g
-        k_full += geometric_tangent(q, w_tot, p.theta_x)
-        free = list(p.free)
-        q_gen = (b.T @ w_tot)[free]
-        res[:nf] = q_gen / self.sq                  # forces N, moments / L
-        jac[:nf, :nf] = k_full[np.ix_(free, free)] / np.outer(self.sq, self.sq)
+        k_full += _geometric(q, w_tot, self.a_y, a_z)
+        res[:nf] = (b.T @ w_tot)[free] / self.sq   # forces N, moments / L
+        jac[:nf, :nf] = k_full[self.block] / self.sq2
         for i, qc in enumerate(cols):
             jac[:nf, nf + i] = qc / self.sq
             jac[nf + i, :nf] = -qc / self.sq

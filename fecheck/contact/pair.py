@@ -26,7 +26,6 @@ from geometry.mesh import TriMesh
 
 METHODS = ("auto", "closed-form", "bvh", "ray-parity", "fcl")
 AREAS = ("clipped", "whole-face")
-_EYE = np.eye(3)
 
 
 def validate_pose(pose, name: str) -> tuple[np.ndarray, np.ndarray]:
@@ -42,10 +41,14 @@ def validate_pose(pose, name: str) -> tuple[np.ndarray, np.ndarray]:
                            f"got shapes {R.shape} and {t.shape}")
     if not math.isfinite(t @ t):
         raise FecheckError(f"{name} pose translation contains NaN or infinite values")
-    # Orthonormal (NaN fails the comparison) and proper: row 0 · (row 1 × row 2) = +1.
+    # Orthonormal columns, RᵀR = I within 1e-6 (NaN fails the comparisons), and proper:
+    # row 0 · (row 1 × row 2) = +1.
     (a, b, c), (d, e, f), (g, h, i) = R.tolist()
-    if not (np.abs(R.T @ R - _EYE).max() <= 1e-6 and a * (e * i - f * h) - b * (d * i - f * g)
-            + c * (d * h - e * g) > 0):
+    tol = 1e-6
+    if not (abs(a * a + d * d + g * g - 1.0) <= tol and abs(b * b + e * e + h * h - 1.0) <= tol
+            and abs(c * c + f * f + i * i - 1.0) <= tol and abs(a * b + d * e + g * h) <= tol
+            and abs(a * c + d * f + g * i) <= tol and abs(b * c + e * f + h * i) <= tol
+            and a * (e * i - f * h) - b * (d * i - f * g) + c * (d * h - e * g) > 0):
         raise FecheckError(f"{name} rotation is not orthonormal with det +1 (or contains "
                            "NaN); build it with fecheck.frames.rotation")
     return R, t
