@@ -455,14 +455,16 @@ def _where(err: BaseException) -> str:
     return f"{tb[-1].filename}:{tb[-1].lineno}" if tb else "?"
 
 
-def execute(case: Case) -> dict:
-    """Run one case in this process; never raises. Returns a dict without ``time_s``."""
+def execute(case: Case, runner=None) -> dict:
+    """Run one case in this process; never raises. Returns a dict without ``time_s``.
+    `runner` (a function of the case's params) replaces ``RUNNERS[case.kind]``."""
     out = {"name": case.name, "iterations": None, "residual": None}
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always")
         try:
             with np.errstate(all="ignore"):
-                it, residual, message = RUNNERS[case.kind](case.params)
+                run = RUNNERS[case.kind] if runner is None else runner
+                it, residual, message = run(case.params)
             out.update(outcome="converged", message=message, iterations=it,
                        residual=residual)
         except NotConverged as err:
@@ -486,16 +488,27 @@ def execute(case: Case) -> dict:
     return out
 
 
-def _child(case: Case, conn) -> None:
-    conn.send(execute(case))
+def _child(case: Case, conn, runner) -> None:
+    conn.send(execute(case, runner))
     conn.close()
 
 
-def run_case(case: Case, timeout_s: float) -> CaseResult:
-    """Run `case` in a forked process, killed after `timeout_s` seconds."""
-    ctx = mp.get_context("fork")
+def _context():
+    """Processes forked from a fresh server that has imported the light core modules: as
+    cheap as a fork, but never a copy of a parent holding threads or locks (BLAS, OpenMP,
+    Gmsh), which can deadlock a plain fork (seen under pytest)."""
+    ctx = mp.get_context("forkserver")
+    ctx.set_forkserver_preload(["fecheck.stress", "fecheck.model", "fecheck.scene",
+                                "fecheck.contact.pair", "scipy.sparse", "scipy.spatial"])
+    return ctx
+
+
+def run_case(case: Case, timeout_s: float, runner=None) -> CaseResult:
+    """Run `case` in its own process, killed after `timeout_s` seconds. `runner` (a
+    module-level function of the params) replaces ``RUNNERS[case.kind]``."""
+    ctx = _context()
     recv, send = ctx.Pipe(duplex=False)
-    proc = ctx.Process(target=_child, args=(case, send), daemon=True)
+    proc = ctx.Process(target=_child, args=(case, send, runner), daemon=True)
     t0 = time.perf_counter()
     proc.start()
     send.close()

@@ -39,12 +39,10 @@ def _crash(params):
     return 1 / 0
 
 
-def test_a_hang_becomes_a_timeout_and_a_traceback_an_exception(monkeypatch):
-    monkeypatch.setitem(stress.RUNNERS, "sleep", _sleep)
-    monkeypatch.setitem(stress.RUNNERS, "crash", _crash)
-    hang = stress.run_case(stress.Case("hang", "sleep"), timeout_s=1.0)
+def test_a_hang_becomes_a_timeout_and_a_traceback_an_exception():
+    hang = stress.run_case(stress.Case("hang", "sleep"), timeout_s=1.0, runner=_sleep)
     assert hang.outcome == "timeout" and hang.time_s < 10
-    crash = stress.run_case(stress.Case("crash", "crash"), timeout_s=30.0)
+    crash = stress.run_case(stress.Case("crash", "crash"), timeout_s=30.0, runner=_crash)
     assert crash.outcome == "exception"
     assert "ZeroDivisionError" in crash.message and "test_stress.py" in crash.message
 
