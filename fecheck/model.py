@@ -350,14 +350,12 @@ def _equal_force_constraint(model: ContactModel, wrench_fn):
 
 def run_contact_model(scene: Scene, warm_start: np.ndarray | None = None) -> RunResult:
     """Sphere-plane (and later meshed) models: Newton statics with contact laws."""
-    from fecheck.contact import kernels
     from fecheck.law_kernel import warm_up
 
     t_start = time.perf_counter()
     knee = scene.knee
     comps = build_compartments(scene)
-    kernels.warm_up()                # compiled kernels loaded in the build, not the solve
-    warm_up()
+    warm_up()                        # the compiled law kernel loads in the build, not the solve
     t_built = time.perf_counter()
     contact = ContactModel(comps)
     load = applied_load(scene)

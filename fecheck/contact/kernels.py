@@ -300,12 +300,3 @@ def sphere_surface(clipped: bool, points: np.ndarray, local_faces: np.ndarray,
     return (hit, N, D) + surface_quadrature(clipped, D, X, T, area, np.ones(m),
                                             np.zeros((m, 6)))
 
-
-def warm_up() -> None:
-    """Compile the analytic-master kernels, or load them from numba's on-disk cache (~1 s
-    in a fresh process), so that the first evaluation does not pay for it."""
-    eye, zero = np.eye(3), np.zeros(3)
-    empty = (np.zeros((0, 3)), np.zeros((0, 3), dtype=np.int64), np.zeros((0, 3)), np.zeros(0),
-             eye, zero, eye, zero, eye)
-    plane_surface(True, *empty, zero, zero)
-    sphere_surface(True, *empty, zero, 1.0)

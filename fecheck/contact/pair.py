@@ -89,6 +89,10 @@ class ContactPair:
     mesh_sign : inside/outside test of a mesh master, "normal" (side of the closest
         face normal; open sheets) or "winding" (generalised winding number; closed
         meshes), see `fecheck.contact.mesh_master`
+
+    `Plane` and `Sphere` masters are evaluated by compiled kernels
+    (`fecheck.contact.kernels`); a pair loads its kernel when it is built (from numba's
+    on-disk cache, ~1 s in a fresh process; compiled once, ~10-20 s, on first use).
     """
 
     def __init__(self, slave: TriMesh, master, *, method: str = "auto",
@@ -135,6 +139,11 @@ class ContactPair:
             self._kernel, self._kernel_args = plane_surface, (master.point, master.normal)
         elif isinstance(self.master, Sphere):
             self._kernel, self._kernel_args = sphere_surface, (master.center, master.radius)
+        if self._kernel is not None:          # compile it, or load it from numba's cache
+            eye, zero = np.eye(3), np.zeros(3)
+            self._kernel(True, np.zeros((0, 3)), np.zeros((0, 3), dtype=np.int64),
+                         np.zeros((0, 3)), np.zeros(0), eye, zero, eye, zero, eye,
+                         *self._kernel_args)
         if self._thesis is None:
             self._cache = CandidateCache(slave, self.master.reach, self.margin_mm,
                                          prefilter=getattr(self.master, "prefilter", None))
