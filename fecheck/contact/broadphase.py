@@ -103,6 +103,7 @@ class CandidateCache:
         self.prefilter = prefilter
         self._normals = slave.face_normals          # per-face data, computed once per body
         self._areas = slave.face_areas
+        _select(np.zeros(0, dtype=bool), np.zeros((0, 3), dtype=np.int64))   # load it now
         self.centroid = slave.points.mean(axis=0)
         self.radius = float(np.linalg.norm(slave.points - self.centroid, axis=1).max())
         self.n_rebuilds = 0
