@@ -150,11 +150,12 @@ def sphere_ray_depth(y0: float, y1: float, y2: float, u0: float, u1: float, u2: 
         q0, q1, q2 = r0 + d * u0, r1 + d * u1, r2 + d * u2        # sphere point - c
         qu = q0 * u0 + q1 * u1 + q2 * u2
         if abs(qu) > 1e-12 * radius:
-            return d, -q0 / qu, -q1 / qu, -q2 / qu, True
+            k = -1.0 / qu
+            return d, k * q0, k * q1, k * q2, True
     else:
         d = radius - np.sqrt(rr)
-    s = np.sqrt(max(rr, 1e-300))
-    return d, -r0 / s, -r1 / s, -r2 / s, False
+    k = -1.0 / np.sqrt(max(rr, 1e-300))
+    return d, k * r0, k * r1, k * r2, False
 
 
 @njit(cache=True, fastmath=False)
