@@ -1,14 +1,15 @@
 """Numerical-stability stress matrix: hard cases through the public entry points.
 
-Each `Case` runs in its own forked process with a hard timeout, so that a hang becomes
-``timeout`` and a crash becomes ``exception`` instead of stopping the matrix. Its
-outcome is one of
+Each `Case` runs in its own process (forked from a clean forkserver) with a hard timeout,
+so that a hang becomes ``timeout`` and a crash becomes ``exception`` instead of stopping
+the matrix. Its outcome is one of
 
 * ``converged`` — finite, converged and physically consistent: force balance (re-checked
   independently of the solver, with fresh contact pairs), no tensile pressure, every
   reported number finite, answer within `ACCURACY` of the closed-form reference where
   one exists, depth below the cartilage thickness;
-* ``clear-error`` — a `FecheckError` whose message names the cause;
+* ``clear-error`` — a `FecheckError` whose message names the cause (a case marked
+  ``expect="converged"`` that is refused is ``inconsistent``: wrong cause);
 
 and anything else names the failure: ``diverged`` (not converged), ``nan`` (a non-finite
 number reported), ``inconsistent`` (a check above failed, or a case that must be refused
