@@ -16,9 +16,9 @@ Measured together, interleaved (the machine is shared: compare ratios within one
 * the numba compile time of the first evaluation, with a cold cache and with the on-disk
   cache (fresh processes, ``NUMBA_CACHE_DIR`` in a temporary directory).
 
-``--compare TREE`` also measures another source tree of fecheck (e.g. an older commit
+``--compare TREE`` measures another source tree of fecheck (e.g. an older commit
 exported with ``git archive``) in subprocesses alternating with this one, and prints
-the speed-ups. Run: ``python validation/bench_evaluation.py [--quick] [--compare TREE]``.
+the speed-ups and both trees' ratios. Run: ``python validation/bench_evaluation.py [--quick] [--compare TREE]``.
 """
 
 from __future__ import annotations
@@ -225,7 +225,7 @@ def main(argv: list[str] | None = None) -> int:
     budget = args.budget or (2.0 if args.quick else 10.0)
     os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
     if args.measure_json:
-        print(json.dumps(measure(budget, thesis=False)))
+        print(json.dumps(measure(budget)))
         return 0
     if args.compare is None:
         result = measure(budget)
@@ -239,10 +239,13 @@ def main(argv: list[str] | None = None) -> int:
             runs["this"].append(_subprocess_measure(ROOT, budget / rounds))
         sec = {tree: {k: float(np.median([r["seconds"][k] for r in rs]))
                       for k in rs[0]["seconds"]} for tree, rs in runs.items()}
-        print(f"{'quantity':24s}{'other':>12s}{'this':>12s}{'speed-up':>10s}")
+        print(f"{'quantity (µs)':24s}{'other':>12s}{'this':>12s}{'speed-up':>10s}")
         for key in sec["this"]:
             a, b = sec["other"][key], sec["this"][key]
-            print(f"{key:24s}{1e6 * a:12.1f}{1e6 * b:12.1f}{a / b:10.2f}   (µs)")
+            print(f"{key:24s}{1e6 * a:12.1f}{1e6 * b:12.1f}{a / b:10.2f}")
+        for tree in ("other", "this"):
+            print(f"{tree}:")
+            print("\n".join(report(sec[tree])))
     jit = jit_times()
     print(f"numba: first plane + sphere evaluation with the law {jit['first_evaluations_cold']:.2f} s "
           f"with a cold cache, {jit['first_evaluations_cached']:.2f} s cached; import of "
