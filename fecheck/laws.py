@@ -147,8 +147,8 @@ def foundation(surface: ContactSurface,
     w = surface.qp_weight
     if callable(pressure):
         d = np.maximum(surface.qp_depth, 0.0)
-        values, slopes = (np.ascontiguousarray(np.broadcast_to(v, d.shape), dtype=float)
-                          for v in pressure(d))
+        values, slopes = (np.array(np.broadcast_to(v, d.shape), dtype=float)
+                          for v in pressure(d))       # writable: one kernel signature
         stiffness = 0.0
     else:                                           # linear law p = k·d
         values = slopes = NO_VALUES

@@ -9,7 +9,8 @@ by the broad phase (positive inside; at most the depth's magnitude outside).
 * `Plane`: depth along the plane normal; foundation normal = the plane normal.
 * `Sphere`: depth along the slave's foundation normal ``u`` (minus the slave face
   normal) from the slave point to the sphere (ray-sphere intersection), so a flat
-  plateau face under a sphere integrates the exact cap volume.
+  plateau face under a sphere integrates the exact cap volume. The formula is the
+  compiled `fecheck.contact.kernels.sphere_ray_depth`, shared with the contact kernel.
 * `PolynomialSurface` (inside = below ``z = f(x, y)``): depth
   ``(f(x, y) - z) / sqrt(1 + |∇f|²)``, the first-order normal distance. It is exact for
   a plane (a degree-1 polynomial gives the same depth as `Plane`), closed form (no

@@ -194,10 +194,9 @@ class ContactPair:
         y = cand.points @ R.T + t
         if hasattr(master, "depth_and_gradients"):        # one BVH query for both
             dv, grad = master.depth_and_gradients(y)
-            d = dv[cand.local_faces]
         else:
             dv, grad = master.depth_values(y), None
-            d = dv[cand.local_faces]
+        d = dv[cand.local_faces]
         hit = np.nonzero(d.max(axis=1) > 0.0)[0]
         if hit.size == 0:
             return ContactSurface.empty(self.slave.n_faces, master.normal_body)
