@@ -12,6 +12,8 @@ One evaluation of a contact pair is a few hundred faces of arithmetic; in NumPy 
   the vertex data, then `surface_quadrature`. Other masters (polynomial, meshes, the
   thesis's detectors) form the vertex data in NumPy (`fecheck.contact.pair.build_surface`)
   and call `surface_quadrature` directly.
+* `sphere_ray_depth` (one point) and `sphere_depths` (arrays) — the sphere master's ray
+  depth and gradients, also behind `fecheck.contact.analytic.Sphere.depth_values`.
 
 Conventions (mm, world frame): a vertex twist row is ``(∂d/∂v, ∂d/∂ω)``; poses are
 ``y = R p + t`` (slave → master frame) and ``x = Rm y + tm`` (master → world).
