@@ -196,7 +196,8 @@ def _subprocess_measure(tree: Path, budget_s: float) -> dict:
 def report(sec: dict) -> list[str]:
     """The ratios asked for by issues 3 and 4, from median seconds."""
     us = {k: 1e6 * v for k, v in sec.items()}
-    lines = ["one evaluation at 5,120 faces (µs, median):"]
+    lines = [("one evaluation (µs, median; plane: 5,120-face icosphere slave, sphere: the "
+              "baseline plateau slave):")]
     for case in ("plane", "sphere"):
         lines.append(f"  {case:7s} evaluate {us[f'{case}_evaluate']:8.1f}   law "
                      f"{us[f'{case}_law']:7.1f}   contact-and-tangent "
