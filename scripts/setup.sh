@@ -8,9 +8,9 @@ cd "$(dirname "$0")/.."
 if command -v apt-get >/dev/null 2>&1; then
     SUDO=""
     [ "$(id -u)" -ne 0 ] && SUDO="sudo"
-    pkgs="libglu1-mesa libgl1 libxcursor1 libxft2 libxinerama1 libgomp1 libegl1 libegl-mesa0"
+    pkgs="libglu1-mesa libgl1 libxcursor1 libxft2 libxinerama1 libgomp1 libegl1 libegl-mesa0 libsuitesparse-dev"
     if ! dpkg -s $pkgs >/dev/null 2>&1; then
-        echo "fecheck setup: installing system libraries for gmsh and off-screen rendering"
+        echo "fecheck setup: installing system libraries (gmsh, off-screen rendering, CHOLMOD)"
         $SUDO apt-get update -qq
         DEBIAN_FRONTEND=noninteractive $SUDO apt-get install -y -qq --no-install-recommends $pkgs >/dev/null
     fi

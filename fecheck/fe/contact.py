@@ -57,7 +57,11 @@ def factorize(K: sp.spmatrix, solver: str = "cholmod") -> Callable[[np.ndarray],
         raise FecheckError(f"FE solver must be one of {SOLVERS}, got {solver!r}")
     K = sp.csc_matrix(K)
     if solver == "cholmod":
-        from sksparse.cholmod import CholmodNotPositiveDefiniteError, cholesky
+        try:
+            from sksparse.cholmod import CholmodNotPositiveDefiniteError, cholesky
+        except ImportError as err:
+            raise FecheckError("the CHOLMOD solver needs scikit-sparse (installed by "
+                               "scripts/setup.sh); or set fe.solver = 'superlu'") from err
 
         try:
             return cholesky(K).solve_A
