@@ -86,6 +86,21 @@ def applied_load(scene: Scene) -> Callable[[np.ndarray, np.ndarray],
     return wrench
 
 
+def total_wrench(*parts: Callable) -> Callable:
+    """The summed (wrench (6,) N, N·mm; tangent (6, 6)) on the tibia of several parts
+    (contact, load, ligament springs), each a function of the tibia's pose (rot, t)."""
+    first, rest = parts[0], parts[1:]
+
+    def wrench(rot: np.ndarray, t: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        w, dw = first(rot, t)
+        for part in rest:
+            wp, dp = part(rot, t)
+            w, dw = w + wp, dw + dp
+        return w, dw
+
+    return wrench
+
+
 def force_scale(scene: Scene) -> float:
     """Load magnitude the residual tolerance is relative to, N (≥ 1)."""
     weight = scene["tibia.mass_kg"] * GRAVITY_MPS2 * scene["gravity"]
@@ -373,15 +388,7 @@ def run_contact_model(scene: Scene, warm_start: np.ndarray | None = None) -> Run
         constraints = [rod_constraint(knee.femur_attachment[n], knee.tibia_attachment[n],
                                       knee.ligament_length_mm(n)) for n in lig_names]
 
-    def wrench(rot, t):
-        w, dw = contact(rot, t)
-        wl, dl = load(rot, t)
-        w, dw = w + wl, dw + dl
-        for spring in springs:
-            ws, ds = spring(rot, t)
-            w, dw = w + ws, dw + ds
-        return w, dw
-
+    wrench = total_wrench(contact, load, *springs)
     if scene["constraints.equal_forces"]:
         constraints.append(_equal_force_constraint(contact, wrench))
     q0 = start_pose(scene) if warm_start is None else np.asarray(warm_start, dtype=float)

@@ -185,15 +185,7 @@ def run_scanned(scene: Scene, warm_start: np.ndarray | None = None) -> RunResult
     contact = base.ContactModel(comps)
     load = base.applied_load(scene)
 
-    def wrench(rot, t):
-        w, dw = contact(rot, t)
-        wl, dl = load(rot, t)
-        w, dw = w + wl, dw + dl
-        for spring in springs:
-            ws, ds = spring(rot, t)
-            w, dw = w + ws, dw + ds
-        return w, dw
-
+    wrench = base.total_wrench(contact, load, *springs)
     q0 = base.start_pose(scene) if warm_start is None else np.asarray(warm_start, dtype=float)
     problem = Problem(q0, base.free_indices(scene), wrench, (),
                       math.radians(scene["dofs.flexion_deg"]), base.force_scale(scene),
