@@ -1,8 +1,9 @@
 """Cartilage layers as tetrahedral volume meshes (Gmsh), mm.
 
 A layer of thickness ``h`` is meshed as a flat slab ``0 <= ζ <= h`` over its footprint
-(rectangle or ellipse in the x-y plane), refined by a Gmsh size field around
-``refine_point``, and then sheared vertically onto its top surface:
+(rectangle or ellipse in the x-y plane), refined by Gmsh size fields around
+``refine_point`` and, optionally, in a band along a circle of the top (the expected edge of
+a contact patch), and then sheared vertically onto its top surface:
 ``z = z_top(x, y) - h + ζ``. The shear has unit Jacobian, so every vertical line keeps
 the length ``h`` and the volume stays footprint area × h. The top surface is flat
 (``z_top = 0`` at the footprint centre), inclined (``sagittal_deg`` tilts it about x,
@@ -33,7 +34,8 @@ def cartilage_layer(footprint: str = "rectangle", center_xy: Sequence[float] = (
                     frontal_deg: float = 0.0, size: float = 5.0,
                     refine_point: Sequence[float] | None = None,
                     refine_size: float | None = None, refine_radius: float | None = None,
-                    order: int = 1, cache: bool = True) -> TetMesh:
+                    band_radius: float | None = None, band_size: float | None = None,
+                    band_width: float = 1.5, order: int = 1, cache: bool = True) -> TetMesh:
     """Tetrahedral mesh of a cartilage layer bonded to bone on its bottom face.
 
     Parameters
@@ -51,6 +53,11 @@ def cartilage_layer(footprint: str = "rectangle", center_xy: Sequence[float] = (
     refine_size : element size at the refinement point, mm (default ``size``)
     refine_radius : radius of the disc around the point meshed at ``refine_size``, mm;
         sizes grow linearly to ``size`` over a further ``thickness + size``
+    band_radius : radius of a circle on the top, centred on ``refine_point``, along which
+        the mesh is refined to ``band_size`` (e.g. the expected contact edge), mm; None: no band
+    band_size : element size within ``band_width`` of that circle, mm (default ``refine_size``);
+        sizes grow linearly to ``size`` over a further ``band_width + size``
+    band_width : half-width of the band (distance to the circle, in 3D), mm
     order : 1 (4-node tets) or 2 (10-node tets in Gmsh node order, mapped like the rest)
     cache : reuse a cached mesh built with the same parameters
 
@@ -72,11 +79,22 @@ def cartilage_layer(footprint: str = "rectangle", center_xy: Sequence[float] = (
     rradius = 0.0 if refine_radius is None else float(refine_radius)
     if not np.isfinite(rradius) or rradius < 0:
         raise FecheckError(f"refine_radius must be a non-negative length, got {refine_radius}")
+    if band_radius is not None:
+        if refine_point is None:
+            raise FecheckError("a refinement band needs refine_point (its centre)")
+        bsize = rsize if band_size is None else float(band_size)
+        band = {"band_radius": float(band_radius), "band_size": bsize,
+                "band_width": float(band_width)}
+        if not all(np.isfinite(v) and v > 0 for v in band.values()) or bsize > size:
+            raise FecheckError(f"the refinement band needs a positive radius and width and a "
+                               f"size in (0, size={size}] mm, got {band}")
+    else:
+        band = None
     params = {"builder_version": _BUILDER_VERSION, "footprint": footprint, "center_xy": [float(c) for c in center_xy],
               "half_x": half_x, "half_y": half_y, "thickness": thickness, "top": top,
               "sagittal_deg": sagittal_deg, "frontal_deg": frontal_deg, "size": size,
               "refine_point": None if refine_point is None else [float(c) for c in refine_point],
-              "refine_size": rsize, "refine_radius": rradius, "order": order}
+              "refine_size": rsize, "refine_radius": rradius, "band": band, "order": order}
 
     def build() -> TetMesh:
         return _build_layer(**{k: v for k, v in params.items() if k != "builder_version"})
@@ -98,7 +116,8 @@ def top_height(points_xy: np.ndarray, center_xy: Sequence[float], top: Polynomia
 def _build_layer(footprint: str, center_xy: list[float], half_x: float, half_y: float,
                  thickness: float, top: Polynomial2D | None, sagittal_deg: float,
                  frontal_deg: float, size: float, refine_point: list[float] | None,
-                 refine_size: float, refine_radius: float, order: int) -> TetMesh:
+                 refine_size: float, refine_radius: float, band: dict | None,
+                 order: int) -> TetMesh:
     from geometry.gmsh_session import gmsh_session
 
     cx, cy = center_xy
@@ -119,10 +138,14 @@ def _build_layer(footprint: str, center_xy: list[float], half_x: float, half_y: 
         occ.synchronize()
         top_tag, bottom_tag = _top_bottom_surfaces(gmsh, vol_tag, thickness)
         gmsh.option.setNumber("Mesh.MeshSizeMax", size)
-        gmsh.option.setNumber("Mesh.MeshSizeMin", min(size, refine_size))
+        min_size = min(size, refine_size, size if band is None else band["band_size"])
+        gmsh.option.setNumber("Mesh.MeshSizeMin", min_size)
         if pt is not None:
             gmsh.model.mesh.embed(0, [pt], 2, top_tag)
-            _refinement_field(gmsh, pt, refine_size, refine_radius, size, thickness)
+            fields = [_refinement_field(gmsh, pt, refine_size, refine_radius, size, thickness)]
+            if band is not None:
+                fields.append(_band_field(gmsh, refine_point, thickness, size, **band))
+            _set_background(gmsh, fields)
         gmsh.option.setNumber("Mesh.Algorithm3D", 10)
         gmsh.model.mesh.generate(3)
         if order == 2:
@@ -148,7 +171,7 @@ def _top_bottom_surfaces(gmsh, vol_tag: int, thickness: float) -> tuple[int, int
 
 
 def _refinement_field(gmsh, point_tag: int, refine_size: float, refine_radius: float,
-                      size: float, thickness: float) -> None:
+                      size: float, thickness: float) -> int:
     field = gmsh.model.mesh.field
     dist = field.add("Distance")
     field.setNumbers(dist, "PointsList", [point_tag])
@@ -158,7 +181,35 @@ def _refinement_field(gmsh, point_tag: int, refine_size: float, refine_radius: f
     field.setNumber(thr, "SizeMax", size)
     field.setNumber(thr, "DistMin", refine_radius)
     field.setNumber(thr, "DistMax", refine_radius + thickness + size)
-    field.setAsBackgroundMesh(thr)
+    return thr
+
+
+def _band_field(gmsh, center: list[float], thickness: float, size: float, band_radius: float,
+                band_size: float, band_width: float) -> int:
+    """Size field: ``band_size`` within ``band_width`` (3D distance) of the top circle."""
+    field = gmsh.model.mesh.field
+    cx, cy, a, h = (f"({float(v):.15g})" for v in (*center, band_radius, thickness))
+    dist = field.add("MathEval")
+    rho = f"Sqrt((x - {cx})*(x - {cx}) + (y - {cy})*(y - {cy}))"
+    field.setString(dist, "F", f"Sqrt(({rho} - {a})*({rho} - {a}) + (z - {h})*(z - {h}))")
+    thr = field.add("Threshold")
+    field.setNumber(thr, "InField", dist)
+    field.setNumber(thr, "SizeMin", band_size)
+    field.setNumber(thr, "SizeMax", size)
+    field.setNumber(thr, "DistMin", band_width)
+    field.setNumber(thr, "DistMax", 2 * band_width + size)
+    return thr
+
+
+def _set_background(gmsh, fields: list[int]) -> None:
+    """Use the smallest of the size fields everywhere; ignore boundary and point sizes."""
+    field = gmsh.model.mesh.field
+    if len(fields) == 1:
+        field.setAsBackgroundMesh(fields[0])
+    else:
+        low = field.add("Min")
+        field.setNumbers(low, "FieldsList", fields)
+        field.setAsBackgroundMesh(low)
     gmsh.option.setNumber("Mesh.MeshSizeExtendFromBoundary", 0)
     gmsh.option.setNumber("Mesh.MeshSizeFromPoints", 0)
     gmsh.option.setNumber("Mesh.MeshSizeFromCurvature", 0)
