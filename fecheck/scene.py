@@ -32,7 +32,8 @@ MODEL_KINDS = ("rigid", "sphere-plane", "sphere-tibia", "femur-tibia")
 @dataclass(frozen=True)
 class Key:
     """One scene key: kind ("int", "float", "bool", "str", "vec3", "pair", "strings",
-    "table", "matrix"), default, allowed choices or numeric bounds, and documentation."""
+    "table", "matrix"), default, allowed choices or numeric bounds, and documentation.
+    Numbers must be finite unless `allow_inf` (then +inf is allowed, e.g. a rigid body)."""
 
     kind: str
     default: Any
@@ -42,6 +43,7 @@ class Key:
     high: float | None = None
     low_open: bool = False
     high_open: bool = False
+    allow_inf: bool = False
 
 
 def _lig(name: str, stiffness_N: float, reference_strain: float) -> dict[str, Key]:
@@ -109,7 +111,8 @@ SCHEMA: dict[str, Key] = {
         "float", 1e-2, "volumetric k_V, N/mm³ (thesis 1e7 N/m³ = 1e-2 N/mm³)", low=0.0,
         low_open=True),
     "contact.indenter_youngs_MPa": Key("float", math.inf, "Hertz: indenter modulus, MPa "
-                                       "(inf = rigid)", low=0.0, low_open=True),
+                                       "(inf = rigid)", low=0.0, low_open=True,
+                                       allow_inf=True),
     "contact.indenter_poisson": Key("float", 0.3, "Hertz: indenter Poisson's ratio",
                                     low=0.0, high=0.5, high_open=True),
     "load.force_N": Key("float", 800.0, "external load magnitude, N", low=0.0),
@@ -224,11 +227,13 @@ def _unknown(key: str, source: str) -> FecheckError:
     return FecheckError(f"{source}: unknown scene key {key!r}{hint}")
 
 
-def _finite(key: str, x: Any, source: str) -> float:
+def _finite(key: str, x: Any, source: str, allow_inf: bool = False) -> float:
     if isinstance(x, bool) or not isinstance(x, (int, float)):
         raise FecheckError(f"{source}: {key} must be a number, got {x!r}")
     if math.isnan(x):
         raise FecheckError(f"{source}: {key} is NaN; give a number")
+    if math.isinf(x) and not (allow_inf and x > 0):
+        raise FecheckError(f"{source}: {key} is infinite ({x!r}); give a finite number")
     return float(x)
 
 
@@ -270,7 +275,7 @@ def _check(key: str, value: Any, source: str) -> Any:
         return [[_finite(key, v, source) for v in r] for r in value]
     if kind == "int" and (isinstance(value, bool) or not isinstance(value, int)):
         raise FecheckError(f"{source}: {key} must be an integer, got {value!r}")
-    x = _finite(key, value, source) if kind == "float" else value
+    x = _finite(key, value, source, spec.allow_inf) if kind == "float" else value
     lo_bad = spec.low is not None and (x < spec.low or (spec.low_open and x == spec.low))
     hi_bad = spec.high is not None and (x > spec.high or (spec.high_open and x == spec.high))
     if lo_bad or hi_bad:
