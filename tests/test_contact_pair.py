@@ -127,3 +127,20 @@ def test_candidate_set_is_reused_for_small_motions_and_gives_identical_results()
 def test_describe_names_the_method():
     assert "closed form (analytic plane), no BVH" in PAIRS["plane"][0].describe()
     assert "AABB" in PAIRS["mesh"][0].describe()
+
+
+def test_duplicate_slave_faces_are_dropped_once_with_a_warning():
+    # The same faces repeated (one copy in reversed winding) must give exactly the clean
+    # mesh's contact: area and the depth-weighted quadrature sum (∝ the EF force).
+    f = CONDYLE.faces
+    doubled = TriMesh(CONDYLE.points, np.vstack([f, f[:10], f[10:13, ::-1]]))
+    plane = Plane([0.0, 0.0, 0.0], [0.0, 0.0, 1.0])
+    with pytest.warns(UserWarning, match="13 duplicate face"):
+        pair = ContactPair(doubled, plane)
+    assert pair.slave.n_faces == CONDYLE.n_faces
+    pose = (np.eye(3), np.array([0.2, 0.1, 25.5 - 0.8]))
+    clean = PAIRS["plane"][0].evaluate(pose, IDENTITY)
+    s = pair.evaluate(pose, IDENTITY)
+    assert s.area == pytest.approx(clean.area, rel=1e-12)
+    assert float((s.qp_weight * s.qp_depth).sum()) == pytest.approx(
+        float((clean.qp_weight * clean.qp_depth).sum()), rel=1e-12)

@@ -14,6 +14,7 @@
 from __future__ import annotations
 
 import math
+import warnings
 
 import numpy as np
 
@@ -54,6 +55,27 @@ def validate_pose(pose, name: str) -> tuple[np.ndarray, np.ndarray]:
     return R, t
 
 
+def drop_duplicate_faces(mesh: TriMesh) -> TriMesh:
+    """`mesh` without repeated faces (same three vertices, any order or winding).
+
+    A repeated face would count its area and pressure twice; the copies are dropped with a
+    warning (the first occurrence is kept, so the result equals the clean mesh) rather than
+    refused, since exporters commonly emit such copies and the intent is unambiguous.
+    Face regions are renumbered. Returns `mesh` itself when it has no duplicates.
+    """
+    _, first = np.unique(np.sort(mesh.faces, axis=1), axis=0, return_index=True)
+    n_dup = mesh.n_faces - len(first)
+    if n_dup == 0:
+        return mesh
+    keep = np.sort(first)
+    warnings.warn(f"the slave mesh has {n_dup} duplicate face(s) (same three vertices); "
+                  "dropped the copies so that each face counts once", stacklevel=3)
+    new_index = np.full(mesh.n_faces, -1)
+    new_index[keep] = np.arange(len(keep))
+    regions = {name: new_index[f][new_index[f] >= 0] for name, f in mesh.regions.items()}
+    return TriMesh(mesh.points, mesh.faces[keep], regions)
+
+
 def _apply(a: np.ndarray, R: np.ndarray, t: np.ndarray | None = None) -> np.ndarray:
     """R a (+ t) for an array of 3-vectors of any leading shape."""
     out = a.reshape(-1, 3) @ R.T
@@ -74,7 +96,9 @@ class ContactPair:
 
     Parameters
     ----------
-    slave : slave surface in its body frame, mm, faces counter-clockwise from outside
+    slave : slave surface in its body frame, mm, faces counter-clockwise from outside;
+        repeated faces are dropped with a warning (`drop_duplicate_faces`) and
+        ``pair.slave`` is the mesh actually used
     master : `Plane`, `Sphere`, `PolynomialSurface` (master body frame) or a `TriMesh`
     method : "auto" (closed form for analytic masters, BVH for meshes), "closed-form",
         "bvh", or the thesis's algorithms "ray-parity" (Algorithm 3) and "fcl"
@@ -109,6 +133,7 @@ class ContactPair:
             raise FecheckError(f"unknown area mode {area!r}; choose 'clipped' or 'whole-face'")
         if not (np.isfinite(margin_mm) and margin_mm > 0):
             raise FecheckError(f"margin_mm must be a positive number of mm, got {margin_mm}")
+        slave = drop_duplicate_faces(slave)
         self.slave, self.method, self.area_mode = slave, method, area
         self.margin_mm = float(margin_mm)
         analytic = isinstance(master, (Plane, Sphere, PolynomialSurface))
