@@ -9,6 +9,7 @@ from contact_helpers import IDENTITY, box, crop, volume
 from fecheck.contact import ContactPair, Plane
 from fecheck.errors import FecheckError
 from geometry.icosphere import icosphere
+from geometry.mesh import TriMesh
 from geometry.plateau import plane_patch
 
 R = 31.8
@@ -60,6 +61,18 @@ def test_winding_number_sign_agrees_with_the_face_side_on_a_closed_master():
     np.testing.assert_allclose(a.qp_depth, b.qp_depth, atol=1e-12)
     with pytest.raises(FecheckError, match="closed"):
         ContactPair(CONDYLE, SHEET, mesh_sign="winding")
+
+
+@pytest.mark.parametrize("sign", ["normal", "winding"])
+def test_inside_out_closed_master_is_refused_naming_the_fix(sign):
+    # Inverted, the box's normals point inwards: with sign="normal" every slave vertex
+    # would read as inside (force at zero approach), with "winding" none would.
+    inverted = TriMesh(BOX.points, BOX.faces[:, ::-1])
+    assert inverted.signed_volume == pytest.approx(-80.0 * 80.0 * 20.0)
+    with pytest.raises(FecheckError, match="inside out.*flip its face winding"):
+        ContactPair(CONDYLE, inverted, mesh_sign=sign)
+    # an open sheet has no inside-out test: either winding is a valid one-sided master
+    ContactPair(CONDYLE, TriMesh(SHEET.points, SHEET.faces[:, ::-1]))
 
 
 def test_fcl_per_face_depth_is_the_deepest_vertex_depth():

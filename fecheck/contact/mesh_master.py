@@ -44,7 +44,8 @@ class MeshMaster:
 
     Parameters
     ----------
-    mesh : the master surface, faces counter-clockwise from outside (normals outward)
+    mesh : the master surface, faces counter-clockwise from outside (normals outward);
+        a closed mesh with a negative signed volume (inside out) is refused
     sign : "normal" (side of the closest face normal) or "winding" (generalised
         winding number > 1/2; closed meshes)
     margin_mm : reach of the broad-phase box test around the master's bounding box
@@ -60,7 +61,14 @@ class MeshMaster:
             raise FecheckError("the master mesh has no faces; check the mesh file or builder")
         if sign not in ("normal", "winding"):
             raise FecheckError(f"unknown sign method {sign!r}; choose 'normal' or 'winding'")
-        if sign == "winding" and not is_closed(mesh):
+        closed = is_closed(mesh)
+        if closed and mesh.signed_volume < 0.0:
+            # Refused, not flipped: an inside-out mesh means its normals (and so every
+            # depth sign) point inwards; guessing the intent would hide a mesh error.
+            raise FecheckError(f"the master mesh is inside out (closed, signed volume "
+                               f"{mesh.signed_volume:.4g} mm³ < 0): flip its face winding "
+                               "(faces[:, ::-1]) so the normals point outwards")
+        if sign == "winding" and not closed:
             raise FecheckError("sign='winding' needs a closed master mesh; "
                                "use sign='normal' for open sheets")
         self.mesh, self.sign = mesh, sign
