@@ -308,7 +308,8 @@ def _step(sysm: _System, z, res, jac, phi, merit):
 def _free_flight(sysm, z, res, jac, phi, merit, was_touching, null):
     """Regularised steps of growing length Δ: the DOFs get a stiffness |residual|/Δ (the
     constraints stay linearised), so the unbalanced load moves the tibia by about Δ.
-    Δ doubles until contact is made with a lower residual, then is bisected."""
+    Δ doubles until contact is made with a lower residual, then is bisected; from a
+    touching start where no Δ ≥ 0.5 mm helps, Δ then halves until the residual drops."""
     nf = sysm.nf
     reg = np.zeros(len(z))
     reg[:nf] = 1.0
@@ -329,6 +330,16 @@ def _free_flight(sysm, z, res, jac, phi, merit, was_touching, null):
             break                           # contact made, but overshot
         lo, hi = hi, 2.0 * hi
     else:
+        if was_touching:
+            # In contact, a stiffness-free direction (e.g. rocking about the one touching
+            # compartment) moves on the scale the load sets, which can be far below 0.5 mm
+            # (µm at µN loads): shorter steps, down to ~1e-12 mm, before giving up.
+            delta = 0.25
+            for _ in range(40):
+                z_new, res_new, jac_new, phi_new, touching = trial(delta)
+                if touching and phi_new <= (1.0 - 1e-4) * phi:
+                    return z_new, res_new, jac_new, phi_new
+                delta *= 0.5
         if was_touching and null.shape[1]:
             raise FecheckError(_no_stiffness_message(sysm.p, null))
         raise FecheckError("no equilibrium found along the load within 1 m: check the load "

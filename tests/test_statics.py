@@ -194,6 +194,19 @@ def test_free_dof_without_stiffness_is_reported():
         run_scene(load_scene(SCENES / "baseline.toml", ["dofs.free=['x', 'z', 'abduction']"]))
 
 
+def test_micro_newton_load_rocks_onto_both_plateaus_and_converges():
+    # At 1e-6 N the first contact is one compartment only (rocking about it has no
+    # stiffness) and the motion that balances it is ~µm: the safeguard must find it rather
+    # than call z/abduction unresisted. Checked by statics alone (mesh resolution does not
+    # enter): both compartments touch and their vertical forces carry the load.
+    r = run_scene(load_scene(SCENES / "baseline.toml", ["load.force_N=1e-6", "gravity=false"]))
+    assert r.converged
+    med, lat = r.compartments["medial"].force_N, r.compartments["lateral"].force_N
+    assert med > 0 and lat > 0
+    # the residual tolerance is 1e-8 · max(1 N, load) = 1e-8 N here (model.force_scale)
+    assert med + lat == pytest.approx(1e-6, abs=2e-8)
+
+
 def test_rods_on_too_few_dofs_are_reported():
     with pytest.raises(FecheckError, match="over-constrain"):
         run_scene(load_scene(SCENES / "ligaments.toml", ["dofs.free=['z', 'abduction']"]))
