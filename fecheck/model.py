@@ -418,6 +418,7 @@ def run_contact_model(scene: Scene, warm_start: np.ndarray | None = None) -> Run
     if not sol.converged:
         notes.append(f"did not converge in {sol.iterations} iterations "
                      f"(residual {sol.residual_norm:.3g} N); raise solver.max_iterations")
+    notes += layer_depth_notes(scene, compartments)
     if scene["contact.law"] == "blankevoort":
         deep = [c for c, r in compartments.items()
                 if r.max_depth_mm > laws.BLANKEVOORT_LINEAR_FROM * scene["contact.thickness_mm"]]
@@ -436,6 +437,29 @@ def run_contact_model(scene: Scene, warm_start: np.ndarray | None = None) -> Run
                      sol.converged, sol.iterations, sol.residual_norm, pose_dict(sol.q),
                      compartments, ligaments, timing, exact_reference(scene, compartments),
                      tuple(notes), extra | {"q": sol.q.tolist()})
+
+
+def layer_depth_notes(scene: Scene, compartments: Mapping[str, CompartmentResult]
+                      ) -> list[str]:
+    """Check solved depths (mm) against the cartilage thickness h = contact.thickness_mm.
+
+    The EF and Blankevoort foundations model a layer of thickness h (Blankevoort's log law
+    is continued linearly beyond 0.9 h, never beyond h): a depth ≥ h means the layer is
+    crushed through and the answer is meaningless, so it raises `FecheckError` naming what
+    to change. The volumetric law has no thickness: a note. Hertz: nothing.
+    """
+    law, h = scene["contact.law"], scene["contact.thickness_mm"]
+    deep = {c: r.max_depth_mm for c, r in compartments.items() if r.max_depth_mm >= h}
+    if not deep or law == "hertz":
+        return []
+    where = ", ".join(f"{c} {d:.3g} mm" for c, d in deep.items())
+    if law == "volumetric":
+        return [f"depth {where} ≥ the cartilage thickness {h:g} mm: the volumetric law has "
+                "no thickness, but the bodies overlap deeper than the cartilage"]
+    raise FecheckError(f"the cartilage layer is crushed through: solved depth {where} ≥ "
+                       f"contact.thickness_mm = {h:g} mm, where the {law} foundation law does "
+                       "not hold; use a stiffer material (contact.youngs_MPa), a thicker "
+                       "layer (contact.thickness_mm) or a smaller load (load.force_N)")
 
 
 def _compartment_result(model: ContactModel, comp: Compartment, rot: np.ndarray,

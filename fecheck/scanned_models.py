@@ -205,7 +205,9 @@ def run_scanned(scene: Scene, warm_start: np.ndarray | None = None) -> RunResult
         length = float(np.linalg.norm(spring.femur_point - x))
         ligaments[name] = LigamentResult(spring.tension(length), length)
         lig_wrench += spring(rot, t)[0]
-    notes = []
+    # bone-distance thickness varies per face; the uniform layer is checked as a whole
+    notes = (base.layer_depth_notes(scene, compartments)
+             if scene["scanned.thickness"] == "uniform" else [])
     if not sol.converged:
         notes.append(f"did not converge in {sol.iterations} iterations "
                      f"(residual {sol.residual_norm:.3g} N); raise solver.max_iterations")

@@ -207,6 +207,18 @@ def test_micro_newton_load_rocks_onto_both_plateaus_and_converges():
     assert med + lat == pytest.approx(1e-6, abs=2e-8)
 
 
+@pytest.mark.parametrize("law", ["ef", "blankevoort"])
+def test_layer_crushed_through_is_an_error_naming_what_to_change(law):
+    # E = 0.1 MPa: even half the 800 N load needs an exact EF depth beyond h = 6 mm;
+    # Blankevoort's log law, continued linearly beyond 0.9 h, passes h too (8.4 mm)
+    k = fm.laws.ef_stiffness(0.1, 0.3, 6.0)
+    assert ef_sphere_plane(400.0, 31.8, k)["max_depth_mm"] > 6.0
+    with pytest.raises(FecheckError, match=r"crushed through.*contact.thickness_mm = 6 mm.*"
+                                           r"contact.youngs_MPa.*load.force_N"):
+        run_scene(load_scene(SCENES / "baseline.toml",
+                             [f"contact.law='{law}'", "contact.youngs_MPa=0.1"]))
+
+
 def test_rods_on_too_few_dofs_are_reported():
     with pytest.raises(FecheckError, match="over-constrain"):
         run_scene(load_scene(SCENES / "ligaments.toml", ["dofs.free=['z', 'abduction']"]))
