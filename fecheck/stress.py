@@ -86,9 +86,6 @@ _INF = ("scene validation rejects NaN but not ±inf (fecheck/scene.py _finite); 
         "then fails inside numpy's SVD (fecheck/statics.py _null_space)")
 _COARSE = ("a contact spanning a few faces is silently inaccurate: no warning on the "
            "number of faces in contact (fecheck/contact/pair.py, fecheck/model.py)")
-_GRAZING = ("at a 1e-6 N load the contact stiffness is ~1e-2 N/mm and the Newton safeguard "
-            "takes it for a missing stiffness (fecheck/statics.py _step/_null_space, relative "
-            "threshold 1e-4): the error names the wrong cause")
 KNOWN: dict[str, str] = {
     "E 0.1 MPa": _DEEP,
     "load 1e4 N, E 0.1 MPa, h 0.5 mm": _DEEP,
@@ -102,17 +99,11 @@ KNOWN: dict[str, str] = {
     "load inf": _INF,
     "mass inf": _INF,
     "load 0.1 N": "contact radius 0.9 mm on the 0.8 mm plateau mesh: " + _COARSE,
-    "grazing: 1e-6 N": _GRAZING,
+    "grazing: 1e-6 N": "a 0.03 mm wide contact on the 0.8 mm plateau mesh: " + _COARSE,
     "grazing: 1e-6 N, plateau master": "a 2 µm deep contact on a 5,120-face icosphere: "
                                         + _COARSE,
     "icosphere level 1 (80 faces)": _COARSE,
     "icosphere level 2 (320 faces)": _COARSE,
-    "mesh: duplicate faces": ("ContactPair accepts duplicate faces and counts them twice "
-                              "(fecheck/contact/pair.py, no mesh check)"),
-    "mesh master: inverted sphere": ("ContactPair accepts an inside-out closed master "
-                                     "(negative signed volume) with sign='normal': every "
-                                     "slave vertex is 'inside', a 2760 N force at zero "
-                                     "approach (fecheck/contact/mesh_master.py)"),
 }
 """Failing outcomes traced to a cause in another module (case name → explanation)."""
 
