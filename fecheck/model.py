@@ -281,13 +281,15 @@ def _plateau_master(scene: Scene, knee: Knee, c: str):
 
 
 def _plateau_mesh(scene: Scene, knee: Knee, c: str):
+    """The meshed plateau disc under condyle `c`, sized to resolve and contain the
+    expected contact (`fecheck.contact_size.plateau_mesh_sizes`)."""
+    from fecheck.contact_size import plateau_mesh_sizes
     from geometry.plateau import plane_patch, polynomial_patch
     from geometry.polynomial import Polynomial2D
 
     foot = knee.condyle_center[c] - knee.radius_mm(c) * np.array([0.0, 0.0, 1.0])
-    size = {"size": scene["mesh.plateau_size_mm"], "refine_size": scene["mesh.plateau_refine_mm"],
-            "refine_radius": scene["mesh.plateau_refine_radius_mm"]}
-    radius = scene["mesh.plateau_radius_mm"]
+    size = plateau_mesh_sizes(scene, knee.radius_mm(c))
+    radius = size.pop("radius")
     if scene["plateau.kind"] == "polynomial":
         poly = Polynomial2D(np.asarray(scene[f"plateau.{c}_coefficients"]))
         return polynomial_patch(poly, footprint="ellipse", center_xy=foot[:2], half_x=radius,
@@ -418,7 +420,7 @@ def run_contact_model(scene: Scene, warm_start: np.ndarray | None = None) -> Run
     if not sol.converged:
         notes.append(f"did not converge in {sol.iterations} iterations "
                      f"(residual {sol.residual_norm:.3g} N); raise solver.max_iterations")
-    notes += layer_depth_notes(scene, compartments)
+    notes += layer_depth_notes(scene, compartments) + mesh_resolution_notes(scene, comps)
     if scene["contact.law"] == "blankevoort":
         deep = [c for c, r in compartments.items()
                 if r.max_depth_mm > laws.BLANKEVOORT_LINEAR_FROM * scene["contact.thickness_mm"]]
@@ -439,6 +441,39 @@ def run_contact_model(scene: Scene, warm_start: np.ndarray | None = None) -> Run
                      tuple(notes), extra | {"q": sol.q.tolist()})
 
 
+MIN_CONTACT_FACES = 100
+"""Fewer faces in contact than this get a note: area and pressure are then coarse."""
+
+
+def mesh_resolution_notes(scene: Scene, comps: list[Compartment]) -> list[str]:
+    """After the solve: `FecheckError` if a contact reaches the rim of a meshed plane
+    plateau disc (it is cut there; a note on polynomial plateaus, whose contact may sit
+    off the disc centre); notes for contacts spanning fewer than `MIN_CONTACT_FACES`."""
+    from fecheck.contact_size import plateau_mesh_sizes
+
+    notes = []
+    for comp in comps:
+        surface = getattr(comp.last, "surface", None)
+        if not isinstance(surface, ContactSurface) or surface.n_faces == 0:
+            continue
+        rim = getattr(comp.pair, "boundary_vertex", None)
+        if comp.slave_is_tibia and rim is not None:
+            touching = comp.pair.slave.faces[surface.face][surface.vertex_depth > 0.0]
+            if rim[touching].any():
+                disc = plateau_mesh_sizes(scene, comp.radius_mm)["radius"]
+                cut = (f"{comp.name}: the contact reaches the rim of the meshed plateau disc "
+                       f"(radius {disc:g} mm) and is cut there; raise mesh.plateau_radius_mm")
+                if scene["plateau.kind"] != "polynomial":
+                    raise FecheckError(cut)
+                notes.append(cut)     # the fitted polynomial may not extend much further
+        if surface.n_faces < MIN_CONTACT_FACES:
+            key = ("mesh.plateau_refine_mm" if comp.slave_is_tibia
+                   else "mesh.sphere_subdivisions")
+            notes.append(f"{comp.name}: the contact spans only {surface.n_faces} faces, so "
+                         f"its area and pressures are coarse; refine the mesh ({key})")
+    return notes
+
+
 def layer_depth_notes(scene: Scene, compartments: Mapping[str, CompartmentResult]
                       ) -> list[str]:
     """Check solved depths (mm) against the cartilage thickness h = contact.thickness_mm.
@@ -454,8 +489,8 @@ def layer_depth_notes(scene: Scene, compartments: Mapping[str, CompartmentResult
         return []
     where = ", ".join(f"{c} {d:.3g} mm" for c, d in deep.items())
     if law == "volumetric":
-        return [f"depth {where} ≥ the cartilage thickness {h:g} mm: the volumetric law has "
-                "no thickness, but the bodies overlap deeper than the cartilage"]
+        return [(f"depth {where} ≥ the cartilage thickness {h:g} mm: the volumetric law has "
+                 "no thickness, but the bodies overlap deeper than the cartilage")]
     raise FecheckError(f"the cartilage layer is crushed through: solved depth {where} ≥ "
                        f"contact.thickness_mm = {h:g} mm, where the {law} foundation law does "
                        "not hold; use a stiffer material (contact.youngs_MPa), a thicker "

@@ -144,3 +144,11 @@ def test_duplicate_slave_faces_are_dropped_once_with_a_warning():
     assert s.area == pytest.approx(clean.area, rel=1e-12)
     assert float((s.qp_weight * s.qp_depth).sum()) == pytest.approx(
         float((clean.qp_weight * clean.qp_depth).sum()), rel=1e-12)
+
+
+def test_boundary_vertices_are_the_rim_of_a_disc_and_none_of_a_sphere():
+    rim = ContactPair(PLATEAU, Sphere([0.0, 0.0, 30.0], 25.5)).boundary_vertex
+    r = np.linalg.norm(PLATEAU.points[:, :2], axis=1)
+    np.testing.assert_array_equal(rim, np.isclose(r, 12.0, atol=1e-9))
+    assert rim.sum() >= 12
+    assert not PAIRS["plane"][0].boundary_vertex.any()

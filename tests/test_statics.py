@@ -219,6 +219,36 @@ def test_layer_crushed_through_is_an_error_naming_what_to_change(law):
                              [f"contact.law='{law}'", "contact.youngs_MPa=0.1"]))
 
 
+@pytest.mark.parametrize("load", ["0.1", "10000"])
+def test_plateau_mesh_sized_from_the_load_matches_the_exact_ef_answer(load):
+    # 0.1 N: a ~0.8 mm contact (was 13.6% off on the 0.8 mm default mesh); 10 kN: a
+    # ~17 mm contact (was cut by the 14 mm disc, 11% off). 3% is ~the 800 N baseline's
+    # discretisation error (0.2%) with room for the coarser grading at the rim.
+    r = run_scene(load_scene(SCENES / "baseline.toml", [f"load.force_N={load}",
+                                                        "gravity=false"]))
+    assert r.converged
+    for c, ref in r.exact.items():
+        dev = ref["deviation_percent"]
+        assert abs(dev["area_mm2"]) < 3.0 and abs(dev["max_pressure_MPa"]) < 3.0, c
+
+
+def test_contact_cut_by_the_plateau_rim_is_an_error_naming_the_key():
+    with pytest.raises(FecheckError, match=r"rim of the meshed plateau disc \(radius 10 mm\)"
+                                           r".*raise mesh.plateau_radius_mm"):
+        run_scene(load_scene(SCENES / "baseline.toml", ["load.force_N=10000",
+                                                        "mesh.plateau_radius_mm=10"]))
+
+
+def test_contact_on_few_faces_gets_a_note():
+    r = run_scene(load_scene(SCENES / "baseline.toml", ["mesh.plateau_refine_mm=12",
+                                                        "mesh.plateau_size_mm=12"]))
+    faces = {c: v.n_contact_faces for c, v in r.compartments.items()}
+    assert all(n < fm.MIN_CONTACT_FACES for n in faces.values())
+    for c, n in faces.items():
+        assert any(f"{c}: the contact spans only {n} faces" in note and
+                   "mesh.plateau_refine_mm" in note for note in r.notes)
+
+
 def test_rods_on_too_few_dofs_are_reported():
     with pytest.raises(FecheckError, match="over-constrain"):
         run_scene(load_scene(SCENES / "ligaments.toml", ["dofs.free=['z', 'abduction']"]))

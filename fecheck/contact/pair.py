@@ -76,6 +76,15 @@ def drop_duplicate_faces(mesh: TriMesh) -> TriMesh:
     return TriMesh(mesh.points, mesh.faces[keep], regions)
 
 
+def boundary_vertices(mesh: TriMesh) -> np.ndarray:
+    """(n_points,) True for vertices on a boundary edge (an edge of one face only)."""
+    e = np.sort(mesh.faces[:, [0, 1, 1, 2, 2, 0]].reshape(-1, 2), axis=1)
+    edges, counts = np.unique(e, axis=0, return_counts=True)
+    out = np.zeros(mesh.n_points, dtype=bool)
+    out[edges[counts == 1].ravel()] = True
+    return out
+
+
 def _apply(a: np.ndarray, R: np.ndarray, t: np.ndarray | None = None) -> np.ndarray:
     """R a (+ t) for an array of 3-vectors of any leading shape."""
     out = a.reshape(-1, 3) @ R.T
@@ -98,7 +107,8 @@ class ContactPair:
     ----------
     slave : slave surface in its body frame, mm, faces counter-clockwise from outside;
         repeated faces are dropped with a warning (`drop_duplicate_faces`) and
-        ``pair.slave`` is the mesh actually used
+        ``pair.slave`` is the mesh actually used; ``pair.boundary_vertex`` marks its
+        vertices on boundary edges (a contact reaching them is cut by the mesh's rim)
     master : `Plane`, `Sphere`, `PolynomialSurface` (master body frame) or a `TriMesh`
     method : "auto" (closed form for analytic masters, BVH for meshes), "closed-form",
         "bvh", or the thesis's algorithms "ray-parity" (Algorithm 3) and "fcl"
@@ -135,6 +145,7 @@ class ContactPair:
             raise FecheckError(f"margin_mm must be a positive number of mm, got {margin_mm}")
         slave = drop_duplicate_faces(slave)
         self.slave, self.method, self.area_mode = slave, method, area
+        self.boundary_vertex = boundary_vertices(slave)
         self.margin_mm = float(margin_mm)
         analytic = isinstance(master, (Plane, Sphere, PolynomialSurface))
         if not analytic and not isinstance(master, TriMesh):
