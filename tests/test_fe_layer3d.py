@@ -1,4 +1,5 @@
-"""3D FE layer solve (fecheck.fe.layer3d) against the axisymmetric reference, and the CLI."""
+"""3D FE layer solve (fecheck.fe.layer3d) against the axisymmetric reference, its edge band
+(geometry.layer), and the CLI."""
 
 from __future__ import annotations
 
@@ -8,8 +9,10 @@ import numpy as np
 import pytest
 
 from fecheck.cli import main
+from fecheck.errors import FecheckError
 from fecheck.fe.axisym import axisym_sphere_on_layer
 from fecheck.fe.layer3d import sphere_on_layer_3d
+from geometry.layer import cartilage_layer
 
 MEDIAL = (323.71, 25.5)      # DESIGN §4: rigid-model medial load (N) and condyle radius (mm)
 LATERAL = (456.67, 31.8)     # and lateral
@@ -124,3 +127,23 @@ def test_deformed_gap_3d_agrees_with_the_axisymmetric_deformed_gap():
     assert fe.metrics.force_N == pytest.approx(MEDIAL[0], rel=1e-9)
     assert fe.max_penetration_mm <= 1e-6
     assert fe.metrics.max_pressure_MPa == pytest.approx(ref.metrics.max_pressure_MPa, rel=0.03)
+
+
+def test_layer_band_refines_the_top_along_its_circle_only():
+    layer = cartilage_layer("ellipse", half_x=20.0, half_y=20.0, thickness=6.0, size=5.0,
+                            refine_point=(0.0, 0.0), refine_size=1.5, refine_radius=8.0,
+                            band_radius=6.0, band_size=0.6, band_width=1.0, cache=False)
+    p, tri = layer.points, layer.boundaries["top"]
+    r = np.hypot(*p[tri].mean(axis=1)[:, :2].T)
+    edge = np.linalg.norm(p[tri[:, 0]] - p[tri[:, 1]], axis=1)
+    # Gmsh meets a size field within about ±30% on unstructured triangles.
+    assert np.median(edge[np.abs(r - 6.0) < 0.8]) == pytest.approx(0.6, rel=0.3)
+    assert np.median(edge[r < 2.0]) == pytest.approx(1.5, rel=0.3)
+
+
+def test_layer_band_needs_a_centre_and_a_size_below_the_far_size():
+    with pytest.raises(FecheckError, match="refine_point"):
+        cartilage_layer(band_radius=5.0, band_size=0.5, cache=False)
+    with pytest.raises(FecheckError, match="band"):
+        cartilage_layer(refine_point=(0.0, 0.0), band_radius=5.0, band_size=9.0, size=5.0,
+                        cache=False)
