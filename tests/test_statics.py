@@ -233,6 +233,14 @@ def test_plateau_mesh_sized_from_the_load_matches_the_exact_ef_answer(load):
 
 
 def test_contact_cut_by_the_plateau_rim_is_an_error_naming_the_key():
+    with pytest.raises(FecheckError, match=r"medial: the contact reaches the rim .*radius 14 mm"):
+        # all the load medial: the tibia tilts ~20° and the contact slides ~11 mm, past the
+        # default 14 mm disc (sized for the load, not the slide): was 7% off, silently
+        run_scene(load_scene(SCENES / "baseline.toml", ["load.point_mm=[-30, 12.8, -380]"]))
+    wider = run_scene(load_scene(SCENES / "baseline.toml", ["load.point_mm=[-30, 12.8, -380]",
+                                                            "mesh.plateau_radius_mm=18"]))
+    dev = wider.exact["medial"]["deviation_percent"]       # the named fix works (3% as above)
+    assert abs(dev["area_mm2"]) < 3.0 and abs(dev["max_pressure_MPa"]) < 3.0
     with pytest.raises(FecheckError, match=r"rim of the meshed plateau disc \(radius 10 mm\)"
                                            r".*raise mesh.plateau_radius_mm"):
         run_scene(load_scene(SCENES / "baseline.toml", ["load.force_N=10000",
