@@ -144,14 +144,18 @@ def test_baseline_forces_equal_rigid_statics_at_the_solved_pose(baseline):
         assert res.force_N == pytest.approx(RIGID_SPLIT[c], abs=0.6)
 
 
-def test_load_at_3_95_mm_nearly_equalises_the_ef_compartment_forces():
-    # 3.95 mm is the midpoint of the contact points (Fig. 5.2's "4 mm"). The tibia's
-    # weight at x = 0 leaves the rigid split 0.8 % apart (test_rigid); the EF tibia tilts
-    # by 0.12° and its contact points shift by r·θ (25.5 vs 31.8 mm radii), adding
-    # about 0.45 %: 1.3 % in all, hence 1.5 %.
+def test_load_at_3_95_mm_equalises_the_ef_compartment_forces_within_one_percent():
+    # 3.95 mm is the midpoint of the contact points (Fig. 5.2's "4 mm"). Each compartment
+    # carries its equal share (half the contact load) within 1 %: measured 387.7 / 392.7 N,
+    # 0.63 % either side of 390.2 N. Their difference (1.26 % of the share) has two
+    # physical parts: the tibia's weight at x = 0 (rigid split 388.6 / 391.8 N, 0.8 %)
+    # and the EF tibia's 0.12° tilt, which moves the contact points by r·θ on condyles of
+    # different radii (25.5 vs 31.8 mm): 0.45 %.
     r = run_scene(load_scene(SCENES / "baseline.toml", ["load.point_mm=[3.95, 12.8, -380.0]"]))
     f_m, f_l = r.compartments["medial"].force_N, r.compartments["lateral"].force_N
-    assert abs(f_m - f_l) < 0.015 * (f_m + f_l) / 2
+    share = (f_m + f_l) / 2
+    assert abs(f_m - share) < 0.01 * share and abs(f_l - share) < 0.01 * share
+    assert abs(f_m - f_l) < 0.015 * share
 
 
 def test_whole_face_counting_shows_the_thesis_bias():
