@@ -9,7 +9,8 @@ everywhere, area +2.3% / +2.2%; with the default 0.9 mm band, +0.4% / +0.1%, +1.
 at the EF loads of `fecheck fe`, +0.5% to +1.9% when the band's radius is shifted by up to
 ±0.2 mm: the margin to 2% is thin; p_max scatters by about ±1.5% from mesh to mesh at
 1.5 mm; 1.15x to 1.6x the time). The bottom is fixed (bonded to rigid bone), the sides
-free. The sphere's centre lies above the origin; the layer is centred under the point where the sphere first touches its top.
+free. The sphere's centre lies above the origin; the layer is centred under the point
+where the sphere first touches its top.
 
 Contact acts on the top vertices near the contact (within 1.3 × the Hertz contact
 radius, an upper bound for a bonded layer). There the vertical displacement of each top
