@@ -90,7 +90,8 @@ def cartilage_layer(footprint: str = "rectangle", center_xy: Sequence[float] = (
                                f"size in (0, size={size}] mm, got {band}")
     else:
         band = None
-    params = {"builder_version": _BUILDER_VERSION, "footprint": footprint, "center_xy": [float(c) for c in center_xy],
+    params = {"builder_version": _BUILDER_VERSION, "footprint": footprint,
+              "center_xy": [float(c) for c in center_xy],
               "half_x": half_x, "half_y": half_y, "thickness": thickness, "top": top,
               "sagittal_deg": sagittal_deg, "frontal_deg": frontal_deg, "size": size,
               "refine_point": None if refine_point is None else [float(c) for c in refine_point],
