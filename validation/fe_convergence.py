@@ -1,14 +1,14 @@
 """FE mesh convergence on the baseline compartments (issue 5; DESIGN §9, Donahue's sizes).
 
-Both compartments of the baseline knee (rigid Table 5.1 loads, DESIGN §4: medial
-323.71 N on R 25.5 mm, lateral 456.67 N on R 31.8 mm; E 20 MPa, ν 0.3, h 6 mm) are
-solved by the 3D quadratic-tetrahedron model at 5, 2, 1.5, 1 and 0.5 mm under the
-contact ("3d": uniform, no edge band), by the default 3D model at 1.5 mm (and 1 mm) with
-its 0.9 mm band around the expected contact edge ("3d+band"), and by the axisymmetric
-model from 2 mm down to 0.025 mm. The finest axisymmetric solution is the reference; the script reports each run's error on p_max,
-area and depth, the observed order of convergence between successive sizes, and the
-estimated error of the defaults (3D 1.5 mm + band, axisymmetric 0.1 mm). Times are wall clock
-on a shared machine: read the ratios.
+Both compartments of the baseline knee (rigid Table 5.1 loads, DESIGN §4: medial 323.71
+N on R 25.5 mm, lateral 456.67 N on R 31.8 mm; E 20 MPa, ν 0.3, h 6 mm) are solved by
+the 3D quadratic-tetrahedron model at 5, 2, 1.5, 1 and 0.5 mm under the contact ("3d":
+uniform, no edge band), by the default 3D model at 1.5 mm (and 1 mm) with its 0.9 mm
+band around the expected contact edge ("3d+band"), and by the axisymmetric model from 2
+mm down to 0.025 mm. The finest axisymmetric solution is the reference; the script
+reports each run's error on p_max, area and depth, the observed order of convergence
+between successive sizes, and the estimated error of the defaults (3D 1.5 mm + band,
+axisymmetric 0.1 mm). Times are wall clock on a shared machine: read the ratios.
 
     python validation/fe_convergence.py [--quick] [--out DIR]
 
