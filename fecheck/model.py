@@ -86,19 +86,28 @@ def applied_load(scene: Scene) -> Callable[[np.ndarray, np.ndarray],
     return wrench
 
 
-def total_wrench(*parts: Callable) -> Callable:
+class WrenchSum:
     """The summed (wrench (6,) N, N·mm; tangent (6, 6)) on the tibia of several parts
-    (contact, load, ligament springs), each a function of the tibia's pose (rot, t)."""
-    first, rest = parts[0], parts[1:]
+    (contact, load, ligament springs), each a function of the tibia's pose (rot, t).
 
-    def wrench(rot: np.ndarray, t: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        w, dw = first(rot, t)
-        for part in rest:
-            wp, dp = part(rot, t)
+    last : each part's (wrench, tangent) at the latest call (`statics.Problem.parts`)
+    """
+
+    def __init__(self, *parts: Callable):
+        self.parts = parts
+        self.last: list[tuple[np.ndarray, np.ndarray]] = []
+
+    def __call__(self, rot: np.ndarray, t: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        self.last = [part(rot, t) for part in self.parts]
+        w, dw = self.last[0]
+        for wp, dp in self.last[1:]:
             w, dw = w + wp, dw + dp
         return w, dw
 
-    return wrench
+
+def total_wrench(*parts: Callable) -> WrenchSum:
+    """The summed wrench and tangent of `parts` (`WrenchSum`)."""
+    return WrenchSum(*parts)
 
 
 def force_scale(scene: Scene) -> float:
@@ -398,7 +407,8 @@ def run_contact_model(scene: Scene, warm_start: np.ndarray | None = None) -> Run
                       math.radians(scene["dofs.flexion_deg"]), force_scale(scene),
                       tolerance=scene["solver.tolerance"],
                       max_iterations=scene["solver.max_iterations"],
-                      touching=lambda: contact.touching)
+                      touching=lambda: contact.touching,
+                      parts=lambda: wrench.last)
     t_solve = time.perf_counter()
     sol = solve(problem)
     t_solved = time.perf_counter()
@@ -446,9 +456,12 @@ MIN_CONTACT_FACES = 100
 
 
 def mesh_resolution_notes(scene: Scene, comps: list[Compartment]) -> list[str]:
-    """After the solve: `FecheckError` if a contact reaches the rim of a meshed plane
-    plateau disc (it is cut there; a note on polynomial plateaus, whose contact may sit
-    off the disc centre); notes for contacts spanning fewer than `MIN_CONTACT_FACES`."""
+    """After the solve: `FecheckError` if a contact reaches the rim of a meshed plateau
+    disc, plane or polynomial (it is cut there: area, pressures and the force balance are
+    wrong; the disc is centred under the condyle at the reference pose, and a contact
+    that slides off it, e.g. with ligaments turning the tibia, needs a wider
+    ``mesh.plateau_radius_mm``); notes for contacts spanning fewer than
+    `MIN_CONTACT_FACES`."""
     from fecheck.contact_size import plateau_mesh_sizes
 
     notes = []
@@ -461,11 +474,13 @@ def mesh_resolution_notes(scene: Scene, comps: list[Compartment]) -> list[str]:
             touching = comp.pair.slave.faces[surface.face][surface.vertex_depth > 0.0]
             if rim[touching].any():
                 disc = plateau_mesh_sizes(scene, comp.radius_mm)["radius"]
-                cut = (f"{comp.name}: the contact reaches the rim of the meshed plateau disc "
-                       f"(radius {disc:g} mm) and is cut there; raise mesh.plateau_radius_mm")
-                if scene["plateau.kind"] != "polynomial":
-                    raise FecheckError(cut)
-                notes.append(cut)     # the fitted polynomial may not extend much further
+                fix = "raise mesh.plateau_radius_mm"
+                if scene["plateau.kind"] == "polynomial":
+                    fix += (" (on a polynomial plateau, a rim contact away from the condyle "
+                            "can be the fit rising beyond the cartilage it was fitted to: "
+                            "then lower it)")
+                raise FecheckError(f"{comp.name}: the contact reaches the rim of the meshed "
+                                   f"plateau disc (radius {disc:g} mm) and is cut there; {fix}")
         if surface.n_faces < MIN_CONTACT_FACES:
             key = ("mesh.plateau_refine_mm" if comp.slave_is_tibia
                    else "mesh.sphere_subdivisions")

@@ -191,7 +191,7 @@ def run_scanned(scene: Scene, warm_start: np.ndarray | None = None) -> RunResult
                       math.radians(scene["dofs.flexion_deg"]), base.force_scale(scene),
                       tolerance=scene["solver.tolerance"],
                       max_iterations=scene["solver.max_iterations"],
-                      touching=lambda: contact.touching)
+                      touching=lambda: contact.touching, parts=lambda: wrench.last)
     t_solve = time.perf_counter()
     sol = solve(problem)
     t_solved = time.perf_counter()
@@ -208,6 +208,8 @@ def run_scanned(scene: Scene, warm_start: np.ndarray | None = None) -> RunResult
     # bone-distance thickness varies per face; the uniform layer is checked as a whole
     notes = (base.layer_depth_notes(scene, compartments)
              if scene["scanned.thickness"] == "uniform" else [])
+    if scene["model.kind"] == "sphere-plane":       # meshed plateau discs: rim and faces
+        notes += base.mesh_resolution_notes(scene, comps)
     if not sol.converged:
         notes.append(f"did not converge in {sol.iterations} iterations "
                      f"(residual {sol.residual_norm:.3g} N); raise solver.max_iterations")

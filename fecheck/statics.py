@@ -9,7 +9,9 @@ generalised force is Q = Bᵀ·W and its exact tangent dQ/dq = Bᵀ·(dW/dξ)·B
 
 Constraints g(q) = 0 (ligament rods) add multipliers λ whose wrench is λ·w with
 w = -∂g/∂ξ (for a rod, λ is its tension, N). Newton solves
-[Q + Σ λ_i Bᵀ w_i = 0, g = 0] with a backtracking line search on the residual norm; a
+[Q + Σ λ_i Bᵀ w_i = 0, g = 0] with a backtracking line search on the residual norm;
+where the stiffness is indefinite because the wrench's parts cancel (no constraints) it
+takes energy-descent steps instead (`_descent_step`), so it reaches stable equilibria; a
 start without contact (no stiffness along the load) is handled by a growing step along
 the unbalanced load until contact is made. DOFs with no stiffness and no load are
 reported as a `FecheckError` telling the scene to drive them.
@@ -126,6 +128,9 @@ class Problem:
     max_iterations: int = 60
     touching: Callable[[], bool] | None = None
     """After a `wrench` call: whether any contact was active (None: always)."""
+    parts: Callable[[], Sequence[tuple[np.ndarray, np.ndarray]]] | None = None
+    """After a `wrench` call: the (W, dW/dξ) of each of its parts (contact, load, each
+    spring), to tell stiffnesses that cancel from none (None: `wrench` is one part)."""
 
 
 @dataclass(frozen=True)
@@ -158,6 +163,7 @@ class _System:
         self.a_y = self.rx @ E_Y
         self.evaluations = 0
         self.touching = True
+        self.parts: Sequence[tuple[np.ndarray, np.ndarray]] = ()
 
     def q_of(self, z: np.ndarray) -> np.ndarray:
         q = np.array(self.p.q_start, dtype=float)
@@ -175,6 +181,7 @@ class _System:
         w, dw = p.wrench(r, t)
         self.evaluations += 1
         self.touching = True if p.touching is None else bool(p.touching())
+        self.parts = ((w, dw),) if p.parts is None else p.parts()
         k_full = b.T @ dw @ b
         w_tot = w.copy()
         res = np.empty(nf + self.nc)
@@ -194,6 +201,18 @@ class _System:
             jac[:nf, nf + i] = qc / self.sq
             jac[nf + i, :nf] = -qc / self.sq
         return res, jac
+
+    def gross_stiffness(self, z: np.ndarray, v: np.ndarray) -> float:
+        """Σ over the wrench's parts of |vᵀ·K_part·v| at z (the last evaluation), for a
+        unit direction v of the free DOFs (scaled, N/mm): the stiffness acting along v
+        before the parts cancel."""
+        q = self.q_of(z)
+        b = twist_basis(q, self.p.theta_x)
+        total = 0.0
+        for w, dw in self.parts:
+            k = (b.T @ dw @ b + geometric_tangent(q, w, self.p.theta_x))[self.block] / self.sq2
+            total += abs(float(v @ k @ v))
+        return total
 
 
 def _null_space(jac: np.ndarray, rtol: float = 1e-4) -> np.ndarray:
@@ -290,6 +309,12 @@ def _step(sysm: _System, z, res, jac, phi, merit):
         r_null = float(np.linalg.norm(null.T @ res))
         if r_null <= 1e-6 * max(phi, p.tolerance * p.force_scale_N):
             raise FecheckError(_no_stiffness_message(p, null))
+    if touching and sysm.nc == 0:
+        lam, vec = np.linalg.eigh(-0.5 * (jac + jac.T))
+        scale = float(np.abs(lam).max())
+        if (lam[0] < 1e-4 * scale
+                and sysm.gross_stiffness(z, vec[:, 0]) > CANCELLING_STIFFNESS_RTOL * scale):
+            return _descent_step(sysm, z, res, lam, vec, merit)
     if not touching or null.shape[1]:
         return _free_flight(sysm, z, res, jac, phi, merit, touching, null)
     dz = np.linalg.solve(jac, -res)
@@ -303,6 +328,42 @@ def _step(sysm: _System, z, res, jac, phi, merit):
             return z_new, res_new, jac_new, phi_new
         alpha *= 0.5
     return z_new, res_new, jac_new, phi_new
+
+
+CANCELLING_STIFFNESS_RTOL = 1e-3
+"""Where K = -sym(∂Q/∂q) is singular or indefinite along v (its lowest eigenvector)
+but its parts' stiffnesses along v add up, in magnitude, to more than this x K's
+largest |eigenvalue|, they cancel (a domed plateau against ligaments): the DOFs are held,
+and `_descent_step` goes on. Below it (a frictionless plane: only mesh faceting, ~1e-4)
+the DOFs have no stiffness."""
+
+
+def _descent_step(sysm: _System, z, res, lam, vec, merit):
+    """An energy-descent step where the stiffness K is indefinite (no constraints).
+
+    A negative stiffness (e.g. a condyle on a plateau domed in the sagittal plane, held
+    by ligament bundles mostly slack at the start pose) makes the Newton step head for a
+    saddle, and the residual norm must rise on the way to the stable equilibrium: Newton
+    stalls where K turns singular, which is no lack of stiffness. The residual is
+    the generalised force -dE/dq of a conservative system (load, gravity, springs, contact
+    potential), so step along d = (K + μI)⁻¹·r, μ = -λ_min + |r|/MAX_STEP_MM (a descent
+    direction, |d| ≤ MAX_STEP_MM), and accept when the work of r along the step (the
+    energy released, trapezoidal rule) is positive (Armijo, 1e-4). Only stable
+    equilibria are approached this way.
+    """
+    r0 = res[:sysm.nf]
+    shift = -lam[0] + float(np.linalg.norm(r0)) / MAX_STEP_MM
+    dz = vec @ ((vec.T @ r0) / (lam + shift))
+    slope = float(r0 @ dz)
+    alpha = 1.0
+    for _ in range(40):
+        z_new = z + alpha * dz
+        res_new, jac_new = sysm(z_new)
+        work = 0.5 * alpha * float((r0 + res_new[:sysm.nf]) @ dz)
+        if work >= 1e-4 * alpha * slope:
+            break
+        alpha *= 0.5
+    return z_new, res_new, jac_new, merit(res_new)
 
 
 def _free_flight(sysm, z, res, jac, phi, merit, was_touching, null):

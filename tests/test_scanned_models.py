@@ -10,6 +10,7 @@ import pytest
 from conftest import REPO, require_knee_data
 
 from fecheck import scanned
+from fecheck.errors import FecheckError
 from fecheck.model import ContactModel, run_scene
 from fecheck.scanned_models import build_compartments
 from fecheck.scene import load_scene
@@ -114,3 +115,35 @@ def test_hemispheres_keep_the_condyle_spheres_off_the_eminence():
             if not peak_inside:
                 # a face straddling the cut (≈ 1 mm at 1,500 faces) may carry pressure
                 assert x[p > 0].min() > limit - 1.0
+
+
+def test_polynomial_contact_cut_by_the_plateau_rim_is_an_error():
+    # At the default 14 mm disc both contacts reach the rim (medial 171.6 mm² there vs
+    # 187.7 at 18 and 187.4 at 22 mm): an error naming the key, as on plane plateaus
+    poly = SCENES / "polynomial.toml"
+    with pytest.raises(FecheckError, match=r"medial: the contact reaches the rim .*radius "
+                                           r"14 mm.*raise mesh.plateau_radius_mm"):
+        run_scene(load_scene(poly, ["mesh.plateau_radius_mm=14"]))
+    # the scene's disc contains it: a wider disc changes the area only by its mesh (0.5 %)
+    shipped = run_scene(load_scene(poly))
+    wider = run_scene(load_scene(poly, ["mesh.plateau_radius_mm=22"]))
+    for c in ("medial", "lateral"):
+        assert shipped.compartments[c].area_mm2 == pytest.approx(
+            wider.compartments[c].area_mm2, rel=0.005)
+
+
+@pytest.mark.parametrize("gap", [0.0, 5.0])
+def test_polynomial_plateaus_with_bundles_converge_quickly_to_the_stable_pose(gap):
+    # Both fitted plateaus are domed in y (c02 < 0): the contact stiffness along y is
+    # negative (≈ -15 N/mm) and the bundles, mostly slack at the start, do not outweigh it.
+    # Newton stalled (35 iterations at 14 mm; at 18 mm a "no stiffness ... add ligaments"
+    # error); the energy-descent step reaches the pose the bundles hold (~10° internal).
+    require_knee_data()
+    scene = load_scene(SCENES / "polynomial_ligaments.toml", [f"solver.start_gap_mm={gap}"])
+    result = run_scene(scene)
+    assert result.converged and result.iterations <= 15
+    assert np.linalg.norm(_hand_balance(scene, result)) < RELATIVE * scene["load.force_N"]
+    assert result.pose["internal_deg"] < -5.0
+    with pytest.raises(FecheckError, match=r"reaches the rim .*radius 18 mm"):
+        run_scene(load_scene(SCENES / "polynomial_ligaments.toml",
+                             [f"solver.start_gap_mm={gap}", "mesh.plateau_radius_mm=18"]))

@@ -14,7 +14,15 @@ from fecheck.ligaments import rod_constraint, spring_wrench
 from fecheck.model import ef_sphere_plane, run_scene
 from fecheck.rigid import solve_rigid
 from fecheck.scene import load_scene
-from fecheck.statics import Problem, _System, geometric_tangent, point_force, pose, twist_basis
+from fecheck.statics import (
+    Problem,
+    _System,
+    geometric_tangent,
+    point_force,
+    pose,
+    solve,
+    twist_basis,
+)
 
 SCENES = Path(__file__).resolve().parents[1] / "validation" / "scenes"
 SHIPPED = ["baseline", "rigid", "rigid_ligaments", "hertz", "volumetric", "ligaments",
@@ -273,3 +281,28 @@ def test_equal_force_constraint_holds_in_the_contact_model():
     assert r.compartments["medial"].force_N == pytest.approx(
         r.compartments["lateral"].force_N, abs=1e-6)
     assert "equal_forces_multiplier" in r.extra
+
+
+def test_negative_stiffness_start_reaches_the_stable_equilibrium_not_the_saddle():
+    # A tibia on a dome (contact stiffness -a, load b along y) held by a spring slack
+    # within |y| < s: E(y) = -a y²/2 - b y + k max(|y| - s, 0)²/2. The start y = 0 lies
+    # on the dome; plain Newton jumps to the unstable root y = -b/a (its residual is
+    # zero too). The stable root on the load's side solves a y + b = k (y - s).
+    a, b, k, s = 10.0, 1.0, 100.0, 2.0
+    last = []
+
+    def dome(t):
+        return point_force(t, np.array([0.0, a * t[1] + b, 0.0]), np.diag([0.0, a, 0.0]))
+
+    def spring(t):
+        slack = max(abs(t[1]) - s, 0.0)
+        return point_force(t, np.array([0.0, -k * math.copysign(slack, t[1]), 0.0]),
+                           np.diag([0.0, -k if slack > 0 else 0.0, 0.0]))
+
+    def wrench(rot, t):
+        last[:] = [dome(t), spring(t)]
+        return last[0][0] + last[1][0], last[0][1] + last[1][1]
+
+    sol = solve(Problem(np.zeros(5), (1,), wrench, tolerance=1e-10, parts=lambda: last))
+    assert sol.converged
+    assert sol.q[1] == pytest.approx((b + k * s) / (k - a), abs=1e-9)
