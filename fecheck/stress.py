@@ -78,26 +78,13 @@ class Inconsistent(Exception):
 
 
 # ------------------------------------------------------------------------ the matrix
-_DISC = ("the contact is wider than the meshed plateau disc (mesh.plateau_radius_mm, "
-         "14 mm) and is cut at its rim without a warning (fecheck/model.py _plateau_mesh)")
-_DEEP = ("the linear foundation law is applied beyond the cartilage thickness (depth > h) "
-         "without an error or note (fecheck/model.py, fecheck/laws.py)")
-_INF = ("scene validation rejects NaN but not ±inf (fecheck/scene.py _finite); the solver "
-        "then fails inside numpy's SVD (fecheck/statics.py _null_space)")
 _COARSE = ("a contact spanning a few faces is silently inaccurate: no warning on the "
            "number of faces in contact (fecheck/contact/pair.py, fecheck/model.py)")
 KNOWN: dict[str, str] = {
-    "E 0.1 MPa": _DEEP,
-    "load 1e4 N, E 0.1 MPa, h 0.5 mm": _DEEP,
-    "E 1 MPa": _DISC,
-    "load 10000 N": _DISC,
-    "law volumetric": "k_V = 1e-2 N/mm³ gives a 20 mm deep contact: " + _DISC,
     "detection ray-parity, plateau master": (
         "the plateau is meshed as a 12-triangle box (fecheck/model.py _plateau_box, no "
         "mesh_size): the thesis's nearest-VERTEX depth is then ~20 mm, and the error blames "
         "the load direction and start pose"),
-    "load inf": _INF,
-    "mass inf": _INF,
     "load 0.1 N": "contact radius 0.9 mm on the 0.8 mm plateau mesh: " + _COARSE,
     "grazing: 1e-6 N": "a 0.03 mm wide contact on the 0.8 mm plateau mesh: " + _COARSE,
     "grazing: 1e-6 N, plateau master": "a 2 µm deep contact on a 5,120-face icosphere: "
@@ -129,7 +116,8 @@ def cases() -> list[Case]:
             for nu in (0.0, 0.2, 0.45, 0.49, 0.499, 0.4999)]
     out += [_scene("poisson 0.5", "contact.poisson=0.5", expect="clear-error"),
             _scene("poisson -0.1", "contact.poisson=-0.1", quick=False, expect="clear-error")]
-    out += [_scene(f"E {e:g} MPa", f"contact.youngs_MPa={e}", quick=e in (0.1, 1e4))
+    out += [_scene(f"E {e:g} MPa", f"contact.youngs_MPa={e}", quick=e in (0.1, 1e4),
+                   expect="clear-error" if e < 1 else None)     # 15 mm deep: crushed layer
             for e in (0.1, 1.0, 5.0, 100.0, 1000.0, 1e4)]
     out += [_scene(f"h {h:g} mm", f"contact.thickness_mm={h}", quick=h in (0.5, 20.0))
             for h in (0.5, 1.0, 3.0, 12.0, 20.0)]
@@ -138,7 +126,8 @@ def cases() -> list[Case]:
     out += [_scene("load 0.1 N with the tibia's weight (no equilibrium)", "load.force_N=0.1",
                    expect="clear-error"),
             _scene("load 1e4 N, E 0.1 MPa, h 0.5 mm", "load.force_N=10000",
-                   "contact.youngs_MPa=0.1", "contact.thickness_mm=0.5", quick=False)]
+                   "contact.youngs_MPa=0.1", "contact.thickness_mm=0.5", quick=False,
+                   expect="clear-error")]
     out += [_scene(f"load point x {x:+g} mm", f"load.point_mm=[{x}, 12.8, -380.0]",
                    quick=abs(x) == 30) for x in (-30.0, -15.0, 15.0, 30.0)]
     out += [_scene("start 10 mm gap", "solver.start_gap_mm=10"),
@@ -247,10 +236,12 @@ def check_run(scene, result) -> tuple[int, float, str]:
         if c.face_pressure_MPa.min(initial=0.0) < -PRESSURE_TOL or c.max_pressure_MPa < 0:
             raise Inconsistent("inconsistent", f"{name}: tensile pressure "
                                f"{c.face_pressure_MPa.min():.3g} MPa")
-        if scene["contact.law"] != "hertz" and c.max_depth_mm >= scene["contact.thickness_mm"]:
+        noted = any("thickness" in note for note in result.notes)
+        if (scene["contact.law"] != "hertz" and not noted
+                and c.max_depth_mm >= scene["contact.thickness_mm"]):
             raise Inconsistent("inconsistent", f"{name}: depth {c.max_depth_mm:.3g} mm exceeds "
                                f"the cartilage thickness {scene['contact.thickness_mm']:g} mm "
-                               "(the foundation law does not hold) without an error")
+                               "(the foundation law does not hold) without an error or note")
     for lig in result.ligaments.values():
         _finite("ligament", lig.force_N, lig.length_mm)
     notes = []
@@ -263,6 +254,7 @@ def check_run(scene, result) -> tuple[int, float, str]:
                 raise Inconsistent("inconsistent", f"{name}: area/p_max {100 * worst:.1f}% "
                                    "off the exact EF answer, without a warning")
             notes.append(f"{name} {100 * worst:.2g}% from exact")
+    notes += [f"note: {n}" for n in result.notes if "thickness" in n]
     return result.iterations, float(result.residual_norm), "; ".join(notes)
 
 
