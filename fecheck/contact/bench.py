@@ -330,8 +330,8 @@ def run(quick: bool = False, progress=lambda message: None, *,
 
 def table(result: dict) -> str:
     """A plain-text summary of the rows and ratios."""
-    lines = [f"{'scenario':14s}{'method':12s}{'faces':>8s}{'contact':>8s}{'ms':>10s}"
-             f"{'scratch ms':>11s}{'area err':>10s}{'vol err':>10s}"]
+    lines = [(f"{'scenario':14s}{'method':12s}{'faces':>8s}{'contact':>8s}{'ms':>10s}"
+             f"{'scratch ms':>11s}{'area err':>10s}{'vol err':>10s}")]
     for r in result["rows"]:
         if "error" in r:
             lines.append(f"{r['scenario']:14s}{r['method']:12s}{r['n_faces']:8d}  "

@@ -18,6 +18,11 @@ the closest point, positive inside. Inside/outside:
   winding number (precomputed octree) was 24 µs per point and wrong by up to 0.93
   within 2 mm of the surface, so it is not used.
 
+While a contact pair reuses its candidate set, each slave point's closest face is found
+by a walk from its previous one over face 1-rings (`fecheck.contact.coherent`, compiled),
+the tree answering only points whose walk does not settle: 0.18-0.30 ms against
+1.8-2.6 ms for a full evaluation from scratch (20,480 faces each, ~480 points; one run).
+
 Measured alternatives for the closest point (one run, 20,480-face sphere, 500 points
 within 2 mm of it): igl.AABB 1.3 ms; ``igl.signed_distance`` rebuilds its tree every
 call (45 ms); trimesh's rtree-based proximity is slower still (see
@@ -28,8 +33,11 @@ from __future__ import annotations
 
 import numpy as np
 
+from fecheck.contact.coherent import local_closest, vertex_faces
 from geometry.errors import FecheckError
 from geometry.mesh import TriMesh
+
+MAX_STEPS = 4            # 1-ring moves of a warm-started closest-face walk
 
 
 def is_closed(mesh: TriMesh) -> bool:
@@ -77,6 +85,7 @@ class MeshMaster:
         self._normals = mesh.face_normals
         self._tree = igl.AABB()
         self._tree.init(self._V, self._F)
+        self._ring = vertex_faces(self._F, mesh.n_points)
         self._winding = igl.winding_number
         lo, hi = mesh.points.min(axis=0), mesh.points.max(axis=0)
         self._box = (lo - margin_mm, hi + margin_mm)
@@ -92,9 +101,17 @@ class MeshMaster:
         lo, hi = self._box
         return np.all((y >= lo) & (y <= hi), axis=1)
 
-    def _query(self, y: np.ndarray):
+    def _query(self, y: np.ndarray, start: np.ndarray | None = None):
         pts = np.ascontiguousarray(y.reshape(-1, 3))
-        sq, face, closest = self._tree.squared_distance(self._V, self._F, pts)
+        if start is None:
+            sq, face, closest = self._tree.squared_distance(self._V, self._F, pts)
+        else:
+            sq, face, closest, settled = local_closest(self._V, self._F, *self._ring, pts,
+                                                       start, MAX_STEPS)
+            lost = np.flatnonzero(~settled)
+            if lost.size:
+                sq[lost], face[lost], closest[lost] = self._tree.squared_distance(
+                    self._V, self._F, pts[lost])
         offset = pts - closest
         if self.sign == "normal":
             outside = np.einsum("ij,ij->i", offset, self._normals[face]) > 0.0
@@ -116,12 +133,20 @@ class MeshMaster:
         """Depth (n,) and its gradient (n, 3) at points (n, 3) from one tree query: minus
         the outward unit direction from the closest point (minus the face normal for a
         point on the surface)."""
-        depth, face, offset, dist, outside = self._query(y)
+        return self.depth_gradients_faces(y)[:2]
+
+    def depth_gradients_faces(self, y: np.ndarray, start: np.ndarray | None = None
+                              ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """`depth_and_gradients` and the closest face (n,) of each point; with `start`
+        (n,) faces (the last call's, -1 for none) the closest faces are found by a local
+        walk from them (`fecheck.contact.coherent`), the tree answering only points
+        whose walk does not settle."""
+        depth, face, offset, dist, outside = self._query(y, start)
         on_surface = dist < 1e-12
         direction = offset / np.where(on_surface, 1.0, dist)[:, None]
         direction = np.where(outside[:, None], direction, -direction)
         direction = np.where(on_surface[:, None], self._normals[face], direction)
-        return depth, -direction
+        return depth, -direction, face
 
     def depth_gradients(self, y: np.ndarray, u: np.ndarray | None = None):
         """(∂d/∂y, None) at points of any leading shape, see `depth_and_gradients`."""

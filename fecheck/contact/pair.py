@@ -171,6 +171,9 @@ class ContactPair:
             self.master = master
             self._thesis = thesis_detector(method, slave, master, area)
         self._kernel, self._kernel_args = None, ()
+        # closest master faces of the candidate points at the last call, the start of a
+        # local walk while the candidate set is reused (mesh masters)
+        self._warm: tuple[object, np.ndarray | None] = (None, None)
         if isinstance(self.master, Plane):
             self._kernel, self._kernel_args = plane_surface, (master.point, master.normal)
         elif isinstance(self.master, Sphere):
@@ -228,8 +231,10 @@ class ContactPair:
             return ContactSurface(cand.faces[hit], normal, depth, *qp, master.normal_body,
                                   self.slave.n_faces)
         y = cand.points @ R.T + t
-        if hasattr(master, "depth_and_gradients"):        # one BVH query for both
-            dv, grad = master.depth_and_gradients(y)
+        if hasattr(master, "depth_gradients_faces"):      # mesh: one closest-point query
+            warm = self._warm[1] if self._warm[0] is cand else None
+            dv, grad, closest_face = master.depth_gradients_faces(y, warm)
+            self._warm = (cand, closest_face)
         else:
             dv, grad = master.depth_values(y), None
         d = dv[cand.local_faces]

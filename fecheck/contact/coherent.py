@@ -1,0 +1,118 @@
+"""Warm-started closest points on a triangle mesh: the last call's faces, searched locally.
+
+Between two Newton iterations a slave vertex moves by a fraction of the broad-phase
+margin, so its closest master face is the last one or a neighbour. `local_closest`
+walks from each point's previous face to the closest face among the faces sharing a
+vertex with it (its 1-ring), repeating from the new face until the current face is the
+closest of its own ring (a local minimum of the distance over the mesh), in at most
+`max_steps` moves. Points that start without a face or do not settle are flagged for a
+global (BVH) query. The closest point on a triangle is Ericson's routine (Real-Time
+Collision Detection, 2005, §5.1.5), compiled with numba.
+
+A local minimum is the global one when the point is closer to the surface than the
+surface's local feature size (as for slave vertices within the margin of a smooth
+master); `fecheck.contact.mesh_master.MeshMaster` uses it only for candidate sets that
+are being reused and tests it against the BVH (``tests/test_contact_coherent.py``).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from numba import njit
+
+
+def vertex_faces(faces: np.ndarray, n_points: int) -> tuple[np.ndarray, np.ndarray]:
+    """Faces around each vertex as CSR arrays (ptr (n_points + 1,), index (3 n_faces,)):
+    the faces of vertex v are ``index[ptr[v]:ptr[v + 1]]``."""
+    flat = faces.ravel()
+    order = np.argsort(flat, kind="stable")
+    ptr = np.zeros(n_points + 1, dtype=np.int64)
+    np.cumsum(np.bincount(flat, minlength=n_points), out=ptr[1:])
+    return ptr, (order // 3).astype(np.int64)
+
+
+@njit(cache=True, fastmath=False)
+def closest_on_triangle(px, py, pz, V, F, f):
+    """Closest point (qx, qy, qz) of face f (V (n, 3) mm, F (m, 3)) to (px, py, pz) and
+    its squared distance, mm² (Ericson's Voronoi-region routine)."""
+    i, j, k = F[f, 0], F[f, 1], F[f, 2]
+    ax, ay, az = V[i, 0], V[i, 1], V[i, 2]
+    abx, aby, abz = V[j, 0] - ax, V[j, 1] - ay, V[j, 2] - az
+    acx, acy, acz = V[k, 0] - ax, V[k, 1] - ay, V[k, 2] - az
+    apx, apy, apz = px - ax, py - ay, pz - az
+    d1 = abx * apx + aby * apy + abz * apz
+    d2 = acx * apx + acy * apy + acz * apz
+    if d1 <= 0.0 and d2 <= 0.0:                                   # vertex a
+        s, t = 0.0, 0.0
+    else:
+        bpx, bpy, bpz = apx - abx, apy - aby, apz - abz
+        d3 = abx * bpx + aby * bpy + abz * bpz
+        d4 = acx * bpx + acy * bpy + acz * bpz
+        if d3 >= 0.0 and d4 <= d3:                                # vertex b
+            s, t = 1.0, 0.0
+        else:
+            vc = d1 * d4 - d3 * d2
+            if vc <= 0.0 and d1 >= 0.0 and d3 <= 0.0:            # edge ab
+                s, t = d1 / (d1 - d3), 0.0
+            else:
+                cpx, cpy, cpz = apx - acx, apy - acy, apz - acz
+                d5 = abx * cpx + aby * cpy + abz * cpz
+                d6 = acx * cpx + acy * cpy + acz * cpz
+                if d6 >= 0.0 and d5 <= d6:                        # vertex c
+                    s, t = 0.0, 1.0
+                else:
+                    vb = d5 * d2 - d1 * d6
+                    if vb <= 0.0 and d2 >= 0.0 and d6 <= 0.0:     # edge ac
+                        s, t = 0.0, d2 / (d2 - d6)
+                    else:
+                        va = d3 * d6 - d5 * d4
+                        if va <= 0.0 and (d4 - d3) >= 0.0 and (d5 - d6) >= 0.0:   # edge bc
+                            w = (d4 - d3) / ((d4 - d3) + (d5 - d6))
+                            s, t = 1.0 - w, w
+                        else:                                     # interior
+                            denom = 1.0 / (va + vb + vc)
+                            s, t = vb * denom, vc * denom
+    qx = ax + s * abx + t * acx
+    qy = ay + s * aby + t * acy
+    qz = az + s * abz + t * acz
+    dx, dy, dz = px - qx, py - qy, pz - qz
+    return qx, qy, qz, dx * dx + dy * dy + dz * dz
+
+
+@njit(cache=True, fastmath=False)
+def local_closest(V, F, ptr, index, points, start, max_steps):
+    """Closest faces of `points` (n, 3) found by walking from `start` (n,) faces (-1:
+    none) over face 1-rings.
+
+    Returns (sq (n,) mm², face (n,), closest (n, 3) mm, settled (n,) bool); a point not
+    settled (no start face, or still moving after `max_steps`) needs a global query.
+    """
+    n = points.shape[0]
+    sq = np.empty(n)
+    face = np.empty(n, dtype=np.int64)
+    closest = np.empty((n, 3))
+    settled = np.zeros(n, dtype=np.bool_)
+    for p in range(n):
+        f = start[p]
+        if f < 0:
+            face[p] = -1
+            continue
+        px, py, pz = points[p, 0], points[p, 1], points[p, 2]
+        qx, qy, qz, best = closest_on_triangle(px, py, pz, V, F, f)
+        for _ in range(max_steps):
+            current = f
+            for c in range(3):
+                v = F[current, c]
+                for e in range(ptr[v], ptr[v + 1]):
+                    g = index[e]
+                    if g == f:
+                        continue
+                    gx, gy, gz, d = closest_on_triangle(px, py, pz, V, F, g)
+                    if d < best or (d == best and g < f):      # ties: lowest index
+                        f, best, qx, qy, qz = g, d, gx, gy, gz
+            if f == current:
+                settled[p] = True
+                break
+        sq[p], face[p] = best, f
+        closest[p, 0], closest[p, 1], closest[p, 2] = qx, qy, qz
+    return sq, face, closest, settled
