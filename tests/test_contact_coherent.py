@@ -6,7 +6,7 @@ import pytest
 from contact_helpers import IDENTITY, moved
 
 from fecheck.contact import ContactPair
-from fecheck.contact.coherent import closest_on_triangle, local_closest, vertex_faces
+from fecheck.contact.coherent import closest_on_triangle, face_rings, local_closest
 from fecheck.contact.mesh_master import MeshMaster
 from geometry.icosphere import icosphere
 from geometry.mesh import TriMesh
@@ -36,6 +36,15 @@ def test_closest_point_on_a_triangle_matches_libigl_in_every_voronoi_region():
             assert sq == pytest.approx(s, rel=1e-12, abs=1e-24)
 
 
+def test_face_rings_are_the_faces_sharing_a_vertex():
+    mesh = icosphere(10.0, 2)
+    ptr, index = face_rings(mesh.faces, mesh.n_points)
+    for f in range(mesh.n_faces):
+        shares = np.isin(mesh.faces, mesh.faces[f]).any(axis=1)
+        shares[f] = False
+        np.testing.assert_array_equal(index[ptr[f]:ptr[f + 1]], np.flatnonzero(shares))
+
+
 def _bumpy_sheet(n: int = 60, size_mm: float = 40.0) -> TriMesh:
     """An open, wavy, irregularly triangulated sheet (mm): z = 1.5 sin(x/4) cos(y/5)."""
     rng = np.random.default_rng(2)
@@ -60,7 +69,7 @@ def test_walk_from_the_last_faces_finds_the_bvh_closest_faces(master):
     # squared distance to rounding, same face unless two faces are exactly equidistant).
     rng = np.random.default_rng(5)
     V, F = np.ascontiguousarray(master.points), np.ascontiguousarray(master.faces)
-    ptr, index = vertex_faces(F, master.n_points)
+    ptr, index = face_rings(F, master.n_points)
     seeds = master.face_centroids[rng.choice(master.n_faces, 400, replace=False)]
     normals = master.face_normals[rng.choice(master.n_faces, 400, replace=False)]
     pts = seeds + rng.uniform(-2.0, 2.0, (400, 1)) * normals

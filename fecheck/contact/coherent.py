@@ -3,8 +3,8 @@
 Between two Newton iterations a slave vertex moves by a fraction of the broad-phase
 margin, so its closest master face is the last one or a neighbour. `local_closest`
 walks from each point's previous face to the closest face among the faces sharing a
-vertex with it (its 1-ring), repeating from the new face until the current face is the
-closest of its own ring (a local minimum of the distance over the mesh), in at most
+vertex with it (its 1-ring, `face_rings`), repeating from the new face until the
+current face is the closest of its own ring (a local minimum of the distance over the mesh), in at most
 `max_steps` moves. Points that start without a face or do not settle are flagged for a
 global (BVH) query. The closest point on a triangle is Ericson's routine (Real-Time
 Collision Detection, 2005, §5.1.5), compiled with numba.
@@ -21,14 +21,24 @@ import numpy as np
 from numba import njit
 
 
-def vertex_faces(faces: np.ndarray, n_points: int) -> tuple[np.ndarray, np.ndarray]:
-    """Faces around each vertex as CSR arrays (ptr (n_points + 1,), index (3 n_faces,)):
-    the faces of vertex v are ``index[ptr[v]:ptr[v + 1]]``."""
+def face_rings(faces: np.ndarray, n_points: int) -> tuple[np.ndarray, np.ndarray]:
+    """The faces sharing a vertex with each face (its 1-ring, itself excluded) as CSR
+    arrays (ptr (n_faces + 1,), index): the ring of face f is ``index[ptr[f]:ptr[f + 1]]``."""
     flat = faces.ravel()
-    order = np.argsort(flat, kind="stable")
-    ptr = np.zeros(n_points + 1, dtype=np.int64)
-    np.cumsum(np.bincount(flat, minlength=n_points), out=ptr[1:])
-    return ptr, (order // 3).astype(np.int64)
+    degree = np.bincount(flat, minlength=n_points)
+    vertex_ptr = np.concatenate([[0], np.cumsum(degree)])
+    around = np.argsort(flat, kind="stable") // 3              # faces of each vertex
+    corner_face = np.repeat(np.arange(len(faces)), 3)
+    owner = np.repeat(corner_face, degree[flat])               # (face, neighbour) pairs
+    starts = np.repeat(vertex_ptr[flat] - np.cumsum(degree[flat]) + degree[flat],
+                       degree[flat])
+    neighbour = around[np.arange(len(owner)) + starts]
+    key = np.unique(owner * len(faces) + neighbour)
+    owner, neighbour = key // len(faces), key % len(faces)
+    keep = owner != neighbour
+    ptr = np.zeros(len(faces) + 1, dtype=np.int64)
+    np.cumsum(np.bincount(owner[keep], minlength=len(faces)), out=ptr[1:])
+    return ptr, neighbour[keep].astype(np.int64)
 
 
 @njit(cache=True, fastmath=False)
@@ -82,7 +92,7 @@ def closest_on_triangle(px, py, pz, V, F, f):
 @njit(cache=True, fastmath=False)
 def local_closest(V, F, ptr, index, points, start, max_steps):
     """Closest faces of `points` (n, 3) found by walking from `start` (n,) faces (-1:
-    none) over face 1-rings.
+    none) over face 1-rings (`face_rings` CSR arrays ptr, index).
 
     Returns (sq (n,) mm², face (n,), closest (n, 3) mm, settled (n,) bool); a point not
     settled (no start face, or still moving after `max_steps`) needs a global query.
@@ -101,15 +111,11 @@ def local_closest(V, F, ptr, index, points, start, max_steps):
         qx, qy, qz, best = closest_on_triangle(px, py, pz, V, F, f)
         for _ in range(max_steps):
             current = f
-            for c in range(3):
-                v = F[current, c]
-                for e in range(ptr[v], ptr[v + 1]):
-                    g = index[e]
-                    if g == f:
-                        continue
-                    gx, gy, gz, d = closest_on_triangle(px, py, pz, V, F, g)
-                    if d < best or (d == best and g < f):      # ties: lowest index
-                        f, best, qx, qy, qz = g, d, gx, gy, gz
+            for e in range(ptr[current], ptr[current + 1]):
+                g = index[e]
+                gx, gy, gz, d = closest_on_triangle(px, py, pz, V, F, g)
+                if d < best or (d == best and g < f):          # ties: lowest index
+                    f, best, qx, qy, qz = g, d, gx, gy, gz
             if f == current:
                 settled[p] = True
                 break

@@ -303,3 +303,72 @@ def sphere_surface(clipped: bool, points: np.ndarray, local_faces: np.ndarray,
     return (hit, N, D) + surface_quadrature(clipped, D, X, T, area, np.ones(m),
                                             np.zeros((m, 6)))
 
+
+
+@njit(cache=True, fastmath=False)
+def signed_closest(points: np.ndarray, closest: np.ndarray, sq: np.ndarray,
+                   face_normal: np.ndarray, outside: np.ndarray, by_normal: bool):
+    """Signed depth (n,) (mm, positive inside) and its gradient (n, 3) from closest
+    points (n, 3) and squared distances (n,) on a mesh master (master frame).
+
+    Outside is the side of the closest face's normal face_normal (n, 3) if `by_normal`,
+    else `outside` (n,) bool. The gradient is minus the outward unit direction from the
+    closest point (minus the face normal for a point on the surface).
+    """
+    n = points.shape[0]
+    depth = np.empty(n)
+    grad = np.empty((n, 3))
+    for i in range(n):
+        o0 = points[i, 0] - closest[i, 0]
+        o1 = points[i, 1] - closest[i, 1]
+        o2 = points[i, 2] - closest[i, 2]
+        if by_normal:
+            out = o0 * face_normal[i, 0] + o1 * face_normal[i, 1] + o2 * face_normal[i, 2] > 0.0
+        else:
+            out = outside[i]
+        dist = np.sqrt(sq[i])
+        depth[i] = -dist if out else dist
+        if dist < 1e-12:
+            grad[i, 0], grad[i, 1], grad[i, 2] = (-face_normal[i, 0], -face_normal[i, 1],
+                                                  -face_normal[i, 2])
+        else:
+            s = -1.0 / dist if out else 1.0 / dist
+            grad[i, 0], grad[i, 1], grad[i, 2] = s * o0, s * o1, s * o2
+    return depth, grad
+
+
+@njit(cache=True, fastmath=False)
+def mesh_surface(clipped: bool, local_faces: np.ndarray, y: np.ndarray, dv: np.ndarray,
+                 grad: np.ndarray, normals: np.ndarray, areas: np.ndarray, Rm: np.ndarray,
+                 tm: np.ndarray, Rs: np.ndarray):
+    """Contact of candidate slave faces with a mesh master from its vertex depths.
+
+    y (n, 3) candidate points in the master frame (mm), dv (n,) their signed depths
+    (mm), grad (n, 3) ∂d/∂y (master frame); local_faces, normals, areas as in
+    `plane_surface`. Foundation normal -Rs n_face (fixed in the slave), plain slave
+    areas; a vertex's depth twist is (g, x × g), g = Rm ∂d/∂y. Returns as
+    `plane_surface`.
+    """
+    Dc = np.empty((local_faces.shape[0], 3))
+    for f in range(local_faces.shape[0]):
+        for j in range(3):
+            Dc[f, j] = dv[local_faces[f, j]]
+    hit = _contact_faces(Dc)
+    m = hit.size
+    D = np.empty((m, 3))
+    X = np.empty((m, 3, 3))
+    T = np.empty((m, 3, 6))
+    N = np.empty((m, 3))
+    area = np.empty(m)
+    for i in range(m):
+        f = hit[i]
+        for j in range(3):
+            v = local_faces[f, j]
+            D[i, j] = Dc[f, j]
+            x0, x1, x2 = _mul(Rm, y[v, 0], y[v, 1], y[v, 2])
+            x = (x0 + tm[0], x1 + tm[1], x2 + tm[2])
+            _vertex(T, X, i, j, x, _mul(Rm, grad[v, 0], grad[v, 1], grad[v, 2]), x)
+        N[i, 0], N[i, 1], N[i, 2] = _mul(Rs, -normals[f, 0], -normals[f, 1], -normals[f, 2])
+        area[i] = areas[f]
+    return (hit, N, D) + surface_quadrature(clipped, D, X, T, area, np.ones(m),
+                                            np.zeros((m, 6)))

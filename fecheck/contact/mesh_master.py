@@ -33,7 +33,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from fecheck.contact.coherent import local_closest, vertex_faces
+from fecheck.contact.coherent import face_rings, local_closest
+from fecheck.contact.kernels import signed_closest
 from geometry.errors import FecheckError
 from geometry.mesh import TriMesh
 
@@ -85,7 +86,7 @@ class MeshMaster:
         self._normals = mesh.face_normals
         self._tree = igl.AABB()
         self._tree.init(self._V, self._F)
-        self._ring = vertex_faces(self._F, mesh.n_points)
+        self._ring = face_rings(self._F, mesh.n_points)
         self._winding = igl.winding_number
         lo, hi = mesh.points.min(axis=0), mesh.points.max(axis=0)
         self._box = (lo - margin_mm, hi + margin_mm)
@@ -112,14 +113,12 @@ class MeshMaster:
             if lost.size:
                 sq[lost], face[lost], closest[lost] = self._tree.squared_distance(
                     self._V, self._F, pts[lost])
-        offset = pts - closest
-        if self.sign == "normal":
-            outside = np.einsum("ij,ij->i", offset, self._normals[face]) > 0.0
-        else:
-            outside = self._winding(self._V, self._F, pts) < 0.5
-        dist = np.sqrt(sq)
-        depth = np.where(outside, -dist, dist)
-        return depth, face, offset, dist, outside
+        by_normal = self.sign == "normal"
+        outside = (np.zeros(0, dtype=bool) if by_normal
+                   else self._winding(self._V, self._F, pts) < 0.5)
+        depth, grad = signed_closest(pts, closest, sq, self._normals[face], outside,
+                                     by_normal)
+        return depth, grad, face
 
     def reach(self, y: np.ndarray) -> np.ndarray:
         """Signed distance, positive inside, mm (1-Lipschitz)."""
@@ -133,7 +132,7 @@ class MeshMaster:
         """Depth (n,) and its gradient (n, 3) at points (n, 3) from one tree query: minus
         the outward unit direction from the closest point (minus the face normal for a
         point on the surface)."""
-        return self.depth_gradients_faces(y)[:2]
+        return self._query(y)[:2]
 
     def depth_gradients_faces(self, y: np.ndarray, start: np.ndarray | None = None
                               ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -141,12 +140,7 @@ class MeshMaster:
         (n,) faces (the last call's, -1 for none) the closest faces are found by a local
         walk from them (`fecheck.contact.coherent`), the tree answering only points
         whose walk does not settle."""
-        depth, face, offset, dist, outside = self._query(y, start)
-        on_surface = dist < 1e-12
-        direction = offset / np.where(on_surface, 1.0, dist)[:, None]
-        direction = np.where(outside[:, None], direction, -direction)
-        direction = np.where(on_surface[:, None], self._normals[face], direction)
-        return depth, -direction, face
+        return self._query(y, start)
 
     def depth_gradients(self, y: np.ndarray, u: np.ndarray | None = None):
         """(∂d/∂y, None) at points of any leading shape, see `depth_and_gradients`."""

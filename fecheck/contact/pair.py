@@ -20,7 +20,7 @@ import numpy as np
 
 from fecheck.contact.analytic import Plane, PolynomialSurface, Sphere
 from fecheck.contact.broadphase import CandidateCache
-from fecheck.contact.kernels import plane_surface, sphere_surface, surface_quadrature
+from fecheck.contact.kernels import mesh_surface, plane_surface, sphere_surface, surface_quadrature
 from fecheck.contact.surface import ContactSurface
 from geometry.errors import FecheckError
 from geometry.mesh import TriMesh
@@ -235,15 +235,20 @@ class ContactPair:
             warm = self._warm[1] if self._warm[0] is cand else None
             dv, grad, closest_face = master.depth_gradients_faces(y, warm)
             self._warm = (cand, closest_face)
-        else:
-            dv, grad = master.depth_values(y), None
-        d = dv[cand.local_faces]
+            hit, normal, depth, *qp = mesh_surface(
+                self.area_mode == "clipped", cand.local_faces, y, dv, grad, cand.normals,
+                cand.areas, Rm, tm, Rs)
+            if hit.size == 0:
+                return ContactSurface.empty(self.slave.n_faces, master.normal_body)
+            return ContactSurface(cand.faces[hit], normal, depth, *qp, master.normal_body,
+                                  self.slave.n_faces)
+        d = master.depth_values(y)[cand.local_faces]
         hit = np.nonzero(d.max(axis=1) > 0.0)[0]
         if hit.size == 0:
             return ContactSurface.empty(self.slave.n_faces, master.normal_body)
         faces = cand.local_faces[hit]
         return build_surface(master, self.area_mode, self.slave.n_faces, cand, hit, d[hit],
-                             y[faces], R, Rm, tm, Rs, None if grad is None else grad[faces])
+                             y[faces], R, Rm, tm, Rs)
 
 
 def build_surface(master, area_mode: str, n_slave_faces: int, cand, hit: np.ndarray,
@@ -251,8 +256,8 @@ def build_surface(master, area_mode: str, n_slave_faces: int, cand, hit: np.ndar
                   tm: np.ndarray, Rs: np.ndarray, g: np.ndarray | None = None
                   ) -> ContactSurface:
     """Quadrature, twist derivatives and normals of the contact faces `hit` of `cand`,
-    for masters with a depth gradient per point (polynomial, meshes, the thesis's ray
-    parity; `Plane` and `Sphere` have compiled kernels, `fecheck.contact.kernels`).
+    for masters with a depth gradient per point (polynomial, the thesis's ray parity;
+    `Plane`, `Sphere` and mesh masters have compiled kernels, `fecheck.contact.kernels`).
 
     D (m, 3) vertex depths and Y (m, 3, 3) vertex positions in the master frame (mm);
     R the slave-to-master rotation; (Rm, tm) the master pose; Rs the slave rotation;
