@@ -6,7 +6,7 @@ import pytest
 from contact_helpers import IDENTITY, moved
 
 from fecheck.contact import ContactPair
-from fecheck.contact.coherent import closest_on_triangle, face_rings, local_closest
+from fecheck.contact.coherent import closest_on_triangle, edge_frames, face_rings, local_closest
 from fecheck.contact.mesh_master import MeshMaster
 from geometry.icosphere import icosphere
 from geometry.mesh import TriMesh
@@ -31,7 +31,7 @@ def test_closest_point_on_a_triangle_matches_libigl_in_every_voronoi_region():
         pts = V.mean(axis=0) + 2.0 * rng.normal(size=(200, 3))
         sq_ref, _, q_ref = _igl_closest(V, F, pts)
         for p, s, q in zip(pts, sq_ref, q_ref):
-            qx, qy, qz, sq = closest_on_triangle(p[0], p[1], p[2], V, F, 0)
+            qx, qy, qz, sq = closest_on_triangle(p[0], p[1], p[2], edge_frames(V, F), 0)
             np.testing.assert_allclose([qx, qy, qz], q, atol=1e-12)
             assert sq == pytest.approx(s, rel=1e-12, abs=1e-24)
 
@@ -70,6 +70,7 @@ def test_walk_from_the_last_faces_finds_the_bvh_closest_faces(master):
     rng = np.random.default_rng(5)
     V, F = np.ascontiguousarray(master.points), np.ascontiguousarray(master.faces)
     ptr, index = face_rings(F, master.n_points)
+    E = edge_frames(V, F)
     seeds = master.face_centroids[rng.choice(master.n_faces, 400, replace=False)]
     normals = master.face_normals[rng.choice(master.n_faces, 400, replace=False)]
     pts = seeds + rng.uniform(-2.0, 2.0, (400, 1)) * normals
@@ -78,7 +79,7 @@ def test_walk_from_the_last_faces_finds_the_bvh_closest_faces(master):
     for _ in range(10):
         pts = pts + 0.05 * rng.normal(size=pts.shape)
         sq_ref, face_ref, q_ref = _igl_closest(V, F, pts)
-        sq, walked, q, settled = local_closest(V, F, ptr, index, pts,
+        sq, walked, q, settled = local_closest(E, ptr, index, pts,
                                                face.astype(np.int64), 4)
         assert settled.all()
         np.testing.assert_allclose(sq, sq_ref, rtol=1e-12, atol=1e-24)
@@ -86,7 +87,7 @@ def test_walk_from_the_last_faces_finds_the_bvh_closest_faces(master):
         same = walked == face_ref
         if not same.all():                      # only exact ties may pick another face
             other = ~same
-            _, _, _, sq_other = np.array([closest_on_triangle(*p, V, F, f)
+            _, _, _, sq_other = np.array([closest_on_triangle(*p, E, f)
                                           for p, f in zip(pts[other], face_ref[other])]).T
             np.testing.assert_allclose(sq_other, sq[other], rtol=1e-12)
         n_moved += int((walked != face).sum())
@@ -99,7 +100,7 @@ def test_a_point_without_a_start_face_goes_to_the_tree():
     mm = MeshMaster(master)
     pts = np.array([[0.0, 0.0, 26.0], [1.0, 2.0, -24.0]])
     start = np.array([-1, 0])
-    settled = local_closest(mm._V, mm._F, *mm._ring, pts, start, 4)[3]
+    settled = local_closest(mm._edges, *mm._ring, pts, start, 4)[3]
     assert not settled[0]
     depth, grad, face = mm.depth_gradients_faces(pts, start)
     depth_ref, grad_ref, face_ref = mm.depth_gradients_faces(pts)

@@ -41,14 +41,21 @@ def face_rings(faces: np.ndarray, n_points: int) -> tuple[np.ndarray, np.ndarray
     return ptr, neighbour[keep].astype(np.int64)
 
 
+def edge_frames(points: np.ndarray, faces: np.ndarray) -> np.ndarray:
+    """(m, 9) per face: its first vertex a and edges b - a, c - a (mm), contiguous for
+    `closest_on_triangle`."""
+    tri = points[faces]
+    return np.ascontiguousarray(np.concatenate(
+        [tri[:, 0], tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0]], axis=1))
+
+
 @njit(cache=True, fastmath=False)
-def closest_on_triangle(px, py, pz, V, F, f):
-    """Closest point (qx, qy, qz) of face f (V (n, 3) mm, F (m, 3)) to (px, py, pz) and
+def closest_on_triangle(px, py, pz, E, f):
+    """Closest point (qx, qy, qz) of face f (E: `edge_frames`, mm) to (px, py, pz) and
     its squared distance, mm² (Ericson's Voronoi-region routine)."""
-    i, j, k = F[f, 0], F[f, 1], F[f, 2]
-    ax, ay, az = V[i, 0], V[i, 1], V[i, 2]
-    abx, aby, abz = V[j, 0] - ax, V[j, 1] - ay, V[j, 2] - az
-    acx, acy, acz = V[k, 0] - ax, V[k, 1] - ay, V[k, 2] - az
+    ax, ay, az = E[f, 0], E[f, 1], E[f, 2]
+    abx, aby, abz = E[f, 3], E[f, 4], E[f, 5]
+    acx, acy, acz = E[f, 6], E[f, 7], E[f, 8]
     apx, apy, apz = px - ax, py - ay, pz - az
     d1 = abx * apx + aby * apy + abz * apz
     d2 = acx * apx + acy * apy + acz * apz
@@ -90,9 +97,9 @@ def closest_on_triangle(px, py, pz, V, F, f):
 
 
 @njit(cache=True, fastmath=False)
-def local_closest(V, F, ptr, index, points, start, max_steps):
+def local_closest(E, ptr, index, points, start, max_steps):
     """Closest faces of `points` (n, 3) found by walking from `start` (n,) faces (-1:
-    none) over face 1-rings (`face_rings` CSR arrays ptr, index).
+    none) over face 1-rings (E: `edge_frames`; ptr, index: `face_rings`).
 
     Returns (sq (n,) mm², face (n,), closest (n, 3) mm, settled (n,) bool); a point not
     settled (no start face, or still moving after `max_steps`) needs a global query.
@@ -108,12 +115,12 @@ def local_closest(V, F, ptr, index, points, start, max_steps):
             face[p] = -1
             continue
         px, py, pz = points[p, 0], points[p, 1], points[p, 2]
-        qx, qy, qz, best = closest_on_triangle(px, py, pz, V, F, f)
+        qx, qy, qz, best = closest_on_triangle(px, py, pz, E, f)
         for _ in range(max_steps):
             current = f
             for e in range(ptr[current], ptr[current + 1]):
                 g = index[e]
-                gx, gy, gz, d = closest_on_triangle(px, py, pz, V, F, g)
+                gx, gy, gz, d = closest_on_triangle(px, py, pz, E, g)
                 if d < best or (d == best and g < f):          # ties: lowest index
                     f, best, qx, qy, qz = g, d, gx, gy, gz
             if f == current:

@@ -33,7 +33,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from fecheck.contact.coherent import face_rings, local_closest
+from fecheck.contact.coherent import edge_frames, face_rings, local_closest
 from fecheck.contact.kernels import signed_closest
 from geometry.errors import FecheckError
 from geometry.mesh import TriMesh
@@ -87,6 +87,7 @@ class MeshMaster:
         self._tree = igl.AABB()
         self._tree.init(self._V, self._F)
         self._ring = face_rings(self._F, mesh.n_points)
+        self._edges = edge_frames(self._V, self._F)
         self._winding = igl.winding_number
         lo, hi = mesh.points.min(axis=0), mesh.points.max(axis=0)
         self._box = (lo - margin_mm, hi + margin_mm)
@@ -107,8 +108,8 @@ class MeshMaster:
         if start is None:
             sq, face, closest = self._tree.squared_distance(self._V, self._F, pts)
         else:
-            sq, face, closest, settled = local_closest(self._V, self._F, *self._ring, pts,
-                                                       start, MAX_STEPS)
+            sq, face, closest, settled = local_closest(self._edges, *self._ring, pts, start,
+                                                       MAX_STEPS)
             lost = np.flatnonzero(~settled)
             if lost.size:
                 sq[lost], face[lost], closest[lost] = self._tree.squared_distance(
