@@ -41,14 +41,36 @@ class Candidates:
     areas: np.ndarray
 
 
+@njit(cache=True, fastmath=False)
 def motion_bound(R: np.ndarray, t: np.ndarray, R0: np.ndarray, t0: np.ndarray,
                  centroid: np.ndarray, radius: float) -> float:
     """Largest displacement of any slave vertex between two relative poses, mm (an upper
     bound): ``|(R - R0) o + t - t0| + 2 sin(θ/2) ρ``."""
-    cos_theta = min(max((float((R * R0).sum()) - 1.0) * 0.5, -1.0), 1.0)   # tr(R R0ᵀ)
-    chord = math.sqrt(2.0 * (1.0 - cos_theta))                             # 2 sin(θ/2)
-    shift = (R - R0) @ centroid + t - t0
-    return math.sqrt(float(shift @ shift)) + chord * radius
+    trace = 0.0                                                  # tr(R R0ᵀ)
+    shift2 = 0.0
+    for i in range(3):
+        s = t[i] - t0[i]
+        for j in range(3):
+            trace += R[i, j] * R0[i, j]
+            s += (R[i, j] - R0[i, j]) * centroid[j]
+        shift2 += s * s
+    cos_theta = min(max((trace - 1.0) * 0.5, -1.0), 1.0)
+    chord = math.sqrt(2.0 * (1.0 - cos_theta))                   # 2 sin(θ/2)
+    return math.sqrt(shift2) + chord * radius
+
+
+@njit(cache=True, fastmath=False)
+def relative_pose(Rs: np.ndarray, ts: np.ndarray, Rm: np.ndarray, tm: np.ndarray):
+    """The slave pose in the master frame, ``y = R p + t``: R = Rmᵀ Rs, t = Rmᵀ (ts - tm)
+    (rotations (3, 3), translations (3,) mm)."""
+    R = np.empty((3, 3))
+    t = np.empty(3)
+    for i in range(3):
+        t[i] = (Rm[0, i] * (ts[0] - tm[0]) + Rm[1, i] * (ts[1] - tm[1])
+                + Rm[2, i] * (ts[2] - tm[2]))
+        for j in range(3):
+            R[i, j] = Rm[0, i] * Rs[0, j] + Rm[1, i] * Rs[1, j] + Rm[2, i] * Rs[2, j]
+    return R, t
 
 
 @njit(cache=True, fastmath=False)
@@ -103,7 +125,10 @@ class CandidateCache:
         self.prefilter = prefilter
         self._normals = slave.face_normals          # per-face data, computed once per body
         self._areas = slave.face_areas
-        _select(np.zeros(0, dtype=bool), np.zeros((0, 3), dtype=np.int64))   # load it now
+        _select(np.zeros(0, dtype=bool), np.zeros((0, 3), dtype=np.int64))   # load them now
+        eye, zero = np.eye(3), np.zeros(3)
+        motion_bound(eye, zero, eye, zero, zero, 1.0)
+        relative_pose(eye, zero, eye, zero)
         self.centroid = slave.points.mean(axis=0)
         self.radius = float(np.linalg.norm(slave.points - self.centroid, axis=1).max())
         self.n_rebuilds = 0

@@ -19,7 +19,7 @@ import warnings
 import numpy as np
 
 from fecheck.contact.analytic import Plane, PolynomialSurface, Sphere
-from fecheck.contact.broadphase import CandidateCache
+from fecheck.contact.broadphase import CandidateCache, relative_pose
 from fecheck.contact.kernels import mesh_surface, plane_surface, sphere_surface, surface_quadrature
 from fecheck.contact.surface import ContactSurface
 from geometry.errors import FecheckError
@@ -40,7 +40,8 @@ def validate_pose(pose, name: str) -> tuple[np.ndarray, np.ndarray]:
     if R.shape != (3, 3) or t.shape != (3,):
         raise FecheckError(f"{name} pose must be (R (3, 3), t (3,) mm), "
                            f"got shapes {R.shape} and {t.shape}")
-    if not math.isfinite(t @ t):
+    t0, t1, t2 = t.tolist()
+    if not (math.isfinite(t0) and math.isfinite(t1) and math.isfinite(t2)):
         raise FecheckError(f"{name} pose translation contains NaN or infinite values")
     # Orthonormal columns, RᵀR = I within 1e-6 (NaN fails the comparisons), and proper:
     # row 0 · (row 1 × row 2) = +1.
@@ -216,8 +217,7 @@ class ContactPair:
         Rm, tm = validate_pose(master_pose, "master")
         if self._thesis is not None:
             return self._thesis.evaluate(Rs, ts, Rm, tm)
-        R = Rm.T @ Rs
-        t = Rm.T @ (ts - tm)
+        R, t = relative_pose(Rs, ts, Rm, tm)
         master = self.master
         cand = self._cache.get(R, t)
         if cand.faces.size == 0:
