@@ -1,18 +1,21 @@
 """Warm-started closest points on a triangle mesh: the last call's faces, searched locally.
 
 Between two Newton iterations a slave vertex moves by a fraction of the broad-phase
-margin, so its closest master face is the last one or a neighbour. `local_closest`
-walks from each point's previous face to the closest face among the faces sharing a
-vertex with it (its 1-ring, `face_rings`), repeating from the new face until the
-current face is the closest of its own ring (a local minimum of the distance over the mesh), in at most
-`max_steps` moves. Points that start without a face or do not settle are flagged for a
-global (BVH) query. The closest point on a triangle is Ericson's routine (Real-Time
-Collision Detection, 2005, §5.1.5), compiled with numba.
+margin, so its closest master face is the last one or a neighbour. `local_closest` walks
+from each point's previous face to the closest face among the faces sharing a vertex
+with it (its 1-ring, `face_rings`), repeating from the new face until the current face
+is the closest of its own ring (a local minimum of the distance over the mesh), in at
+most `max_steps` moves. Points that start without a face or do not settle are flagged
+for a global (BVH) query. The closest point on a triangle is Ericson's routine
+(Real-Time Collision Detection, 2005, §5.1.5), compiled with numba.
 
 A local minimum is the global one when the point is closer to the surface than the
 surface's local feature size (as for slave vertices within the margin of a smooth
-master); `fecheck.contact.mesh_master.MeshMaster` uses it only for candidate sets that
-are being reused and tests it against the BVH (``tests/test_contact_coherent.py``).
+master). It is NOT certified: in a master thinner than twice the depth (a thin closed
+layer), a point that crosses the layer's mid-surface between two broad-phase rebuilds
+keeps the face on its first side. `fecheck.contact.mesh_master.MeshMaster` walks only
+while a contact pair reuses its candidate set (points move < margin/2 since the last
+tree query) and is tested against the tree (``tests/test_contact_coherent.py``).
 """
 
 from __future__ import annotations

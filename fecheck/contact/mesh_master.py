@@ -19,11 +19,12 @@ the closest point, positive inside. Inside/outside:
   within 2 mm of the surface, so it is not used.
 
 While a contact pair reuses its candidate set, each slave point's closest face is found
-by a walk from its previous one over face 1-rings (`fecheck.contact.coherent`, compiled),
-the tree answering only points whose walk does not settle. Measured (20,480 faces
-each, 283 candidate points, one run, shared machine): signed depths and gradients
-71 µs warm-started against 231 µs through the tree; a whole reused evaluation 78 µs; in `fecheck bench detection --quick`, where the calls
-are interleaved with the other methods', 0.27 ms reused against 2.2 ms from scratch.
+by a walk from its previous one over face 1-rings (`fecheck.contact.coherent`,
+compiled), the tree answering only points whose walk does not settle. Measured (20,480
+faces each, 283 candidate points, one run, shared machine): signed depths and gradients
+41 µs warm-started against 215 µs through the tree; a whole reused evaluation 78 µs; in
+`fecheck bench detection --quick`, where the calls are interleaved with the other
+methods', 0.27 ms reused against 2.2 ms from scratch.
 
 Measured alternatives for the closest point (one run, 20,480-face sphere, 500 points
 within 2 mm of it): igl.AABB 1.3 ms; ``igl.signed_distance`` rebuilds its tree every
