@@ -2,13 +2,13 @@
 
 import numpy as np
 import pytest
+from contact_helpers import IDENTITY, cap_area, cap_volume, volume
 
 from fecheck.contact import ContactPair, Plane, PolynomialSurface, Sphere
 from fecheck.frames import rotation
 from geometry.icosphere import icosphere
 from geometry.plateau import plane_patch, polynomial_patch
 from geometry.polynomial import Polynomial2D
-from contact_helpers import IDENTITY, cap_area, cap_volume, volume
 
 R_LAT = 31.8   # lateral condyle radius, mm (DESIGN §4)
 DEPTHS = (0.1, 0.5, 1.0, 2.0)

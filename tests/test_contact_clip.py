@@ -47,7 +47,7 @@ def test_rule_is_exact_for_quadratic_integrands():
     # ∫ d² dA over the positive part: compare with a 4^7-subtriangle centroid rule
     # refined reference; the degree-2 rule is exact, the reference converges like h².
     depth = np.array([[1.3, -0.4, 0.7]])
-    qp_face, bary, qfrac = clipped_quadrature(depth)
+    _, bary, qfrac = clipped_quadrature(depth)
     exact = (qfrac * (bary @ depth[0]) ** 2).sum()
     n = 400
     i, j = np.meshgrid(np.arange(n), np.arange(n), indexing="ij")

@@ -2,13 +2,13 @@
 
 import numpy as np
 import pytest
+from contact_helpers import central_difference, moments, moments_twist
 
 from fecheck.contact import ContactPair, Plane, PolynomialSurface, Sphere
 from fecheck.frames import rotation
 from geometry.icosphere import icosphere
 from geometry.plateau import plane_patch, polynomial_patch
 from geometry.polynomial import Polynomial2D
-from contact_helpers import central_difference, moments, moments_twist
 
 POLY = Polynomial2D(np.array([[0.2, 0.1, 0.01], [0.15, 0.02, 0.0], [0.012, 0.0, 0.0]]))
 MASTER_POSE = (rotation(0.1, 0.2, 0.3), np.array([1.0, 2.0, 3.0]))

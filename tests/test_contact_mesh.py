@@ -4,8 +4,8 @@ import warnings
 
 import numpy as np
 import pytest
-
 from contact_helpers import IDENTITY, box, crop, volume
+
 from fecheck.contact import ContactPair, Plane
 from fecheck.errors import FecheckError
 from geometry.icosphere import icosphere

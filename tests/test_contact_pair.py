@@ -2,6 +2,7 @@
 
 import numpy as np
 import pytest
+from contact_helpers import IDENTITY, volume
 from hypothesis import given, settings
 from hypothesis import strategies as st
 from scipy.spatial.transform import Rotation
@@ -12,7 +13,6 @@ from geometry.icosphere import icosphere
 from geometry.mesh import TriMesh
 from geometry.plateau import plane_patch
 from geometry.polynomial import Polynomial2D
-from contact_helpers import IDENTITY, volume
 
 CONDYLE = icosphere(25.5, 3)
 PLATEAU = plane_patch([0.0, 0.0, 0.0], [0.0, 0.0, 1.0], radius=12.0, size=1.0)

@@ -10,15 +10,15 @@ import math
 
 import numpy as np
 import pytest
+from contact_helpers import central_difference
 from hypothesis import given, settings
 from hypothesis import strategies as st
 from scipy.spatial.transform import Rotation
 
-from contact_helpers import central_difference
 from fecheck.bench import load_controlled
 from fecheck.contact import ContactPair, Plane, Sphere
 from fecheck.knee import BASELINE_RIGHT
-from fecheck.laws import elastic_foundation, ef_stiffness
+from fecheck.laws import ef_stiffness, elastic_foundation
 from fecheck.model import ef_sphere_plane, run_scene
 from fecheck.scene import load_scene
 from geometry.icosphere import icosphere
