@@ -44,6 +44,7 @@ def main(argv: list[str] | None = None) -> int:
         parser.print_help()
         return 0
     warnings.showwarning = _one_line_warning
+    warnings.simplefilter("once")          # one line per distinct warning, however often
     try:
         return int(args.run(args) or 0)
     except FecheckError as err:
