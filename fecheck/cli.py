@@ -32,8 +32,15 @@ def build_parser() -> argparse.ArgumentParser:
     return parser
 
 
+_shown: set[str] = set()
+
+
 def _one_line_warning(message, category, filename, lineno, file=None, line=None):
-    print(f"fecheck: warning: {message}", file=sys.stderr if file is None else file)
+    """Print each distinct warning once, on one line (libraries may reset the filters)."""
+    text = f"fecheck: warning: {message}"
+    if text not in _shown:
+        _shown.add(text)
+        print(text, file=sys.stderr if file is None else file)
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -44,7 +51,6 @@ def main(argv: list[str] | None = None) -> int:
         parser.print_help()
         return 0
     warnings.showwarning = _one_line_warning
-    warnings.simplefilter("once")          # one line per distinct warning, however often
     try:
         return int(args.run(args) or 0)
     except FecheckError as err:
