@@ -116,7 +116,7 @@ def sphere_on_layer_3d(load_N: float, radius_mm: float, E_MPa: float, nu: float,
                             band_size=edge_size, band_width=edge_band_mm, cache=cache)
     timing["mesh"] = time.perf_counter() - t
     t = time.perf_counter()
-    mesh = MeshTet(layer.points.T, layer.tets.T)
+    mesh = MeshTet(np.ascontiguousarray(layer.points.T), np.ascontiguousarray(layer.tets.T))
     basis = Basis(mesh, ElementVector(ElementTetP2()), intorder=2)
     K = asm(linear_elasticity(*lame_parameters(E_MPa, nu)), basis)
     timing["assemble"] = time.perf_counter() - t
