@@ -25,6 +25,7 @@ import time
 from pathlib import Path
 
 import numpy as np
+from report import save_figure
 
 from fecheck.fe.axisym import axisym_sphere_on_layer
 from fecheck.fe.layer3d import sphere_on_layer_3d
@@ -130,10 +131,7 @@ def plot(rows: list[dict], path: Path) -> None:
         ax.set_ylabel(f"|relative error| of {label} vs finest axisymmetric")
         ax.grid(alpha=0.3, which="both")
         ax.legend(fontsize=8)
-    fig.tight_layout()
-    fig.savefig(path, dpi=130)
-    plt.close(fig)
-    print(f"wrote {path}")
+    print(f"wrote {save_figure(fig, path)}")
 
 
 if __name__ == "__main__":

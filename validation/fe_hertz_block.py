@@ -20,6 +20,7 @@ import time
 from pathlib import Path
 
 import numpy as np
+from report import save_figure
 
 from fecheck.fe.axisym import axisym_sphere_on_layer
 from fecheck.fe.crosscheck import FESettings
@@ -104,10 +105,7 @@ def plot(runs: dict, hertz, a_hertz: float, path: Path) -> None:
     ax.set_title("thick block vs Hertz")
     ax.grid(alpha=0.3)
     ax.legend()
-    fig.tight_layout()
-    fig.savefig(path, dpi=130)
-    plt.close(fig)
-    print(f"wrote {path}")
+    print(f"wrote {save_figure(fig, path)}")
 
 
 if __name__ == "__main__":

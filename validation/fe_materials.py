@@ -21,6 +21,7 @@ import csv
 from pathlib import Path
 
 import numpy as np
+from report import save_figure
 
 from fecheck.fe.axisym import axisym_sphere_on_layer
 from fecheck.fe.references import ef_sphere_on_plane, hertz_sphere_on_plane
@@ -137,10 +138,7 @@ def plot(rows: list[dict], path: Path) -> None:
         ax.set_ylabel(f"{key}: deviation from FE (%)")
         ax.grid(alpha=0.3, which="both")
         ax.legend(fontsize=8)
-    fig.tight_layout()
-    fig.savefig(path, dpi=130)
-    plt.close(fig)
-    print(f"wrote {path}")
+    print(f"wrote {save_figure(fig, path)}")
 
 
 if __name__ == "__main__":
