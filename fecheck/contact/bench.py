@@ -21,7 +21,8 @@ Methods: ``closed-form`` (analytic master), ``bvh`` (mesh master, libigl AABB), 
 thesis stack: ``fcl`` (python-fcl per-face contacts through trimesh's converters, box or
 icosphere master), ``ray-parity`` (trimesh ``contains`` with embree + cKDTree) and
 ``ray-thesis`` (the same with trimesh's pure ray engine, as the thesis ran it).
-Times are medians over repeated calls; compare them as ratios within one run.
+Times are medians over blocks of consecutive calls, the methods taking turns block by
+block (`_time_interleaved`); compare them as ratios within one run.
 """
 
 from __future__ import annotations
@@ -75,21 +76,33 @@ def _nearby_poses(base, n: int = 8, step_mm: float = 0.02):
             for k in range(n)]
 
 
-def _time_interleaved(calls: dict, min_repeats: int = 3, budget_s: float = 0.5,
-                      max_repeats: int = 200, slow_s: float = 1.0) -> dict:
-    """Median wall time (s) of each callable, calling them in turn so that all see the
-    same machine load (the machine is shared). A callable slower than `slow_s` is
-    timed once."""
+def _time_interleaved(calls: dict, min_rounds: int = 3, budget_s: float = 0.5,
+                      block_s: float = 2e-3, max_rounds: int = 200,
+                      slow_s: float = 1.0) -> dict:
+    """Median wall time per call (s) of each callable.
+
+    The callables take turns (so that all see the same load on the shared machine), each
+    turn a block of consecutive calls lasting about `block_s` (one call if slower): the
+    time per call of a block is what a Newton loop, which calls one pair again and again,
+    sees. (Alternating single calls instead makes every call start with caches emptied by
+    the other methods, a fixed cost that penalises fast methods most.) A callable slower
+    than `slow_s` is timed once.
+    """
     times = {k: [] for k in calls}
+    per_block = dict.fromkeys(calls, 1)
     start = time.perf_counter()
     n = 0
-    while n < min_repeats or (time.perf_counter() - start < budget_s and n < max_repeats):
+    while n < min_rounds or (time.perf_counter() - start < budget_s and n < max_rounds):
         for key, fn in calls.items():
             if times[key] and times[key][0] > slow_s:
                 continue
+            k = per_block[key]
             t0 = time.perf_counter()
-            fn()
-            times[key].append(time.perf_counter() - t0)
+            for _ in range(k):
+                fn()
+            elapsed = time.perf_counter() - t0
+            times[key].append(elapsed / k)
+            per_block[key] = max(1, min(1000, int(block_s * k / max(elapsed, 1e-9))))
         n += 1
     return {k: float(np.median(v)) for k, v in times.items()}
 
