@@ -33,20 +33,28 @@ def _pairs():
 PAIRS = _pairs()
 
 
-@pytest.mark.parametrize("bad", [
-    (np.full((3, 3), np.nan), np.zeros(3)),
-    (np.eye(3), np.array([0.0, np.inf, 0.0])),
-    (2.0 * np.eye(3), np.zeros(3)),
-    (np.diag([1.0, 1.0, -1.0]), np.zeros(3)),
-    (np.eye(3), np.zeros(2)),
-    "not a pose",
+@pytest.mark.parametrize(("bad", "says"), [
+    ((np.full((3, 3), np.nan), np.zeros(3)), "rotation is not orthonormal"),
+    ((np.eye(3), np.array([0.0, np.inf, 0.0])), "translation contains NaN"),
+    ((2.0 * np.eye(3), np.zeros(3)), "rotation is not orthonormal"),
+    ((np.diag([1.0, 1.0, -1.0]), np.zeros(3)), "det \\+1"),
+    ((np.eye(3) + 2e-6, np.zeros(3)), "rotation is not orthonormal"),
+    ((np.eye(3), np.zeros(2)), "got shapes"),
+    ("not a pose", "must be a pair"),
 ])
-def test_invalid_pose_raises_fecheck_error(bad):
+def test_invalid_pose_raises_fecheck_error_naming_the_pose(bad, says):
     pair, _ = PAIRS["plane"]
-    with pytest.raises(FecheckError):
+    with pytest.raises(FecheckError, match=f"^slave.*{says}"):
         pair.evaluate(bad, IDENTITY)
-    with pytest.raises(FecheckError):
+    with pytest.raises(FecheckError, match=f"^master.*{says}"):
         pair.evaluate(IDENTITY, bad)
+
+
+def test_a_rotation_within_the_tolerance_is_accepted():
+    pair, pose = PAIRS["plane"]
+    R = np.eye(3) + 4e-7 * np.array([[0.0, 1.0, 0.0], [-1.0, 0.0, 0.0], [0.0, 0.0, 0.0]])
+    ref = pair.evaluate(pose, IDENTITY)
+    assert pair.evaluate(pose, (R, np.zeros(3))).area == pytest.approx(ref.area, rel=1e-5)
 
 
 def test_invalid_construction_raises_fecheck_error():

@@ -74,6 +74,32 @@ def relative_pose(Rs: np.ndarray, ts: np.ndarray, Rm: np.ndarray, tm: np.ndarray
 
 
 @njit(cache=True, fastmath=False)
+def pose_status(R: np.ndarray, t: np.ndarray) -> int:
+    """0 for a valid pose; 1 if the translation (3,) is not finite; 2 if R (3, 3) is not a
+    rotation: orthonormal columns within 1e-6 and det +1 (NaN fails every comparison)."""
+    if not (math.isfinite(t[0]) and math.isfinite(t[1]) and math.isfinite(t[2])):
+        return 1
+    tol = 1e-6
+    for i in range(3):
+        for j in range(i, 3):
+            dot = R[0, i] * R[0, j] + R[1, i] * R[1, j] + R[2, i] * R[2, j]
+            if not abs(dot - (1.0 if i == j else 0.0)) <= tol:
+                return 2
+    det = (R[0, 0] * (R[1, 1] * R[2, 2] - R[1, 2] * R[2, 1])
+           - R[0, 1] * (R[1, 0] * R[2, 2] - R[1, 2] * R[2, 0])
+           + R[0, 2] * (R[1, 0] * R[2, 1] - R[1, 1] * R[2, 0]))
+    return 0 if det > 0.0 else 2
+
+
+@njit(cache=True, fastmath=False)
+def checked_relative_pose(Rs: np.ndarray, ts: np.ndarray, Rm: np.ndarray, tm: np.ndarray):
+    """`relative_pose` and the `pose_status` of the slave and the master pose, in one
+    compiled call (the contact query's per-call overhead)."""
+    R, t = relative_pose(Rs, ts, Rm, tm)
+    return R, t, pose_status(Rs, ts), pose_status(Rm, tm)
+
+
+@njit(cache=True, fastmath=False)
 def _select(near: np.ndarray, faces: np.ndarray):
     """Faces with a vertex flagged `near`, their vertices (sorted) and the faces' corners
     as indices into those vertices."""
@@ -128,7 +154,7 @@ class CandidateCache:
         _select(np.zeros(0, dtype=bool), np.zeros((0, 3), dtype=np.int64))   # load them now
         eye, zero = np.eye(3), np.zeros(3)
         motion_bound(eye, zero, eye, zero, zero, 1.0)
-        relative_pose(eye, zero, eye, zero)
+        checked_relative_pose(eye, zero, eye, zero)
         self.centroid = slave.points.mean(axis=0)
         self.radius = float(np.linalg.norm(slave.points - self.centroid, axis=1).max())
         self.n_rebuilds = 0

@@ -100,9 +100,27 @@ def closest_on_triangle(px, py, pz, E, f):
 
 
 @njit(cache=True, fastmath=False)
+def walk_point(px, py, pz, f, E, ptr, index, max_steps):
+    """Walk from face f over face 1-rings to a face closest to (px, py, pz) among its own
+    ring (E: `edge_frames`; ptr, index: `face_rings`). Returns (face, qx, qy, qz,
+    squared distance mm², settled): not settled if still moving after `max_steps`."""
+    qx, qy, qz, best = closest_on_triangle(px, py, pz, E, f)
+    for _ in range(max_steps):
+        current = f
+        for e in range(ptr[current], ptr[current + 1]):
+            g = index[e]
+            gx, gy, gz, d = closest_on_triangle(px, py, pz, E, g)
+            if d < best or (d == best and g < f):          # ties: lowest index
+                f, best, qx, qy, qz = g, d, gx, gy, gz
+        if f == current:
+            return f, qx, qy, qz, best, True
+    return f, qx, qy, qz, best, False
+
+
+@njit(cache=True, fastmath=False)
 def local_closest(E, ptr, index, points, start, max_steps):
     """Closest faces of `points` (n, 3) found by walking from `start` (n,) faces (-1:
-    none) over face 1-rings (E: `edge_frames`; ptr, index: `face_rings`).
+    none) over face 1-rings (`walk_point`; E: `edge_frames`; ptr, index: `face_rings`).
 
     Returns (sq (n,) mm², face (n,), closest (n, 3) mm, settled (n,) bool); a point not
     settled (no start face, or still moving after `max_steps`) needs a global query.
@@ -113,22 +131,11 @@ def local_closest(E, ptr, index, points, start, max_steps):
     closest = np.empty((n, 3))
     settled = np.zeros(n, dtype=np.bool_)
     for p in range(n):
-        f = start[p]
-        if f < 0:
+        if start[p] < 0:
             face[p] = -1
             continue
-        px, py, pz = points[p, 0], points[p, 1], points[p, 2]
-        qx, qy, qz, best = closest_on_triangle(px, py, pz, E, f)
-        for _ in range(max_steps):
-            current = f
-            for e in range(ptr[current], ptr[current + 1]):
-                g = index[e]
-                gx, gy, gz, d = closest_on_triangle(px, py, pz, E, g)
-                if d < best or (d == best and g < f):          # ties: lowest index
-                    f, best, qx, qy, qz = g, d, gx, gy, gz
-            if f == current:
-                settled[p] = True
-                break
-        sq[p], face[p] = best, f
+        f, qx, qy, qz, best, ok = walk_point(points[p, 0], points[p, 1], points[p, 2],
+                                             start[p], E, ptr, index, max_steps)
+        sq[p], face[p], settled[p] = best, f, ok
         closest[p, 0], closest[p, 1], closest[p, 2] = qx, qy, qz
     return sq, face, closest, settled

@@ -12,6 +12,9 @@ One evaluation of a contact pair is a few hundred faces of arithmetic; in NumPy 
   the vertex data, then `surface_quadrature`. Other masters (polynomial, meshes, the
   thesis's detectors) form the vertex data in NumPy (`fecheck.contact.pair.build_surface`)
   and call `surface_quadrature` directly.
+* `mesh_surface`, `walked_mesh_surface` — mesh masters from their vertex depths; the
+  second also finds the closest faces by a warm-started walk, so that an evaluation
+  that reuses its candidate set is one compiled call.
 * `sphere_ray_depth` (one point) and `sphere_depths` (arrays) — the sphere master's ray
   depth and gradients, also behind `fecheck.contact.analytic.Sphere.depth_values`.
 
@@ -25,6 +28,7 @@ import numpy as np
 from numba import njit
 
 from fecheck.contact.clip import N_POINTS, RULE, face_rule, pattern_of
+from fecheck.contact.coherent import walk_point
 
 
 @njit(cache=True, fastmath=False)
@@ -306,6 +310,18 @@ def sphere_surface(clipped: bool, points: np.ndarray, local_faces: np.ndarray,
 
 
 @njit(cache=True, fastmath=False)
+def _signed(o0: float, o1: float, o2: float, sq: float, out: bool, n0: float, n1: float,
+            n2: float) -> tuple[float, float, float, float]:
+    """Depth (mm, positive inside) and its gradient of a point at offset o from its
+    closest point (squared distance sq) on a face with unit normal n."""
+    dist = np.sqrt(sq)
+    if dist < 1e-12:
+        return (-dist if out else dist), -n0, -n1, -n2
+    s = -1.0 / dist if out else 1.0 / dist
+    return (-dist if out else dist), s * o0, s * o1, s * o2
+
+
+@njit(cache=True, fastmath=False)
 def signed_closest(points: np.ndarray, closest: np.ndarray, sq: np.ndarray,
                    face_normal: np.ndarray, outside: np.ndarray, by_normal: bool):
     """Signed depth (n,) (mm, positive inside) and its gradient (n, 3) from closest
@@ -322,18 +338,10 @@ def signed_closest(points: np.ndarray, closest: np.ndarray, sq: np.ndarray,
         o0 = points[i, 0] - closest[i, 0]
         o1 = points[i, 1] - closest[i, 1]
         o2 = points[i, 2] - closest[i, 2]
-        if by_normal:
-            out = o0 * face_normal[i, 0] + o1 * face_normal[i, 1] + o2 * face_normal[i, 2] > 0.0
-        else:
-            out = outside[i]
-        dist = np.sqrt(sq[i])
-        depth[i] = -dist if out else dist
-        if dist < 1e-12:
-            grad[i, 0], grad[i, 1], grad[i, 2] = (-face_normal[i, 0], -face_normal[i, 1],
-                                                  -face_normal[i, 2])
-        else:
-            s = -1.0 / dist if out else 1.0 / dist
-            grad[i, 0], grad[i, 1], grad[i, 2] = s * o0, s * o1, s * o2
+        n0, n1, n2 = face_normal[i, 0], face_normal[i, 1], face_normal[i, 2]
+        out = (o0 * n0 + o1 * n1 + o2 * n2 > 0.0) if by_normal else outside[i]
+        depth[i], grad[i, 0], grad[i, 1], grad[i, 2] = _signed(o0, o1, o2, sq[i], out,
+                                                                n0, n1, n2)
     return depth, grad
 
 
@@ -372,3 +380,40 @@ def mesh_surface(clipped: bool, local_faces: np.ndarray, y: np.ndarray, dv: np.n
         area[i] = areas[f]
     return (hit, N, D) + surface_quadrature(clipped, D, X, T, area, np.ones(m),
                                             np.zeros((m, 6)))
+
+
+@njit(cache=True, fastmath=False)
+def walked_mesh_surface(clipped: bool, points: np.ndarray, local_faces: np.ndarray,
+                        normals: np.ndarray, areas: np.ndarray, R: np.ndarray,
+                        t: np.ndarray, Rm: np.ndarray, tm: np.ndarray, Rs: np.ndarray,
+                        E: np.ndarray, ring_ptr: np.ndarray, ring_index: np.ndarray,
+                        master_normals: np.ndarray, start: np.ndarray, max_steps: int):
+    """`mesh_surface` of a mesh master (inside by the closest face's normal) whose
+    closest faces are walked to from `start` (n,) faces, the last call's, in one
+    compiled call (`fecheck.contact.coherent.walk_point`; E, ring_ptr, ring_index: the
+    master's `edge_frames` and `face_rings`; master_normals (n_faces, 3) its unit face
+    normals).
+
+    Returns (settled, closest face (n,)) followed by the returns of `mesh_surface`; if
+    a point does not settle, settled is False and the contact is empty (the caller
+    queries the tree).
+    """
+    y = _slave_to_master(points, R, t)
+    n = y.shape[0]
+    dv = np.empty(n)
+    grad = np.empty((n, 3))
+    face = np.empty(n, dtype=np.int64)
+    for p in range(n):
+        px, py, pz = y[p, 0], y[p, 1], y[p, 2]
+        f, qx, qy, qz, sq, ok = walk_point(px, py, pz, start[p], E, ring_ptr, ring_index,
+                                           max_steps)
+        if not ok:
+            return (False, face) + mesh_surface(clipped, local_faces[:0], y, dv, grad,
+                                                normals[:0], areas[:0], Rm, tm, Rs)
+        face[p] = f
+        o0, o1, o2 = px - qx, py - qy, pz - qz
+        n0, n1, n2 = master_normals[f, 0], master_normals[f, 1], master_normals[f, 2]
+        dv[p], grad[p, 0], grad[p, 1], grad[p, 2] = _signed(
+            o0, o1, o2, sq, o0 * n0 + o1 * n1 + o2 * n2 > 0.0, n0, n1, n2)
+    return (True, face) + mesh_surface(clipped, local_faces, y, dv, grad, normals, areas,
+                                       Rm, tm, Rs)

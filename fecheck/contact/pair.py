@@ -13,14 +13,13 @@
 
 from __future__ import annotations
 
-import math
 import warnings
 
 import numpy as np
 
 from fecheck.contact.analytic import Plane, PolynomialSurface, Sphere
-from fecheck.contact.broadphase import CandidateCache, relative_pose
-from fecheck.contact.kernels import mesh_surface, plane_surface, sphere_surface, surface_quadrature
+from fecheck.contact.broadphase import CandidateCache, checked_relative_pose, pose_status
+from fecheck.contact.kernels import plane_surface, sphere_surface, surface_quadrature
 from fecheck.contact.surface import ContactSurface
 from geometry.errors import FecheckError
 from geometry.mesh import TriMesh
@@ -29,8 +28,8 @@ METHODS = ("auto", "closed-form", "bvh", "ray-parity", "fcl")
 AREAS = ("clipped", "whole-face")
 
 
-def validate_pose(pose, name: str) -> tuple[np.ndarray, np.ndarray]:
-    """(R, t) as float arrays; FecheckError unless R is a finite proper rotation."""
+def _pose_arrays(pose, name: str) -> tuple[np.ndarray, np.ndarray]:
+    """(R, t) as contiguous float arrays of shapes (3, 3) and (3,); FecheckError else."""
     try:
         R, t = pose
         R = np.ascontiguousarray(R, dtype=float)
@@ -40,19 +39,22 @@ def validate_pose(pose, name: str) -> tuple[np.ndarray, np.ndarray]:
     if R.shape != (3, 3) or t.shape != (3,):
         raise FecheckError(f"{name} pose must be (R (3, 3), t (3,) mm), "
                            f"got shapes {R.shape} and {t.shape}")
-    t0, t1, t2 = t.tolist()
-    if not (math.isfinite(t0) and math.isfinite(t1) and math.isfinite(t2)):
+    return R, t
+
+
+def _raise_bad_pose(status: int, name: str) -> None:
+    if status == 1:
         raise FecheckError(f"{name} pose translation contains NaN or infinite values")
-    # Orthonormal columns, RᵀR = I within 1e-6 (NaN fails the comparisons), and proper:
-    # row 0 · (row 1 × row 2) = +1.
-    (a, b, c), (d, e, f), (g, h, i) = R.tolist()
-    tol = 1e-6
-    if not (abs(a * a + d * d + g * g - 1.0) <= tol and abs(b * b + e * e + h * h - 1.0) <= tol
-            and abs(c * c + f * f + i * i - 1.0) <= tol and abs(a * b + d * e + g * h) <= tol
-            and abs(a * c + d * f + g * i) <= tol and abs(b * c + e * f + h * i) <= tol
-            and a * (e * i - f * h) - b * (d * i - f * g) + c * (d * h - e * g) > 0):
+    if status == 2:
         raise FecheckError(f"{name} rotation is not orthonormal with det +1 (or contains "
                            "NaN); build it with fecheck.frames.rotation")
+
+
+def validate_pose(pose, name: str) -> tuple[np.ndarray, np.ndarray]:
+    """(R, t) as float arrays; FecheckError unless R is a proper rotation (orthonormal
+    within 1e-6, det +1) and t is finite (`fecheck.contact.broadphase.pose_status`)."""
+    R, t = _pose_arrays(pose, name)
+    _raise_bad_pose(pose_status(R, t), name)
     return R, t
 
 
@@ -213,11 +215,13 @@ class ContactPair:
         ----------
         slave_pose, master_pose : (R (3, 3), t (3,) mm), body frame to world: x = R p + t
         """
-        Rs, ts = validate_pose(slave_pose, "slave")
-        Rm, tm = validate_pose(master_pose, "master")
+        Rs, ts = _pose_arrays(slave_pose, "slave")
+        Rm, tm = _pose_arrays(master_pose, "master")
+        R, t, slave_status, master_status = checked_relative_pose(Rs, ts, Rm, tm)
+        _raise_bad_pose(slave_status, "slave")
+        _raise_bad_pose(master_status, "master")
         if self._thesis is not None:
             return self._thesis.evaluate(Rs, ts, Rm, tm)
-        R, t = relative_pose(Rs, ts, Rm, tm)
         master = self.master
         cand = self._cache.get(R, t)
         if cand.faces.size == 0:
@@ -230,18 +234,16 @@ class ContactPair:
                 return ContactSurface.empty(self.slave.n_faces, master.normal_body)
             return ContactSurface(cand.faces[hit], normal, depth, *qp, master.normal_body,
                                   self.slave.n_faces)
-        y = cand.points @ R.T + t
-        if hasattr(master, "depth_gradients_faces"):      # mesh: one closest-point query
+        if self.resolved_method == "bvh":
             warm = self._warm[1] if self._warm[0] is cand else None
-            dv, grad, closest_face = master.depth_gradients_faces(y, warm)
+            closest_face, (hit, normal, depth, *qp) = master.surface(
+                self.area_mode == "clipped", cand, R, t, Rm, tm, Rs, warm)
             self._warm = (cand, closest_face)
-            hit, normal, depth, *qp = mesh_surface(
-                self.area_mode == "clipped", cand.local_faces, y, dv, grad, cand.normals,
-                cand.areas, Rm, tm, Rs)
             if hit.size == 0:
                 return ContactSurface.empty(self.slave.n_faces, master.normal_body)
             return ContactSurface(cand.faces[hit], normal, depth, *qp, master.normal_body,
                                   self.slave.n_faces)
+        y = cand.points @ R.T + t
         d = master.depth_values(y)[cand.local_faces]
         hit = np.nonzero(d.max(axis=1) > 0.0)[0]
         if hit.size == 0:
