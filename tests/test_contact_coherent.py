@@ -130,3 +130,29 @@ def test_reused_mesh_master_evaluations_equal_fresh_ones():
         np.testing.assert_allclose(a.qp_depth_twist, b.qp_depth_twist, atol=1e-12)
         np.testing.assert_allclose(a.qp_weight_twist, b.qp_weight_twist, atol=1e-12)
     assert warm.cache.n_reuses >= 6
+
+
+@pytest.mark.parametrize(("master", "top"), [(icosphere(25.5, 4, center=(0.0, 0.0, -56.3)), -30.8),
+                                             (_bumpy_sheet(n=50, size_mm=60.0), 0.0)],
+                         ids=["closed-sphere", "open-wavy-sheet"])
+def test_points_skipped_by_their_depth_bound_never_miss_a_contact(master, top):
+    # The slave sinks in and comes back out across the whole reuse window (steps of
+    # 0.13 mm, contact growing from a few faces to tens and shrinking again, sliding
+    # sideways): the warm pair, which skips the points whose depth bound is negative and
+    # the ring checks its gap certificate allows, gives the contact of a pair rebuilt
+    # every call.
+    slave = icosphere(31.8, 4, center=(0.0, 0.0, top + 31.8))
+    warm, fresh = ContactPair(slave, master), ContactPair(slave, master)
+    heights = np.r_[np.linspace(0.4, -0.5, 8), np.linspace(-0.5, 0.4, 8)]
+    n_contact = []
+    for k, h in enumerate(heights):
+        pose = (np.eye(3), np.array([0.02 * k, -0.01 * k, h]))
+        a = warm.evaluate(pose, IDENTITY)
+        fresh.cache.reset()
+        b = fresh.evaluate(pose, IDENTITY)
+        np.testing.assert_array_equal(a.face, b.face)
+        np.testing.assert_allclose(a.vertex_depth, b.vertex_depth, rtol=1e-12, atol=1e-13)
+        np.testing.assert_allclose(a.qp_depth_twist, b.qp_depth_twist, atol=1e-12)
+        n_contact.append(a.n_faces)
+    assert warm.cache.n_rebuilds == 1
+    assert max(n_contact) > 20 and min(n_contact) < max(n_contact) / 2

@@ -20,8 +20,36 @@ tree query) and is tested against the tree (``tests/test_contact_coherent.py``).
 
 from __future__ import annotations
 
+from dataclasses import dataclass
+
 import numpy as np
 from numba import njit
+
+
+@dataclass(frozen=True, eq=False)
+class WalkState:
+    """What a candidate set's points keep between two calls (master frame, mm); the
+    arrays are updated in place by `fecheck.contact.kernels.walked_mesh_surface`.
+
+    face : (n,) closest master face at the last call
+    position : (n, 3) the points at the last call
+    upper : (n,) an upper bound of the signed depth there (the exact depth if computed)
+    ring_gap : (n,) a lower bound of the distance there to the other faces of the ring
+        of `face` (-inf: unknown)
+    """
+
+    face: np.ndarray
+    position: np.ndarray
+    upper: np.ndarray
+    ring_gap: np.ndarray
+
+    @classmethod
+    def start(cls, face: np.ndarray, position: np.ndarray, depth: np.ndarray) -> WalkState:
+        """The state after a tree query: closest faces and exact depths, no ring gaps."""
+        return cls(np.ascontiguousarray(face, dtype=np.int64),
+                   np.ascontiguousarray(position, dtype=float).copy(),
+                   np.ascontiguousarray(depth, dtype=float).copy(),
+                   np.full(len(face), -np.inf))
 
 
 def face_rings(faces: np.ndarray, n_points: int) -> tuple[np.ndarray, np.ndarray]:
@@ -103,18 +131,37 @@ def closest_on_triangle(px, py, pz, E, f):
 def walk_point(px, py, pz, f, E, ptr, index, max_steps):
     """Walk from face f over face 1-rings to a face closest to (px, py, pz) among its own
     ring (E: `edge_frames`; ptr, index: `face_rings`). Returns (face, qx, qy, qz,
-    squared distance mm², settled): not settled if still moving after `max_steps`."""
+    squared distance mm², settled, smallest squared distance to the other faces of the
+    final ring mm²): not settled if still moving after `max_steps`."""
     qx, qy, qz, best = closest_on_triangle(px, py, pz, E, f)
     for _ in range(max_steps):
         current = f
+        ring_min = np.inf
         for e in range(ptr[current], ptr[current + 1]):
             g = index[e]
             gx, gy, gz, d = closest_on_triangle(px, py, pz, E, g)
+            ring_min = min(ring_min, d)
             if d < best or (d == best and g < f):          # ties: lowest index
                 f, best, qx, qy, qz = g, d, gx, gy, gz
         if f == current:
-            return f, qx, qy, qz, best, True
-    return f, qx, qy, qz, best, False
+            return f, qx, qy, qz, best, True, ring_min
+    return f, qx, qy, qz, best, False, np.inf
+
+
+@njit(cache=True, fastmath=False)
+def coherent_closest(px, py, pz, moved, f, ring_gap, E, ptr, index, max_steps):
+    """`walk_point` skipped when it can be: if the point, now moved by `moved` mm since
+    the last call, is closer to its last face f than `ring_gap` - `moved` (ring_gap: a
+    lower bound, mm, on its distance to the other faces of f's ring at the last call;
+    a distance to a fixed face is 1-Lipschitz), f is still the closest of its ring.
+    Returns (face, qx, qy, qz, squared distance mm², settled, new ring gap mm)."""
+    gap = ring_gap - moved
+    if gap > 0.0:
+        qx, qy, qz, best = closest_on_triangle(px, py, pz, E, f)
+        if best < gap * gap:
+            return f, qx, qy, qz, best, True, gap
+    f, qx, qy, qz, best, ok, ring_min = walk_point(px, py, pz, f, E, ptr, index, max_steps)
+    return f, qx, qy, qz, best, ok, np.sqrt(ring_min)
 
 
 @njit(cache=True, fastmath=False)
@@ -134,8 +181,8 @@ def local_closest(E, ptr, index, points, start, max_steps):
         if start[p] < 0:
             face[p] = -1
             continue
-        f, qx, qy, qz, best, ok = walk_point(points[p, 0], points[p, 1], points[p, 2],
-                                             start[p], E, ptr, index, max_steps)
+        f, qx, qy, qz, best, ok, _ = walk_point(points[p, 0], points[p, 1], points[p, 2],
+                                                start[p], E, ptr, index, max_steps)
         sq[p], face[p], settled[p] = best, f, ok
         closest[p, 0], closest[p, 1], closest[p, 2] = qx, qy, qz
     return sq, face, closest, settled

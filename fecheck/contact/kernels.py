@@ -13,8 +13,9 @@ One evaluation of a contact pair is a few hundred faces of arithmetic; in NumPy 
   thesis's detectors) form the vertex data in NumPy (`fecheck.contact.pair.build_surface`)
   and call `surface_quadrature` directly.
 * `mesh_surface`, `walked_mesh_surface` — mesh masters from their vertex depths; the
-  second also finds the closest faces by a warm-started walk, so that an evaluation
-  that reuses its candidate set is one compiled call.
+  second also finds the closest faces from the last call's (a warm-started walk, only
+  for the points that can be in contact), so that an evaluation that reuses its
+  candidate set is one compiled call.
 * `sphere_ray_depth` (one point) and `sphere_depths` (arrays) — the sphere master's ray
   depth and gradients, also behind `fecheck.contact.analytic.Sphere.depth_values`.
 
@@ -28,7 +29,7 @@ import numpy as np
 from numba import njit
 
 from fecheck.contact.clip import N_POINTS, RULE, face_rule, pattern_of
-from fecheck.contact.coherent import walk_point
+from fecheck.contact.coherent import coherent_closest
 
 
 @njit(cache=True, fastmath=False)
@@ -387,33 +388,54 @@ def walked_mesh_surface(clipped: bool, points: np.ndarray, local_faces: np.ndarr
                         normals: np.ndarray, areas: np.ndarray, R: np.ndarray,
                         t: np.ndarray, Rm: np.ndarray, tm: np.ndarray, Rs: np.ndarray,
                         E: np.ndarray, ring_ptr: np.ndarray, ring_index: np.ndarray,
-                        master_normals: np.ndarray, start: np.ndarray, max_steps: int):
-    """`mesh_surface` of a mesh master (inside by the closest face's normal) whose
-    closest faces are walked to from `start` (n,) faces, the last call's, in one
-    compiled call (`fecheck.contact.coherent.walk_point`; E, ring_ptr, ring_index: the
-    master's `edge_frames` and `face_rings`; master_normals (n_faces, 3) its unit face
-    normals).
+                        master_normals: np.ndarray, face: np.ndarray, position: np.ndarray,
+                        upper: np.ndarray, ring_gap: np.ndarray, max_steps: int):
+    """`mesh_surface` of a mesh master (inside by the closest face's normal), from the
+    last call's state of the candidate points, in one compiled call.
 
-    Returns (settled, closest face (n,)) followed by the returns of `mesh_surface`; if
-    a point does not settle, settled is False and the contact is empty (the caller
+    face, position, upper, ring_gap: the points' `fecheck.contact.coherent.WalkState`,
+    updated in place. A point moved by δ since the last call has a depth at most
+    upper + δ (the signed distance is 1-Lipschitz); a face whose vertices all have a
+    negative bound is not in contact and its vertices need no closest point. The others
+    are found by `fecheck.contact.coherent.coherent_closest` (E, ring_ptr, ring_index:
+    the master's `edge_frames` and `face_rings`; master_normals (n_faces, 3) its unit
+    face normals).
+
+    Returns (settled,) followed by the returns of `mesh_surface`; if a walk does not
+    settle, settled is False, the contact is empty and the state is spoilt (the caller
     queries the tree).
     """
     y = _slave_to_master(points, R, t)
     n = y.shape[0]
-    dv = np.empty(n)
-    grad = np.empty((n, 3))
-    face = np.empty(n, dtype=np.int64)
+    moved = np.empty(n)
+    dv = np.empty(n)                    # the depth, or its (negative) bound if not needed
     for p in range(n):
+        moved[p] = np.sqrt((y[p, 0] - position[p, 0]) ** 2 + (y[p, 1] - position[p, 1]) ** 2
+                           + (y[p, 2] - position[p, 2]) ** 2)
+        dv[p] = upper[p] + moved[p]
+    need = np.zeros(n, dtype=np.bool_)
+    for f in range(local_faces.shape[0]):
+        a, b, c = local_faces[f, 0], local_faces[f, 1], local_faces[f, 2]
+        if dv[a] >= 0.0 or dv[b] >= 0.0 or dv[c] >= 0.0:
+            need[a] = need[b] = need[c] = True
+    grad = np.zeros((n, 3))
+    for p in range(n):
+        position[p, 0], position[p, 1], position[p, 2] = y[p, 0], y[p, 1], y[p, 2]
+        if not need[p]:
+            upper[p] = dv[p]
+            ring_gap[p] -= moved[p]
+            continue
         px, py, pz = y[p, 0], y[p, 1], y[p, 2]
-        f, qx, qy, qz, sq, ok = walk_point(px, py, pz, start[p], E, ring_ptr, ring_index,
-                                           max_steps)
+        f, qx, qy, qz, sq, ok, gap = coherent_closest(px, py, pz, moved[p], face[p],
+                                                      ring_gap[p], E, ring_ptr, ring_index,
+                                                      max_steps)
         if not ok:
-            return (False, face) + mesh_surface(clipped, local_faces[:0], y, dv, grad,
-                                                normals[:0], areas[:0], Rm, tm, Rs)
-        face[p] = f
+            return (False,) + mesh_surface(clipped, local_faces[:0], y, dv, grad,
+                                           normals[:0], areas[:0], Rm, tm, Rs)
         o0, o1, o2 = px - qx, py - qy, pz - qz
         n0, n1, n2 = master_normals[f, 0], master_normals[f, 1], master_normals[f, 2]
         dv[p], grad[p, 0], grad[p, 1], grad[p, 2] = _signed(
             o0, o1, o2, sq, o0 * n0 + o1 * n1 + o2 * n2 > 0.0, n0, n1, n2)
-    return (True, face) + mesh_surface(clipped, local_faces, y, dv, grad, normals, areas,
-                                       Rm, tm, Rs)
+        face[p], upper[p], ring_gap[p] = f, dv[p], gap
+    return (True,) + mesh_surface(clipped, local_faces, y, dv, grad, normals, areas, Rm, tm,
+                                  Rs)

@@ -38,7 +38,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from fecheck.contact.coherent import edge_frames, face_rings, local_closest
+from fecheck.contact.coherent import WalkState, edge_frames, face_rings, local_closest
 from fecheck.contact.kernels import mesh_surface, signed_closest, walked_mesh_surface
 from geometry.errors import FecheckError
 from geometry.mesh import TriMesh
@@ -149,25 +149,26 @@ class MeshMaster:
         return self._query(y, start)
 
     def surface(self, clipped: bool, cand, R: np.ndarray, t: np.ndarray, Rm: np.ndarray,
-                tm: np.ndarray, Rs: np.ndarray, start: np.ndarray | None = None) -> tuple:
+                tm: np.ndarray, Rs: np.ndarray, state: WalkState | None = None) -> tuple:
         """Contact of candidate slave faces `cand` (`fecheck.contact.broadphase.Candidates`)
         at the relative pose y = R p + t (master pose Rm, tm; slave rotation Rs).
 
-        Returns (closest master face of each candidate point, the returns of
-        `fecheck.contact.kernels.mesh_surface`). With `start` (the last call's closest
-        faces) and the side-of-normal sign, one compiled call walks and integrates
-        (`walked_mesh_surface`); the tree answers if a walk does not settle.
+        Returns (the points' `WalkState` for the next call, the returns of
+        `fecheck.contact.kernels.mesh_surface`). With the last call's `state` and the
+        side-of-normal sign, one compiled call walks and integrates
+        (`walked_mesh_surface`); the tree answers otherwise, or if a walk does not settle.
         """
-        if start is not None and self.sign == "normal":
-            settled, face, *out = walked_mesh_surface(
+        if state is not None and self.sign == "normal":
+            settled, *out = walked_mesh_surface(
                 clipped, cand.points, cand.local_faces, cand.normals, cand.areas, R, t, Rm,
-                tm, Rs, self._edges, *self._ring, self._normals, start, MAX_STEPS)
+                tm, Rs, self._edges, *self._ring, self._normals, state.face, state.position,
+                state.upper, state.ring_gap, MAX_STEPS)
             if settled:
-                return face, out
+                return state, out
         y = cand.points @ R.T + t
-        depth, grad, face = self._query(y, start)
-        return face, mesh_surface(clipped, cand.local_faces, y, depth, grad, cand.normals,
-                                  cand.areas, Rm, tm, Rs)
+        depth, grad, face = self._query(y, None if state is None else state.face)
+        return WalkState.start(face, y, depth), mesh_surface(
+            clipped, cand.local_faces, y, depth, grad, cand.normals, cand.areas, Rm, tm, Rs)
 
     def depth_gradients(self, y: np.ndarray, u: np.ndarray | None = None):
         """(∂d/∂y, None) at points of any leading shape, see `depth_and_gradients`."""

@@ -174,9 +174,9 @@ class ContactPair:
             self.master = master
             self._thesis = thesis_detector(method, slave, master, area)
         self._kernel, self._kernel_args = None, ()
-        # closest master faces of the candidate points at the last call, the start of a
-        # local walk while the candidate set is reused (mesh masters)
-        self._warm: tuple[object, np.ndarray | None] = (None, None)
+        # the candidate set of the last call and its points' WalkState (closest master
+        # faces, depth bounds), the start of the next call while the set is reused
+        self._warm: tuple[object, object] = (None, None)
         if isinstance(self.master, Plane):
             self._kernel, self._kernel_args = plane_surface, (master.point, master.normal)
         elif isinstance(self.master, Sphere):
@@ -236,9 +236,9 @@ class ContactPair:
                                   self.slave.n_faces)
         if self.resolved_method == "bvh":
             warm = self._warm[1] if self._warm[0] is cand else None
-            closest_face, (hit, normal, depth, *qp) = master.surface(
+            state, (hit, normal, depth, *qp) = master.surface(
                 self.area_mode == "clipped", cand, R, t, Rm, tm, Rs, warm)
-            self._warm = (cand, closest_face)
+            self._warm = (cand, state)
             if hit.size == 0:
                 return ContactSurface.empty(self.slave.n_faces, master.normal_body)
             return ContactSurface(cand.faces[hit], normal, depth, *qp, master.normal_body,
