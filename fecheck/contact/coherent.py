@@ -1,13 +1,16 @@
 """Warm-started closest points on a triangle mesh: the last call's faces, searched locally.
 
 Between two Newton iterations a slave vertex moves by a fraction of the broad-phase
-margin, so its closest master face is the last one or a neighbour. `local_closest` walks
+margin, so its closest master face is the last one or a neighbour. `walk_point` walks
 from each point's previous face to the closest face among the faces sharing a vertex
 with it (its 1-ring, `face_rings`), repeating from the new face until the current face
 is the closest of its own ring (a local minimum of the distance over the mesh), in at
-most `max_steps` moves. Points that start without a face or do not settle are flagged
-for a global (BVH) query. The closest point on a triangle is Ericson's routine
-(Real-Time Collision Detection, 2005, §5.1.5), compiled with numba.
+most `max_steps` moves. `coherent_closest` skips the walk when the last call's ring
+gap (the distance to the ring's other faces) still exceeds the distance to the last
+face after the point's move; `WalkState` holds what a point keeps between calls. Points
+that start without a face or do not settle are flagged for a global (BVH) query. The
+closest point on a triangle is Ericson's routine (Real-Time Collision Detection, 2005,
+§5.1.5), compiled with numba.
 
 A local minimum is the global one when the point is closer to the surface than the
 surface's local feature size (as for slave vertices within the margin of a smooth
