@@ -19,14 +19,13 @@ the closest point, positive inside. Inside/outside:
   within 2 mm of the surface, so it is not used.
 
 While a contact pair reuses its candidate set, the candidate points keep what they
-learnt at the last call (`fecheck.contact.coherent.WalkState`): a point whose depth
-bound (last depth + distance moved: the signed distance is 1-Lipschitz, as the broad
+learnt at the last call (`fecheck.contact.coherent.WalkState`). A point whose depth
+bound (last depth + distance moved) is negative, as are those of its faces' other
+vertices, needs no closest point: the signed distance is 1-Lipschitz, as the broad
 phase assumes too, except behind the rim of an open sheet where the side-of-normal sign
-jumps) is negative,
-with its faces' other vertices, needs no closest point; the others walk from their
-last closest face over face 1-rings, or skip the walk when a ring-gap certificate shows
-the last face is still the closest of its ring; the tree answers only points whose walk
-does not settle. With the side-of-normal sign all of it, with the clipped quadrature, is
+jumps. The others walk from their last closest face over face 1-rings, or skip the walk
+when a ring-gap certificate shows the last face is still the closest of its ring; the
+tree answers only points whose walk does not settle. With the side-of-normal sign all of it, with the clipped quadrature, is
 one compiled call (`MeshMaster.surface`, `fecheck.contact.kernels.walked_mesh_surface`).
 Measured (20,480 faces each, 1 mm overlap, 282 candidate points of which ~105 need a
 closest point, one run, shared machine): a reused evaluation 75 µs with every point
