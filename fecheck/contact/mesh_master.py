@@ -19,9 +19,9 @@ the closest point, positive inside. Inside/outside:
   within 2 mm of the surface, so it is not used.
 
 While a contact pair reuses its candidate set, the candidate points keep what they
-learnt at the last call (`fecheck.contact.coherent.WalkState`). A point whose depth
-bound (last depth + distance moved) is negative, as are those of its faces' other
-vertices, needs no closest point: the signed distance is 1-Lipschitz, as the broad
+learnt at the last call (`fecheck.contact.coherent.WalkState`). A point needs no
+closest point when every face it belongs to has a negative depth bound (last depth +
+distance moved) at all three vertices: the signed distance is 1-Lipschitz, as the broad
 phase assumes too, except behind the rim of an open sheet where the side-of-normal sign
 jumps. The others walk from their last closest face over face 1-rings, or skip the walk
 when a ring-gap certificate shows the last face is still the closest of its ring; the
