@@ -25,8 +25,9 @@ distance moved) at all three vertices: the signed distance is 1-Lipschitz, as th
 phase assumes too, except behind the rim of an open sheet where the side-of-normal sign
 jumps. The others walk from their last closest face over face 1-rings, or skip the walk
 when a ring-gap certificate shows the last face is still the closest of its ring; the
-tree answers only points whose walk does not settle. With the side-of-normal sign all of it, with the clipped quadrature, is
-one compiled call (`MeshMaster.surface`, `fecheck.contact.kernels.walked_mesh_surface`).
+tree answers only points whose walk does not settle. With the side-of-normal sign all
+of it, with the clipped quadrature, is one compiled call (`MeshMaster.surface`,
+`fecheck.contact.kernels.walked_mesh_surface`).
 Measured (20,480 faces each, 1 mm overlap, 282 candidate points of which ~105 need a
 closest point, one run, shared machine): a reused evaluation 75 µs with every point
 walked in NumPy-glued calls, 66 µs fused into one call, 40-44 µs with the depth bounds
