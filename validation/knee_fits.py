@@ -18,15 +18,14 @@ test compares them with).
 
 from __future__ import annotations
 
-import argparse
 import csv
 from pathlib import Path
 
 import numpy as np
 import thesis_values as tv
+from report import knee_script_args
 
 from fecheck import scanned
-from fecheck.errors import FecheckError
 from geometry.fits import fit_plane, fit_polynomial_surface, fit_sphere, fit_spherical_polynomial
 
 SIDES = ("medial", "lateral")
@@ -182,14 +181,8 @@ def trends(t21: list[dict], t24: list[dict], t25: list[dict]) -> list[str]:
 
 
 def main(argv: list[str] | None = None) -> int:
-    p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    p.add_argument("--quick", action="store_true", help="degrees up to 3 only")
-    p.add_argument("--out", type=Path, default=Path("out/validation"), help="output folder")
-    args = p.parse_args(argv)
-    try:
-        scanned.knee_dir()
-    except FecheckError as err:           # the data set lives outside the repository
-        print(f"skipped: {err}")
+    args = knee_script_args(__doc__.splitlines()[0], "degrees up to 3 only", argv)
+    if args is None:
         return 0
     t21 = table_2_1()
     t24 = table_2_4(3 if args.quick else 5)

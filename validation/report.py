@@ -16,6 +16,7 @@ matplotlib's Agg backend, imported lazily. Units: mm, N, MPa, N·mm, s.
 
 from __future__ import annotations
 
+import argparse
 import csv
 import math
 import time
@@ -141,6 +142,22 @@ def require_knee_data():
         return scanned.knee_dir()
     except Exception as err:  # noqa: BLE001 - FecheckError naming the folder
         raise Missing(str(err)) from None
+
+
+def knee_script_args(description: str, quick_help: str, argv: Sequence[str] | None
+                     ) -> argparse.Namespace | None:
+    """``--quick`` and ``--out`` of a scanned-knee validation script, or None after
+    printing why it is skipped when the knee data set (outside the repository) is absent."""
+    p = argparse.ArgumentParser(description=description)
+    p.add_argument("--quick", action="store_true", help=quick_help)
+    p.add_argument("--out", type=Path, default=Path("out/validation"), help="output folder")
+    args = p.parse_args(argv)
+    try:
+        require_knee_data()
+    except Missing as err:
+        print(f"skipped: {err}")
+        return None
+    return args
 
 
 def _fmt(x: float | None) -> str:

@@ -16,15 +16,13 @@ ratios, not the absolute values.
 
 from __future__ import annotations
 
-import argparse
 import csv
 import time
 from pathlib import Path
 
 import numpy as np
+from report import knee_script_args
 
-from fecheck import scanned
-from fecheck.errors import FecheckError
 from fecheck.model import ContactModel, run_scene
 from fecheck.scanned_models import build_compartments
 from fecheck.scene import load_scene
@@ -104,14 +102,8 @@ def measure(decimate_faces: int) -> dict:
 
 
 def main(argv: list[str] | None = None) -> int:
-    p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    p.add_argument("--quick", action="store_true", help="the 2,000-face decimation only")
-    p.add_argument("--out", type=Path, default=Path("out/validation"), help="output folder")
-    args = p.parse_args(argv)
-    try:
-        scanned.knee_dir()
-    except FecheckError as err:           # the data set lives outside the repository
-        print(f"skipped: {err}")
+    args = knee_script_args(__doc__.splitlines()[0], "the 2,000-face decimation only", argv)
+    if args is None:
         return 0
     rows = [measure(n) for n in ((2000,) if args.quick else (0, 5000, 2000))]
     args.out.mkdir(parents=True, exist_ok=True)

@@ -28,16 +28,15 @@ and DIR/<scene>_pressure.png.
 
 from __future__ import annotations
 
-import argparse
 import csv
 import os
 from pathlib import Path
 
 import numpy as np
 import thesis_values as tv
+from report import knee_script_args
 
 from fecheck import scanned
-from fecheck.errors import FecheckError
 from fecheck.model import ContactModel, run_scene
 from fecheck.scanned_models import build_compartments, bundle_springs
 from fecheck.scene import load_scene
@@ -162,14 +161,8 @@ def print_beside_thesis(rows: list[dict]) -> None:
 
 
 def main(argv: list[str] | None = None) -> int:
-    p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    p.add_argument("--quick", action="store_true", help="scanned meshes decimated to 2,000")
-    p.add_argument("--out", type=Path, default=Path("out/validation"), help="output folder")
-    args = p.parse_args(argv)
-    try:
-        scanned.knee_dir()
-    except FecheckError as err:           # the data set lives outside the repository
-        print(f"skipped: {err}")
+    args = knee_script_args(__doc__.splitlines()[0], "scanned meshes decimated to 2,000", argv)
+    if args is None:
         return 0
     args.out.mkdir(parents=True, exist_ok=True)
     rows = run_all(args.quick, args.out)
