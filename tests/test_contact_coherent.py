@@ -139,8 +139,8 @@ def test_points_skipped_by_their_depth_bound_never_miss_a_contact(master, top):
     # The slave sinks in and comes back out across the whole reuse window (steps of
     # 0.13 mm, contact growing from a few faces to tens and shrinking again, sliding
     # sideways): the warm pair, which skips the points whose depth bound is negative and
-    # the ring checks its gap certificate allows, gives the contact of a pair rebuilt
-    # every call.
+    # the ring faces whose distance bounds prove them farther than the last face, gives
+    # the contact of a pair rebuilt every call.
     slave = icosphere(31.8, 4, center=(0.0, 0.0, top + 31.8))
     warm, fresh = ContactPair(slave, master), ContactPair(slave, master)
     heights = np.r_[np.linspace(0.4, -0.5, 8), np.linspace(-0.5, 0.4, 8)]

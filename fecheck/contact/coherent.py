@@ -5,9 +5,9 @@ margin, so its closest master face is the last one or a neighbour. `walk_point` 
 from each point's previous face to the closest face among the faces sharing a vertex
 with it (its 1-ring, `face_rings`), repeating from the new face until the current face
 is the closest of its own ring (a local minimum of the distance over the mesh), in at
-most `max_steps` moves. `coherent_closest` skips the walk when the last call's ring
-gap (the distance to the ring's other faces) still exceeds the distance to the last
-face after the point's move; `WalkState` holds what a point keeps between calls. Points
+most `max_steps` moves. `coherent_closest` visits only the ring faces that the last
+calls' distances to them, less the point's travel since, do not prove farther than
+the last face; `WalkState` holds what a point keeps between calls. Points
 that start without a face or do not settle are flagged for a global (BVH) query. The
 closest point on a triangle is Ericson's routine (Real-Time Collision Detection, 2005,
 §5.1.5), compiled with numba.
@@ -37,22 +37,27 @@ class WalkState:
     face : (n,) closest master face at the last call
     position : (n, 3) the points at the last call
     upper : (n,) an upper bound of the signed depth there (the exact depth if computed)
-    ring_gap : (n,) a lower bound of the distance there to the other faces of the ring
-        of `face` (-inf: unknown)
+    travel : (n,) the path length of each point since the state started
+    ring : (n, K) per face of the ring of `face`, a lower bound of the distance to it
+        plus the point's travel when it was taken (-inf: unknown), see `coherent_closest`
     """
 
     face: np.ndarray
     position: np.ndarray
     upper: np.ndarray
-    ring_gap: np.ndarray
+    travel: np.ndarray
+    ring: np.ndarray
 
     @classmethod
-    def start(cls, face: np.ndarray, position: np.ndarray, depth: np.ndarray) -> WalkState:
-        """The state after a tree query: closest faces and exact depths, no ring gaps."""
+    def start(cls, face: np.ndarray, position: np.ndarray, depth: np.ndarray,
+              ring_width: int) -> WalkState:
+        """The state after a tree query: closest faces and exact depths, ring distances
+        unknown (`ring_width`: the longest face ring of the master)."""
+        n = len(face)
         return cls(np.ascontiguousarray(face, dtype=np.int64),
                    np.ascontiguousarray(position, dtype=float).copy(),
-                   np.ascontiguousarray(depth, dtype=float).copy(),
-                   np.full(len(face), -np.inf))
+                   np.ascontiguousarray(depth, dtype=float).copy(), np.zeros(n),
+                   np.full((n, ring_width), -np.inf))
 
 
 def face_rings(faces: np.ndarray, n_points: int) -> tuple[np.ndarray, np.ndarray]:
@@ -134,37 +139,57 @@ def closest_on_triangle(px, py, pz, E, f):
 def walk_point(px, py, pz, f, E, ptr, index, max_steps):
     """Walk from face f over face 1-rings to a face closest to (px, py, pz) among its own
     ring (E: `edge_frames`; ptr, index: `face_rings`). Returns (face, qx, qy, qz,
-    squared distance mm², settled, smallest squared distance to the other faces of the
-    final ring mm²): not settled if still moving after `max_steps`."""
+    squared distance mm², settled): not settled if still moving after `max_steps`."""
     qx, qy, qz, best = closest_on_triangle(px, py, pz, E, f)
     for _ in range(max_steps):
         current = f
-        ring_min = np.inf
         for e in range(ptr[current], ptr[current + 1]):
             g = index[e]
             gx, gy, gz, d = closest_on_triangle(px, py, pz, E, g)
-            ring_min = min(ring_min, d)
             if d < best or (d == best and g < f):          # ties: lowest index
                 f, best, qx, qy, qz = g, d, gx, gy, gz
         if f == current:
-            return f, qx, qy, qz, best, True, ring_min
-    return f, qx, qy, qz, best, False, np.inf
+            return f, qx, qy, qz, best, True
+    return f, qx, qy, qz, best, False
 
 
 @njit(cache=True, fastmath=False)
-def coherent_closest(px, py, pz, moved, f, ring_gap, E, ptr, index, max_steps):
-    """`walk_point` skipped when it can be: if the point, now moved by `moved` mm since
-    the last call, is closer to its last face f than `ring_gap` - `moved` (ring_gap: a
-    lower bound, mm, on its distance to the other faces of f's ring at the last call;
-    a distance to a fixed face is 1-Lipschitz), f is still the closest of its ring.
-    Returns (face, qx, qy, qz, squared distance mm², settled, new ring gap mm)."""
-    gap = ring_gap - moved
-    if gap > 0.0:
-        qx, qy, qz, best = closest_on_triangle(px, py, pz, E, f)
-        if best < gap * gap:
-            return f, qx, qy, qz, best, True, gap
-    f, qx, qy, qz, best, ok, ring_min = walk_point(px, py, pz, f, E, ptr, index, max_steps)
-    return f, qx, qy, qz, best, ok, np.sqrt(ring_min)
+def coherent_closest(px, py, pz, f, ring, travel, E, ptr, index, max_steps):
+    """`walk_point` from face f, checking only the ring faces that can be as close as f.
+
+    ring (K,): per face of f's ring (in `face_rings` order), a lower bound of the
+    point's distance to it (mm) plus the point's `travel` (mm, its path length so far)
+    when the bound was taken; as a distance to a fixed face is 1-Lipschitz, ``ring[k] -
+    travel`` still bounds it from below. Ring faces whose bound exceeds the distance to
+    f cannot displace f and are not visited; the others are, and their bounds renewed.
+    If one is closer, the walk runs and `ring` is renewed for the face it ends on.
+    Returns (face, qx, qy, qz, squared distance mm², settled) as `walk_point`.
+    """
+    qx, qy, qz, best = closest_on_triangle(px, py, pz, E, f)
+    dist = np.sqrt(best)
+    k = 0
+    for e in range(ptr[f], ptr[f + 1]):
+        if ring[k] - travel <= dist:
+            g = index[e]
+            _, _, _, d = closest_on_triangle(px, py, pz, E, g)
+            if d < best or (d == best and g < f):
+                return _walk_and_record(px, py, pz, f, ring, travel, E, ptr, index,
+                                        max_steps)
+            ring[k] = np.sqrt(d) + travel
+        k += 1
+    return f, qx, qy, qz, best, True
+
+
+@njit(cache=True, fastmath=False)
+def _walk_and_record(px, py, pz, f, ring, travel, E, ptr, index, max_steps):
+    """`walk_point`, then the distances to the final face's ring into `ring` (+ travel)."""
+    f, qx, qy, qz, best, ok = walk_point(px, py, pz, f, E, ptr, index, max_steps)
+    k = 0
+    for e in range(ptr[f], ptr[f + 1]):
+        _, _, _, d = closest_on_triangle(px, py, pz, E, index[e])
+        ring[k] = np.sqrt(d) + travel
+        k += 1
+    return f, qx, qy, qz, best, ok
 
 
 @njit(cache=True, fastmath=False)
@@ -184,7 +209,7 @@ def local_closest(E, ptr, index, points, start, max_steps):
         if start[p] < 0:
             face[p] = -1
             continue
-        f, qx, qy, qz, best, ok, _ = walk_point(points[p, 0], points[p, 1], points[p, 2],
+        f, qx, qy, qz, best, ok = walk_point(points[p, 0], points[p, 1], points[p, 2],
                                                 start[p], E, ptr, index, max_steps)
         sq[p], face[p], settled[p] = best, f, ok
         closest[p, 0], closest[p, 1], closest[p, 2] = qx, qy, qz

@@ -389,11 +389,12 @@ def walked_mesh_surface(clipped: bool, points: np.ndarray, local_faces: np.ndarr
                         t: np.ndarray, Rm: np.ndarray, tm: np.ndarray, Rs: np.ndarray,
                         E: np.ndarray, ring_ptr: np.ndarray, ring_index: np.ndarray,
                         master_normals: np.ndarray, face: np.ndarray, position: np.ndarray,
-                        upper: np.ndarray, ring_gap: np.ndarray, max_steps: int):
+                        upper: np.ndarray, travel: np.ndarray, ring: np.ndarray,
+                        max_steps: int):
     """`mesh_surface` of a mesh master (inside by the closest face's normal), from the
     last call's state of the candidate points, in one compiled call.
 
-    face, position, upper, ring_gap: the points' `fecheck.contact.coherent.WalkState`,
+    face, position, upper, travel, ring: the points' `fecheck.contact.coherent.WalkState`,
     updated in place. A point moved by δ since the last call has a depth at most
     upper + δ (the signed distance is 1-Lipschitz); a face whose vertices all have a
     negative bound is not in contact and its vertices need no closest point. The others
@@ -421,14 +422,13 @@ def walked_mesh_surface(clipped: bool, points: np.ndarray, local_faces: np.ndarr
     grad = np.zeros((n, 3))
     for p in range(n):
         position[p, 0], position[p, 1], position[p, 2] = y[p, 0], y[p, 1], y[p, 2]
+        travel[p] += moved[p]
         if not need[p]:
             upper[p] = dv[p]
-            ring_gap[p] -= moved[p]
             continue
         px, py, pz = y[p, 0], y[p, 1], y[p, 2]
-        f, qx, qy, qz, sq, ok, gap = coherent_closest(px, py, pz, moved[p], face[p],
-                                                      ring_gap[p], E, ring_ptr, ring_index,
-                                                      max_steps)
+        f, qx, qy, qz, sq, ok = coherent_closest(px, py, pz, face[p], ring[p], travel[p], E,
+                                                 ring_ptr, ring_index, max_steps)
         if not ok:
             return (False,) + mesh_surface(clipped, local_faces[:0], y, dv, grad,
                                            normals[:0], areas[:0], Rm, tm, Rs)
@@ -436,6 +436,6 @@ def walked_mesh_surface(clipped: bool, points: np.ndarray, local_faces: np.ndarr
         n0, n1, n2 = master_normals[f, 0], master_normals[f, 1], master_normals[f, 2]
         dv[p], grad[p, 0], grad[p, 1], grad[p, 2] = _signed(
             o0, o1, o2, sq, o0 * n0 + o1 * n1 + o2 * n2 > 0.0, n0, n1, n2)
-        face[p], upper[p], ring_gap[p] = f, dv[p], gap
+        face[p], upper[p] = f, dv[p]
     return (True,) + mesh_surface(clipped, local_faces, y, dv, grad, normals, areas, Rm, tm,
                                   Rs)

@@ -23,9 +23,10 @@ learnt at the last call (`fecheck.contact.coherent.WalkState`). A point needs no
 closest point when every face it belongs to has a negative depth bound (last depth +
 distance moved) at all three vertices: the signed distance is 1-Lipschitz, as the broad
 phase assumes too, except behind the rim of an open sheet where the side-of-normal sign
-jumps. The others walk from their last closest face over face 1-rings, or skip the walk
-when a ring-gap certificate shows the last face is still the closest of its ring; the
-tree answers only points whose walk does not settle. With the side-of-normal sign all
+jumps. The others check their last closest face against the faces of its 1-ring,
+visiting only those that the distances kept from earlier calls (less the point's travel
+since) do not prove farther, and walk on if one is closer; the tree answers only points
+whose walk does not settle. With the side-of-normal sign all
 of it, with the clipped quadrature, is one compiled call (`MeshMaster.surface`,
 `fecheck.contact.kernels.walked_mesh_surface`).
 Measured (20,480 faces each, 1 mm overlap, 282 candidate points of which ~105 need a
@@ -98,6 +99,7 @@ class MeshMaster:
         self._tree = igl.AABB()
         self._tree.init(self._V, self._F)
         self._ring = face_rings(self._F, mesh.n_points)
+        self._ring_width = int(np.diff(self._ring[0]).max())
         self._edges = edge_frames(self._V, self._F)
         self._winding = igl.winding_number
         lo, hi = mesh.points.min(axis=0), mesh.points.max(axis=0)
@@ -168,12 +170,12 @@ class MeshMaster:
             settled, *out = walked_mesh_surface(
                 clipped, cand.points, cand.local_faces, cand.normals, cand.areas, R, t, Rm,
                 tm, Rs, self._edges, *self._ring, self._normals, state.face, state.position,
-                state.upper, state.ring_gap, MAX_STEPS)
+                state.upper, state.travel, state.ring, MAX_STEPS)
             if settled:
                 return state, out
         y = cand.points @ R.T + t
         depth, grad, face = self._query(y, None if state is None else state.face)
-        return WalkState.start(face, y, depth), mesh_surface(
+        return WalkState.start(face, y, depth, self._ring_width), mesh_surface(
             clipped, cand.local_faces, y, depth, grad, cand.normals, cand.areas, Rm, tm, Rs)
 
     def depth_gradients(self, y: np.ndarray, u: np.ndarray | None = None):

