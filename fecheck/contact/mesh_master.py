@@ -104,6 +104,22 @@ class MeshMaster:
         self._winding = igl.winding_number
         lo, hi = mesh.points.min(axis=0), mesh.points.max(axis=0)
         self._box = (lo - margin_mm, hi + margin_mm)
+        self._load_kernels()
+
+    def _load_kernels(self) -> None:
+        """Compile the walk kernels, or load them from numba's cache, now rather than in
+        the first evaluations that use them (a first compile takes seconds)."""
+        eye, zero, no_points = np.eye(3), np.zeros(3), np.zeros((0, 3))
+        no_faces, none = np.zeros((0, 3), dtype=np.int64), np.zeros(0, dtype=np.int64)
+        local_closest(self._edges, *self._ring, no_points, none, MAX_STEPS)
+        signed_closest(no_points, no_points, np.zeros(0), no_points, np.zeros(0, dtype=bool),
+                       True)
+        mesh_surface(True, no_faces, no_points, np.zeros(0), no_points, no_points,
+                     np.zeros(0), eye, zero, eye)
+        state = WalkState.start(none, no_points, np.zeros(0), self._ring_width)
+        walked_mesh_surface(True, no_points, no_faces, no_points, np.zeros(0), eye, zero, eye,
+                            zero, eye, self._edges, *self._ring, self._normals, state.face,
+                            state.position, state.upper, state.travel, state.ring, MAX_STEPS)
 
     def describe(self) -> str:
         sign = ("side of the closest face normal" if self.sign == "normal"
