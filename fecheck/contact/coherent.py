@@ -167,16 +167,15 @@ def coherent_closest(px, py, pz, f, ring, travel, E, ptr, index, max_steps):
     """
     qx, qy, qz, best = closest_on_triangle(px, py, pz, E, f)
     dist = np.sqrt(best)
-    k = 0
-    for e in range(ptr[f], ptr[f + 1]):
+    start = ptr[f]
+    for k in range(ptr[f + 1] - start):
         if ring[k] - travel <= dist:
-            g = index[e]
+            g = index[start + k]
             _, _, _, d = closest_on_triangle(px, py, pz, E, g)
             if d < best or (d == best and g < f):
                 return _walk_and_record(px, py, pz, f, ring, travel, E, ptr, index,
                                         max_steps)
             ring[k] = np.sqrt(d) + travel
-        k += 1
     return f, qx, qy, qz, best, True
 
 
@@ -184,11 +183,10 @@ def coherent_closest(px, py, pz, f, ring, travel, E, ptr, index, max_steps):
 def _walk_and_record(px, py, pz, f, ring, travel, E, ptr, index, max_steps):
     """`walk_point`, then the distances to the final face's ring into `ring` (+ travel)."""
     f, qx, qy, qz, best, ok = walk_point(px, py, pz, f, E, ptr, index, max_steps)
-    k = 0
-    for e in range(ptr[f], ptr[f + 1]):
-        _, _, _, d = closest_on_triangle(px, py, pz, E, index[e])
+    start = ptr[f]
+    for k in range(ptr[f + 1] - start):
+        _, _, _, d = closest_on_triangle(px, py, pz, E, index[start + k])
         ring[k] = np.sqrt(d) + travel
-        k += 1
     return f, qx, qy, qz, best, ok
 
 
