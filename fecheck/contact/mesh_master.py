@@ -26,14 +26,16 @@ phase assumes too, except behind the rim of an open sheet where the side-of-norm
 jumps. The others check their last closest face against the faces of its 1-ring,
 visiting only those that the distances kept from earlier calls (less the point's travel
 since) do not prove farther, and walk on if one is closer; the tree answers only points
-whose walk does not settle. With the side-of-normal sign all
-of it, with the clipped quadrature, is one compiled call (`MeshMaster.surface`,
+whose walk does not settle. With the side-of-normal sign all of it, with the clipped
+quadrature, is one compiled call (`MeshMaster.surface`,
 `fecheck.contact.kernels.walked_mesh_surface`).
-Measured (20,480 faces each, 1 mm overlap, 282 candidate points of which ~105 need a
+Measured (20,480 faces each, 1 mm overlap, 283 candidate points of which ~106 need a
 closest point, one run, shared machine): a reused evaluation 75 µs with every point
 walked in NumPy-glued calls, 66 µs fused into one call, 40-44 µs with the depth bounds
-and certificates; the tree path (a rebuilt set) ~2 ms; in `fecheck bench detection
---quick` 0.063 ms reused against 2.05 ms from scratch.
+and a single ring-gap bound per point, 38-40 µs with a bound per ring face (~2 of 12
+ring faces re-checked per point at 0.03 mm steps, ~8 after a 0.2 mm jump); the tree
+path (a rebuilt set) ~1-2 ms. Of a reused evaluation, the quadrature of ~170 contact
+faces (~600 points with their twists) takes ~10 µs and boxing its ~10 arrays ~3 µs.
 
 Measured alternatives for the closest point (one run, 20,480-face sphere, 500 points
 within 2 mm of it): igl.AABB 1.3 ms; ``igl.signed_distance`` rebuilds its tree every
