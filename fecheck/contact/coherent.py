@@ -208,7 +208,7 @@ def local_closest(E, ptr, index, points, start, max_steps):
             face[p] = -1
             continue
         f, qx, qy, qz, best, ok = walk_point(points[p, 0], points[p, 1], points[p, 2],
-                                                start[p], E, ptr, index, max_steps)
+                                             start[p], E, ptr, index, max_steps)
         sq[p], face[p], settled[p] = best, f, ok
         closest[p, 0], closest[p, 1], closest[p, 2] = qx, qy, qz
     return sq, face, closest, settled
