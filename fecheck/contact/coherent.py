@@ -136,16 +136,20 @@ def closest_on_triangle(px, py, pz, E, f):
 
 
 @njit(cache=True, fastmath=False)
-def walk_point(px, py, pz, f, E, ptr, index, max_steps):
+def walk_point(px, py, pz, f, E, ptr, index, max_steps, ring, travel):
     """Walk from face f over face 1-rings to a face closest to (px, py, pz) among its own
     ring (E: `edge_frames`; ptr, index: `face_rings`). Returns (face, qx, qy, qz,
-    squared distance mm², settled): not settled if still moving after `max_steps`."""
+    squared distance mm², settled): not settled if still moving after `max_steps`.
+    Once settled, ring (K,) holds the distances to the final face's ring plus `travel`
+    (the bounds of `coherent_closest`)."""
     qx, qy, qz, best = closest_on_triangle(px, py, pz, E, f)
     for _ in range(max_steps):
         current = f
-        for e in range(ptr[current], ptr[current + 1]):
-            g = index[e]
+        start = ptr[current]
+        for k in range(ptr[current + 1] - start):
+            g = index[start + k]
             gx, gy, gz, d = closest_on_triangle(px, py, pz, E, g)
+            ring[k] = np.sqrt(d) + travel
             if d < best or (d == best and g < f):          # ties: lowest index
                 f, best, qx, qy, qz = g, d, gx, gy, gz
         if f == current:
@@ -173,21 +177,9 @@ def coherent_closest(px, py, pz, f, ring, travel, E, ptr, index, max_steps):
             g = index[start + k]
             _, _, _, d = closest_on_triangle(px, py, pz, E, g)
             if d < best or (d == best and g < f):
-                return _walk_and_record(px, py, pz, f, ring, travel, E, ptr, index,
-                                        max_steps)
+                return walk_point(px, py, pz, f, E, ptr, index, max_steps, ring, travel)
             ring[k] = np.sqrt(d) + travel
     return f, qx, qy, qz, best, True
-
-
-@njit(cache=True, fastmath=False)
-def _walk_and_record(px, py, pz, f, ring, travel, E, ptr, index, max_steps):
-    """`walk_point`, then the distances to the final face's ring into `ring` (+ travel)."""
-    f, qx, qy, qz, best, ok = walk_point(px, py, pz, f, E, ptr, index, max_steps)
-    start = ptr[f]
-    for k in range(ptr[f + 1] - start):
-        _, _, _, d = closest_on_triangle(px, py, pz, E, index[start + k])
-        ring[k] = np.sqrt(d) + travel
-    return f, qx, qy, qz, best, ok
 
 
 @njit(cache=True, fastmath=False)
@@ -203,12 +195,13 @@ def local_closest(E, ptr, index, points, start, max_steps):
     face = np.empty(n, dtype=np.int64)
     closest = np.empty((n, 3))
     settled = np.zeros(n, dtype=np.bool_)
+    ring = np.empty(np.max(ptr[1:] - ptr[:-1]))     # scratch: walk_point's ring bounds
     for p in range(n):
         if start[p] < 0:
             face[p] = -1
             continue
         f, qx, qy, qz, best, ok = walk_point(points[p, 0], points[p, 1], points[p, 2],
-                                             start[p], E, ptr, index, max_steps)
+                                             start[p], E, ptr, index, max_steps, ring, 0.0)
         sq[p], face[p], settled[p] = best, f, ok
         closest[p, 0], closest[p, 1], closest[p, 2] = qx, qy, qz
     return sq, face, closest, settled
