@@ -32,7 +32,7 @@ quadrature, is one compiled call (`MeshMaster.surface`,
 Measured (20,480 faces each, 1 mm overlap, 283 candidate points of which ~106 need a
 closest point, one run, shared machine): a reused evaluation 75 µs with every point
 walked in NumPy-glued calls, 66 µs fused into one call, 40-44 µs with the depth bounds
-and a single ring-gap bound per point, 38-40 µs with a bound per ring face (~2 of 12
+and a single ring-gap bound per point, 37-39 µs with a bound per ring face (~2 of 12
 ring faces re-checked per point at 0.03 mm steps, ~8 after a 0.2 mm jump); the tree
 path (a rebuilt set) ~1-2 ms. Of a reused evaluation, the quadrature of ~170 contact
 faces (~600 points with their twists) takes ~10 µs and boxing its ~10 arrays ~3 µs.
