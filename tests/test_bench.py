@@ -8,7 +8,7 @@ from itertools import pairwise
 
 import pytest
 
-from fecheck import bench
+from fecheck.studies import bench
 
 SMALL = bench.BenchConfig(levels=(2, 3, 4), thesis_levels=(4,), hertz_levels=(3,),
                           plateau_sizes_mm=(1.4, 0.7), fe3d_sizes_mm=(5.0,),

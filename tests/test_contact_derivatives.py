@@ -5,7 +5,7 @@ import pytest
 from contact_helpers import central_difference, moments, moments_twist
 
 from fecheck.contact import ContactPair, Plane, PolynomialSurface, Sphere
-from fecheck.frames import rotation
+from fecheck.statics.frames import rotation
 from geometry.icosphere import icosphere
 from geometry.plateau import plane_patch, polynomial_patch
 from geometry.polynomial import Polynomial2D

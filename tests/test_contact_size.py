@@ -5,13 +5,13 @@ import math
 import pytest
 
 from fecheck import laws
-from fecheck.contact_size import (
+from fecheck.model.meshing import (
     DISC_MARGIN,
     ELEMENTS_PER_CONTACT_RADIUS,
     expected_contact_radius_mm,
     plateau_mesh_sizes,
 )
-from fecheck.model import ef_sphere_plane
+from fecheck.reference.closed_forms import ef_sphere_plane
 from fecheck.scene import load_scene
 
 R = 31.8

@@ -12,7 +12,7 @@ import sys
 
 import pytest
 
-from fecheck.explain import plan_scene
+from fecheck.model.explain import plan_scene
 from fecheck.scene import load_scene
 
 PROBE = """

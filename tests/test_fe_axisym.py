@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 
 from fecheck.fe.axisym import axisym_sphere_on_layer
-from fecheck.fe.references import hertz_sphere_on_plane
+from fecheck.reference.closed_forms import hertz_sphere_on_plane
 
 
 def test_thick_block_matches_hertz():

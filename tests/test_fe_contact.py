@@ -9,7 +9,7 @@ from scipy.optimize import brentq
 
 from fecheck.errors import FecheckError
 from fecheck.fe.contact import solve_contact
-from fecheck.fe.references import ef_sphere_on_plane, hertz_sphere_on_plane
+from fecheck.reference.closed_forms import ef_sphere_on_plane, hertz_sphere_on_plane
 
 
 def _spring_bed(n: int = 60):

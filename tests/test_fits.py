@@ -10,7 +10,7 @@ import numpy as np
 import pytest
 from conftest import require_knee_data
 
-from geometry.errors import FecheckError
+from fecheck.errors import FecheckError
 from geometry.fits import (
     fit_plane,
     fit_polynomial_surface,

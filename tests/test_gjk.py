@@ -2,9 +2,9 @@
 
 import numpy as np
 import pytest
+from gjk_reference import BoxShape, ConvexPoints, SphereShape, gjk_epa, max_penetration
 from scipy.spatial.transform import Rotation
 
-from fecheck.contact.gjk import BoxShape, ConvexPoints, SphereShape, gjk_epa, max_penetration
 from fecheck.errors import FecheckError
 
 

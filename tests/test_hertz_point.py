@@ -12,16 +12,18 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from gjk_reference import BoxShape, SphereShape, gjk_epa
 
 from fecheck import laws
-from fecheck import model as fm
 from fecheck.contact.convex import SpherePlanePair
-from fecheck.contact.gjk import BoxShape, SphereShape, gjk_epa
-from fecheck.frames import rotation
-from fecheck.model import run_scene
-from fecheck.rigid import solve_rigid
+from fecheck.model.assembly import applied_load, plateau_normals
+from fecheck.model.run import run_scene
+from fecheck.model.sphere_plane import build_compartments
 from fecheck.scene import load_scene
-from fecheck.statics import pose
+from fecheck.scene.constants import GRAVITY_MPS2
+from fecheck.statics.frames import rotation
+from fecheck.statics.newton import pose
+from fecheck.statics.rigid import solve_rigid
 from geometry.plateau import plane_patch
 
 SCENES = Path(__file__).resolve().parents[1] / "validation" / "scenes"
@@ -144,7 +146,7 @@ def _hertz_run(x_mm: float, *extra: str):
 def _contact_force_sum(scene, result) -> np.ndarray:
     """Σ compartment forces on the tibia (N): magnitude along minus the plateau normal."""
     rot, _ = pose(np.array(result.extra["q"]))
-    normals = fm.plateau_normals(scene)
+    normals = plateau_normals(scene)
     return sum(-res.force_N * (rot @ normals[c]) for c, res in result.compartments.items())
 
 
@@ -161,12 +163,12 @@ def test_load_sweep_converges_and_matches_rigid_statics_at_the_solved_pose(x_mm,
     assert r.converged and r.iterations <= 15
     q = np.array(r.extra["q"])
     rot, t = pose(q)
-    applied, _ = fm.applied_load(scene)(rot, t)
-    rigid = solve_rigid(scene.knee, fm.plateau_normals(scene), applied, q, (2, 3))
+    applied, _ = applied_load(scene)(rot, t)
+    rigid = solve_rigid(scene.knee, plateau_normals(scene), applied, q, (2, 3))
     for c, res in r.compartments.items():
         assert res.force_N == pytest.approx(rigid.contact_force_N[c], abs=1e-4)
     # z is free (x, y are driven, their reactions are not reported): vertical balance
-    weight = 2.0 * fm.GRAVITY_MPS2
+    weight = 2.0 * GRAVITY_MPS2
     assert _contact_force_sum(scene, r)[2] + 800.0 - weight == pytest.approx(0.0, abs=1e-6)
 
 
@@ -200,6 +202,6 @@ def test_compartment_results_report_hertz_values_and_face_pressures():
 def test_deepest_vertex_hertz_is_kept_for_meshes_and_says_it_is_not_smooth(overrides):
     # mesh detection and the thesis's whole-face counting need the meshed path
     scene = load_scene(SCENES / "hertz.toml", [*overrides, "mesh.sphere_subdivisions=2"])
-    comps = fm.build_compartments(scene)
+    comps = build_compartments(scene)
     assert all("not smooth" in c.describe() for c in comps)
     assert not any(isinstance(c.pair, SpherePlanePair) for c in comps)

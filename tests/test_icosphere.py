@@ -5,7 +5,7 @@ import time
 import numpy as np
 import pytest
 
-from geometry.errors import FecheckError
+from fecheck.errors import FecheckError
 from geometry.icosphere import icosphere, icosphere_volume_error
 
 CENTER = np.array([28.3, 12.8, 25.8])  # lateral condyle centre, thesis Table B.1

@@ -12,7 +12,7 @@ from fecheck import laws
 from fecheck.contact.analytic import Plane, Sphere
 from fecheck.contact.pair import ContactPair
 from fecheck.errors import FecheckError
-from fecheck.frames import rotation, skew
+from fecheck.statics.frames import rotation, skew
 from geometry.icosphere import icosphere
 from geometry.plateau import plane_patch
 

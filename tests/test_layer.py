@@ -5,7 +5,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from geometry.errors import FecheckError
+from fecheck.errors import FecheckError
 from geometry.layer import cartilage_layer, top_height
 from geometry.polynomial import Polynomial2D
 

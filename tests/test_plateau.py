@@ -3,9 +3,9 @@
 import numpy as np
 import pytest
 
+from fecheck.errors import FecheckError
 from geometry.cap import spherical_cap
 from geometry.checks import mesh_report
-from geometry.errors import FecheckError
 from geometry.fits import fit_plane, plane_coefficients
 from geometry.plateau import plane_patch, plateau_box, polynomial_patch, polynomial_plateau
 from geometry.polynomial import Polynomial2D

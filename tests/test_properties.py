@@ -15,12 +15,13 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 from scipy.spatial.transform import Rotation
 
-from fecheck.bench import load_controlled
 from fecheck.contact import ContactPair, Plane, Sphere
-from fecheck.knee import BASELINE_RIGHT
 from fecheck.laws import ef_stiffness, elastic_foundation
-from fecheck.model import ef_sphere_plane, run_scene
+from fecheck.model.run import run_scene
+from fecheck.reference.closed_forms import ef_sphere_plane
 from fecheck.scene import load_scene
+from fecheck.scene.knee import BASELINE_RIGHT
+from fecheck.statics.load_control import load_controlled
 from geometry.icosphere import icosphere
 from geometry.plateau import plane_patch
 

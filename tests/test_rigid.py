@@ -8,10 +8,10 @@ import numpy as np
 import pytest
 
 from fecheck.errors import FecheckError
-from fecheck.knee import Knee
-from fecheck.model import run_scene
-from fecheck.rigid import solve_rigid, unit_wrench
+from fecheck.model.run import run_scene
 from fecheck.scene import load_scene
+from fecheck.scene.knee import Knee
+from fecheck.statics.rigid import solve_rigid, unit_wrench
 
 SCENES = Path(__file__).resolve().parents[1] / "validation" / "scenes"
 UP = np.array([0.0, 0.0, 1.0])

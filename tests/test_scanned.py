@@ -9,10 +9,10 @@ import pytest
 import tomllib
 from conftest import REPO, require_knee_data
 
-from fecheck import scanned
-from fecheck.decimate import cluster, decimate
 from fecheck.errors import FecheckError
-from fecheck.ligaments import SpringLigament
+from fecheck.scene import scanned
+from fecheck.statics.ligaments import SpringLigament
+from geometry.decimate import cluster, decimate
 
 SCENES = REPO / "validation" / "scenes"
 
@@ -95,7 +95,7 @@ def test_decimation_keeps_the_sheet_close_and_its_orientation():
     small = decimate(sheet, 1000)
     assert 900 <= small.n_faces <= 1000
     # every new vertex is the mean of old vertices in one cell: within the cell diagonal
-    from fecheck.thickness import closest_distance
+    from geometry.distance import closest_distance
 
     dist, _ = closest_distance(small.points, sheet)
     cell = np.sqrt(sheet.area / small.n_faces * 2)     # ~ edge length of the new mesh
@@ -147,7 +147,7 @@ def test_ray_parity_fails_on_the_open_sheet_where_the_normal_sign_does_not():
 
 
 def test_missing_data_in_a_scene_is_a_one_line_error(tmp_path):
-    from fecheck.model import run_scene
+    from fecheck.model.run import run_scene
     from fecheck.scene import load_scene
 
     scene = load_scene(SCENES / "femur_tibia.toml", [f"scanned.data_dir='{tmp_path}'"])

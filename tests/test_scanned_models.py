@@ -9,12 +9,12 @@ import numpy as np
 import pytest
 from conftest import REPO, require_knee_data
 
-from fecheck import scanned
 from fecheck.errors import FecheckError
-from fecheck.model import ContactModel, run_scene
-from fecheck.scanned_models import build_compartments
-from fecheck.scene import load_scene
-from fecheck.statics import pose
+from fecheck.model.assembly import ContactModel
+from fecheck.model.run import run_scene
+from fecheck.model.scanned import build_compartments
+from fecheck.scene import load_scene, scanned
+from fecheck.statics.newton import pose
 
 SCENES = REPO / "validation" / "scenes"
 DECIMATED = "scanned.decimate_faces=1500"
@@ -34,8 +34,7 @@ def _hand_balance(scene, result) -> np.ndarray:
     """Σ forces on the tibia at the solved pose (N), each term computed independently."""
     rot, t = pose(np.asarray(result.extra["q"]), 0.0)
     model = ContactModel(build_compartments(scene))
-    model(rot, t)
-    total = sum(model.compartment_wrench(c.name)[:3] for c in model.compartments)
+    total = sum(w[:3] for w in model.wrenches(rot, t).values())
     d = np.asarray(scene["load.direction"])
     total = total + scene["load.force_N"] * d / np.linalg.norm(d)
     total = total + np.array([0.0, 0.0, -9.81 * scene["tibia.mass_kg"]])

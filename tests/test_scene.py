@@ -8,8 +8,8 @@ from pathlib import Path
 import pytest
 
 from fecheck.errors import FecheckError
-from fecheck.knee import ADDITIONAL_LEFT, BASELINE_RIGHT, plane_normal
 from fecheck.scene import SCHEMA, load_scene, packaged_scene_path, parse_override
+from fecheck.scene.knee import ADDITIONAL_LEFT, BASELINE_RIGHT, plane_normal
 
 REPO = Path(__file__).resolve().parents[1]
 SCENES = sorted((REPO / "validation" / "scenes").glob("*.toml"))

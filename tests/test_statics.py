@@ -8,13 +8,16 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from fecheck import model as fm
+from fecheck import laws
 from fecheck.errors import FecheckError
-from fecheck.ligaments import rod_constraint, spring_wrench
-from fecheck.model import ef_sphere_plane, run_scene
-from fecheck.rigid import solve_rigid
+from fecheck.model.assembly import ContactModel, applied_load, plateau_normals
+from fecheck.model.notes import MIN_CONTACT_FACES
+from fecheck.model.run import run_scene
+from fecheck.model.sphere_plane import build_compartments
+from fecheck.reference.closed_forms import ef_sphere_plane
 from fecheck.scene import load_scene
-from fecheck.statics import (
+from fecheck.statics.ligaments import rod_constraint, spring_wrench
+from fecheck.statics.newton import (
     Problem,
     _System,
     geometric_tangent,
@@ -23,6 +26,7 @@ from fecheck.statics import (
     solve,
     twist_basis,
 )
+from fecheck.statics.rigid import solve_rigid
 
 SCENES = Path(__file__).resolve().parents[1] / "validation" / "scenes"
 SHIPPED = ["baseline", "rigid", "rigid_ligaments", "hertz", "volumetric", "ligaments",
@@ -90,13 +94,11 @@ def test_assembled_jacobian_through_contact_pairs_matches_fd(master, law):
     scene = load_scene(overrides=[f"contact.master='{master}'", f"contact.law='{law}'",
                                   "mesh.sphere_subdivisions=4",
                                   "dofs.free=['x', 'y', 'z', 'abduction', 'internal']"])
-    contact = fm.ContactModel(fm.build_compartments(scene))
-    load = fm.applied_load(scene)
+    contact = ContactModel(build_compartments(scene))
+    load = applied_load(scene)
 
     def wrench(rot, t):
-        w1, d1 = contact(rot, t)
-        w2, d2 = load(rot, t)
-        return w1 + w2, d1 + d2
+        return contact(rot, t) + [load(rot, t)]
 
     q = np.array([0.2, -0.3, 1.1, math.radians(0.3), math.radians(0.5)])
     problem = Problem(q, (0, 1, 2, 3, 4), wrench)
@@ -145,8 +147,8 @@ def test_baseline_forces_equal_rigid_statics_at_the_solved_pose(baseline):
     scene = load_scene(SCENES / "baseline.toml")
     q = np.array(baseline.extra["q"])
     rot, t = pose(q)
-    applied, _ = fm.applied_load(scene)(rot, t)
-    sol = solve_rigid(scene.knee, fm.plateau_normals(scene), applied, q, (2, 3))
+    applied, _ = applied_load(scene)(rot, t)
+    sol = solve_rigid(scene.knee, plateau_normals(scene), applied, q, (2, 3))
     for c, res in baseline.compartments.items():
         assert res.force_N == pytest.approx(sol.contact_force_N[c], abs=0.01)
         assert res.force_N == pytest.approx(RIGID_SPLIT[c], abs=0.5)
@@ -223,7 +225,7 @@ def test_micro_newton_load_rocks_onto_both_plateaus_and_converges():
 def test_layer_crushed_through_is_an_error_naming_what_to_change(law):
     # E = 0.1 MPa: even half the 800 N load needs an exact EF depth beyond h = 6 mm;
     # Blankevoort's log law, continued linearly beyond 0.9 h, passes h too (8.4 mm)
-    k = fm.laws.ef_stiffness(0.1, 0.3, 6.0)
+    k = laws.ef_stiffness(0.1, 0.3, 6.0)
     assert ef_sphere_plane(400.0, 31.8, k)["max_depth_mm"] > 6.0
     with pytest.raises(FecheckError, match=r"crushed through.*contact.thickness_mm = 6 mm.*"
                                            r"contact.youngs_MPa.*load.force_N"):
@@ -263,7 +265,7 @@ def test_contact_on_few_faces_gets_a_note():
     r = run_scene(load_scene(SCENES / "baseline.toml", ["mesh.plateau_refine_mm=12",
                                                         "mesh.plateau_size_mm=12"]))
     faces = {c: v.n_contact_faces for c, v in r.compartments.items()}
-    assert all(n < fm.MIN_CONTACT_FACES for n in faces.values())
+    assert all(n < MIN_CONTACT_FACES for n in faces.values())
     for c, n in faces.items():
         assert any(f"{c}: the contact spans only {n} faces" in note and
                    "mesh.plateau_refine_mm" in note for note in r.notes)
@@ -289,7 +291,6 @@ def test_negative_stiffness_start_reaches_the_stable_equilibrium_not_the_saddle(
     # on the dome; plain Newton jumps to the unstable root y = -b/a (its residual is
     # zero too). The stable root on the load's side solves a y + b = k (y - s).
     a, b, k, s = 10.0, 1.0, 100.0, 2.0
-    last = []
 
     def dome(t):
         return point_force(t, np.array([0.0, a * t[1] + b, 0.0]), np.diag([0.0, a, 0.0]))
@@ -300,9 +301,8 @@ def test_negative_stiffness_start_reaches_the_stable_equilibrium_not_the_saddle(
                            np.diag([0.0, -k if slack > 0 else 0.0, 0.0]))
 
     def wrench(rot, t):
-        last[:] = [dome(t), spring(t)]
-        return last[0][0] + last[1][0], last[0][1] + last[1][1]
+        return [dome(t), spring(t)]
 
-    sol = solve(Problem(np.zeros(5), (1,), wrench, tolerance=1e-10, parts=lambda: last))
+    sol = solve(Problem(np.zeros(5), (1,), wrench, tolerance=1e-10))
     assert sol.converged
     assert sol.q[1] == pytest.approx((b + k * s) / (k - a), abs=1e-9)

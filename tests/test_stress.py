@@ -9,9 +9,9 @@ import time
 import numpy as np
 import pytest
 
-from fecheck import stress
-from fecheck.model import run_scene
+from fecheck.model.run import run_scene
 from fecheck.scene import load_scene
+from fecheck.studies import stress
 
 
 def test_quick_matrix_has_no_unexplained_outcome(tmp_path):

@@ -12,7 +12,7 @@ import pytest
 from fecheck.cli import main
 from fecheck.errors import FecheckError
 from fecheck.scene import load_scene
-from fecheck.sweep import override_for, parse_values, run_sweep
+from fecheck.studies.sweep import override_for, parse_values, run_sweep
 
 SCENES = Path(__file__).resolve().parents[1] / "validation" / "scenes"
 

@@ -4,10 +4,11 @@ import numpy as np
 import pytest
 from conftest import require_knee_data
 
-from fecheck import laws, thickness
+from fecheck import laws
 from fecheck.contact.analytic import Plane
 from fecheck.contact.pair import ContactPair
 from fecheck.errors import FecheckError
+from fecheck.laws import layer as thickness
 from geometry.mesh import TriMesh
 
 
@@ -92,7 +93,7 @@ def test_per_face_foundation_integrates_each_face_with_its_own_stiffness():
 
 
 def test_scanned_cartilage_thickness_matches_the_data_set_measurement():
-    from fecheck import scanned
+    from fecheck.scene import scanned
 
     knee = require_knee_data()
     for name, bone, median in (("femur_cartilage", "femur_bone", 2.07),

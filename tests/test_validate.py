@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 
 from fecheck.cli import main
-from fecheck.validate import default_validation_dir
+from fecheck.studies.validate import default_validation_dir
 
 PNG_MAGIC = b"\x89PNG\r\n\x1a\n"
 CHEAP_ROWS = ("rigid", "mesh", "sphere_plane")

@@ -53,9 +53,10 @@ def _plane_case():
 
 def _sphere_case():
     """The baseline's medial compartment (sphere master, plateau slave) at equilibrium."""
-    from fecheck.model import build_compartments, run_scene
+    from fecheck.model.run import run_scene
+    from fecheck.model.sphere_plane import build_compartments
     from fecheck.scene import load_scene
-    from fecheck.statics import pose
+    from fecheck.statics.newton import pose
 
     scene = load_scene(None)
     rot, t = pose(np.asarray(run_scene(scene).extra["q"]))
@@ -118,7 +119,7 @@ def measure(budget_s: float, thesis: bool = True) -> dict:
     import warnings
 
     from fecheck import laws
-    from fecheck.model import run_scene
+    from fecheck.model.run import run_scene
     from fecheck.scene import load_scene
 
     k = laws.ef_stiffness(20.0, 0.3, 6.0)

@@ -18,7 +18,7 @@ import sys
 os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
 os.environ.setdefault("OMP_NUM_THREADS", "1")
 
-from fecheck import bench  # (after the thread limits)
+from fecheck.studies import bench
 
 
 def main(argv: list[str] | None = None) -> dict:

@@ -25,7 +25,7 @@ from report import save_figure
 from fecheck.fe.axisym import axisym_sphere_on_layer
 from fecheck.fe.crosscheck import FESettings
 from fecheck.fe.layer3d import sphere_on_layer_3d
-from fecheck.fe.references import hertz_sphere_on_plane
+from fecheck.reference.closed_forms import hertz_sphere_on_plane
 from fecheck.scene import load_scene
 
 SCENE = Path(__file__).resolve().parent / "scenes" / "fe_hertz_block.toml"

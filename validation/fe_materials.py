@@ -24,7 +24,7 @@ import numpy as np
 from report import save_figure
 
 from fecheck.fe.axisym import axisym_sphere_on_layer
-from fecheck.fe.references import ef_sphere_on_plane, hertz_sphere_on_plane
+from fecheck.reference.closed_forms import ef_sphere_on_plane, hertz_sphere_on_plane
 
 COMPARTMENTS = {"medial": (323.71, 25.5), "lateral": (456.67, 31.8)}
 SIZE_MM = 0.1

@@ -20,7 +20,7 @@ import time
 import numpy as np
 import scipy.sparse as sp
 
-from fecheck.fe.references import hertz_sphere_on_plane
+from fecheck.reference.closed_forms import hertz_sphere_on_plane
 
 
 def stiffness(size_mm: float):

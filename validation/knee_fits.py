@@ -25,7 +25,7 @@ import numpy as np
 import thesis_values as tv
 from report import knee_script_args
 
-from fecheck import scanned
+from fecheck.scene import scanned
 from geometry.fits import fit_plane, fit_polynomial_surface, fit_sphere, fit_spherical_polynomial
 
 SIDES = ("medial", "lateral")

@@ -135,9 +135,10 @@ def require(module: str, owner: str):
 
 
 def require_knee_data():
-    """The scanned-knee folder (`fecheck.scanned.knee_dir`), or raise `Missing` saying
+    """The scanned-knee folder (`fecheck.scene.scanned.knee_dir`), or raise `Missing` saying
     where it was looked for (../shared/data is not shipped with the repository)."""
-    scanned = require("fecheck.scanned", "H5")
+    from fecheck.scene import scanned
+
     try:
         return scanned.knee_dir()
     except Exception as err:  # noqa: BLE001 - FecheckError naming the folder

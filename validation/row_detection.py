@@ -43,7 +43,8 @@ def _slope(n: list[float], t: list[float]) -> float | None:
 
 
 def figs_3_21_3_25(quick: bool, out: Path) -> Row:
-    bench = require("fecheck.contact.bench", "H2")
+    from fecheck.studies import bench_detection as bench
+
     result = bench.run(quick=quick, levels=(3, 4, 5) if quick else (3, 4, 5, 6))
     rows = [r for r in result["rows"] if r["scenario"] == "bisect" and "time_ms" in r]
     series = {}

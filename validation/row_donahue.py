@@ -15,7 +15,7 @@ from pathlib import Path
 
 import numpy as np
 import thesis_values as tv
-from report import DEVIATES, Line, Row, figure, guarded, main_for, require, save_figure, table_row
+from report import DEVIATES, Line, Row, figure, guarded, main_for, save_figure, table_row
 from row_rigid import run
 from row_sphere_plane import WHOLE_FACE
 
@@ -49,13 +49,15 @@ def _metrics(result, c: str) -> dict[str, float]:
 
 
 def _compute(quick: bool) -> dict:
-    cc = require("fecheck.fe.crosscheck", "H4")
-    refs = require("fecheck.fe.references", "H4")
+    from fecheck.fe import crosscheck as cc
+    from fecheck.reference import closed_forms as refs
+
     x_eq, exact = equal_force_point()
     sizes = (2.0,) if quick else (5.0, 2.0, 1.0)
     whole = {s: run(None, *WHOLE_FACE, f"mesh.sphere_subdivisions={LEVEL_OF_SIZE[s]}",
                     f"load.point_mm=[{x_eq}, 12.8, -380.0]") for s in sizes}
-    knee = require("fecheck.knee", "H3").BASELINE_RIGHT
+    from fecheck.scene.knee import BASELINE_RIGHT as knee
+
     fe = {}
     for c in ("medial", "lateral"):
         load = exact.compartments[c].force_N

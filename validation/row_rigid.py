@@ -21,7 +21,6 @@ from report import (
     figure,
     guarded,
     main_for,
-    require,
     save_figure,
     status_within,
     table_row,
@@ -34,13 +33,16 @@ REFERENCE_POINT_MM = (7.9, 12.8, -380.0)
 
 def scene(name: str | None, *overrides: str):
     """A validation scene (``validation/scenes/NAME.toml``; None = packaged baseline)."""
-    load_scene = require("fecheck.scene", "H3").load_scene
+    from fecheck.scene import load_scene
+
     return load_scene(None if name is None else SCENES / f"{name}.toml", list(overrides))
 
 
 def run(name: str | None, *overrides: str):
     """`run_scene` of a validation scene with overrides."""
-    return require("fecheck.model", "H3").run_scene(scene(name, *overrides))
+    from fecheck.model.run import run_scene
+
+    return run_scene(scene(name, *overrides))
 
 
 def shifts_mm(quick: bool, full_points: int = 17) -> np.ndarray:

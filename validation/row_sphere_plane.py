@@ -25,7 +25,6 @@ from report import (
     figure,
     guarded,
     main_for,
-    require,
     require_knee_data,
     save_figure,
     table_row,
@@ -177,7 +176,8 @@ def table_5_6(out: Path) -> Row:
     exact = solved("hertz", ())
     whole = solved("hertz", whole_face())
     lines = case_lines(tv.TABLE_5_6_HERTZ, exact, whole)
-    knee = require("fecheck.knee", "H3").BASELINE_RIGHT
+    from fecheck.scene.knee import BASELINE_RIGHT as knee
+
     c = "medial"
     th = tv.TABLE_5_6_HERTZ[c]
     check = hertz_check(th["force_N"], knee.radius_mm(c), 20.0, 0.3)

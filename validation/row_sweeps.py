@@ -25,7 +25,6 @@ from report import (
     figure,
     guarded,
     main_for,
-    require,
     require_knee_data,
     save_figure,
     table_row,
@@ -66,8 +65,9 @@ def ligament_group(name: str) -> str:
 
 def sweep(name: str | None, shifts: np.ndarray, overrides: tuple[str, ...] = ()) -> Sweep:
     """Solve scene `name` with the load point moved by each shift (mm) along x
-    (`fecheck.sweep.run_sweep`: serial, each point warm-started from the previous)."""
-    run_sweep = require("fecheck.sweep", "H3").run_sweep
+    (`fecheck.studies.sweep.run_sweep`: serial, each point warm-started from the previous)."""
+    from fecheck.studies.sweep import run_sweep
+
     base = scene(name, *overrides)
     x0 = base["load.point_mm"][0]
     points = run_sweep(base, "load.point_mm[0]", [float(x0 + s) for s in shifts],

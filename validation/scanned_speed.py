@@ -23,10 +23,11 @@ from pathlib import Path
 import numpy as np
 from report import knee_script_args
 
-from fecheck.model import ContactModel, run_scene
-from fecheck.scanned_models import build_compartments
+from fecheck.model.assembly import ContactModel
+from fecheck.model.run import run_scene
+from fecheck.model.scanned import build_compartments
 from fecheck.scene import load_scene
-from fecheck.statics import pose
+from fecheck.statics.newton import pose
 
 SCENE = Path(__file__).resolve().parent / "scenes" / "femur_tibia.toml"
 REPEATS = 5

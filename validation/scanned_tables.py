@@ -36,11 +36,11 @@ import numpy as np
 import thesis_values as tv
 from report import knee_script_args
 
-from fecheck import scanned
-from fecheck.model import ContactModel, run_scene
-from fecheck.scanned_models import build_compartments, bundle_springs
-from fecheck.scene import load_scene
-from fecheck.statics import pose
+from fecheck.model.assembly import ContactModel
+from fecheck.model.run import run_scene
+from fecheck.model.scanned import build_compartments, bundle_springs
+from fecheck.scene import load_scene, scanned
+from fecheck.statics.newton import pose
 
 SCENES = Path(__file__).resolve().parent / "scenes"
 NAMES = ("inclined", "polynomial", "sphere_tibia", "femur_tibia")
@@ -58,8 +58,7 @@ def balance(scene, result) -> float:
     """|Σ forces on the tibia| along the free translations / load (hand statics)."""
     rot, t = pose(np.asarray(result.extra["q"]), 0.0)
     model = ContactModel(build_compartments(scene))
-    model(rot, t)
-    total = sum(model.compartment_wrench(c.name)[:3] for c in model.compartments)
+    total = sum(w[:3] for w in model.wrenches(rot, t).values())
     d = np.asarray(scene["load.direction"], dtype=float)
     total = total + scene["load.force_N"] * d / np.linalg.norm(d)
     total = total + np.array([0.0, 0.0, -9.81 * scene["tibia.mass_kg"]])

@@ -28,7 +28,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from fecheck.contact.kernels import sphere_depths
-from geometry.errors import FecheckError
+from fecheck.errors import FecheckError
 from geometry.polynomial import Polynomial2D
 
 

@@ -33,7 +33,7 @@ from functools import cached_property
 import numpy as np
 
 from fecheck.contact.pair import validate_pose
-from geometry.errors import FecheckError
+from fecheck.errors import FecheckError
 from geometry.mesh import TriMesh
 
 

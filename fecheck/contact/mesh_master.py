@@ -49,7 +49,7 @@ import numpy as np
 
 from fecheck.contact.coherent import WalkState, edge_frames, face_rings, local_closest
 from fecheck.contact.kernels import mesh_surface, signed_closest, walked_mesh_surface
-from geometry.errors import FecheckError
+from fecheck.errors import FecheckError
 from geometry.mesh import TriMesh
 
 MAX_STEPS = 4            # 1-ring moves of a warm-started closest-face walk

@@ -21,7 +21,7 @@ from fecheck.contact.analytic import Plane, PolynomialSurface, Sphere
 from fecheck.contact.broadphase import CandidateCache, checked_relative_pose, pose_status
 from fecheck.contact.kernels import plane_surface, sphere_surface, surface_quadrature
 from fecheck.contact.surface import ContactSurface
-from geometry.errors import FecheckError
+from fecheck.errors import FecheckError
 from geometry.mesh import TriMesh
 
 METHODS = ("auto", "closed-form", "bvh", "ray-parity", "fcl")

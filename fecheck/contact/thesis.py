@@ -27,7 +27,7 @@ import numpy as np
 from fecheck.contact.broadphase import Candidates
 from fecheck.contact.clip import whole_face_quadrature
 from fecheck.contact.surface import ContactSurface
-from geometry.errors import FecheckError
+from fecheck.errors import FecheckError
 from geometry.mesh import TriMesh
 
 FCL_MAX_CONTACTS = 100_000

@@ -20,8 +20,8 @@ import numpy as np
 from fecheck.errors import FecheckError
 from fecheck.fe.contact import solve_contact
 from fecheck.fe.recovery import contact_metrics, project_pressure
-from fecheck.fe.references import hertz_sphere_on_plane
 from fecheck.fe.results import FEContactResult
+from fecheck.reference.closed_forms import hertz_sphere_on_plane
 
 
 def _graded(fine_to: float, step: float, end: float, ratio: float, max_step: float) -> np.ndarray:

@@ -18,15 +18,14 @@ import numpy as np
 from fecheck.errors import FecheckError
 from fecheck.fe.axisym import axisym_sphere_on_layer
 from fecheck.fe.layer3d import sphere_on_layer_3d
-from fecheck.fe.references import (
+from fecheck.fe.results import ContactMetrics, FEContactResult
+from fecheck.reference.closed_forms import (
     DONAHUE_2002,
+    column_stiffness,
     ef_sphere_on_plane,
-    ef_stiffness,
     hertz_sphere_on_plane,
 )
-from fecheck.fe.results import ContactMetrics, FEContactResult
-
-COMPARTMENTS = ("medial", "lateral")
+from fecheck.scene.constants import COMPARTMENTS
 
 
 @dataclass(frozen=True)
@@ -188,7 +187,7 @@ def check_compartment(name: str, load_N: float, radius_mm: float, E_MPa: float, 
 
 def cross_check(scene, size_mm: float | None = None) -> CrossCheck:
     """Solve the scene's EF equilibrium, then one FE solve per compartment under its load."""
-    from fecheck.model import run_scene
+    from fecheck.model.run import run_scene
 
     settings = FESettings.from_scene(scene, size_mm)
     E, nu, h = scene["contact.youngs_MPa"], scene["contact.poisson"], scene["contact.thickness_mm"]
@@ -215,4 +214,4 @@ def cross_check(scene, size_mm: float | None = None) -> CrossCheck:
         checks[c] = chk
         timing[c] = {**chk.timing_s, "fe_3d_over_ef_equilibrium": chk.timing_s["fe_3d"] / ef_time}
     return CrossCheck(checks, settings, {"E_MPa": E, "nu": nu, "thickness_mm": h,
-                                         "ef_k_N_per_mm3": ef_stiffness(E, nu, h)}, timing)
+                                         "ef_k_N_per_mm3": column_stiffness(E, nu, h)}, timing)

@@ -35,8 +35,8 @@ import numpy as np
 from fecheck.errors import FecheckError
 from fecheck.fe.contact import solve_contact
 from fecheck.fe.recovery import contact_metrics, tributary_areas, zero_contour_area
-from fecheck.fe.references import hertz_sphere_on_plane
 from fecheck.fe.results import FEContactResult
+from fecheck.reference.closed_forms import hertz_sphere_on_plane
 
 GAPS = ("reference", "deformed")
 

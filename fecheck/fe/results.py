@@ -6,25 +6,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-
-@dataclass(frozen=True)
-class ContactMetrics:
-    """Summary of one contact: pressures (MPa), area (mm²), indentation (mm), force (N).
-
-    ``depth_mm`` is NaN when the source does not report it (Donahue 2002).
-    """
-
-    max_pressure_MPa: float
-    mean_pressure_MPa: float
-    area_mm2: float
-    depth_mm: float
-    force_N: float
-
-    def as_dict(self) -> dict[str, float | None]:
-        out = {"max_pressure_MPa": self.max_pressure_MPa,
-               "mean_pressure_MPa": self.mean_pressure_MPa, "area_mm2": self.area_mm2,
-               "depth_mm": self.depth_mm, "force_N": self.force_N}
-        return {k: (None if not np.isfinite(v) else float(v)) for k, v in out.items()}
+from fecheck.reference.closed_forms import ContactMetrics
 
 
 @dataclass(frozen=True, eq=False)

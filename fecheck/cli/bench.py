@@ -1,0 +1,63 @@
+"""`fecheck bench [SUITE]`: benchmarks (run time and accuracy, reported as ratios)."""
+
+from __future__ import annotations
+
+import argparse
+import os
+import sys
+from pathlib import Path
+
+SUITES = ("pareto", "detection")
+
+
+def add_parser(subparsers) -> None:
+    p = subparsers.add_parser(
+        "bench", help="run a benchmark suite (default pareto: run time against error of "
+                      "every method; detection: thesis Figs. 3.21/3.25)",
+        description="Benchmarks measured in one run and reported as ratios. 'pareto' (the "
+                    "default): time and error of EF (clipped, whole-face, analytic master), "
+                    "the thesis stack, Hertz and FE on the baseline compartments against "
+                    "each model's converged reference, and time per contact evaluation "
+                    "against faces (fecheck.bench). 'detection': "
+                    "contact detection time and area/volume errors against exact values, "
+                    "our engine vs the thesis stack (fcl, ray parity + cKDTree).")
+    p.add_argument("suite", nargs="?", default="pareto", choices=SUITES,
+                   help="benchmark suite (default: pareto)")
+    p.add_argument("--quick", action="store_true", help="small sizes only (≤ 20,480 faces)")
+    p.add_argument("--json", type=Path, metavar="PATH", help="write rows and ratios as JSON")
+    p.add_argument("--plot", type=Path, metavar="DIR", help="write log-log PNGs into DIR")
+    p.set_defaults(run=run)
+
+
+def run(args: argparse.Namespace) -> int:
+    os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
+    os.environ.setdefault("OMP_NUM_THREADS", "1")
+    if args.suite == "pareto":
+        return _pareto(args)
+    from fecheck.contact import bench
+
+    result = bench.run(quick=args.quick,
+                       progress=lambda m: print(f"  {m}", file=sys.stderr, flush=True))
+    print(bench.table(result))
+    if args.json:
+        bench.write_json(result, args.json)
+        print(f"wrote {args.json}")
+    if args.plot:
+        for path in bench.plot(result, args.plot):
+            print(f"wrote {path}")
+    return 0
+
+
+def _pareto(args: argparse.Namespace) -> int:
+    from fecheck.studies import bench
+
+    config = bench.BenchConfig.quick() if args.quick else bench.BenchConfig()
+    result = bench.run_bench(config, log=lambda m: print(f"  {m}", file=sys.stderr, flush=True))
+    print(bench.table(result))
+    if args.json:
+        bench.write_json(result, str(args.json))
+        print(f"wrote {args.json}")
+    if args.plot:
+        for path in bench.plot(result, str(args.plot)):
+            print(f"wrote {path}")
+    return 0

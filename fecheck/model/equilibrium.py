@@ -1,0 +1,107 @@
+"""One equilibrium of the tibia under contact, load, gravity, springs and constraints,
+and the per-compartment results read from it. Shared by every contact model kind."""
+
+from __future__ import annotations
+
+import math
+import time
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass
+
+import numpy as np
+
+from fecheck.contact.surface import ContactSurface
+from fecheck.laws import LawResult
+from fecheck.model.assembly import (
+    Compartment,
+    ContactModel,
+    applied_load,
+    force_scale,
+    free_indices,
+    start_pose,
+    wrench_parts,
+)
+from fecheck.model.results import CompartmentResult
+from fecheck.scene import Scene
+from fecheck.statics.newton import ConstraintFn, Problem, Solution, cross3, pose, solve
+
+
+@dataclass(frozen=True, eq=False)
+class Equilibrium:
+    """A solved equilibrium: the Newton solution, the tibia's pose (R, t), and each
+    compartment's law result and contact wrench on the tibia (6,) at that pose.
+
+    seconds : wall time of the Newton solve, s
+    """
+
+    solution: Solution
+    rot: np.ndarray
+    t: np.ndarray
+    results: list[LawResult]
+    wrenches: list[np.ndarray]
+    contact: ContactModel
+    seconds: float
+
+
+def solve_equilibrium(scene: Scene, comps: Sequence[Compartment],
+                      springs: Sequence[Callable] = (),
+                      constraints: Sequence[ConstraintFn] = (),
+                      warm_start: np.ndarray | None = None) -> Equilibrium:
+    """Newton statics of the scene's tibia with contact in `comps`, the scene's load and
+    gravity, ligament `springs` (wrench parts) and `constraints` (rods, equal forces).
+
+    `warm_start` (5,) = (x, y, z mm, θy, θz rad) starts the solve there (sweeps).
+    """
+    contact = ContactModel(comps)
+    parts = wrench_parts(contact, applied_load(scene), *springs)
+    q0 = start_pose(scene) if warm_start is None else np.asarray(warm_start, dtype=float)
+    problem = Problem(q0, free_indices(scene), parts, tuple(constraints),
+                      math.radians(scene["dofs.flexion_deg"]), force_scale(scene),
+                      tolerance=scene["solver.tolerance"],
+                      max_iterations=scene["solver.max_iterations"],
+                      touching=lambda: contact.touching)
+    t0 = time.perf_counter()
+    sol = solve(problem)
+    seconds = time.perf_counter() - t0
+    rot, t = pose(sol.q, problem.theta_x)
+    evaluated = contact.evaluate(rot, t)              # at the solution, for the report
+    return Equilibrium(sol, rot, t, [res for res, _, _ in evaluated],
+                       [w for _, w, _ in evaluated], contact, seconds)
+
+
+def compartment_result(comp: Compartment, res: LawResult, w: np.ndarray, rot: np.ndarray,
+                       t: np.ndarray) -> CompartmentResult:
+    """The reported metrics of one compartment from its law result `res` and contact
+    wrench `w` (6,) on the tibia at pose (R, t); torque about the tibial origin."""
+    torque = w[3:] - cross3(t, w[:3])
+    force = float(np.linalg.norm(w[:3]))
+    mesh = comp.pair.slave
+    points = mesh.points @ rot.T + t if comp.slave_is_tibia else mesh.points
+    area, mean = res.area, res.mean_pressure
+    face_pressure = res.face_pressure()
+    if isinstance(res.surface, ContactSurface):
+        faces = res.surface.n_faces
+    else:                                           # point contact: faces under the pressure
+        faces = int(np.count_nonzero(face_pressure))
+    if getattr(comp.pair, "area_mode", "") == "whole-face" and faces:
+        # the thesis's area: the full (unprojected) area of every face touching the master
+        area = float(mesh.face_areas[res.surface.face].sum())
+        mean = force / area
+    return CompartmentResult(force, res.max_pressure, mean, area, res.max_depth,
+                             float(np.linalg.norm(torque)), torque, faces,
+                             face_pressure, points, mesh.faces)
+
+
+def compartment_results(comps: Sequence[Compartment], eq: Equilibrium
+                        ) -> dict[str, CompartmentResult]:
+    """{compartment: `CompartmentResult`} at the equilibrium."""
+    return {c.name: compartment_result(c, res, w, eq.rot, eq.t)
+            for c, res, w in zip(comps, eq.results, eq.wrenches)}
+
+
+def not_converged_note(sol: Solution) -> list[str]:
+    """The note a run that stopped before convergence carries (none if it converged)."""
+    if sol.converged:
+        return []
+    return [f"did not converge in {sol.iterations} iterations "
+            f"(residual {sol.residual_norm:.3g} N); raise solver.max_iterations"]

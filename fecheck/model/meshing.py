@@ -1,0 +1,146 @@
+"""Meshes of the sphere-plane model: condyles, plateau discs and masters, sized from the
+expected contact.
+
+A meshed plateau (sphere-plane model, ``contact.master = condyle``) must resolve the
+contact (enough faces across it) and contain it (the disc wider than it). Both follow
+from the closed-form sphere-on-plane contact radius at the scene's load, known before
+the solve (`fecheck.reference.closed_forms`): for a foundation law of stiffness k (N/mm³), the depth d from
+F = k·πd²(R − d/3) and a = √(2Rd − d²); for Hertz a = (3FR / 4E*)^(1/3).
+
+Only plateau keys left at their defaults are sized; the defaults themselves are kept
+wherever they already suffice (the 800 N baseline mesh is unchanged). Sizes are rounded
+(element size to the default over a power of two, disc radius up to whole mm) so that
+a load sweep reuses a few cached meshes.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from fecheck import laws
+from fecheck.errors import FecheckError
+from fecheck.model.assembly import plateau_normals
+from fecheck.reference.closed_forms import ef_cap_depth, hertz_contact_radius
+from fecheck.scene import SCHEMA, Scene
+from fecheck.scene.constants import GRAVITY_MPS2
+from fecheck.scene.knee import Knee
+
+ELEMENTS_PER_CONTACT_RADIUS = 8
+"""Refined plateau elements across the smallest expected contact radius."""
+
+DISC_MARGIN = 1.25
+"""Meshed disc radius over the contact radius at the whole load on one compartment."""
+
+
+def total_load_N(scene: Scene) -> float:
+    """Magnitude of the external load plus the tibia's weight (if on), N."""
+    return scene["load.force_N"] + scene["tibia.mass_kg"] * GRAVITY_MPS2 * scene["gravity"]
+
+
+def expected_contact_radius_mm(scene: Scene, force_N: float, radius_mm: float) -> float:
+    """Contact radius (mm) of a sphere of `radius_mm` on a plane pressed by `force_N` (N)
+    under the scene's law: the EF law (Blankevoort by its small-depth EF stiffness, a
+    slight overestimate), the volumetric k_V, or Hertz. Capped at the sphere radius."""
+    r = float(radius_mm)
+    if force_N <= 0.0:
+        return 0.0
+    e, nu, h = scene["contact.youngs_MPa"], scene["contact.poisson"], scene["contact.thickness_mm"]
+    if scene["contact.law"] == "hertz":
+        e_star = laws.hertz_modulus(e, nu, scene["contact.indenter_youngs_MPa"],
+                                    scene["contact.indenter_poisson"])
+        return min(r, hertz_contact_radius(force_N, r, e_star))
+    k = (scene["contact.volumetric_stiffness_N_per_mm3"] if scene["contact.law"] == "volumetric"
+         else laws.ef_stiffness(e, nu, h))
+    d = ef_cap_depth(force_N, r, k)
+    if d >= r:                                            # the whole hemisphere
+        return r
+    return math.sqrt(max(2.0 * r * d - d * d, 0.0))
+
+
+def plateau_mesh_sizes(scene: Scene, radius_mm: float) -> dict[str, float]:
+    """Disc radius, element sizes and refined-zone radius (mm) of a meshed plateau under a
+    condyle of `radius_mm`: the scene's ``mesh.plateau_*`` values, with those left at
+    their defaults sized from the expected contact (module docstring).
+
+    The smallest contact is taken at half the load (an even split between the
+    compartments), the largest at the whole load on one compartment.
+    """
+    keys = ("radius", "size", "refine", "refine_radius")
+    value = {k: scene[f"mesh.plateau_{k}_mm"] for k in keys}
+    default = {k: SCHEMA[f"mesh.plateau_{k}_mm"].default for k in keys}
+    is_default = {k: value[k] == default[k] for k in keys}
+    load = total_load_N(scene)
+    a_half = expected_contact_radius_mm(scene, 0.5 * load, radius_mm)
+    a_full = expected_contact_radius_mm(scene, load, radius_mm)
+    out = dict(value)
+    if is_default["radius"]:
+        out["radius"] = max(value["radius"], float(math.ceil(DISC_MARGIN * a_full)))
+    if is_default["refine"] and 0.0 < a_half < ELEMENTS_PER_CONTACT_RADIUS * value["refine"]:
+        halvings = math.ceil(math.log2(ELEMENTS_PER_CONTACT_RADIUS * value["refine"] / a_half))
+        out["refine"] = value["refine"] / 2 ** halvings
+    if is_default["refine_radius"]:
+        if out["refine"] < value["refine"]:           # small contact: a small refined zone
+            out["refine_radius"] = min(value["refine_radius"],
+                                       float(math.ceil(2.0 * a_full / out["refine"]))
+                                       * out["refine"])
+        else:                                         # wide contact: the zone covers it
+            out["refine_radius"] = max(value["refine_radius"], float(math.ceil(a_half)))
+    return {"radius": out["radius"], "size": out["size"], "refine_size": out["refine"],
+            "refine_radius": out["refine_radius"]}
+
+
+MESH_DETECTION = ("bvh", "ray-parity", "fcl")
+"""Detection methods that need a mesh master: the analytic surface is meshed instead."""
+
+
+def condyle_mesh(scene: Scene, knee: Knee, c: str):
+    from geometry.icosphere import icosphere
+
+    return icosphere(knee.radius_mm(c), scene["mesh.sphere_subdivisions"],
+                     knee.condyle_center[c], method=scene["mesh.method"])
+
+
+def plateau_box(scene: Scene, knee: Knee, c: str):
+    """The plateau plane as the top of a closed 40 x 40 x 10 mm box (mesh detection)."""
+    from geometry.plateau import plateau_box
+
+    if scene["plateau.kind"] == "polynomial":
+        raise FecheckError("mesh detection (contact.detection = 'bvh', 'ray-parity' or "
+                           "'fcl') needs plane plateaus here; use contact.detection = 'auto' "
+                           "for polynomial plateaus")
+    n = plateau_normals(scene)[c]
+    lam, gam = ((0.0, 0.0) if scene["plateau.kind"] == "transverse"
+                else scene[f"plateau.{c}_angles_deg"])
+    return plateau_box(knee.condyle_center[c] - knee.radius_mm(c) * n, 40.0, 40.0, 10.0,
+                       sagittal_deg=lam, frontal_deg=gam)
+
+
+def plateau_master(scene: Scene, knee: Knee, c: str):
+    from fecheck.contact.analytic import Plane, PolynomialSurface
+    from geometry.polynomial import Polynomial2D
+
+    if scene["plateau.kind"] == "polynomial":
+        return PolynomialSurface(Polynomial2D(np.asarray(scene[f"plateau.{c}_coefficients"])))
+    n = plateau_normals(scene)[c]
+    return Plane(knee.condyle_center[c] - knee.radius_mm(c) * n, n)
+
+
+def plateau_mesh(scene: Scene, knee: Knee, c: str):
+    """The meshed plateau disc under condyle `c`, sized to resolve and contain the
+    expected contact (`fecheck.contact_size.plateau_mesh_sizes`)."""
+    from geometry.plateau import plane_patch, polynomial_patch
+    from geometry.polynomial import Polynomial2D
+
+    foot = knee.condyle_center[c] - knee.radius_mm(c) * np.array([0.0, 0.0, 1.0])
+    size = plateau_mesh_sizes(scene, knee.radius_mm(c))
+    radius = size.pop("radius")
+    if scene["plateau.kind"] == "polynomial":
+        poly = Polynomial2D(np.asarray(scene[f"plateau.{c}_coefficients"]))
+        return polynomial_patch(poly, footprint="ellipse", center_xy=foot[:2], half_x=radius,
+                                half_y=radius, refine_point=foot[:2], **size)
+    n = plateau_normals(scene)[c]
+    point = knee.condyle_center[c] - knee.radius_mm(c) * n
+    return plane_patch(point, n, radius=radius, refine_point=point, **size)
+

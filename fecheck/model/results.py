@@ -1,0 +1,188 @@
+"""Results of one scene run: plain dataclasses, their JSON/CSV rows and a printed table.
+
+Units: forces N, pressures MPa, areas mm², depths mm, torques N·mm (about the tibial
+origin), pose in mm and degrees, times in s. Ligament force is + in tension.
+"""
+
+from __future__ import annotations
+
+import csv
+import json
+import math
+from collections.abc import Mapping
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+POSE_KEYS = ("x_mm", "y_mm", "z_mm", "abduction_deg", "internal_deg")
+
+
+@dataclass(frozen=True)
+class CompartmentResult:
+    """Contact metrics of one compartment (NaN where the model has no such quantity,
+    e.g. pressures of the rigid point-contact model).
+
+    face_pressure_MPa : (n_slave_faces,) mean pressure on every slave face (0 off contact)
+    slave_points, slave_faces : the slave mesh in world coordinates at equilibrium (plots)
+    torque_vector_Nmm : (3,) moment of the compartment's contact force on the tibia about
+        the tibial origin, world axes; `torque_Nmm` is its norm
+    """
+
+    force_N: float
+    max_pressure_MPa: float
+    mean_pressure_MPa: float
+    area_mm2: float
+    max_depth_mm: float
+    torque_Nmm: float
+    torque_vector_Nmm: np.ndarray
+    n_contact_faces: int = 0
+    face_pressure_MPa: np.ndarray | None = None
+    slave_points: np.ndarray | None = None
+    slave_faces: np.ndarray | None = None
+
+    def as_dict(self) -> dict[str, Any]:
+        """JSON-ready metrics (no per-face arrays)."""
+        return {"force_N": _num(self.force_N), "max_pressure_MPa": _num(self.max_pressure_MPa),
+                "mean_pressure_MPa": _num(self.mean_pressure_MPa),
+                "area_mm2": _num(self.area_mm2), "max_depth_mm": _num(self.max_depth_mm),
+                "torque_Nmm": _num(self.torque_Nmm),
+                "torque_vector_Nmm": [_num(v) for v in self.torque_vector_Nmm],
+                "n_contact_faces": int(self.n_contact_faces)}
+
+
+@dataclass(frozen=True)
+class LigamentResult:
+    """One ligament: force (N, + tension) and length (mm) at equilibrium."""
+
+    force_N: float
+    length_mm: float
+
+    def as_dict(self) -> dict[str, Any]:
+        return {"force_N": _num(self.force_N), "length_mm": _num(self.length_mm)}
+
+
+@dataclass(frozen=True)
+class RunResult:
+    """Everything one `fecheck run` reports.
+
+    pose : {x_mm, y_mm, z_mm, abduction_deg, internal_deg} of the tibia
+    compartments : {"medial"|"lateral": CompartmentResult}
+    ligaments : {name: LigamentResult}
+    timing_s : {"total", "solve", …} wall-clock seconds (solve = the equilibrium solve
+        with its contact evaluations, without mesh building and imports; build = meshes
+        and contact pairs; contact = all contact-and-tangent evaluations; per_evaluation
+        = one evaluation of every compartment)
+    exact : closed-form references and deviations (sphere-plane EF), else {}
+    extra : other outputs (multipliers, evaluation counts, …)
+    """
+
+    scene: str
+    model: str
+    law: str
+    converged: bool
+    iterations: int
+    residual_norm: float
+    pose: Mapping[str, float]
+    compartments: Mapping[str, CompartmentResult]
+    ligaments: Mapping[str, LigamentResult]
+    timing_s: Mapping[str, float]
+    exact: Mapping[str, Any] = field(default_factory=dict)
+    notes: tuple[str, ...] = ()
+    extra: Mapping[str, Any] = field(default_factory=dict)
+
+    def as_dict(self) -> dict[str, Any]:
+        """JSON-ready nested dict (keys as documented in README / DESIGN)."""
+        return {
+            "scene": self.scene, "model": self.model, "law": self.law,
+            "converged": bool(self.converged), "iterations": int(self.iterations),
+            "residual_norm": _num(self.residual_norm),
+            "pose": {k: _num(self.pose[k]) for k in POSE_KEYS},
+            "compartments": {k: c.as_dict() for k, c in self.compartments.items()},
+            "ligaments": {k: v.as_dict() for k, v in self.ligaments.items()},
+            "timing_s": {k: _num(v) for k, v in self.timing_s.items()},
+            "exact": _jsonable(self.exact), "notes": list(self.notes),
+            "extra": _jsonable(self.extra),
+        }
+
+    def write_json(self, path: str | Path) -> None:
+        """Write `as_dict()` to `path` as JSON (NaN written as null)."""
+        Path(path).write_text(json.dumps(self.as_dict(), indent=2) + "\n")
+
+    def flat_row(self) -> dict[str, Any]:
+        """One flat row (CSV): pose, compartment metrics and ligament forces."""
+        row: dict[str, Any] = {"converged": self.converged, "iterations": self.iterations}
+        row.update({k: self.pose[k] for k in POSE_KEYS})
+        for name, c in self.compartments.items():
+            for k, v in c.as_dict().items():
+                if k != "torque_vector_Nmm":
+                    row[f"{name}_{k}"] = v
+        for name, lig in self.ligaments.items():
+            row[f"{name}_force_N"] = lig.force_N
+        row["solve_s"] = self.timing_s.get("solve", math.nan)
+        return row
+
+    def write_csv(self, path: str | Path) -> None:
+        """Write `flat_row()` as a one-row CSV."""
+        write_rows(path, [self.flat_row()])
+
+    def table(self) -> str:
+        """A readable text table of the result."""
+        lines = [f"scene: {self.scene}   model: {self.model}   law: {self.law}",
+                 (f"converged: {self.converged}   iterations: {self.iterations}   "
+                  f"residual: {self.residual_norm:.3g} N")]
+        lines.append("pose: " + "  ".join(f"{k} {self.pose[k]:+.4f}" for k in POSE_KEYS))
+        rows = [("force N", "force_N", "{:.2f}"), ("max pressure MPa", "max_pressure_MPa",
+                "{:.3f}"), ("mean pressure MPa", "mean_pressure_MPa", "{:.3f}"),
+                ("contact area mm²", "area_mm2", "{:.1f}"), ("max depth mm", "max_depth_mm",
+                "{:.4f}"), ("torque N·mm", "torque_Nmm", "{:.1f}")]
+        names = list(self.compartments)
+        lines.append(f"{'':20s}" + "".join(f"{n:>12s}" for n in names))
+        for label, attr, fmt in rows:
+            vals = [getattr(self.compartments[n], attr) for n in names]
+            lines.append(f"{label:20s}" + "".join(
+                f"{'-' if math.isnan(v) else fmt.format(v):>12s}" for v in vals))
+        for name, lig in self.ligaments.items():
+            lines.append(f"ligament {name:11s}{lig.force_N:12.4g} N (+ tension), "
+                         f"length {lig.length_mm:.3f} mm")
+        for name, ref in self.exact.items():
+            if isinstance(ref, Mapping) and "deviation_percent" in ref:
+                dev = ref["deviation_percent"]
+                lines.append(f"exact EF {name}: d {ref['max_depth_mm']:.4f} mm, "
+                             f"A {ref['area_mm2']:.2f} mm², p_max "
+                             f"{ref['max_pressure_MPa']:.3f} MPa; deviation % "
+                             + ", ".join(f"{k} {v:+.2f}" for k, v in dev.items()))
+        lines.extend(f"note: {n}" for n in self.notes)
+        lines.append("time s: " + "  ".join(f"{k} {v:.4f}" for k, v in self.timing_s.items()))
+        return "\n".join(lines)
+
+
+def _num(x: Any) -> float | None:
+    x = float(x)
+    return None if math.isnan(x) else x
+
+
+def _jsonable(x: Any) -> Any:
+    if isinstance(x, Mapping):
+        return {str(k): _jsonable(v) for k, v in x.items()}
+    if isinstance(x, (list, tuple)):
+        return [_jsonable(v) for v in x]
+    if isinstance(x, np.ndarray):
+        return _jsonable(x.tolist())
+    if isinstance(x, (bool, np.bool_)):
+        return bool(x)
+    if isinstance(x, (int, np.integer)):
+        return int(x)
+    if isinstance(x, (float, np.floating)):
+        return _num(x)
+    return x
+
+
+def write_rows(path: str | Path, rows: list[Mapping[str, Any]]) -> None:
+    """Write dict rows to a CSV file (columns of the first row, in order)."""
+    with open(path, "w", newline="") as fh:
+        writer = csv.DictWriter(fh, fieldnames=list(rows[0]))
+        writer.writeheader()
+        writer.writerows(rows)
+

@@ -1,0 +1,40 @@
+"""Run a scene: the registry of model kinds and the one entry point, `run_scene`.
+
+To add a model kind, write its runner (a function of the scene and an optional warm
+start returning a `RunResult`), register it in `MODEL_RUNNERS` and add the kind to
+`fecheck.scene.constants.MODEL_KINDS`.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+
+import numpy as np
+
+from fecheck.errors import FecheckError
+from fecheck.model.results import RunResult
+from fecheck.model.rigid import run_rigid
+from fecheck.model.scanned import run_scanned
+from fecheck.model.sphere_plane import run_contact_model
+from fecheck.scene import Scene
+
+MODEL_RUNNERS: dict[str, Callable[..., RunResult]] = {
+    "rigid": run_rigid,
+    "sphere-plane": run_contact_model,
+    "sphere-tibia": run_scanned,
+    "femur-tibia": run_scanned,
+}
+
+
+def run_scene(scene: Scene, warm_start: np.ndarray | None = None) -> RunResult:
+    """Solve a scene and return its `RunResult`.
+
+    `warm_start` (5,) = (x, y, z mm, θy, θz rad) starts the Newton solve there (sweeps).
+    """
+    kind = scene["model.kind"]
+    if scene["scanned.ligaments"] != "none":
+        return run_scanned(scene, warm_start)
+    if kind not in MODEL_RUNNERS:
+        raise FecheckError(f"model.kind {kind!r} has no runner; known: "
+                           f"{', '.join(MODEL_RUNNERS)}")
+    return MODEL_RUNNERS[kind](scene, warm_start)

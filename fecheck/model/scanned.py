@@ -1,0 +1,203 @@
+"""Runners for the scanned-knee models (thesis §5.2.2-5.2.3), on the shared statics.
+
+* ``sphere-tibia``: the femoral condyle spheres of the scene's knee (fitted to the
+  scanned femoral cartilage) on the scanned tibial cartilage; `scanned.condyle` =
+  "hemisphere" cuts each sphere by a sagittal plane `scanned.hemisphere_cut_mm` from its
+  centre towards the notch (thesis Fig. 5.13: no contact with the intercondylar
+  eminence).
+* ``femur-tibia``: the scanned femoral cartilage on the scanned tibial cartilage.
+* ``sphere-plane`` scenes (H3's inclined/polynomial plateaus) come here only for
+  `scanned.ligaments` = "bundles"; their contact pairs are H3's.
+
+Slave: each tibial cartilage compartment (the data set's medial/lateral split, an open
+sheet with n_z > 0), optionally decimated to `scanned.decimate_faces` in total; master
+(femur, fixed): the sphere (closed form), the hemisphere mesh or the femoral cartilage
+sheet (libigl AABB closest point, inside by the side of the closest face normal — no
+hole filling, where ray parity fails on an open sheet). Contact law: the scene's, with a
+uniform thickness `contact.thickness_mm`; or, for `scanned.thickness` = "bone-distance",
+the linear EF with a stiffness per slave face from the tibial and femoral cartilage
+thicknesses in series (`fecheck.laws.layer`).
+
+Ligaments: `scanned.ligaments` = "bundles" adds the 55 Blankevoort 1991 bundles of the
+scanned knee (straight paths, own slack lengths and stiffness) as springs.
+"""
+
+from __future__ import annotations
+
+import time
+from functools import lru_cache
+
+import numpy as np
+
+from fecheck.contact.analytic import Sphere
+from fecheck.contact.pair import ContactPair
+from fecheck.errors import FecheckError
+from fecheck.laws import layer
+from fecheck.model import sphere_plane
+from fecheck.model.assembly import Compartment, applied_load, law_factory, pose_dict
+from fecheck.model.equilibrium import compartment_results, not_converged_note, solve_equilibrium
+from fecheck.model.notes import layer_depth_notes, mesh_resolution_notes
+from fecheck.model.results import LigamentResult, RunResult
+from fecheck.scene import Scene, scanned
+from fecheck.scene.constants import COMPARTMENTS
+from fecheck.statics.ligaments import SpringLigament, transition_strain_check
+from geometry.cap import spherical_cap
+from geometry.decimate import decimate
+
+
+def _data_dir(scene: Scene) -> str | None:
+    return scene["scanned.data_dir"] or None
+
+
+def tibial_slaves(scene: Scene) -> dict:
+    """{compartment: tibial cartilage sheet} (decimated to scanned.decimate_faces in total,
+    shared in proportion to the two compartments' face counts)."""
+    meshes = {c: scanned.load_scanned_mesh(f"tibia_cartilage_{c}", _data_dir(scene))
+              for c in COMPARTMENTS}
+    target = scene["scanned.decimate_faces"]
+    if target:
+        total = sum(m.n_faces for m in meshes.values())
+        meshes = {c: decimate(m, max(4, round(target * m.n_faces / total)))
+                  for c, m in meshes.items()}
+    return meshes
+
+
+def femoral_master(scene: Scene):
+    """The femoral cartilage sheet, decimated in proportion to the tibial slaves."""
+    femur = scanned.load_scanned_mesh("femur_cartilage", _data_dir(scene))
+    target = scene["scanned.decimate_faces"]
+    if target:
+        tibia = sum(scanned.load_scanned_mesh(f"tibia_cartilage_{c}", _data_dir(scene)).n_faces
+                    for c in COMPARTMENTS)
+        femur = decimate(femur, max(4, round(target * femur.n_faces / tibia)))
+    return femur
+
+
+def _hemisphere(scene: Scene, compartment: str):
+    """The condyle sphere cut by a sagittal plane towards the notch, closed by a flat face
+    on the cut: slave points beyond the cut are then closest to that face and outside
+    (an open cap would count the points past its rim as inside)."""
+    knee = scene.knee
+    centre, radius = knee.condyle_center[compartment], knee.radius_mm(compartment)
+    notch = np.array([1.0 if centre[0] < 0 else -1.0, 0.0, 0.0])
+    cut = centre + scene["scanned.hemisphere_cut_mm"] * notch
+    return spherical_cap(radius, scene["mesh.sphere_subdivisions"], centre,
+                         cut_point=cut, cut_normal=notch, closed=True,
+                         method=scene["mesh.method"])
+
+
+def _masters(scene: Scene) -> dict:
+    kind = scene["model.kind"]
+    if kind == "femur-tibia":
+        femur = femoral_master(scene)
+        return {c: femur for c in COMPARTMENTS}
+    knee = scene.knee
+    if scene["scanned.condyle"] == "hemisphere":
+        return {c: _hemisphere(scene, c) for c in COMPARTMENTS}
+    return {c: Sphere(knee.condyle_center[c], knee.radius_mm(c)) for c in COMPARTMENTS}
+
+
+@lru_cache(maxsize=4)
+def _femoral_thickness(directory: str) -> np.ndarray:
+    return layer.bone_distance_thickness(
+        scanned.load_scanned_mesh("femur_cartilage", directory),
+        scanned.load_scanned_mesh("femur_bone", directory))
+
+
+def slave_thickness(scene: Scene, slave) -> np.ndarray:
+    """Per-face foundation thickness (mm) of a tibial slave: tibial plus femoral cartilage
+    in series, each from the distance to its bone (`fecheck.laws.layer`)."""
+    d = _data_dir(scene)
+    fem = scanned.load_scanned_mesh("femur_cartilage", d)
+    fem_h = _femoral_thickness(str(scanned.knee_dir(d)))
+    tib_h = layer.bone_distance_thickness(slave, scanned.load_scanned_mesh("tibia_bone", d))
+    return layer.series_thickness(slave, tib_h, fem, fem_h)
+
+
+def _law(scene: Scene, slave, radius_mm: float):
+    if scene["scanned.thickness"] == "uniform":
+        return law_factory(scene)(radius_mm)
+    if scene["contact.law"] != "ef":
+        raise FecheckError("scanned.thickness = 'bone-distance' sets a linear EF stiffness "
+                           "per face: use contact.law = 'ef' (or scanned.thickness = "
+                           "'uniform')")
+    h = slave_thickness(scene, slave)
+    k = layer.face_ef_stiffness(h, scene["contact.youngs_MPa"], scene["contact.poisson"])
+    return layer.face_elastic_foundation(k)
+
+
+def build_compartments(scene: Scene) -> list[Compartment]:
+    """Contact pairs and laws of a sphere-tibia or femur-tibia scene (tibia slaves)."""
+    kind = scene["model.kind"]
+    if kind == "sphere-plane":
+        return sphere_plane.build_compartments(scene)
+    if kind not in ("sphere-tibia", "femur-tibia"):
+        raise FecheckError(f"model.kind {kind!r} is not a scanned-knee model")
+    slaves, masters = tibial_slaves(scene), _masters(scene)
+    opts = {"method": scene["contact.detection"], "area": scene["contact.area"],
+            "margin_mm": scene["contact.margin_mm"]}
+    out = []
+    for c in COMPARTMENTS:
+        radius = scene.knee.radius_mm(c)
+        pair = ContactPair(slaves[c], masters[c], **opts)
+        out.append(Compartment(c, pair, _law(scene, slaves[c], radius), True, radius))
+    return out
+
+
+def bundle_springs(scene: Scene) -> tuple[tuple[str, ...], list[SpringLigament]]:
+    """Names and springs of the scanned knee's ligament bundles (none if not asked)."""
+    if scene["scanned.ligaments"] == "none":
+        return (), []
+    if scene["ligaments.model"] != "none":
+        raise FecheckError("scanned.ligaments = 'bundles' replaces the three-ligament model: "
+                           "set ligaments.model = 'none'")
+    out = scanned.bundles(_data_dir(scene))
+    for b in out:
+        transition_strain_check(b.transition_strain)
+    springs = [SpringLigament(b.femur_point, b.tibia_point, b.slack_length_mm, b.stiffness_N,
+                              b.transition_strain) for b in out]
+    return tuple(b.name for b in out), springs
+
+
+def run_scanned(scene: Scene, warm_start: np.ndarray | None = None) -> RunResult:
+    """Solve a scanned-knee scene (module docstring); same outputs as the other models."""
+    if scene["constraints.equal_forces"]:
+        raise FecheckError("constraints.equal_forces is not available for the scanned models")
+    if scene["model.kind"] != "sphere-plane" and scene["ligaments.model"] != "none":
+        raise FecheckError("the scanned models take the scanned knee's own ligament bundles "
+                           "(scanned.ligaments = 'bundles'); set ligaments.model = 'none'")
+    t_start = time.perf_counter()
+    comps = build_compartments(scene)
+    names, springs = bundle_springs(scene)
+    t_built = time.perf_counter()
+    eq = solve_equilibrium(scene, comps, springs, (), warm_start)
+    sol, rot, t = eq.solution, eq.rot, eq.t
+    compartments = compartment_results(comps, eq)
+    ligaments = {}
+    lig_wrench = np.zeros(6)
+    for name, spring in zip(names, springs):
+        x = rot @ spring.tibia_point + t
+        length = float(np.linalg.norm(spring.femur_point - x))
+        ligaments[name] = LigamentResult(spring.tension(length), length)
+        lig_wrench += spring(rot, t)[0]
+    # bone-distance thickness varies per face; the uniform layer is checked as a whole
+    notes = (layer_depth_notes(scene, compartments)
+             if scene["scanned.thickness"] == "uniform" else [])
+    if scene["model.kind"] == "sphere-plane":       # meshed plateau discs: rim and faces
+        notes += mesh_resolution_notes(scene, comps, eq.results)
+    notes += not_converged_note(sol)
+    contact = eq.contact
+    contact_wrench = sum(eq.wrenches)
+    extra = {"evaluations": contact.evaluations,
+             "contact_faces": {c.name: c.pair.slave.n_faces for c in comps},
+             "detection": {c.name: c.pair.describe() for c in comps},
+             "residual_history": list(sol.history),
+             "q": sol.q.tolist(),
+             "wrench_N": {"contact": contact_wrench.tolist(), "ligaments": lig_wrench.tolist(),
+                          "load_and_gravity": applied_load(scene)(rot, t)[0].tolist()}}
+    timing = {"total": time.perf_counter() - t_start, "build": t_built - t_start,
+              "solve": eq.seconds, "contact": contact.contact_seconds,
+              "per_evaluation_us": 1e6 * contact.contact_seconds / max(contact.evaluations, 1)}
+    return RunResult(scene["name"] or scene.source, scene["model.kind"], scene["contact.law"],
+                     sol.converged, sol.iterations, sol.residual_norm, pose_dict(sol.q),
+                     compartments, ligaments, timing, {}, tuple(notes), extra)
