@@ -95,7 +95,8 @@ def footprint_mesh(footprint: str, half_x: float, half_y: float, size: float,
             field = gmsh.model.mesh.field
             f = field.add("MathEval")
             dist = f"Sqrt((x-({px:.12g}))^2+(y-({py:.12g}))^2)"
-            field.setString(f, "F", f"Min({size:.12g}, {fine:.12g}+0.5*Max(0, {dist}-{radius:.12g}))")
+            field.setString(f, "F", f"Min({size:.12g}, "
+                                    f"{fine:.12g}+0.5*Max(0, {dist}-{radius:.12g}))")
             field.setAsBackgroundMesh(f)
         gmsh.model.mesh.generate(2)
         points, faces = surface_triangles(gmsh, 2)

@@ -7,7 +7,8 @@ import numpy as np
 import pytest
 
 from fecheck.cli import main
-from fecheck.contact import ContactPair, Sphere, bench
+from fecheck.contact import ContactPair, Sphere
+from fecheck.studies import bench_detection as bench
 from geometry.plateau import plane_patch
 
 

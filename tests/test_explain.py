@@ -69,7 +69,7 @@ def test_second_run_reuses_the_cached_meshes(tmp_path):
 def test_audit_reports_an_import_outside_the_plan(tmp_path):
     pytest.importorskip("trimesh")
     out, _ = _run(["run", "--explain", "--set", "model.kind=rigid"], tmp_path,
-                  after="from fecheck import explain\n"
+                  after="from fecheck.model import explain\n"
                         "from fecheck.scene import load_scene\n"
                         "plan = explain.plan_scene(load_scene(overrides=['model.kind=rigid']))\n"
                         "import trimesh\nprint('DEVIATIONS', plan.audit())")

@@ -1,4 +1,4 @@
-"""The `fecheck` command line.
+"""CLI: the `fecheck` command line, one module per verb; the last stage, it may import all.
 
 Each verb lives in its own module of this package and exposes
 ``add_parser(subparsers)`` and ``run(args) -> int``. Those modules import only the

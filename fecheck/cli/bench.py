@@ -34,7 +34,7 @@ def run(args: argparse.Namespace) -> int:
     os.environ.setdefault("OMP_NUM_THREADS", "1")
     if args.suite == "pareto":
         return _pareto(args)
-    from fecheck.contact import bench
+    from fecheck.studies import bench_detection as bench
 
     result = bench.run(quick=args.quick,
                        progress=lambda m: print(f"  {m}", file=sys.stderr, flush=True))

@@ -15,7 +15,8 @@ def _coeffs(text: str) -> list:
     try:
         value = json.loads(text)
     except json.JSONDecodeError as err:
-        raise argparse.ArgumentTypeError(f"coefficients must be a JSON nested list: {err}")
+        raise argparse.ArgumentTypeError(
+            f"coefficients must be a JSON nested list: {err}") from None
     return value
 
 
@@ -187,7 +188,8 @@ def format_table(rows: list[dict]) -> str:
                 line.append(fmt.format(r[key]))
         table.append(line)
     widths = [max(len(row[i]) for row in table) for i in range(len(COLUMNS))]
-    return "\n".join("  ".join(v.ljust(w) for v, w in zip(row, widths)).rstrip() for row in table)
+    return "\n".join("  ".join(v.ljust(w) for v, w in zip(row, widths, strict=True)).rstrip()
+                     for row in table)
 
 
 def _info(args) -> int:

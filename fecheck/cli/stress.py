@@ -18,8 +18,8 @@ def add_parser(subparsers) -> None:
                     "starts, meshes, damaged meshes, non-finite inputs, grazing and inclined "
                     "contact. Each must converge to a finite, balanced, non-tensile answer or "
                     "stop with a clear fecheck error. Prints case, outcome, iterations, "
-                    "residual (N), time (s); exit code 1 if any case ends otherwise without a known, "
-                    "explained cause.")
+                    "residual (N), time (s); exit code 1 if any case ends otherwise without a "
+                    "known, explained cause.")
     p.add_argument("--quick", action="store_true", help="the CI subset (< ~3 min)")
     p.add_argument("--json", type=Path, metavar="PATH",
                    help='write {"cases": [...], "summary": {...}} as JSON')

@@ -1,6 +1,6 @@
 """Convex-convex contact reduced to one point: the maximum depth only (enough for Hertz).
 
-DESIGN §7 keeps a closed form for convex pairs whose law needs the maximum penetration
+A closed form serves convex pairs whose law needs the maximum penetration
 only. `SpherePlanePair` is the sphere-plane model's condyle (an analytic sphere, centre c,
 radius R, fixed in the master, the femur) against its plateau (an analytic plane, point
 p and unit normal n up towards the femur, fixed in the slave, the tibia):

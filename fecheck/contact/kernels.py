@@ -10,7 +10,7 @@ One evaluation of a contact pair is a few hundred faces of arithmetic; in NumPy 
 * `plane_surface`, `sphere_surface` — the analytic masters of the statics' hot path:
   depths of the candidate faces in closed form, the contact faces, their normals and
   the vertex data, then `surface_quadrature`. Other masters (polynomial, meshes, the
-  thesis's detectors) form the vertex data in NumPy (`fecheck.contact.pair.build_surface`)
+  thesis's detectors) form the vertex data in NumPy (`fecheck.contact.surface.build_surface`)
   and call `surface_quadrature` directly.
 * `mesh_surface`, `walked_mesh_surface` — mesh masters from their vertex depths; the
   second also finds the closest faces from the last call's (a warm-started walk, only
@@ -32,8 +32,10 @@ from fecheck.contact.clip import N_POINTS, RULE, face_rule, pattern_of
 from fecheck.contact.coherent import coherent_closest
 
 
+# One fused compiled loop over the faces for speed: its branches are the cases of one
+# evaluation, kept together on purpose (hence above the complexity ceiling).
 @njit(cache=True, fastmath=False)
-def surface_quadrature(clipped: bool, D: np.ndarray, X: np.ndarray, T: np.ndarray,
+def surface_quadrature(clipped: bool, D: np.ndarray, X: np.ndarray, T: np.ndarray,  # noqa: C901
                        area: np.ndarray, cos_abs: np.ndarray, weight_rate: np.ndarray):
     """Quadrature of m contact faces.
 

@@ -19,8 +19,8 @@ import numpy as np
 
 from fecheck.contact.analytic import Plane, PolynomialSurface, Sphere
 from fecheck.contact.broadphase import CandidateCache, checked_relative_pose, pose_status
-from fecheck.contact.kernels import plane_surface, sphere_surface, surface_quadrature
-from fecheck.contact.surface import ContactSurface
+from fecheck.contact.kernels import plane_surface, sphere_surface
+from fecheck.contact.surface import ContactSurface, build_surface
 from fecheck.errors import FecheckError
 from geometry.mesh import TriMesh
 
@@ -88,19 +88,48 @@ def boundary_vertices(mesh: TriMesh) -> np.ndarray:
     return out
 
 
-def _apply(a: np.ndarray, R: np.ndarray, t: np.ndarray | None = None) -> np.ndarray:
-    """R a (+ t) for an array of 3-vectors of any leading shape."""
-    out = a.reshape(-1, 3) @ R.T
-    if t is not None:
-        out += t
-    return out.reshape(a.shape)
+def _resolved_method(slave: TriMesh, master, method: str, area: str, margin_mm: float
+                     ) -> str:
+    """Check a pair's inputs; the detection method, with 'auto' resolved."""
+    if not isinstance(slave, TriMesh):
+        raise FecheckError("the slave must be a geometry.mesh.TriMesh")
+    if slave.n_faces == 0:
+        raise FecheckError("the slave mesh has no faces; check the mesh file or builder")
+    if method not in METHODS:
+        raise FecheckError(f"unknown contact method {method!r}; choose one of "
+                           + ", ".join(METHODS))
+    if area not in AREAS:
+        raise FecheckError(f"unknown area mode {area!r}; choose 'clipped' or 'whole-face'")
+    if not (np.isfinite(margin_mm) and margin_mm > 0):
+        raise FecheckError(f"margin_mm must be a positive number of mm, got {margin_mm}")
+    analytic = isinstance(master, (Plane, Sphere, PolynomialSurface))
+    if not analytic and not isinstance(master, TriMesh):
+        raise FecheckError("the master must be a Plane, Sphere, PolynomialSurface "
+                           "or a TriMesh")
+    if method == "auto":
+        method = "closed-form" if analytic else "bvh"
+    if method == "closed-form" and not analytic:
+        raise FecheckError("method 'closed-form' needs an analytic master; "
+                           "use 'bvh' for a mesh master")
+    if method in ("bvh", "ray-parity", "fcl") and analytic:
+        raise FecheckError(f"method {method!r} needs a mesh master; analytic masters "
+                           "use 'closed-form'")
+    return method
 
 
-def _cross(a: np.ndarray, b: np.ndarray) -> np.ndarray:
-    """a × b over the last axis (cheaper than np.cross on small arrays)."""
-    a0, a1, a2 = a[..., 0], a[..., 1], a[..., 2]
-    b0, b1, b2 = b[..., 0], b[..., 1], b[..., 2]
-    return np.stack([a1 * b2 - a2 * b1, a2 * b0 - a0 * b2, a0 * b1 - a1 * b0], axis=-1)
+def _analytic_kernel(master) -> tuple[object, tuple]:
+    """The compiled surface kernel of a plane or sphere master and its arguments, loaded
+    now (compiled, or read from numba's cache); (None, ()) for other masters."""
+    if isinstance(master, Plane):
+        kernel, args = plane_surface, (master.point, master.normal)
+    elif isinstance(master, Sphere):
+        kernel, args = sphere_surface, (master.center, master.radius)
+    else:
+        return None, ()
+    eye, zero = np.eye(3), np.zeros(3)
+    kernel(True, np.zeros((0, 3)), np.zeros((0, 3), dtype=np.int64), np.zeros((0, 3)),
+           np.zeros(0), eye, zero, eye, zero, eye, *args)
+    return kernel, args
 
 
 class ContactPair:
@@ -135,33 +164,11 @@ class ContactPair:
     def __init__(self, slave: TriMesh, master, *, method: str = "auto",
                  area: str = "clipped", margin_mm: float = 2.0,
                  mesh_sign: str = "normal") -> None:
-        if not isinstance(slave, TriMesh):
-            raise FecheckError("the slave must be a geometry.mesh.TriMesh")
-        if slave.n_faces == 0:
-            raise FecheckError("the slave mesh has no faces; check the mesh file or builder")
-        if method not in METHODS:
-            raise FecheckError(f"unknown contact method {method!r}; choose one of "
-                               + ", ".join(METHODS))
-        if area not in AREAS:
-            raise FecheckError(f"unknown area mode {area!r}; choose 'clipped' or 'whole-face'")
-        if not (np.isfinite(margin_mm) and margin_mm > 0):
-            raise FecheckError(f"margin_mm must be a positive number of mm, got {margin_mm}")
+        method = _resolved_method(slave, master, method, area, margin_mm)
         slave = drop_duplicate_faces(slave)
         self.slave, self.method, self.area_mode = slave, method, area
         self.boundary_vertex = boundary_vertices(slave)
         self.margin_mm = float(margin_mm)
-        analytic = isinstance(master, (Plane, Sphere, PolynomialSurface))
-        if not analytic and not isinstance(master, TriMesh):
-            raise FecheckError("the master must be a Plane, Sphere, PolynomialSurface "
-                               "or a TriMesh")
-        if method == "auto":
-            method = "closed-form" if analytic else "bvh"
-        if method == "closed-form" and not analytic:
-            raise FecheckError("method 'closed-form' needs an analytic master; "
-                               "use 'bvh' for a mesh master")
-        if method in ("bvh", "ray-parity", "fcl") and analytic:
-            raise FecheckError(f"method {method!r} needs a mesh master; analytic masters "
-                               "use 'closed-form'")
         self.resolved_method = method
         self._thesis = None
         if method == "closed-form":
@@ -173,19 +180,10 @@ class ContactPair:
             from fecheck.contact.thesis import thesis_detector
             self.master = master
             self._thesis = thesis_detector(method, slave, master, area)
-        self._kernel, self._kernel_args = None, ()
+        self._kernel, self._kernel_args = _analytic_kernel(self.master)
         # the candidate set of the last call and its points' WalkState (closest master
         # faces, depth bounds), the start of the next call while the set is reused
         self._warm: tuple[object, object] = (None, None)
-        if isinstance(self.master, Plane):
-            self._kernel, self._kernel_args = plane_surface, (master.point, master.normal)
-        elif isinstance(self.master, Sphere):
-            self._kernel, self._kernel_args = sphere_surface, (master.center, master.radius)
-        if self._kernel is not None:          # compile it, or load it from numba's cache
-            eye, zero = np.eye(3), np.zeros(3)
-            self._kernel(True, np.zeros((0, 3)), np.zeros((0, 3), dtype=np.int64),
-                         np.zeros((0, 3)), np.zeros(0), eye, zero, eye, zero, eye,
-                         *self._kernel_args)
         if self._thesis is None:
             self._cache = CandidateCache(slave, self.master.reach, self.margin_mm,
                                          prefilter=getattr(self.master, "prefilter", None))
@@ -251,54 +249,3 @@ class ContactPair:
         faces = cand.local_faces[hit]
         return build_surface(master, self.area_mode, self.slave.n_faces, cand, hit, d[hit],
                              y[faces], R, Rm, tm, Rs)
-
-
-def build_surface(master, area_mode: str, n_slave_faces: int, cand, hit: np.ndarray,
-                  D: np.ndarray, Y: np.ndarray, R: np.ndarray, Rm: np.ndarray,
-                  tm: np.ndarray, Rs: np.ndarray, g: np.ndarray | None = None
-                  ) -> ContactSurface:
-    """Quadrature, twist derivatives and normals of the contact faces `hit` of `cand`,
-    for masters with a depth gradient per point (polynomial, the thesis's ray parity;
-    `Plane`, `Sphere` and mesh masters have compiled kernels, `fecheck.contact.kernels`).
-
-    D (m, 3) vertex depths and Y (m, 3, 3) vertex positions in the master frame (mm);
-    R the slave-to-master rotation; (Rm, tm) the master pose; Rs the slave rotation;
-    g (m, 3, 3) the depth gradients if already known (master frame).
-    """
-    m = len(hit)
-    X = _apply(Y, Rm, tm)                                 # (m, 3, 3) world vertices
-    if g is None:
-        g = master.depth_gradients(Y)[0]
-    gw = _apply(g, Rm)
-    T = np.concatenate([gw, _cross(X, gw)], axis=-1)      # ∂d/∂v, ∂d/∂ω per vertex
-    slide = None
-    if master.normal_body == "slave":
-        N = -_apply(cand.normals[hit], Rs)
-        cos_abs, rate = np.ones(m), np.zeros((m, 6))
-    else:
-        nf_w = _apply(cand.normals[hit], Rs)
-        Nm, dN = master.foundation_normals(Y)
-        N = _apply(Nm, Rm)
-        cos = np.einsum("ij,ij->i", nf_w, N)
-        dcos = np.zeros((m, 6))
-        dcos[:, 3:] = _cross(nf_w, N)
-        if dN is not None:
-            A = Rm @ dN @ Rm.T                           # ∂N/∂(centroid), world
-            slide = np.concatenate([A, -A @ _skew_rows(X.sum(axis=1) / 3.0)], axis=-1)
-            dcos += np.einsum("ij,ijk->ik", nf_w, slide)
-        cos_abs, rate = np.abs(cos), np.sign(cos)[:, None] * dcos
-    qp = surface_quadrature(area_mode == "clipped", np.ascontiguousarray(D),
-                            np.ascontiguousarray(X), np.ascontiguousarray(T),
-                            np.ascontiguousarray(cand.areas[hit], dtype=float), cos_abs,
-                            np.ascontiguousarray(rate))
-    return ContactSurface(cand.faces[hit], N, D, *qp, master.normal_body, n_slave_faces,
-                          normal_slide=slide)
-
-
-def _skew_rows(v: np.ndarray) -> np.ndarray:
-    """(m, 3, 3) cross-product matrices: _skew_rows(v) @ b == v × b."""
-    out = np.zeros(v.shape + (3,))
-    out[:, 0, 1], out[:, 0, 2] = -v[:, 2], v[:, 1]
-    out[:, 1, 0], out[:, 1, 2] = v[:, 2], -v[:, 0]
-    out[:, 2, 0], out[:, 2, 1] = -v[:, 1], v[:, 0]
-    return out

@@ -1,6 +1,6 @@
 """The contact surface: the data object between detection and contact laws.
 
-Conventions (mm, world frame = the thesis frame, see `fecheck.frames`):
+Conventions (mm, world frame = the thesis frame, see `fecheck.statics.frames`):
 
 * The **slave** is a triangle mesh; the **master** is an analytic surface or a mesh.
 * Depth is positive where the slave is inside the master. `normal` is the unit
@@ -44,6 +44,8 @@ from functools import cached_property
 from typing import Literal
 
 import numpy as np
+
+from fecheck.contact.kernels import surface_quadrature
 
 
 @dataclass(eq=False)
@@ -142,3 +144,70 @@ class ContactSurface:
         z = np.zeros
         return cls(z(0, int), z((0, 3)), z((0, 3)), z(0, int), z((0, 3)), z((0, 3)), z(0),
                    z(0), z((0, 6)), z((0, 6)), normal_body, n_slave_faces)
+
+
+def apply_pose(a: np.ndarray, R: np.ndarray, t: np.ndarray | None = None) -> np.ndarray:
+    """R a (+ t) for an array of 3-vectors of any leading shape."""
+    out = a.reshape(-1, 3) @ R.T
+    if t is not None:
+        out += t
+    return out.reshape(a.shape)
+
+
+def cross_rows(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """a × b over the last axis (cheaper than np.cross on small arrays)."""
+    a0, a1, a2 = a[..., 0], a[..., 1], a[..., 2]
+    b0, b1, b2 = b[..., 0], b[..., 1], b[..., 2]
+    return np.stack([a1 * b2 - a2 * b1, a2 * b0 - a0 * b2, a0 * b1 - a1 * b0], axis=-1)
+
+
+def build_surface(master, area_mode: str, n_slave_faces: int, cand, hit: np.ndarray,
+                  D: np.ndarray, Y: np.ndarray, R: np.ndarray, Rm: np.ndarray,
+                  tm: np.ndarray, Rs: np.ndarray, g: np.ndarray | None = None
+                  ) -> ContactSurface:
+    """Quadrature, twist derivatives and normals of the contact faces `hit` of `cand`,
+    for masters with a depth gradient per point (polynomial, the thesis's ray parity;
+    `Plane`, `Sphere` and mesh masters have compiled kernels, `fecheck.contact.kernels`).
+
+    D (m, 3) vertex depths and Y (m, 3, 3) vertex positions in the master frame (mm);
+    R the slave-to-master rotation; (Rm, tm) the master pose; Rs the slave rotation;
+    g (m, 3, 3) the depth gradients if already known (master frame).
+    """
+    m = len(hit)
+    X = apply_pose(Y, Rm, tm)                                 # (m, 3, 3) world vertices
+    if g is None:
+        g = master.depth_gradients(Y)[0]
+    gw = apply_pose(g, Rm)
+    T = np.concatenate([gw, cross_rows(X, gw)], axis=-1)      # ∂d/∂v, ∂d/∂ω per vertex
+    slide = None
+    if master.normal_body == "slave":
+        N = -apply_pose(cand.normals[hit], Rs)
+        cos_abs, rate = np.ones(m), np.zeros((m, 6))
+    else:
+        nf_w = apply_pose(cand.normals[hit], Rs)
+        Nm, dN = master.foundation_normals(Y)
+        N = apply_pose(Nm, Rm)
+        cos = np.einsum("ij,ij->i", nf_w, N)
+        dcos = np.zeros((m, 6))
+        dcos[:, 3:] = cross_rows(nf_w, N)
+        if dN is not None:
+            A = Rm @ dN @ Rm.T                           # ∂N/∂(centroid), world
+            slide = np.concatenate([A, -A @ skew_rows(X.sum(axis=1) / 3.0)], axis=-1)
+            dcos += np.einsum("ij,ijk->ik", nf_w, slide)
+        cos_abs, rate = np.abs(cos), np.sign(cos)[:, None] * dcos
+    qp = surface_quadrature(area_mode == "clipped", np.ascontiguousarray(D),
+                            np.ascontiguousarray(X), np.ascontiguousarray(T),
+                            np.ascontiguousarray(cand.areas[hit], dtype=float), cos_abs,
+                            np.ascontiguousarray(rate))
+    return ContactSurface(cand.faces[hit], N, D, *qp, master.normal_body, n_slave_faces,
+                          normal_slide=slide)
+
+
+def skew_rows(v: np.ndarray) -> np.ndarray:
+    """(m, 3, 3) cross-product matrices: skew_rows(v) @ b == v × b."""
+    out = np.zeros(v.shape + (3,))
+    out[:, 0, 1], out[:, 0, 2] = -v[:, 2], v[:, 1]
+    out[:, 1, 0], out[:, 1, 2] = v[:, 2], -v[:, 0]
+    out[:, 2, 0], out[:, 2, 1] = -v[:, 1], v[:, 0]
+    return out
+

@@ -4,10 +4,10 @@
   are tested by ray-casting parity (trimesh ``contains``; embree through embreex when
   installed, or trimesh's pure ray engine with ``engine="triangle"``, which is what made
   the thesis's Fig. 3.25 quadratic); the depth of a vertex is its distance to the
-  nearest master VERTEX (scipy cKDTree), as in the thesis. Its flaws are kept: parity is meaningless on open
-  meshes (rays escape through the hole), and the nearest-vertex distance is not a
-  surface distance. Outside vertices of touched faces get minus that distance so the
-  face can be clipped (or counted whole, ``area="whole-face"``). The gradient is the
+  nearest master VERTEX (scipy cKDTree), as in the thesis. Its flaws are kept: parity is
+  meaningless on open meshes (rays escape through the hole), and the nearest-vertex
+  distance is not a surface distance. Outside vertices of touched faces get minus that
+  distance so the face can be clipped (or counted whole, ``area="whole-face"``). The gradient is the
   exact gradient of that distance, ±(y - v)/|y - v|.
 * ``fcl`` — thesis §3.2: python-fcl through trimesh's converters, the slave as a
   triangle BVH (``trimesh.collision.mesh_to_BVH``), the master as a convex polytope
@@ -26,7 +26,7 @@ import numpy as np
 
 from fecheck.contact.broadphase import Candidates
 from fecheck.contact.clip import whole_face_quadrature
-from fecheck.contact.surface import ContactSurface
+from fecheck.contact.surface import ContactSurface, build_surface
 from fecheck.errors import FecheckError
 from geometry.mesh import TriMesh
 
@@ -75,8 +75,6 @@ class RayParity:
                 f"nearest-vertex depth; {self.area_mode} area")
 
     def evaluate(self, Rs, ts, Rm, tm) -> ContactSurface:
-        from fecheck.contact.pair import build_surface
-
         R = Rm.T @ Rs
         t = Rm.T @ (ts - tm)
         y = self.slave.points @ R.T + t

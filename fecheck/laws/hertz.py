@@ -44,7 +44,8 @@ def hertz(surface: ContactSurface, radius_mm: float, e_star_MPa: float,
 
     The force acts along the foundation normal of the deepest face at the deepest
     vertex. Not smooth in the pose: the deepest vertex switches as the slave tilts, so
-    Newton may stall; use `hertz_point` on a convex pair where there is one. `radius_mm` is the indenter radius R, `e_star_MPa` from `hertz_modulus`.
+    Newton may stall; use `hertz_point` on a convex pair where there is one.
+    `radius_mm` is the indenter radius R, `e_star_MPa` from `hertz_modulus`.
     Reports a = √(R d) (mm), p0 = 3P/(2πa²), mean pressure P/(πa²) and area πa².
     """
     about = np.asarray(about, dtype=float)

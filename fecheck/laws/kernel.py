@@ -13,8 +13,10 @@ import numpy as np
 from numba import njit
 
 
+# One fused compiled loop over the faces for speed: its branches are the cases of one
+# evaluation, kept together on purpose (hence above the complexity ceiling).
 @njit(cache=True, fastmath=False)
-def pressure_resultant(stiffness: float, pressure: np.ndarray, slope: np.ndarray,
+def pressure_resultant(stiffness: float, pressure: np.ndarray, slope: np.ndarray,  # noqa: C901
                        depth: np.ndarray, weight: np.ndarray, depth_twist: np.ndarray,
                        weight_twist: np.ndarray, point: np.ndarray, normal: np.ndarray,
                        face: np.ndarray, slave_normals: bool, normal_slide: np.ndarray,

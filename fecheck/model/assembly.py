@@ -167,7 +167,8 @@ class ContactModel:
 
     def wrenches(self, rot: np.ndarray, t: np.ndarray) -> dict[str, np.ndarray]:
         """{compartment: (6,) contact wrench on the tibia (N, N·mm)} at pose (R, t)."""
-        return {c.name: w for c, (_, w, _) in zip(self.compartments, self.evaluate(rot, t))}
+        evaluated = self.evaluate(rot, t)
+        return {c.name: w for c, (_, w, _) in zip(self.compartments, evaluated, strict=True)}
 
 
 def equal_force_constraint(rot: np.ndarray, t: np.ndarray, parts: Sequence[Part]

@@ -96,7 +96,7 @@ def compartment_results(comps: Sequence[Compartment], eq: Equilibrium
                         ) -> dict[str, CompartmentResult]:
     """{compartment: `CompartmentResult`} at the equilibrium."""
     return {c.name: compartment_result(c, res, w, eq.rot, eq.t)
-            for c, res, w in zip(comps, eq.results, eq.wrenches)}
+            for c, res, w in zip(comps, eq.results, eq.wrenches, strict=True)}
 
 
 def not_converged_note(sol: Solution) -> list[str]:

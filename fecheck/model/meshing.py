@@ -4,8 +4,8 @@ expected contact.
 A meshed plateau (sphere-plane model, ``contact.master = condyle``) must resolve the
 contact (enough faces across it) and contain it (the disc wider than it). Both follow
 from the closed-form sphere-on-plane contact radius at the scene's load, known before
-the solve (`fecheck.reference.closed_forms`): for a foundation law of stiffness k (N/mm³), the depth d from
-F = k·πd²(R − d/3) and a = √(2Rd − d²); for Hertz a = (3FR / 4E*)^(1/3).
+the solve (`fecheck.reference.closed_forms`): for a foundation law of stiffness k
+(N/mm³), the depth d from F = k·πd²(R − d/3) and a = √(2Rd − d²); for Hertz a = (3FR / 4E*)^(1/3).
 
 Only plateau keys left at their defaults are sized; the defaults themselves are kept
 wherever they already suffice (the 800 N baseline mesh is unchanged). Sizes are rounded

@@ -36,7 +36,7 @@ def mesh_resolution_notes(scene: Scene, comps: Sequence[Compartment],
     ``mesh.plateau_radius_mm``); notes for contacts spanning fewer than
     `MIN_CONTACT_FACES`. `results` are the compartments' law results at the solution."""
     notes = []
-    for comp, res in zip(comps, results):
+    for comp, res in zip(comps, results, strict=True):
         surface = getattr(res, "surface", None)
         if not isinstance(surface, ContactSurface) or surface.n_faces == 0:
             continue

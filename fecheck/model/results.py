@@ -93,7 +93,7 @@ class RunResult:
     extra: Mapping[str, Any] = field(default_factory=dict)
 
     def as_dict(self) -> dict[str, Any]:
-        """JSON-ready nested dict (keys as documented in README / DESIGN)."""
+        """JSON-ready nested dict (keys as documented in the README)."""
         return {
             "scene": self.scene, "model": self.model, "law": self.law,
             "converged": bool(self.converged), "iterations": int(self.iterations),

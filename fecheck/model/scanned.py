@@ -175,7 +175,7 @@ def run_scanned(scene: Scene, warm_start: np.ndarray | None = None) -> RunResult
     compartments = compartment_results(comps, eq)
     ligaments = {}
     lig_wrench = np.zeros(6)
-    for name, spring in zip(names, springs):
+    for name, spring in zip(names, springs, strict=True):
         x = rot @ spring.tibia_point + t
         length = float(np.linalg.norm(spring.femur_point - x))
         ligaments[name] = LigamentResult(spring.tension(length), length)

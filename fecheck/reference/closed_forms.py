@@ -9,7 +9,7 @@ p0 = 3F/(2πa²), d = a²/R, E* = E/(1−ν²).
 >>> round(ef_sphere_plane(323.71, 25.5, column_stiffness(20.0, 0.3, 6.0))["area_mm2"], 1)
 150.1
 >>> round(hertz_contact_radius(323.71, 25.5, 20.0 / 0.91), 3)
-6.541
+6.555
 """
 
 from __future__ import annotations

@@ -80,45 +80,55 @@ def _finite(key: str, x: Any, source: str, allow_inf: bool = False) -> float:
     return float(x)
 
 
-def _check(key: str, value: Any, source: str) -> Any:
-    spec = SCHEMA[key]
-    kind = spec.kind
-    if kind == "bool":
-        if not isinstance(value, bool):
-            raise FecheckError(f"{source}: {key} must be true or false, got {value!r}")
-        return value
-    if kind == "str":
-        if not isinstance(value, str):
-            raise FecheckError(f"{source}: {key} must be a string, got {value!r}")
-        if spec.choices and value not in spec.choices:
-            raise FecheckError(f"{source}: {key} = {value!r} is not one of "
-                               f"{', '.join(spec.choices)}")
-        return value
-    if kind == "strings":
-        if not isinstance(value, list) or not all(isinstance(v, str) for v in value):
-            raise FecheckError(f"{source}: {key} must be a list of strings, got {value!r}")
-        bad = [v for v in value if v not in spec.choices]
-        if bad:
-            raise FecheckError(f"{source}: {key} has {bad}; allowed: {', '.join(spec.choices)}")
-        return list(value)
-    if kind == "table":
-        if not isinstance(value, Mapping):
-            raise FecheckError(f"{source}: {key} must be a table")
-        return value
-    if kind in ("vec3", "pair"):
-        n = 3 if kind == "vec3" else 2
-        if not isinstance(value, list) or len(value) != n:
-            raise FecheckError(f"{source}: {key} must be a list of {n} numbers, got {value!r}")
-        return [_finite(key, v, source) for v in value]
-    if kind == "matrix":
-        if not isinstance(value, list) or not value or not all(
-                isinstance(r, list) and len(r) == len(value[0]) for r in value):
-            raise FecheckError(f"{source}: {key} must be a rectangular list of lists "
-                               f"(c[i][j] multiplies x^i y^j)")
-        return [[_finite(key, v, source) for v in r] for r in value]
-    if kind == "int" and (isinstance(value, bool) or not isinstance(value, int)):
+def _check_bool(key: str, spec: Key, value: Any, source: str) -> bool:
+    if not isinstance(value, bool):
+        raise FecheckError(f"{source}: {key} must be true or false, got {value!r}")
+    return value
+
+
+def _check_str(key: str, spec: Key, value: Any, source: str) -> str:
+    if not isinstance(value, str):
+        raise FecheckError(f"{source}: {key} must be a string, got {value!r}")
+    if spec.choices and value not in spec.choices:
+        raise FecheckError(f"{source}: {key} = {value!r} is not one of "
+                           f"{', '.join(spec.choices)}")
+    return value
+
+
+def _check_strings(key: str, spec: Key, value: Any, source: str) -> list[str]:
+    if not isinstance(value, list) or not all(isinstance(v, str) for v in value):
+        raise FecheckError(f"{source}: {key} must be a list of strings, got {value!r}")
+    bad = [v for v in value if v not in spec.choices]
+    if bad:
+        raise FecheckError(f"{source}: {key} has {bad}; allowed: {', '.join(spec.choices)}")
+    return list(value)
+
+
+def _check_table(key: str, spec: Key, value: Any, source: str) -> Mapping:
+    if not isinstance(value, Mapping):
+        raise FecheckError(f"{source}: {key} must be a table")
+    return value
+
+
+def _check_vector(key: str, spec: Key, value: Any, source: str) -> list[float]:
+    n = 3 if spec.kind == "vec3" else 2
+    if not isinstance(value, list) or len(value) != n:
+        raise FecheckError(f"{source}: {key} must be a list of {n} numbers, got {value!r}")
+    return [_finite(key, v, source) for v in value]
+
+
+def _check_matrix(key: str, spec: Key, value: Any, source: str) -> list[list[float]]:
+    if not isinstance(value, list) or not value or not all(
+            isinstance(r, list) and len(r) == len(value[0]) for r in value):
+        raise FecheckError(f"{source}: {key} must be a rectangular list of lists "
+                           f"(c[i][j] multiplies x^i y^j)")
+    return [[_finite(key, v, source) for v in r] for r in value]
+
+
+def _check_number(key: str, spec: Key, value: Any, source: str) -> float | int:
+    if spec.kind == "int" and (isinstance(value, bool) or not isinstance(value, int)):
         raise FecheckError(f"{source}: {key} must be an integer, got {value!r}")
-    x = _finite(key, value, source, spec.allow_inf) if kind == "float" else value
+    x = _finite(key, value, source, spec.allow_inf) if spec.kind == "float" else value
     lo_bad = spec.low is not None and (x < spec.low or (spec.low_open and x == spec.low))
     hi_bad = spec.high is not None and (x > spec.high or (spec.high_open and x == spec.high))
     if lo_bad or hi_bad:
@@ -128,6 +138,17 @@ def _check(key: str, value: Any, source: str) -> Any:
         raise FecheckError(f"{source}: {key} = {value!r} is out of range; it must be "
                            f"{' and '.join(s for s in (lo, hi) if s)}{extra}")
     return x
+
+
+_CHECKS = {"bool": _check_bool, "str": _check_str, "strings": _check_strings,
+           "table": _check_table, "vec3": _check_vector, "pair": _check_vector,
+           "matrix": _check_matrix, "int": _check_number, "float": _check_number}
+"""Key kind → its checker (key, spec, value, source) → the validated value."""
+
+
+def _check(key: str, value: Any, source: str) -> Any:
+    spec = SCHEMA[key]
+    return _CHECKS[spec.kind](key, spec, value, source)
 
 
 def parse_override(text: str) -> tuple[str, Any]:

@@ -106,7 +106,7 @@ SCHEMA: dict[str, Key] = {
                                     low=0.0, high=0.5, high_open=True),
     "load.force_N": Key("float", 800.0, "external load magnitude, N", low=0.0),
     "load.point_mm": Key("vec3", [7.9, 12.8, -380.0], "load point in the tibia frame, mm "
-                         "(x = +7.9: see DESIGN §4, the thesis prints -7.9 in error)"),
+                         "(x = +7.9 reproduces the thesis's Table 5.1; it prints -7.9 in error)"),
     "load.frame": Key("str", "world", "the load point is fixed in the world (line of action "
                       "fixed, e.g. a ground reaction) or moves with the tibia",
                       choices=("world", "tibia")),

@@ -3,12 +3,13 @@
 * Rods of constant length (thesis eq. 1.7, Lagrange multipliers): the constraint
   g = |P − x_Q| − L = 0; its multiplier is the rod tension (N, + pulls the tibia toward
   the femur; negative = compression).
-* Springs (Blankevoort et al. 1991, J. Biomech. 24(11):1019-1031; thesis eq. 2.7 in the
-  continuous form of DESIGN §4): strain ε = (l − l0)/l0 with slack length
-  l0 = L_ref/(1 + ε_ref), ε_l = transition_strain/2 and stiffness k (N per unit strain):
-  f = 0 for ε < 0, k·ε²/(4ε_l) for 0 ≤ ε ≤ 2ε_l, k·(ε − ε_l) beyond.
+* Springs (Blankevoort et al. 1991, J. Biomech. 24(11):1019-1031; thesis eq. 2.7 in its
+  continuous form: the thesis prints the transition at ε_l, where the force jumps):
+  strain ε = (l − l0)/l0 with slack length l0 = L_ref/(1 + ε_ref), ε_l =
+  transition_strain/2 and stiffness k (N per unit strain): f = 0 for ε < 0,
+  k·ε²/(4ε_l) for 0 ≤ ε ≤ 2ε_l, k·(ε − ε_l) beyond.
   Default k and ε_ref come from Lenhart et al. 2015 (J. Biomech. Eng. 137(8):081006) as
-  shipped in ``shared/data/knee/lenhart2015/ligaments.json`` (see `fecheck.scene`).
+  shipped in ``shared/data/knee/lenhart2015/ligaments.json`` (see `fecheck.scene.schema`).
 """
 
 from __future__ import annotations

@@ -1,7 +1,7 @@
 """Run time against error: every way to get contact pressure and area, on one problem.
 
-The problem is each baseline compartment alone (thesis Table 5.1 loads, EF cap reference): a rigid condyle sphere
-(medial R 25.5 mm, lateral 31.8 mm) pressed on a flat cartilage layer (E 20 MPa, ν 0.3,
+The problem is each baseline compartment alone (thesis Table 5.1 loads): a rigid condyle
+sphere (medial R 25.5 mm, lateral 31.8 mm) pressed on a flat cartilage layer (E 20 MPa, ν 0.3,
 h 6 mm) by its thesis Table 5.1 force (323.71 N, 456.67 N). Every method solves it under
 load control (Newton on the approach δ until the normal force is F to 1e-8) and reports
 p_max and the contact area. Methods and their references:
@@ -538,7 +538,8 @@ def table(result: dict) -> str:
                 text = "not reached" if value is None else f"{value:.3g}"
             lines.append(f"ratio {c} {key}: {text}")
     sc = result["scaling"]
-    lines.append(f"scaling: time per evaluation ∝ faces^{sc['refined_icosphere_slope_vs_faces']:.2f}"
+    lines.append("scaling: time per evaluation ∝ "
+                 f"faces^{sc['refined_icosphere_slope_vs_faces']:.2f}"
                  f" refining the sphere, ∝ faces^{sc['padded_icosphere_slope_vs_faces']:.2f} "
                  f"adding far faces (near faces fixed)")
     m = result["machine"]
@@ -579,7 +580,7 @@ def plot(result: dict, folder: str) -> list[str]:
         fig, ax = plt.subplots(figsize=(7, 5))
         colors = {}
         for method in dict.fromkeys(r["method"] for r in result["rows"]):
-            for c, style in zip(BASELINE_COMPARTMENTS, ("o-", "s--")):
+            for c, style in zip(BASELINE_COMPARTMENTS, ("o-", "s--"), strict=True):
                 rs = [r for r in result["rows"] if (r["method"], r["compartment"]) == (method, c)
                       and r[key] > EXACT]
                 if not rs:

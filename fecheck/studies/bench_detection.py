@@ -279,6 +279,21 @@ def _mesh_mesh_rows(levels, ray_limit, progress, budget_s):
     return rows
 
 
+def _mesh_mesh_ratios(t) -> dict:
+    """The mesh-against-mesh ratios at 20,480 faces; `t` looks a time up in the rows."""
+    out = {}
+    ours, parity = t("mesh-mesh", "bvh", 20480), t("mesh-mesh", "ray-parity", 20480)
+    if ours and parity:
+        out["mesh_mesh_20480_ray_parity_embree_over_bvh"] = parity / ours
+    thesis = t("mesh-mesh", "ray-thesis", 20480)
+    if ours and thesis:
+        out["mesh_mesh_20480_ray_thesis_over_bvh"] = thesis / ours
+    scratch = t("mesh-mesh", "bvh", 20480, "time_from_scratch_ms")
+    if ours and scratch:
+        out["mesh_mesh_20480_reused_over_from_scratch"] = ours / scratch
+    return out
+
+
 def _ratios(rows) -> dict:
     """Speed ratios the acceptance criteria name, from rows of this run."""
     def t(scenario, method, n, key="time_ms"):
@@ -287,7 +302,7 @@ def _ratios(rows) -> dict:
                 return r[key]
         return None
 
-    out = {}
+    out = _mesh_mesh_ratios(t)
     for scenario in ("statics", "bisect"):
         ours, fcl = t(scenario, "closed-form", 5120), t(scenario, "fcl", 5120)
         if ours and fcl:
@@ -301,15 +316,6 @@ def _ratios(rows) -> dict:
         ours, fcl = t("sphere-master", "closed-form", n), t("sphere-master", "fcl", n)
         if ours and fcl:
             out[f"sphere_master_{n}_fcl_over_closed_form"] = fcl / ours
-    ours, parity = t("mesh-mesh", "bvh", 20480), t("mesh-mesh", "ray-parity", 20480)
-    if ours and parity:
-        out["mesh_mesh_20480_ray_parity_embree_over_bvh"] = parity / ours
-    thesis = t("mesh-mesh", "ray-thesis", 20480)
-    if ours and thesis:
-        out["mesh_mesh_20480_ray_thesis_over_bvh"] = thesis / ours
-    scratch = t("mesh-mesh", "bvh", 20480, "time_from_scratch_ms")
-    if ours and scratch:
-        out["mesh_mesh_20480_reused_over_from_scratch"] = ours / scratch
     local = sorted((r for r in rows if r["scenario"] == "locality" and "time_ms" in r),
                    key=lambda r: r["n_faces"])
     if len(local) > 1:

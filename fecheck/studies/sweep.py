@@ -118,7 +118,7 @@ def run_sweep(scene: Scene, param: str, values: Sequence[float], *, workers: int
             warm = result.extra.get("q")
             results.append(result)
             _progress(progress, i + 1, total)
-        return [SweepPoint(v, r) for v, r in zip(values, results)]
+        return [SweepPoint(v, r) for v, r in zip(values, results, strict=True)]
     owned = executor is None
     if owned:
         from concurrent.futures import ProcessPoolExecutor
@@ -132,7 +132,7 @@ def run_sweep(scene: Scene, param: str, values: Sequence[float], *, workers: int
     finally:
         if owned:
             executor.shutdown()
-    return [SweepPoint(v, r) for v, r in zip(values, results)]
+    return [SweepPoint(v, r) for v, r in zip(values, results, strict=True)]
 
 
 def dask_executor(address: str) -> Executor:

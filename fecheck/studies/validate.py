@@ -29,8 +29,9 @@ CONVENTIONS = """\
   y anterior, z superior; in the baseline right knee the medial compartment is at x < 0.
 - Load: 800 N along +z on the tibia at **x = +7.9 mm**, y = 12.8, z = −380 mm, with a
   2.0 kg tibia (19.62 N) at x = 0. The thesis prints x = −7.9 mm, but its own Table 5.1
-  (323.71 / 456.67 N) is reproduced only with x = +7.9 mm (DESIGN §4); sweeps move the
-  load point along x from there ("shift", mm).
+  (323.71 / 456.67 N) is reproduced only with x = +7.9 mm (F_m + F_l = 780.38 N,
+  −20.4·F_m + 28.3·F_l = 800·7.9); sweeps move the load point along x from there
+  ("shift", mm).
 - Elastic foundation: k = (1−ν)E/((1+ν)(1−2ν)h), E = 20 MPa, ν = 0.3, h = 6 mm
   (k = 4.487 N/mm³). fecheck clips each contact face at its zero-depth line (exact
   area and ∫depth dA); the thesis counted the whole area of every face touching the
