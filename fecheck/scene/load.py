@@ -18,7 +18,7 @@ from typing import Any
 import tomllib
 
 from fecheck.errors import FecheckError
-from fecheck.scene.constants import DOF_NAMES
+from fecheck.scene.constants import COMPARTMENTS, DOF_NAMES
 from fecheck.scene.knee import PRESETS, Knee, knee_from_landmarks
 from fecheck.scene.schema import SCHEMA, Key
 
@@ -176,7 +176,7 @@ def validate(data: Mapping[str, Any], source: str = "scene") -> Scene:
     scene = Scene(values, source)
     _ = scene.knee                               # validates custom landmarks
     if scene["plateau.kind"] == "polynomial":
-        for c in ("medial", "lateral"):
+        for c in COMPARTMENTS:
             if scene[f"plateau.{c}_coefficients"] is None:
                 raise FecheckError(f"{source}: plateau.kind = 'polynomial' needs "
                                    f"plateau.{c}_coefficients")

@@ -48,6 +48,7 @@ from dataclasses import asdict, dataclass, field
 import numpy as np
 
 from fecheck.laws import ef_stiffness
+from fecheck.scene.constants import COMPARTMENTS
 from fecheck.statics.load_control import load_controlled
 
 E_MPA, NU, H_MM = 20.0, 0.3, 6.0
@@ -69,7 +70,7 @@ class BenchConfig:
     fe3d_sizes_mm: tuple[float, ...] = (5.0, 2.0, 1.0, 0.5)
     axisym_sizes_mm: tuple[float, ...] = (0.5, 0.2, 0.1, 0.05)
     fe_reference_size_mm: float = 0.025
-    compartments: tuple[str, ...] = ("medial", "lateral")
+    compartments: tuple[str, ...] = COMPARTMENTS
     fe_compartments: tuple[str, ...] = ("medial",)
     repeats: int = 7
     slow_s: float = 5.0
