@@ -1,14 +1,22 @@
-"""On-disk mesh cache keyed by builder name and canonical parameters.
+"""On-disk mesh cache keyed by builder name and version, canonical parameters and gmsh.
 
 Entries are ``.npz`` files under ``$FECHECK_CACHE_DIR`` (default ``~/.cache/fecheck``),
-named by the sha256 of a JSON document holding the builder name, the parameters
-(floats rounded to 12 significant digits, keys sorted) and `FORMAT_VERSION`. Writes go
-to a temporary file renamed into place, so parallel sweeps never see half an entry.
+named by the sha256 of a JSON document holding the builder name, the builder's own
+version (the ``version`` argument of `cached_build`: bump it in one builder when its meshes
+change, and only that builder's entries are rebuilt), the parameters (floats rounded to 12
+significant digits, keys sorted), the installed gmsh version (`gmsh_version`, read from
+the package metadata without importing gmsh) and `FORMAT_VERSION`. Writes go to a
+temporary file renamed into place, so parallel sweeps never see half an entry.
+
+>>> cache_key("box", {"x": 1.0}, version=2) != cache_key("box", {"x": 1.0}, version=3)
+True
 """
 
 from __future__ import annotations
 
+import functools
 import hashlib
+import importlib.metadata
 import json
 import os
 import tempfile
@@ -23,7 +31,7 @@ import numpy as np
 from geometry.errors import FecheckError
 from geometry.mesh import TetMesh, TriMesh
 
-#: Bump when the stored layout or any builder's output changes.
+#: Bump when the stored layout changes (a builder's output: its own `cached_build` version).
 FORMAT_VERSION = 1
 
 _warned_unwritable: set[str] = set()
@@ -71,9 +79,21 @@ def _canonical(value: Any) -> Any:
     raise FecheckError(f"cannot use {type(value).__name__} as a mesh cache parameter")
 
 
-def cache_key(name: str, params: Mapping[str, Any]) -> str:
-    """The hex sha256 identifying a build of `name` with `params`."""
-    doc = {"builder": name, "params": _canonical(params), "version": FORMAT_VERSION}
+@functools.cache
+def gmsh_version() -> str:
+    """The installed gmsh package's version (``"none"`` without gmsh), from its metadata:
+    gmsh itself is not imported."""
+    try:
+        return importlib.metadata.version("gmsh")
+    except importlib.metadata.PackageNotFoundError:
+        return "none"
+
+
+def cache_key(name: str, params: Mapping[str, Any], version: int = 1) -> str:
+    """The hex sha256 identifying a build of `name` at builder `version` with `params`,
+    under the installed gmsh and `FORMAT_VERSION`."""
+    doc = {"builder": name, "builder_version": version, "params": _canonical(params),
+           "gmsh": gmsh_version(), "version": FORMAT_VERSION}
     return hashlib.sha256(json.dumps(doc, sort_keys=True).encode()).hexdigest()
 
 
@@ -112,8 +132,9 @@ def _writable_dir() -> Path | None:
 
 def cached_build(name: str, params: Mapping[str, Any],
                  build: Callable[[], TriMesh | TetMesh], use_cache: bool = True,
-                 info: dict | None = None) -> TriMesh | TetMesh:
-    """Return ``build()``, read from the cache when an entry for (name, params) exists.
+                 info: dict | None = None, *, version: int = 1) -> TriMesh | TetMesh:
+    """Return ``build()``, read from the cache when an entry for (name, version, params)
+    built under the installed gmsh exists.
 
     Parameters
     ----------
@@ -122,10 +143,12 @@ def cached_build(name: str, params: Mapping[str, Any],
     build : makes the mesh when it is not cached
     use_cache : False to always build (and not store)
     info : if given, receives ``{"source": "cache" | "built", "key": ..., "path": ...}``
+    version : the builder's version; bump it when the builder's meshes change, so that its
+        old entries (and no other builder's) are rebuilt
 
     A cache hit returns arrays identical to those stored from the fresh build.
     """
-    key = cache_key(name, params)
+    key = cache_key(name, params, version)
     folder = _writable_dir() if use_cache else None
     path = folder / f"{name}-{key[:32]}.npz" if folder is not None else None
     if info is not None:

@@ -24,7 +24,7 @@ from geometry.mesh import TetMesh
 from geometry.polynomial import Polynomial2D
 
 _FOOTPRINTS = ("rectangle", "ellipse")
-#: Bump when the meshes this module builds change (part of the cache key).
+#: Bump when the meshes this module builds change (the builder version in the cache key).
 _BUILDER_VERSION = 2
 
 
@@ -90,17 +90,17 @@ def cartilage_layer(footprint: str = "rectangle", center_xy: Sequence[float] = (
                                f"size in (0, size={size}] mm, got {band}")
     else:
         band = None
-    params = {"builder_version": _BUILDER_VERSION, "footprint": footprint,
-              "center_xy": [float(c) for c in center_xy],
+    params = {"footprint": footprint, "center_xy": [float(c) for c in center_xy],
               "half_x": half_x, "half_y": half_y, "thickness": thickness, "top": top,
               "sagittal_deg": sagittal_deg, "frontal_deg": frontal_deg, "size": size,
               "refine_point": None if refine_point is None else [float(c) for c in refine_point],
               "refine_size": rsize, "refine_radius": rradius, "band": band, "order": order}
 
     def build() -> TetMesh:
-        return _build_layer(**{k: v for k, v in params.items() if k != "builder_version"})
+        return _build_layer(**params)
 
-    return cached_build("cartilage_layer", params, build, use_cache=cache)
+    return cached_build("cartilage_layer", params, build, use_cache=cache,
+                        version=_BUILDER_VERSION)
 
 
 def top_height(points_xy: np.ndarray, center_xy: Sequence[float], top: Polynomial2D | None,

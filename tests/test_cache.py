@@ -1,6 +1,8 @@
 """On-disk mesh cache: identical arrays, hits faster than builds, atomic, fail-safe."""
 
 import os
+import subprocess
+import sys
 import time
 import warnings
 from concurrent.futures import ThreadPoolExecutor
@@ -8,7 +10,7 @@ from concurrent.futures import ThreadPoolExecutor
 import numpy as np
 import pytest
 
-from geometry import cache
+from geometry import cache, layer
 from geometry.cache import cache_dir, cache_key, cached_build
 from geometry.icosphere import icosphere
 from geometry.mesh import TetMesh, TriMesh
@@ -65,6 +67,49 @@ def test_keys_canonicalise_parameters():
     assert cache_key("a", {"x": 0.1 + 0.2, "y": [1, 2]}) == cache_key("a", {"y": (1, 2), "x": 0.3})
     assert cache_key("a", {"x": 0.3}) != cache_key("a", {"x": 0.30001})
     assert cache_key("a", {"x": 0.3}) != cache_key("b", {"x": 0.3})
+
+
+def test_gmsh_and_builder_versions_choose_the_cache_file(fresh_cache, monkeypatch):
+    mesh = TriMesh(np.eye(3), np.array([[0, 1, 2]]))
+
+    def entry(version: int = 1) -> str:
+        info = {}
+        cached_build("v", {"k": 1}, lambda: mesh, info=info, version=version)
+        return info["path"]
+
+    monkeypatch.setattr(cache, "gmsh_version", lambda: "4.11.0")
+    first = entry()
+    assert entry() == first and cache.STATS.last == "cache"
+    assert entry(version=2) != first and cache.STATS.last == "built"
+    assert entry(version=2) != first and cache.STATS.last == "cache"
+    monkeypatch.setattr(cache, "gmsh_version", lambda: "4.13.1")
+    assert entry() != first and cache.STATS.last == "built"
+    monkeypatch.setattr(cache, "gmsh_version", lambda: "4.11.0")
+    assert entry() == first and cache.STATS.last == "cache"
+    assert len(list(fresh_cache.glob("v-*.npz"))) == 3
+
+
+def test_gmsh_version_is_the_installed_one_and_gmsh_stays_unimported():
+    code = ("import sys; from geometry.cache import cache_key, gmsh_version; cache_key('a', {}); "
+            "print(gmsh_version(), 'gmsh' in sys.modules)")
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
+    import gmsh
+
+    assert out.stdout.split() == [gmsh.__version__, "False"]
+
+
+def test_layer_builder_passes_its_version_not_a_parameter(monkeypatch):
+    seen = {}
+
+    def spy(name, params, build, use_cache=True, info=None, *, version=1):
+        seen.update(name=name, params=params, version=version)
+        return "built"
+
+    monkeypatch.setattr(layer, "cached_build", spy)
+    monkeypatch.setattr(layer, "_BUILDER_VERSION", 7)
+    assert layer.cartilage_layer() == "built"
+    assert seen["name"] == "cartilage_layer" and seen["version"] == 7
+    assert "builder_version" not in seen["params"]
 
 
 def test_unwritable_cache_warns_once_and_still_builds(tmp_path, monkeypatch):
