@@ -193,7 +193,8 @@ def _epa(a, b, W, A, B, max_iter: int = 200):
             lam = np.array([1.0 - mu.sum(), mu[0], mu[1]])
             return (max(dist, 0.0), n, lam @ np.array([pa[i], pa[j], pa[k]]),
                     lam @ np.array([pb[i], pb[j], pb[k]]))
-        visible = [fc for fc, nn in zip(faces, normals) if nn @ (w - pts[fc[0]]) > 1e-12]
+        visible = [fc for fc, nn in zip(faces, normals, strict=True)
+                   if nn @ (w - pts[fc[0]]) > 1e-12]
         edges: dict[tuple[int, int], int] = {}
         for i, j, k in visible:
             for e in ((i, j), (j, k), (k, i)):

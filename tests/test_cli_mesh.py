@@ -80,7 +80,7 @@ def test_mesh_info_rows_for_the_four_table_3_1_kinds(tmp_path, capsys):
     from test_checks import TABLE_3_1, _meshes
 
     files = []
-    for k, (kind, mesh) in enumerate(_meshes().items()):
+    for k, mesh in enumerate(_meshes().values()):
         files.append(tmp_path / f"{k}.stl")
         save_mesh(mesh, files[-1])
     js = tmp_path / "info.json"
@@ -88,7 +88,7 @@ def test_mesh_info_rows_for_the_four_table_3_1_kinds(tmp_path, capsys):
     table = capsys.readouterr().out.splitlines()
     assert len(table) == 5 and "χ" in table[0]
     rows = json.loads(js.read_text())
-    for row, kind in zip(rows, TABLE_3_1):
+    for row, kind in zip(rows, TABLE_3_1, strict=True):
         got = (row["euler"], row["winding_consistent"], row["convex"], row["watertight"],
                row["empty"])
         assert got == TABLE_3_1[kind], kind

@@ -30,7 +30,7 @@ def test_closest_point_on_a_triangle_matches_libigl_in_every_voronoi_region():
         F = np.array([[0, 1, 2]])
         pts = V.mean(axis=0) + 2.0 * rng.normal(size=(200, 3))
         sq_ref, _, q_ref = _igl_closest(V, F, pts)
-        for p, s, q in zip(pts, sq_ref, q_ref):
+        for p, s, q in zip(pts, sq_ref, q_ref, strict=True):
             qx, qy, qz, sq = closest_on_triangle(p[0], p[1], p[2], edge_frames(V, F), 0)
             np.testing.assert_allclose([qx, qy, qz], q, atol=1e-12)
             assert sq == pytest.approx(s, rel=1e-12, abs=1e-24)
@@ -87,8 +87,8 @@ def test_walk_from_the_last_faces_finds_the_bvh_closest_faces(master):
         same = walked == face_ref
         if not same.all():                      # only exact ties may pick another face
             other = ~same
-            _, _, _, sq_other = np.array([closest_on_triangle(*p, E, f)
-                                          for p, f in zip(pts[other], face_ref[other])]).T
+            pairs = zip(pts[other], face_ref[other], strict=True)
+            _, _, _, sq_other = np.array([closest_on_triangle(*p, E, f) for p, f in pairs]).T
             np.testing.assert_allclose(sq_other, sq[other], rtol=1e-12)
         n_moved += int((walked != face).sum())
         face = walked
