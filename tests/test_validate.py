@@ -30,7 +30,7 @@ def quick_report(tmp_path_factory):
 def test_quick_rigid_rows_reproduce_table_5_1_against_hand_statics(quick_report):
     code, out = quick_report
     assert code == 0
-    # Independent reference (DESIGN §4): F_m + F_l = 800 - 2.0·9.81 and
+    # Independent reference (the thesis's Table 5.1 statics): F_m + F_l = 800 - 2.0·9.81 and
     # -20.4·F_m + 28.3·F_l = 800·7.9 (moments about x = 0 of the reference point).
     f_m, f_l = np.linalg.solve([[1.0, 1.0], [-20.4, 28.3]], [800 - 19.62, 800 * 7.9])
     rows = _csv_rows(out / "table_5_1.csv")
@@ -118,9 +118,9 @@ def test_a_failing_script_becomes_a_failed_row_and_the_report_is_written(tmp_pat
         "from report import guarded, require\n"
         "def rows(quick, out):\n"
         "    return [guarded('x', 'needs a module', 'Fig. 0', out,\n"
-        "                    lambda: require('fecheck.no_such_module', 'nobody'))]\n")
+        "                    lambda: require('no_such_package', 'an optional extra'))]\n")
     out = tmp_path / "out"
     assert main(["validate", "--dir", str(vdir), "--out", str(out)]) == 1
     report = (out / "report.md").read_text()
     assert "failed: ValueError: boom" in report
-    assert "skipped: fecheck.no_such_module is not available yet (nobody)" in report
+    assert "skipped: no_such_package is not installed (an optional extra)" in report

@@ -1,7 +1,8 @@
 """Detection benchmark (thesis Figs. 3.21 and 3.25): run time and accuracy per method.
 
 Usage: python validation/bench_detection.py [--quick] [--json PATH] [--plot DIR]
-(the same as ``fecheck bench detection``). See `fecheck.contact.bench` for the scenarios.
+(the same as ``fecheck bench detection``). See `fecheck.studies.bench_detection` for the
+scenarios.
 """
 
 from __future__ import annotations
@@ -14,7 +15,7 @@ from pathlib import Path
 os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
 os.environ.setdefault("OMP_NUM_THREADS", "1")
 
-from fecheck.contact import bench
+from fecheck.studies import bench_detection as bench
 
 
 def main(argv: list[str] | None = None) -> int:

@@ -3,7 +3,7 @@
 The same study as ``fecheck bench``: EF (clipped, whole-face, analytic master), the
 thesis's fcl stack, Hertz and FE (3D, axisymmetric) on the baseline compartments, against
 each model's converged reference; ratios to the thesis stack; time per contact
-evaluation against faces. See `fecheck.bench` for the methods and references.
+evaluation against faces. See `fecheck.studies.bench` for the methods and references.
 
     python validation/bench_pareto.py [--quick] [--json PATH] [--plot DIR]
 """

@@ -43,7 +43,8 @@ def compare(load: float, radius: float, E: float, nu: float, h: float) -> dict:
         row[f"{name}_area_mm2"] = m.area_mm2
         row[f"{name}_depth_mm"] = m.depth_mm
     for name in ("ef", "hertz"):
-        row[f"{name}_vs_fe_max_pressure"] = row[f"{name}_max_pressure_MPa"] / fe.max_pressure_MPa - 1
+        row[f"{name}_vs_fe_max_pressure"] = (row[f"{name}_max_pressure_MPa"]
+                                             / fe.max_pressure_MPa - 1)
         row[f"{name}_vs_fe_area"] = row[f"{name}_area_mm2"] / fe.area_mm2 - 1
     return row
 

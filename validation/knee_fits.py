@@ -26,9 +26,9 @@ import thesis_values as tv
 from report import knee_script_args
 
 from fecheck.scene import scanned
+from fecheck.scene.constants import COMPARTMENTS as SIDES
 from geometry.fits import fit_plane, fit_polynomial_surface, fit_sphere, fit_spherical_polynomial
 
-SIDES = ("medial", "lateral")
 POLY_DEGREE = 3
 """Degree of the polynomial plateaus (thesis Table 5.10)."""
 

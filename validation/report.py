@@ -31,7 +31,7 @@ CANNOT = "cannot be reproduced"
 
 
 class Missing(Exception):
-    """A piece a row needs is absent (module not written yet, data folder missing)."""
+    """A piece a row needs is absent: an optional package or the scanned-knee data set."""
 
 
 @dataclass(frozen=True)
@@ -125,13 +125,21 @@ def guarded(name: str, title: str, reference: str, out: Path,
 
 
 def require(module: str, owner: str):
-    """Import `module` or raise `Missing` naming what is absent and who provides it."""
+    """Import an optional third-party package (python-fcl, pyamg, sfepy), or raise
+    `Missing` naming it and how to install it.
+
+    fecheck's own modules are imported directly: a missing one is a broken row, not a
+    skipped one (ValueError here)."""
     import importlib
 
+    if module.split(".")[0] == "fecheck":
+        raise ValueError(f"import {module} directly: require() is for optional packages")
     try:
         return importlib.import_module(module)
     except ModuleNotFoundError as err:
-        raise Missing(f"{module} is not available yet ({owner}): {err}") from None
+        if err.name not in (module, module.split(".")[0]):  # it is there, but broken
+            raise
+        raise Missing(f"{module} is not installed ({owner})") from None
 
 
 def require_knee_data():
@@ -143,6 +151,13 @@ def require_knee_data():
         return scanned.knee_dir()
     except Exception as err:  # noqa: BLE001 - FecheckError naming the folder
         raise Missing(str(err)) from None
+
+
+def knee_scene(name: str) -> str:
+    """`name`, a scene of ``validation/scenes`` on the scanned knee, once the knee data set
+    is there (else `Missing`); a missing scene file fails where the scene is loaded."""
+    require_knee_data()
+    return name
 
 
 def knee_script_args(description: str, quick_help: str, argv: Sequence[str] | None
@@ -191,7 +206,8 @@ def table_markdown(lines: Sequence[Line]) -> str:
     head.append("note")
     out = ["| " + " | ".join(head) + " |", "|" + "---|" * len(head)]
     for ln in lines:
-        cells = [ln.quantity.replace("|", "\\|"), _fmt(ln.thesis), _fmt(ln.fecheck), _pct(ln.deviation_pct)]
+        cells = [ln.quantity.replace("|", "\\|"), _fmt(ln.thesis), _fmt(ln.fecheck),
+                 _pct(ln.deviation_pct)]
         if wf:
             cells += [_fmt(ln.whole_face), _pct(ln.whole_face_deviation_pct)]
         cells.append(ln.note.replace("|", "/"))
@@ -329,7 +345,8 @@ def _rel(p: Path, out: Path) -> str:
 
 def main_for(rows_fn: Callable[[bool, Path], list[Row]], argv: Sequence[str] | None = None
              ) -> int:
-    """Command line of a row script: ``[--quick] [--out DIR]``; prints each row."""
+    """Command line of a row script: ``[--quick] [--out DIR]``; prints each row. Exit
+    status 1 when a row failed (a skipped row is not a failure)."""
     import argparse
 
     p = argparse.ArgumentParser(description="Reproduce thesis rows; writes CSV/PNG to --out.")
@@ -337,6 +354,7 @@ def main_for(rows_fn: Callable[[bool, Path], list[Row]], argv: Sequence[str] | N
     p.add_argument("--out", type=Path, default=Path("out/validation"), help="output folder")
     args = p.parse_args(argv)
     args.out.mkdir(parents=True, exist_ok=True)
-    for row in rows_fn(args.quick, args.out):
+    rows = rows_fn(args.quick, args.out)
+    for row in rows:
         print(row_markdown(row, args.out))
-    return 0
+    return 1 if any(row.status.startswith("failed") for row in rows) else 0

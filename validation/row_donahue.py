@@ -87,7 +87,7 @@ def _row(name: str, ref: str, c: str, thesis_ef: dict, data: dict, out: Path) ->
 
     fig, axes = figure(ncols=2, width=5.2)
     xs = np.array(sizes)
-    for ax, key in zip(axes, ("max_pressure_MPa", "area_mm2")):
+    for ax, key in zip(axes, ("max_pressure_MPa", "area_mm2"), strict=True):
         i = tv.DONAHUE_KEYS.index(key)
         ax.plot(list(data["donahue"][c]), [getattr(m, key) for m in data["donahue"][c].values()],
                 "k^-", label="Donahue 2002 FE (menisci, CT geometry)")

@@ -21,7 +21,6 @@ from report import (
     figure,
     guarded,
     main_for,
-    require,
     require_knee_data,
     save_figure,
     table_row,
@@ -34,7 +33,9 @@ SUBJECT_NOTE = ("The thesis fitted its own subject's scan (not published); feche
 
 def _fits():
     require_knee_data()
-    return require("knee_fits", "H5")
+    import knee_fits
+
+    return knee_fits
 
 
 def table_2_1(out: Path) -> Row:
@@ -51,7 +52,7 @@ def table_2_1(out: Path) -> Row:
                               compare=not angle))
     free_better = all(r["me_free_mm"] < r["me_transverse_mm"] for r in rows)
     outliers_help = all(
-        b["me_free_mm"] <= a["me_free_mm"] for a, b in zip(rows[0::2], rows[1::2]))
+        b["me_free_mm"] <= a["me_free_mm"] for a, b in zip(rows[0::2], rows[1::2], strict=True))
     note = (f"{SUBJECT_NOTE} Trends of the thesis: the free plane fits better than the "
             f"transverse one ({'reproduced' if free_better else 'not reproduced'}); removing "
             f"outliers (2σ, robust MAD scale) lowers the mean error "
@@ -59,7 +60,7 @@ def table_2_1(out: Path) -> Row:
             f"in degrees (a % of an angle near 0° means nothing): the lenhart2015 cartilage "
             f"planes are tilted by 7-13° where the thesis's bone planes are within ±10° and "
             f"the frontal angles γ have opposite signs, a difference of subjects and of the "
-            f"surface fitted (cartilage sheets, `fecheck.scanned`), not of the method, "
+            f"surface fitted (cartilage sheets, `fecheck.scene.scanned`), not of the method, "
             f"which `tests/test_fits.py` checks on synthetic planes.")
     png = _table_2_1_png(lines, out / "table_2_1.png")
     return table_row("table_2_1", "plateau planes with and without outliers", "Table 2.1",
@@ -100,8 +101,8 @@ def _degree_table(name: str, ref: str, title: str, rows: list[dict], out: Path,
         curves.setdefault(r["side"], []).append((r["degree"], r["mean_error_mm"],
                                                  r["thesis_mean_error_mm"]))
     fig, (ax,) = figure()
-    for side, color in zip(curves, ("tab:blue", "tab:orange")):
-        deg, ours, thesis = zip(*curves[side])
+    for side, color in zip(curves, ("tab:blue", "tab:orange"), strict=True):
+        deg, ours, thesis = zip(*curves[side], strict=True)
         ax.plot(deg, ours, "o-", color=color, label=f"{side}, fecheck (lenhart2015)")
         th = np.array([np.nan if t is None else t for t in thesis])
         ax.plot(deg, th, "s--", color=color, alpha=0.6, label=f"{side}, thesis")

@@ -29,9 +29,17 @@ from report import (
     write_data_csv,
 )
 
+from fecheck.reference.closed_forms import (
+    column_stiffness,
+    ef_cap_depth,
+    ef_sphere_plane,
+    hertz_sphere_on_plane,
+)
+
 RADIUS_MM = 31.8
 E_MPA, NU, H_MM = 20.0, 0.3, 6.0
 K_VOLUMETRIC = 1e-2          # N/mm³, the thesis's k_V = 1e7 N/m³
+K_EF = column_stiffness(E_MPA, NU, H_MM)      # N/mm³
 LAWS = ("ef", "volumetric", "hertz")
 LAW_LABELS = {"ef": "elastic foundation", "volumetric": "volumetric", "hertz": "Hertz"}
 
@@ -67,15 +75,41 @@ class Indenter:
         return laws.hertz(s, self.radius, laws.hertz_modulus(E, nu))
 
 
-def closed_form(name: str, d: np.ndarray, R: float = RADIUS_MM, E: float = E_MPA,
-                nu: float = NU) -> tuple[np.ndarray, np.ndarray]:
-    """Force (N) and max pressure (MPa) of a sphere at depth d on a plane (closed form)."""
+def force_at_depth(depth_of, depth_mm: float) -> float:
+    """The force (N) at which the increasing closed form `depth_of(force)` gives `depth_mm`:
+    the references are written for an imposed force, these rows impose the depth."""
+    from scipy.optimize import brentq
+
+    hi = 1.0
+    while depth_of(hi) < depth_mm:
+        hi *= 2.0
+    lo = hi / 2.0
+    while depth_of(lo) > depth_mm:
+        lo /= 2.0
+    return brentq(lambda f: depth_of(f) - depth_mm, lo, hi, xtol=1e-14 * lo,
+                  rtol=4 * np.finfo(float).eps)
+
+
+def cap_at_depth(name: str, depth_mm: float) -> tuple[float, float, float]:
+    """Closed-form force (N), maximum pressure (MPa) and contact area (mm²) of the sphere
+    pressed `depth_mm` into the plane under law `name` (`fecheck.reference.closed_forms`;
+    the volumetric law is the EF cap with k_V)."""
     if name == "hertz":
-        e_star = E / (1 - nu**2)
-        force = 4 / 3 * e_star * np.sqrt(R) * d**1.5
-        return force, 2 * e_star / np.pi * np.sqrt(d / R)
-    k = K_VOLUMETRIC if name == "volumetric" else (1 - nu) * E / ((1 + nu) * (1 - 2 * nu) * H_MM)
-    return k * np.pi * d**2 * (R - d / 3), k * d
+        def hertz(force):
+            return hertz_sphere_on_plane(force, RADIUS_MM, E_MPA, NU)
+
+        m = hertz(force_at_depth(lambda f: hertz(f).depth_mm, depth_mm))
+        return m.force_N, m.max_pressure_MPa, m.area_mm2
+    k = K_VOLUMETRIC if name == "volumetric" else K_EF
+    force = force_at_depth(lambda f: ef_cap_depth(f, RADIUS_MM, k), depth_mm)
+    cap = ef_sphere_plane(force, RADIUS_MM, k)
+    return force, cap["max_pressure_MPa"], cap["area_mm2"]
+
+
+def closed_form(name: str, d: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Force (N) and max pressure (MPa) at each depth of `d` (mm): `cap_at_depth`."""
+    values = np.array([cap_at_depth(name, float(x))[:2] for x in d])
+    return values[:, 0], values[:, 1]
 
 
 def slope(x: np.ndarray, y: np.ndarray) -> float:
@@ -105,7 +139,7 @@ def figs_4_4_4_5(quick: bool, out: Path) -> list[Row]:
             ("Fig. 4.5", "fig_4_5", tv.FIG_4_5_SLOPES, "maximum pressure, MPa"))):
         fig, (ax,) = figure()
         lines = []
-        for law, color in zip(LAWS, ("tab:blue", "tab:green", "tab:red")):
+        for law, color in zip(LAWS, ("tab:blue", "tab:green", "tab:red"), strict=True):
             got = curves[law][idx]
             ref_curve = closed_form(law, depths)[idx]
             s = slope(depths, got)
@@ -120,11 +154,14 @@ def figs_4_4_4_5(quick: bool, out: Path) -> list[Row]:
                               "inscribed icosphere (Fig. 3.3) against the exact sphere"))
         ax.set_xlabel("penetration depth d, mm")
         ax.set_ylabel(ylabel)
-        ax.set_title(f"{ref}: {ylabel.split(',')[0]} against depth (R = {RADIUS_MM} mm)", fontsize=10)
+        ax.set_title(f"{ref}: {ylabel.split(',')[0]} against depth (R = {RADIUS_MM} mm)",
+                     fontsize=10)
         ax.grid(alpha=0.3, which="both")
         ax.legend(fontsize=7)
         png = save_figure(fig, out / f"{name}.png")
-        note = ("Slopes fitted over d = 0.25-2 mm (below, the contact patch spans only a few faces of the 5,120-face icosphere, whose pole vertex then dominates). EF and volumetric forces are k times the "
+        note = ("Slopes fitted over d = 0.25-2 mm (below, the contact patch spans only a few "
+                "faces of the 5,120-face icosphere, whose pole vertex then dominates). EF and "
+                "volumetric forces are k times the "
                 "cap volume πd²(R − d/3), slope 2 − d/(3R − d) → 2; Hertz F ∝ d^1.5 and "
                 "p0 ∝ d^0.5; EF/volumetric p_max = k·d. The thesis's slopes are the "
                 "small-depth limits. Mesh values differ from the closed forms by the "
@@ -153,7 +190,7 @@ def fig_4_6(quick: bool, out: Path) -> Row:
     csv2 = write_data_csv(out / "fig_4_6_nu_data.csv", {
         "nu": nus, **{f"{law}_pmax_vs_nu_MPa": pn[law] for law in LAWS}})
     fig, (a1, a2) = figure(ncols=2, width=5.4)
-    for law, color in zip(LAWS, ("tab:blue", "tab:green", "tab:red")):
+    for law, color in zip(LAWS, ("tab:blue", "tab:green", "tab:red"), strict=True):
         a1.plot(Es, pe[law], "o-", color=color, label=LAW_LABELS[law])
         a2.semilogy(nus, pn[law], "o-", color=color, label=LAW_LABELS[law])
     for ax in (a1, a2):
@@ -166,7 +203,7 @@ def fig_4_6(quick: bool, out: Path) -> Row:
     a1.set_title("Fig. 4.6 (left): influence of E")
     a2.set_title("Fig. 4.6 (right): influence of ν")
     png = save_figure(fig, out / "fig_4_6.png")
-    ef_ref = closed_form("ef", np.array(d))[1]
+    ef_ref = cap_at_depth("ef", d)[1]
     lines = [Line("EF p_max at baseline MPa", None, float(np.interp(E_MPA, Es, pe["ef"])),
                   f"closed form k·d = {float(ef_ref):.3f}"),
              Line("EF p_max(E=40)/p_max(E=5)", None, float(pe["ef"][-1] / pe["ef"][0]),
@@ -193,7 +230,7 @@ def figs_4_7_4_8(quick: bool, out: Path) -> list[Row]:
     r = np.hypot(cent[:, 0], cent[:, 1])
     p_ef, p_hz = ef.face_pressure(), hz.face_pressure()
     touched = p_ef > 0
-    k = closed_form("ef", np.array(1.0))[1]
+    k = K_EF
     a_hz = hz.extra["contact_radius_mm"]
     fig, axes = figure(ncols=2, width=5.0)
     vmax = float(max(p_ef.max(), p_hz.max()))
@@ -229,13 +266,15 @@ def figs_4_7_4_8(quick: bool, out: Path) -> list[Row]:
     csv = write_data_csv(out / "fig_4_8_data.csv", {
         "r_mm": r[touched], "ef_pressure_MPa": p_ef[touched],
         "hertz_pressure_MPa": p_hz[touched]})
-    a_ef = math.sqrt(2 * RADIUS_MM * d - d * d)
+    _, p0_hz, area_hz = cap_at_depth("hertz", d)
+    a_ef = math.sqrt(cap_at_depth("ef", d)[2] / math.pi)
     lines = [Line("EF p_max MPa", None, ef.max_pressure, f"closed form k·d = {k:.3f}"),
              Line("Hertz p0 MPa", None, hz.max_pressure,
-                  f"closed form {closed_form('hertz', np.array(d))[1]:.3f}"),
+                  f"closed form {p0_hz:.3f}"),
              Line("EF contact radius mm", None, math.sqrt(ef.area / math.pi),
                   f"closed form √(2Rd − d²) = {a_ef:.3f}"),
-             Line("Hertz contact radius mm", None, a_hz, f"√(Rd) = {math.sqrt(RADIUS_MM):.3f}")]
+             Line("Hertz contact radius mm", None, a_hz,
+                  f"√(Rd) = {math.sqrt(area_hz / math.pi):.3f}")]
     note = ("At the same depth the EF pressure is a truncated paraboloid k(d − r²/2R) over a "
             "radius √(2Rd) and the Hertz pressure an ellipsoid p0√(1 − r²/a²) over a = √(Rd): "
             "EF gives the higher maximum pressure and the larger area, as the thesis says. "

@@ -12,9 +12,8 @@ from pathlib import Path
 
 import numpy as np
 import thesis_values as tv
-from report import CANNOT, DEVIATES, Line, Row, guarded, main_for, require_knee_data, table_row
+from report import CANNOT, DEVIATES, Line, Row, guarded, knee_scene, main_for, table_row
 from row_rigid import run, scene
-from row_sweeps import _require_scene
 
 SHIFTS_MM = (-8.0, 0.0, 8.0)
 
@@ -34,7 +33,7 @@ def pressure_png(results: list, shifts: tuple[float, ...], title: str, path: Pat
                for c in r.compartments.values())
     plotter = pv.Plotter(off_screen=True, shape=(1, len(results)),
                          window_size=(max(900, 520 * len(results)), 600), border=False)
-    for k, (res, shift) in enumerate(zip(results, shifts)):
+    for k, (res, shift) in enumerate(zip(results, shifts, strict=True)):
         plotter.subplot(0, k)
         hot_normals, hot_points = [], []
         for comp in res.compartments.values():
@@ -78,12 +77,14 @@ def pressure_png(results: list, shifts: tuple[float, ...], title: str, path: Pat
 
 
 def fig_5_18(quick: bool, out: Path) -> Row:
-    name = _require_scene("femur_tibia")
+    name = knee_scene("femur_tibia")
     shifts = (0.0,) if quick else SHIFTS_MM
     scanned = _solve(name, shifts)
     base = _solve(None, shifts)
-    png = pressure_png(scanned, shifts, "Fig. 5.18: scanned femur on tibia, no ligaments", out / "fig_5_18.png")
-    png_b = pressure_png(base, shifts, "Baseline sphere-plane (plateaus under condyle spheres)", out / "fig_5_18_baseline.png")
+    png = pressure_png(scanned, shifts, "Fig. 5.18: scanned femur on tibia, no ligaments",
+                       out / "fig_5_18.png")
+    png_b = pressure_png(base, shifts, "Baseline sphere-plane (plateaus under condyle spheres)",
+                         out / "fig_5_18_baseline.png")
     ref = scanned[shifts.index(0.0)]
     lines = [Line(f"{c} max pressure MPa", tv.TABLE_5_11_SCANNED[c]["max_pressure_MPa"],
                   ref.compartments[c].max_pressure_MPa, "reference load point")
@@ -98,11 +99,11 @@ def fig_5_18(quick: bool, out: Path) -> Row:
 
 
 def fig_5_21(quick: bool, out: Path) -> Row:
-    name = _require_scene("femur_tibia_ligaments")
-    require_knee_data()
+    name = knee_scene("femur_tibia_ligaments")
     shifts = (0.0,) if quick else SHIFTS_MM
     res = _solve(name, shifts)
-    png = pressure_png(res, shifts, "Fig. 5.21: scanned femur on tibia, ligament springs", out / "fig_5_21.png")
+    png = pressure_png(res, shifts, "Fig. 5.21: scanned femur on tibia, ligament springs",
+                       out / "fig_5_21.png")
     ref = res[shifts.index(0.0)]
     lines = [Line(f"{c} max pressure MPa", None, ref.compartments[c].max_pressure_MPa,
                   "reference load point") for c in ("medial", "lateral")]

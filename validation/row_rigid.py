@@ -1,7 +1,8 @@
 """Rigid model (thesis §5.1): Tables 5.1, 5.2 and Figs. 5.2, 5.4, 5.22.
 
 Balls on frictionless planes, linear statics (`model.kind = "rigid"`); the load point is
-moved along x by a "shift" from the reference x = +7.9 mm (DESIGN §4).
+moved along x by a "shift" from the reference x = +7.9 mm (the thesis prints x = −7.9 mm,
+but only +7.9 mm reproduces its Table 5.1: the printed sign is an error).
 
     python validation/row_rigid.py [--quick] [--out DIR]
 """
@@ -84,7 +85,7 @@ def table_5_1(out: Path) -> Row:
     note = ("Reproduced to 0.01 N with the load at **x = +7.9 mm** and a 2.0 kg tibia at x = 0 "
             "(F_m + F_l = 780.38 N, −20.4·F_m + 28.3·F_l = 800·7.9). With the printed "
             "x = −7.9 mm the split would be 533.6 / 246.8 N: the thesis's printed load point "
-            "has the wrong sign (DESIGN §4).")
+            "has the wrong sign.")
     return table_row("table_5_1", "rigid model force distribution", "Table 5.1", lines, out,
                      REPRODUCED if ok else DEVIATES, note)
 

@@ -11,7 +11,6 @@ the plateau counted whole: its Fig. 3.20).
 
 from __future__ import annotations
 
-import math
 from functools import cache
 from pathlib import Path
 
@@ -24,14 +23,16 @@ from report import (
     Row,
     figure,
     guarded,
+    knee_scene,
     main_for,
-    require_knee_data,
     save_figure,
     table_row,
 )
-from row_rigid import SCENES, run
+from row_rigid import run
 
-COMPARTMENTS = ("medial", "lateral")
+from fecheck.reference.closed_forms import hertz_sphere_on_plane
+from fecheck.scene.constants import COMPARTMENTS
+
 #: icosphere levels standing for the thesis's ≈5,000 and ≈13,700 faces per sphere
 LEVEL_OF_FACES = {5000: 4, 13700: 5}
 WHOLE_FACE = ("contact.master=plateau", "contact.area=whole-face")
@@ -88,7 +89,7 @@ def closed_form_note(result) -> str:
         return ""
     return (f" fecheck's exact values are within {max(devs):.2f} % of the closed-form EF "
             "sphere on a plane at the same force: F = kπd²(R − d/3), A = π(2Rd − d²), "
-            "p_max = k·d (DESIGN §5).")
+            "p_max = k·d (`fecheck.reference.closed_forms.ef_sphere_plane`).")
 
 
 def whole_face(level: int = 4) -> tuple[str, ...]:
@@ -129,11 +130,11 @@ def _sweep_png(reference, thesis, values, levels, series, axis_label, path) -> P
     fig, axes = figure(ncols=2, width=5.6)
     xs = np.array(values, dtype=float)
     order = np.argsort(xs)
-    for ax, key in zip(axes, ("max_pressure_MPa", "area_mm2")):
-        for c, color in zip(COMPARTMENTS, ("tab:blue", "tab:orange")):
+    for ax, key in zip(axes, ("max_pressure_MPa", "area_mm2"), strict=True):
+        for c, color in zip(COMPARTMENTS, ("tab:blue", "tab:orange"), strict=True):
             exact = np.array([metric(series["exact"][v], c, key) for v in values])
             ax.plot(xs[order], exact[order], "-", color=color, label=f"{c}: fecheck exact")
-            for faces, marker in zip(levels, ("s", "D")):
+            for faces, marker in zip(levels, ("s", "D"), strict=False):
                 wf = np.array([metric(series[faces][v], c, key) for v in values])
                 ax.plot(xs[order], wf[order], marker, mfc="none", color=color,
                         label=f"{c}: fecheck whole-face ≈{faces}")
@@ -163,12 +164,12 @@ def table_5_5(quick: bool, out: Path) -> Row:
 
 
 def hertz_check(force_N: float, radius_mm: float, E_MPa: float, nu: float) -> dict:
-    """Hertz depth (mm) and p0 (MPa) at a force for a rigid or two deformable bodies."""
+    """Hertz depth (mm) and p0 (MPa) at a force for a rigid indenter, and for two equal
+    deformable layers (E* halved: the rigid-indenter closed form with E/2)."""
     out = {}
-    for label, e_star in (("rigid indenter", E_MPa / (1 - nu**2)),
-                          ("two layers", E_MPa / (2 * (1 - nu**2)))):
-        a = (3 * force_N * radius_mm / (4 * e_star)) ** (1 / 3)
-        out[label] = (a * a / radius_mm, 3 * force_N / (2 * math.pi * a * a))
+    for label, youngs in (("rigid indenter", E_MPa), ("two layers", E_MPa / 2)):
+        m = hertz_sphere_on_plane(force_N, radius_mm, youngs, nu)
+        out[label] = (m.depth_mm, m.max_pressure_MPa)
     return out
 
 
@@ -209,16 +210,8 @@ def table_5_9(out: Path) -> Row:
                      note)
 
 
-def _scene_file(name: str, owner: str) -> str:
-    """A scanned-knee scene name, or `Missing` (no scene file yet, or no knee data)."""
-    if not (SCENES / f"{name}.toml").is_file():
-        raise Missing(f"validation/scenes/{name}.toml is not there yet ({owner})")
-    require_knee_data()
-    return name
-
-
 def table_5_10(out: Path) -> Row:
-    name = _scene_file("polynomial", "H5")
+    name = knee_scene("polynomial")
     exact = solved(name, ())
     whole = solved(name, whole_face())
     lines = case_lines(tv.TABLE_5_10_POLYNOMIAL, exact, whole)
@@ -232,7 +225,7 @@ def table_5_10(out: Path) -> Row:
 
 
 def table_5_11(out: Path) -> Row:
-    name = _scene_file("femur_tibia", "H5")
+    name = knee_scene("femur_tibia")
     exact = solved(name, ())
     lines = case_lines(tv.TABLE_5_11_SCANNED, exact, None)
     note = ("Scanned femoral cartilage on scanned tibial cartilage (lenhart2015, MRI of one "
@@ -247,9 +240,9 @@ def table_5_11(out: Path) -> Row:
 def table_5_12(out: Path) -> Row:
     cases = {"baseline": (None, ()), "hertz": ("hertz", ()),
              "inclined": (None, ("plateau.kind=inclined",))}
-    for name, owner in (("polynomial", "H5"), ("femur_tibia", "H5")):
+    for name in ("polynomial", "femur_tibia"):
         try:
-            cases["scanned" if name == "femur_tibia" else name] = (_scene_file(name, owner), ())
+            cases["scanned" if name == "femur_tibia" else name] = (knee_scene(name), ())
         except Missing:
             pass
     lines, missing = [], [k for k in tv.TABLE_5_12 if k not in cases]

@@ -20,19 +20,19 @@ from report import (
     DEVIATES,
     REPRODUCED,
     Line,
-    Missing,
     Row,
     figure,
     guarded,
+    knee_scene,
     main_for,
-    require_knee_data,
     save_figure,
     table_row,
     write_data_csv,
 )
-from row_rigid import SCENES, equal_force_shift, forces_along, scene, shifts_mm
+from row_rigid import equal_force_shift, forces_along, scene, shifts_mm
 
-COMPARTMENTS = ("medial", "lateral")
+from fecheck.errors import FecheckError
+from fecheck.scene.constants import COMPARTMENTS
 
 
 @dataclass(frozen=True)
@@ -72,6 +72,9 @@ def sweep(name: str | None, shifts: np.ndarray, overrides: tuple[str, ...] = ())
     x0 = base["load.point_mm"][0]
     points = run_sweep(base, "load.point_mm[0]", [float(x0 + s) for s in shifts],
                        progress=False)
+    failed = [f"{p.value:g}: {p.error}" for p in points if p.failed]
+    if failed:
+        raise FecheckError(f"{name}: sweep points failed: {'; '.join(failed)}")
     rs = [p.result for p in points]
     force = {c: np.array([r.compartments[c].force_N for r in rs]) for c in COMPARTMENTS}
     pmax = {c: np.array([r.compartments[c].max_pressure_MPa for r in rs]) for c in COMPARTMENTS}
@@ -85,16 +88,8 @@ def sweep(name: str | None, shifts: np.ndarray, overrides: tuple[str, ...] = ())
                  np.array([r.converged for r in rs]))
 
 
-def _require_scene(name: str) -> str:
-    """A scanned-knee scene name, or `Missing` (no scene file yet, or no knee data)."""
-    if not (SCENES / f"{name}.toml").is_file():
-        raise Missing(f"validation/scenes/{name}.toml is not there yet (H5)")
-    require_knee_data()
-    return name
-
-
 def _force_axes(ax, sw: Sweep, label: str, style: str = "-", marker: str = "o") -> None:
-    for c, color in zip(COMPARTMENTS, ("tab:blue", "tab:orange")):
+    for c, color in zip(COMPARTMENTS, ("tab:blue", "tab:orange"), strict=True):
         ax.plot(sw.shift_mm, sw.force_N[c], style, marker=marker, color=color, ms=4,
                 label=f"{c}, {label}")
     ax.set_xlabel("load-point shift along x, mm")
@@ -233,7 +228,7 @@ def fig_5_9(quick: bool, out: Path) -> Row:
 
 def _pressure_torque(name, ref, title, sw: Sweep, out, lines, note, status) -> Row:
     fig, (a1, a2) = figure(ncols=2, width=5.4)
-    for c, color in zip(COMPARTMENTS, ("tab:blue", "tab:orange")):
+    for c, color in zip(COMPARTMENTS, ("tab:blue", "tab:orange"), strict=True):
         a1.plot(sw.shift_mm, sw.max_pressure_MPa[c], "o-", color=color, ms=4, label=c)
         a2.plot(sw.shift_mm, sw.torque_y_Nmm[c], "o-", color=color, ms=4, label=c)
     a2.plot(sw.shift_mm, sw.torque_y_Nmm["medial"] + sw.torque_y_Nmm["lateral"], "k--",
@@ -318,7 +313,7 @@ def fig_5_12(quick: bool, out: Path) -> Row:
 
 
 def fig_5_14(quick: bool, out: Path) -> Row:
-    name = _require_scene("sphere_tibia")
+    name = knee_scene("sphere_tibia")
     s = np.array([-8.0, 0.0, 8.0]) if quick else shifts_mm(False, 9)
     a1 = sweep(name, s)
     fig, (ax,) = figure()
@@ -357,7 +352,7 @@ def fig_5_14(quick: bool, out: Path) -> Row:
 
 
 def fig_5_15(quick: bool, out: Path) -> Row:
-    name = _require_scene("sphere_tibia_ligaments")
+    name = knee_scene("sphere_tibia_ligaments")
     s = np.array([-8.0, 0.0, 8.0]) if quick else shifts_mm(False, 9)
     sw = sweep(name, s)
     fig, (a1, a2) = figure(ncols=2, width=5.4)
@@ -376,14 +371,14 @@ def fig_5_15(quick: bool, out: Path) -> Row:
 
 
 def fig_5_16(quick: bool, out: Path) -> Row:
-    name = _require_scene("femur_tibia")
+    name = knee_scene("femur_tibia")
     s = np.array([-8.0, 0.0, 8.0]) if quick else shifts_mm(False, 9)
     sw = sweep(name, s)
     fig, (a1, a2) = figure(ncols=2, width=5.4)
     _force_axes(a1, sw, "scanned")
     a1.legend(fontsize=7)
     a1.set_title("Fig. 5.16a: scanned femur on scanned tibia")
-    for c, color in zip(COMPARTMENTS, ("tab:blue", "tab:orange")):
+    for c, color in zip(COMPARTMENTS, ("tab:blue", "tab:orange"), strict=True):
         a2.plot(s, sw.torque_y_Nmm[c], "o-", color=color, label=c)
     a2.plot(s, sw.torque_y_Nmm["medial"] + sw.torque_y_Nmm["lateral"], "k--", label="sum")
     a2.set_xlabel("load-point shift along x, mm")
@@ -402,7 +397,7 @@ def fig_5_16(quick: bool, out: Path) -> Row:
 
 
 def fig_5_19(quick: bool, out: Path) -> Row:
-    name = _require_scene("femur_tibia_ligaments")
+    name = knee_scene("femur_tibia_ligaments")
     s = (np.array([-20.0, -8.0, 0.0, 8.0]) if quick else np.linspace(-20.0, 8.0, 15))
     sw = sweep(name, s)
     fig, (a1, a2) = figure(ncols=2, width=5.4)

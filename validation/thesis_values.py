@@ -1,7 +1,7 @@
 """The thesis's numbers, transcribed once (B. Istace, UCLouvain 2024; table/figure ids).
 
 Units: N, MPa, mm², mm, degrees, µm. Compartment results are keyed by the metric names
-of `fecheck.results.CompartmentResult`: force_N, max_pressure_MPa, mean_pressure_MPa,
+of `fecheck.model.results.CompartmentResult`: force_N, max_pressure_MPa, mean_pressure_MPa,
 area_mm2, max_depth_mm. Figure values are the numbers its text states about the figure
 (the plotted curves themselves are not given as numbers).
 """
@@ -15,7 +15,8 @@ METRIC_LABELS = {"max_pressure_MPa": "max pressure MPa", "mean_pressure_MPa":
 
 
 def _case(medial: tuple, lateral: tuple) -> dict[str, dict[str, float]]:
-    return {"medial": dict(zip(METRICS, medial)), "lateral": dict(zip(METRICS, lateral))}
+    return {"medial": dict(zip(METRICS, medial, strict=True)),
+            "lateral": dict(zip(METRICS, lateral, strict=True))}
 
 
 # Table 3.1: mesh characteristics (plan, icosphere gmsh/pygmsh, trimesh, tibia/femur split,
@@ -104,7 +105,7 @@ TABLE_5_12 = {"baseline": TABLE_5_3, "hertz": TABLE_5_6_HERTZ, "inclined": TABLE
               "polynomial": TABLE_5_10_POLYNOMIAL, "scanned": TABLE_5_11_SCANNED}
 
 # Tables 5.7 / 5.8: the thesis's EF results at the equal-force load point, by Donahue's
-# element size (mm); Donahue 2002 itself is in `fecheck.fe.references.DONAHUE_2002`.
+# element size (mm); Donahue 2002 itself is in `fecheck.reference.closed_forms.DONAHUE_2002`.
 TABLE_5_7B_LATERAL = {5.0: (2.62, 1.32, 392.0, 385.0), 2.0: (2.77, 1.41, 395.0, 376.0),
                       1.0: (2.79, 1.43, 393.0, 374.0)}
 TABLE_5_8B_MEDIAL = {5.0: (2.51, 1.31, 390.0, 401.0), 2.0: (2.66, 1.39, 387.0, 483.0),

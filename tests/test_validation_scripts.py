@@ -1,0 +1,54 @@
+"""Every validation script runs to the end in its ``--quick`` mode.
+
+The scripts are found by globbing ``validation/*.py``, so a new one is run without
+editing this file; each runs in a subprocess from a temporary folder, with its output
+options (``--out``, ``--json``, ``--plot``, as its ``--help`` lists them) pointed there.
+"""
+
+from __future__ import annotations
+
+import os
+import re
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+
+VALIDATION = Path(__file__).resolve().parents[1] / "validation"
+NOT_SCRIPTS = {
+    "thesis_values.py": "the thesis's numbers: data that the rows import, not a script",
+    "report.py": "the layout helper that the rows share, not a script",
+}
+SCRIPTS = sorted(p for p in VALIDATION.glob("*.py") if p.name not in NOT_SCRIPTS)
+OUTPUT_OPTIONS = {"--out": ".", "--json": "result.json", "--plot": "."}
+TIMEOUT_S = 600
+
+
+def _run(args: list[str], cwd: Path) -> subprocess.CompletedProcess:
+    env = dict(os.environ, OPENBLAS_NUM_THREADS="1", OMP_NUM_THREADS="1",
+               MKL_NUM_THREADS="1", MPLBACKEND="Agg")
+    return subprocess.run([sys.executable, *args], cwd=cwd, env=env, capture_output=True,
+                          text=True, timeout=TIMEOUT_S)
+
+
+def output_args(script: Path, out: Path) -> list[str]:
+    """The output options that `script --help` lists, each pointed into `out`."""
+    usage = _run([str(script), "--help"], out)
+    assert usage.returncode == 0, usage.stderr
+    args = []
+    for option, name in OUTPUT_OPTIONS.items():
+        if re.search(rf"{option}\b", usage.stdout):
+            args += [option, str(out / name)]
+    return args
+
+
+def test_the_files_left_out_are_there():
+    assert {p.name for p in VALIDATION.glob("*.py")} >= set(NOT_SCRIPTS)
+
+
+@pytest.mark.parametrize("script", SCRIPTS, ids=lambda p: p.stem)
+def test_quick_mode_runs_to_the_end(script, tmp_path):
+    done = _run([str(script), "--quick", *output_args(script, tmp_path)], tmp_path)
+    assert done.returncode == 0, f"{script.name}: exit {done.returncode}\n{done.stderr[-3000:]}"
+    assert "Traceback" not in done.stderr, done.stderr[-3000:]
