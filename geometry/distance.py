@@ -17,15 +17,33 @@ def ray_distance(origins: np.ndarray, directions: np.ndarray, target: TriMesh
 
     Vectorised through Embree's BVH (trimesh's ``ray_pyembree``), no Python loop.
     """
-    import trimesh
-    from trimesh.ray.ray_pyembree import RayMeshIntersector
-
-    mesh = trimesh.Trimesh(target.points, target.faces, process=False)
-    hits, index_ray, _ = RayMeshIntersector(mesh).intersects_location(
+    hits, index_ray, _ = target.ray_intersector.intersects_location(
         origins, directions, multiple_hits=False)
     out = np.full(len(origins), np.inf)
     out[index_ray] = np.linalg.norm(hits - origins[index_ray], axis=1)
     return out
+
+
+def ray_hits(origins: np.ndarray, directions: np.ndarray, target: TriMesh,
+             facing: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
+    """Distance (mm) along each unit ray to its nearest hit on `target` and the face hit
+    (-1 and inf where it misses). With `facing` (n, 3), only faces whose normal has a
+    positive component along the ray's `facing` vector count (e.g. only faces seen from
+    their outside)."""
+    origins = np.ascontiguousarray(origins, dtype=float)
+    hits, index_ray, index_tri = target.ray_intersector.intersects_location(
+        origins, directions, multiple_hits=facing is not None)
+    dist = np.linalg.norm(hits - origins[index_ray], axis=1)
+    if facing is not None:
+        ok = np.einsum("ij,ij->i", target.face_normals[index_tri], facing[index_ray]) > 0.0
+        index_ray, index_tri, dist = index_ray[ok], index_tri[ok], dist[ok]
+    order = np.lexsort((dist, index_ray))
+    first = order[np.r_[True, np.diff(index_ray[order]) != 0]] if len(order) else order
+    out = np.full(len(origins), np.inf)
+    face = np.full(len(origins), -1, dtype=np.int64)
+    out[index_ray[first]] = dist[first]
+    face[index_ray[first]] = index_tri[first]
+    return out, face
 
 
 def closest_distance(points: np.ndarray, target: TriMesh) -> tuple[np.ndarray, np.ndarray]:

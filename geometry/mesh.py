@@ -112,6 +112,14 @@ class TriMesh:
         n = np.linalg.norm(acc, axis=1, keepdims=True)
         return np.divide(acc, n, out=np.zeros_like(acc), where=n > 0)
 
+    @cached_property
+    def ray_intersector(self):
+        """Embree ray queries on this mesh (trimesh's ``RayMeshIntersector``), built once."""
+        import trimesh
+        from trimesh.ray.ray_pyembree import RayMeshIntersector
+
+        return RayMeshIntersector(trimesh.Trimesh(self.points, self.faces, process=False))
+
     def transformed(self, rotation: np.ndarray, translation: np.ndarray) -> TriMesh:
         """This mesh moved rigidly: x' = R x + t (mm)."""
         return TriMesh(self.points @ np.asarray(rotation).T + translation, self.faces, self.regions)

@@ -1,0 +1,95 @@
+"""Rigid indenters for the FE layer: the gap along each surface vertex's normal, and how it
+changes when the layer's body moves.
+
+The gap of a layer vertex p with outward unit normal n is the distance s along the ray
+p + s·n to the indenter's surface (negative: the vertex is inside the indenter by that
+much along n) — the EF convention of depth along the foundation normal. Where the ray
+hits the indenter at y = p + s·n with indenter normal m, moving the layer's body by the
+twist ξ = (v, ω) (δp = v + ω × p, δn = ω × n) changes it by
+ds = −(m·v + ω·(y × m)) / (m·n), the row `twist` (6,) of each vertex.
+
+Units: mm; everything in one frame (the femur's, i.e. the world).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from fecheck.errors import FecheckError
+from geometry.distance import ray_hits
+from geometry.mesh import TriMesh
+
+FAR_MM = 1.0e3
+"""The gap given to a vertex whose normal ray misses the indenter, mm."""
+
+
+@dataclass(frozen=True, eq=False)
+class Gap:
+    """Gaps s (m,) mm along the vertex normals and their twist rows (m, 6), mm per
+    (mm, rad); rows are zero where the ray misses (gap `FAR_MM`)."""
+
+    gap_mm: np.ndarray
+    twist: np.ndarray
+
+
+def _twist_rows(points: np.ndarray, normals: np.ndarray, s: np.ndarray, m: np.ndarray,
+                hit: np.ndarray) -> np.ndarray:
+    y = points + s[:, None] * normals
+    cos = np.einsum("ij,ij->i", m, normals)
+    rows = np.zeros((len(points), 6))
+    ok = hit & (np.abs(cos) > 1e-6)
+    rows[ok, :3] = -m[ok] / cos[ok, None]
+    rows[ok, 3:] = -np.cross(y[ok], m[ok]) / cos[ok, None]
+    return rows
+
+
+@dataclass(frozen=True)
+class SphereIndenter:
+    """A rigid sphere, centre (3,) mm and radius mm (an analytic femoral condyle)."""
+
+    center: np.ndarray
+    radius_mm: float
+
+    def describe(self) -> str:
+        return f"rigid sphere R {self.radius_mm:.2f} mm"
+
+    def gap(self, points: np.ndarray, normals: np.ndarray) -> Gap:
+        """Gap along `normals` from `points` to the sphere (the near intersection)."""
+        rel = points - np.asarray(self.center, dtype=float)
+        b = np.einsum("ij,ij->i", normals, rel)
+        disc = b * b - (np.einsum("ij,ij->i", rel, rel) - self.radius_mm ** 2)
+        hit = disc >= 0.0
+        s = np.where(hit, -b - np.sqrt(np.maximum(disc, 0.0)), FAR_MM)
+        m = (rel + s[:, None] * normals) / self.radius_mm
+        return Gap(s, _twist_rows(points, normals, s, m, hit))
+
+
+@dataclass(frozen=True, eq=False)
+class MeshIndenter:
+    """A rigid triangle surface (a scanned femoral cartilage sheet; outward normals, i.e.
+    facing the tibia).
+
+    Only faces that face the vertex count (m·n < 0): a vertex is outside where such a face
+    is hit ahead (along n), inside where one is hit behind (along −n, the vertex went
+    through it); where both, the nearer one decides. Open sheets work.
+    """
+
+    mesh: TriMesh
+
+    def describe(self) -> str:
+        return f"rigid mesh ({self.mesh.n_faces} faces)"
+
+    def gap(self, points: np.ndarray, normals: np.ndarray) -> Gap:
+        """Gap along `normals` from `points` to the mesh."""
+        fn = self.mesh.face_normals
+        ahead, face_a = ray_hits(points, normals, self.mesh, facing=-normals)
+        behind, face_b = ray_hits(points, -normals, self.mesh, facing=-normals)
+        use_behind = (face_b >= 0) & ((face_a < 0) | (behind < ahead))
+        s = np.where(use_behind, -behind, np.where(face_a >= 0, ahead, FAR_MM))
+        face = np.where(use_behind, face_b, face_a)
+        hit = face >= 0
+        if not np.all(np.isfinite(s)):
+            raise FecheckError("indenter gaps are not finite: check the femoral mesh")
+        return Gap(s, _twist_rows(points, normals, s, fn[np.maximum(face, 0)], hit))
