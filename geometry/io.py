@@ -52,28 +52,85 @@ def merge_vertices(points: np.ndarray, faces: np.ndarray) -> tuple[np.ndarray, n
     return points[used][first], remap[faces]
 
 
+STL_HEADER_BYTES = 84
+"""A binary STL: an 80-byte header and a uint32 triangle count, then 50 bytes per
+triangle (normal, three vertices as float32, a uint16 attribute)."""
+
+
+def _looks_binary(head: bytes) -> bool:
+    """Whether an STL's first bytes are binary (an ASCII STL starts with "solid" and holds
+    no NUL or non-ASCII byte)."""
+    return not head.lstrip().startswith(b"solid") or any(b == 0 or b > 127 for b in head)
+
+
+def stl_problem(path: str | Path) -> str | None:
+    """Why an STL file cannot be whole, or None: empty, shorter than a binary header, or a
+    binary STL whose size disagrees with the triangle count in its header (truncated,
+    e.g. a copy or download cut short)."""
+    path = Path(path)
+    size = path.stat().st_size
+    if size == 0:
+        return "the file is empty (0 bytes)"
+    with open(path, "rb") as fh:
+        head = fh.read(STL_HEADER_BYTES)
+    if not _looks_binary(head):
+        return None
+    if size < STL_HEADER_BYTES:
+        return (f"the file has {size} bytes, fewer than the {STL_HEADER_BYTES}-byte header of "
+                "a binary STL: it is truncated")
+    count = int.from_bytes(head[80:84], "little")
+    expected = STL_HEADER_BYTES + 50 * count
+    if size == expected:
+        return None
+    whole = (size - STL_HEADER_BYTES) // 50
+    how = "truncated" if size < expected else "longer than its header says (corrupt)"
+    return (f"binary STL {how}: its header counts {count} triangles ({expected} bytes) but "
+            f"the file has {size} bytes ({whole} whole triangles); copy or export it again")
+
+
+def _ascii_stl_hint(path: Path) -> str:
+    """A hint for an ASCII STL meshio could not read: truncated if it lacks 'endsolid'."""
+    with open(path, "rb") as fh:
+        fh.seek(max(path.stat().st_size - 4096, 0))
+        tail = fh.read()
+    return "" if b"endsolid" in tail else "; the ASCII STL has no 'endsolid' line: truncated?"
+
+
+def _read(path: Path):
+    """meshio's reading of `path`; `FecheckError` (one line naming the file) when the file
+    is cut short (`stl_problem`) or meshio cannot read it."""
+    import meshio
+
+    stl = path.suffix.lower() == ".stl"
+    problem = stl_problem(path) if stl else None
+    if problem:
+        raise FecheckError(f"{path}: cannot read mesh: {problem}")
+    try:
+        with warnings.catch_warnings():
+            # meshio's STL reader probes binary/ASCII with arithmetic that may overflow
+            warnings.simplefilter("ignore", RuntimeWarning)
+            return meshio.read(path, **_format_option(path))
+    except Exception as err:  # noqa: BLE001 - meshio raises many types on corrupt input
+        hint = _ascii_stl_hint(path) if stl else ""
+        reason = " ".join(f"{type(err).__name__}: {err}".split())[:200]
+        raise FecheckError(f"{path}: cannot read mesh ({reason}){hint}") from None
+
+
 def load_mesh(path: str | Path) -> TriMesh | TetMesh:
     """Read a surface or tetrahedral mesh (mm) from `path`.
 
     Raises
     ------
     FecheckError
-        when the file is missing, its extension unknown, its content unreadable, or it
-        holds no triangles or tetrahedra.
+        (one line naming the file) when the file is missing, its extension unknown, its
+        content unreadable or cut short (`stl_problem`), or it holds no triangles or
+        tetrahedra.
     """
-    import meshio
-
     path = Path(path)
     if not path.is_file():
         raise FecheckError(f"{path}: mesh file not found")
     check_format(path)
-    try:
-        with warnings.catch_warnings():
-            # meshio's STL reader probes binary/ASCII with arithmetic that may overflow
-            warnings.simplefilter("ignore", RuntimeWarning)
-            raw = meshio.read(path, **_format_option(path))
-    except Exception as err:  # noqa: BLE001 - meshio raises many types on corrupt input
-        raise FecheckError(f"{path}: cannot read mesh ({type(err).__name__}: {err})") from None
+    raw = _read(path)
     points = np.asarray(raw.points, dtype=float)
     if points.ndim != 2 or points.shape[1] not in (2, 3) or len(points) == 0:
         raise FecheckError(f"{path}: the file holds no 3D points")

@@ -80,8 +80,8 @@ def test_run_without_plot_does_not_import_pyvista():
     assert out == "False False 0"
 
 
-def test_plot_writes_one_png_per_compartment(tmp_path):
+def test_plot_writes_one_png_with_both_compartments(tmp_path):
     assert main(["run", "--plot", str(tmp_path), "--set", "mesh.plateau_refine_mm=1.5"]) == 0
     pngs = sorted(p.name for p in tmp_path.glob("*.png"))
-    assert pngs == ["lateral_pressure.png", "medial_pressure.png"]
+    assert pngs == ["pressure_map.png"]
     assert all((tmp_path / p).read_bytes()[:8] == b"\x89PNG\r\n\x1a\n" for p in pngs)

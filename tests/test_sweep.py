@@ -1,8 +1,13 @@
-"""Sweeps: value parsing, overrides of vector components, serial = parallel, CSV."""
+"""Sweeps: value parsing, overrides of vector components, serial = parallel, CSV, failing
+points recorded in their rows, values checked up front, Dask through the same path."""
 
 from __future__ import annotations
 
 import csv
+import io
+import multiprocessing
+import sys
+import types
 from concurrent.futures import ThreadPoolExecutor
 from pathlib import Path
 
@@ -12,7 +17,14 @@ import pytest
 from fecheck.cli import main
 from fecheck.errors import FecheckError
 from fecheck.scene import load_scene
-from fecheck.studies.sweep import override_for, parse_values, run_sweep
+from fecheck.studies.sweep import (
+    SweepInterrupted,
+    override_for,
+    parse_values,
+    pin_data_dir,
+    run_sweep,
+    write_csv,
+)
 
 SCENES = Path(__file__).resolve().parents[1] / "validation" / "scenes"
 
@@ -54,7 +66,7 @@ def test_serial_warm_started_and_parallel_sweeps_agree():
     serial = run_sweep(scene, "load.point_mm[0]", xs, progress=False)
     with ThreadPoolExecutor(2) as pool:
         parallel = run_sweep(scene, "load.point_mm[0]", xs, executor=pool, progress=False)
-    for a, b in zip(serial, parallel):
+    for a, b in zip(serial, parallel, strict=True):
         assert a.result.converged and b.result.converged
         for c in ("medial", "lateral"):
             assert a.result.compartments[c].force_N == pytest.approx(
@@ -92,3 +104,169 @@ def test_numpy_values_give_overrides_the_scene_parser_reads():
     assert load_scene(None, [text])["load.point_mm"][0] == 3.5
     text = override_for(scene, "contact.poisson", np.float64(0.4))
     assert load_scene(None, [text])["contact.poisson"] == 0.4
+
+
+YOUNGS = ["--param", "contact.youngs_MPa", "--values", "20,10,0.1,5"]
+"""E = 0.1 MPa crushes the 6 mm layer under 800 N: that point's solve raises."""
+
+
+def _csv(path) -> list[dict[str, str]]:
+    with open(path, newline="") as fh:
+        return list(csv.DictReader(fh))
+
+
+@pytest.mark.parametrize("workers", ["1", "2"])
+def test_a_failing_point_is_recorded_in_its_row_and_the_sweep_goes_on(tmp_path, capsys,
+                                                                       workers):
+    out = tmp_path / "s.csv"
+    out.write_text("stale,rows\n1,2\n")
+    assert main(["sweep", *YOUNGS, "--workers", workers, "--csv", str(out)]) == 1
+    rows = _csv(out)
+    assert [float(r["contact.youngs_MPa"]) for r in rows] == [20.0, 10.0, 0.1, 5.0]
+    assert [r["converged"] for r in rows] == ["True", "True", "False", "True"]
+    assert "crushed" in rows[2]["error"] and rows[2]["medial_force_N"] == ""
+    assert all(r["error"] == "" and float(r["medial_force_N"]) > 0 for i, r in
+               enumerate(rows) if i != 2)
+    if workers == "2":        # said where it failed: the point and the worker
+        assert "contact.youngs_MPa = 0.1 failed on worker" in rows[2]["error"]
+    captured = capsys.readouterr()
+    assert "error: " in captured.out and "crushed" in captured.out
+    assert "1 of 4 points failed: contact.youngs_MPa = 0.1" in captured.err
+
+
+def test_fail_fast_stops_at_the_failing_value_and_keeps_the_finished_rows(tmp_path, capsys):
+    out = tmp_path / "s.csv"
+    assert main(["sweep", *YOUNGS, "--fail-fast", "--csv", str(out)]) == 1
+    rows = _csv(out)
+    assert [float(r["contact.youngs_MPa"]) for r in rows] == [20.0, 10.0, 0.1]
+    assert "crushed" in rows[2]["error"]
+    err = capsys.readouterr().err
+    assert "--fail-fast" in err and "1 of 4 points not run" in err
+    assert "contact.youngs_MPa = 0.1" in err
+
+
+def test_a_bad_value_fails_before_any_solve_naming_values(tmp_path, capsys, monkeypatch):
+    import fecheck.model.run
+
+    def no_solve(*args, **kwargs):
+        raise AssertionError("solved a point before checking every value")
+
+    monkeypatch.setattr(fecheck.model.run, "run_scene", no_solve)
+    out = tmp_path / "s.csv"
+    assert main(["sweep", "--param", "contact.youngs_MPa", "--values", "20,10,-1",
+                 "--csv", str(out)]) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and "--values" in err and "-1" in err
+    assert "--set" not in err
+    assert not out.exists()
+
+
+def test_output_paths_are_checked_before_any_solve(tmp_path, capsys, monkeypatch):
+    import fecheck.model.run
+
+    monkeypatch.setattr(fecheck.model.run, "run_scene", None)     # any solve would fail
+    for flag in ("--csv", "--plot"):
+        target = tmp_path / "a-file-not-a-folder"
+        target.write_text("")
+        path = target / "x.csv" if flag == "--csv" else target
+        assert main(["sweep", *YOUNGS, flag, str(path)]) == 2
+        assert "cannot write" in capsys.readouterr().err
+
+
+def test_csv_dash_writes_a_clean_csv_to_stdout(capsys):
+    assert main(["sweep", str(SCENES / "rigid.toml"), "--param", "contact.youngs_MPa",
+                 "--values", "9,15,30", "--csv", "-"]) == 0
+    captured = capsys.readouterr()
+    rows = list(csv.DictReader(io.StringIO(captured.out)))
+    assert [float(r["contact.youngs_MPa"]) for r in rows] == [9.0, 15.0, 30.0]
+    assert all(r["converged"] == "True" and float(r["medial_force_N"]) > 0 for r in rows)
+    assert "medial_force_N" in captured.err          # the table went to stderr
+
+
+def test_the_csv_is_rewritten_after_each_point_in_value_order(tmp_path):
+    scene = load_scene(SCENES / "rigid.toml")
+    out = tmp_path / "s.csv"
+    out.write_text("stale\n")
+    seen = []
+
+    def save(points):
+        write_csv(points, "contact.youngs_MPa", out)
+        seen.append([float(r["contact.youngs_MPa"]) for r in _csv(out)])
+
+    with ThreadPoolExecutor(2) as pool:
+        run_sweep(scene, "contact.youngs_MPa", [30.0, 9.0, 15.0], executor=pool,
+                  progress=False, on_point=save)
+    assert [len(s) for s in seen] == [1, 2, 3]
+    assert all(s == sorted(s, key=[30.0, 9.0, 15.0].index) for s in seen)
+    assert seen[-1] == [30.0, 9.0, 15.0]
+
+
+@pytest.mark.parametrize("workers", [1, 2])
+def test_an_interrupt_keeps_the_finished_points_and_stops_the_workers(workers):
+    scene = load_scene(SCENES / "rigid.toml")
+
+    def interrupt_after_two(points):
+        if len(points) == 2:
+            raise KeyboardInterrupt
+
+    with pytest.raises(SweepInterrupted) as stop:
+        run_sweep(scene, "contact.youngs_MPa", [5.0, 10.0, 20.0, 30.0, 40.0, 50.0],
+                  workers=workers, progress=False, on_point=interrupt_after_two)
+    assert len(stop.value.points) == 2 and stop.value.total == 6
+    assert all(p.converged for p in stop.value.points)
+    assert multiprocessing.active_children() == []
+
+
+def _fake_dask(monkeypatch, client_class) -> None:
+    dask = types.ModuleType("dask")
+    distributed = types.ModuleType("dask.distributed")
+    distributed.Client = client_class
+    dask.distributed = distributed
+    monkeypatch.setitem(sys.modules, "dask", dask)
+    monkeypatch.setitem(sys.modules, "dask.distributed", distributed)
+
+
+def test_a_bad_scheduler_address_is_a_one_line_error(monkeypatch, capsys):
+    class Client:
+        def __init__(self, address):
+            raise ValueError(f"Could not parse address {address!r}")
+
+    _fake_dask(monkeypatch, Client)
+    assert main(["sweep", *YOUNGS, "--scheduler", "notanaddress"]) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and "notanaddress" in err and "Dask scheduler" in err
+
+
+def test_dask_points_run_through_the_executor_path_and_the_client_is_closed(
+        monkeypatch, tmp_path):
+    closed = []
+
+    class Client:
+        def __init__(self, address):
+            self.pool = ThreadPoolExecutor(2)
+
+        def get_executor(self):
+            return self.pool
+
+        def close(self, timeout=None):
+            self.pool.shutdown()
+            closed.append(True)
+
+    _fake_dask(monkeypatch, Client)
+    out = tmp_path / "s.csv"
+    assert main(["sweep", *YOUNGS, "--scheduler", "tcp://x:8786", "--csv", str(out)]) == 1
+    assert closed == [True]
+    rows = _csv(out)
+    assert "contact.youngs_MPa = 0.1 failed on worker" in rows[2]["error"]
+
+
+def test_scanned_scenes_name_their_data_folder_for_remote_workers(tmp_path, monkeypatch):
+    (tmp_path / "fits.json").write_text("{}")
+    monkeypatch.setenv("FECHECK_KNEE_DIR", str(tmp_path))
+    scanned = load_scene(SCENES / "femur_tibia.toml")
+    assert scanned["scanned.data_dir"] == ""
+    assert pin_data_dir(scanned)["scanned.data_dir"] == str(tmp_path)
+    named = load_scene(SCENES / "femur_tibia.toml", ["scanned.data_dir='/elsewhere'"])
+    assert pin_data_dir(named)["scanned.data_dir"] == "/elsewhere"
+    baseline = load_scene()
+    assert pin_data_dir(baseline) is baseline

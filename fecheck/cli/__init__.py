@@ -10,6 +10,8 @@ from __future__ import annotations
 
 import argparse
 import importlib
+import io
+import os
 import pkgutil
 import sys
 import warnings
@@ -17,13 +19,37 @@ import warnings
 from fecheck.errors import FecheckError
 
 
+class _Version(argparse.Action):
+    """``--version``: print ``fecheck X.Y.Z`` (the installed package's version) and exit."""
+
+    def __init__(self, option_strings, dest=argparse.SUPPRESS, default=argparse.SUPPRESS,
+                 help="print the fecheck version and exit"):
+        super().__init__(option_strings, dest, nargs=0, default=default, help=help)
+
+    def __call__(self, parser, namespace, values, option_string=None):
+        print(f"fecheck {package_version()}")
+        parser.exit()
+
+
+def package_version() -> str:
+    """The installed version of the fecheck package (its metadata), or "unknown"."""
+    from importlib.metadata import PackageNotFoundError, version
+
+    try:
+        return version("fecheck")
+    except PackageNotFoundError:
+        return "unknown"
+
+
 def build_parser() -> argparse.ArgumentParser:
     """The argument parser with every verb module of this package."""
     parser = argparse.ArgumentParser(
         prog="fecheck",
         description="Finite-element cross-check workbench for tibio-femoral contact "
-        "(units mm, N, MPa; thesis frame: x right, y anterior, z superior).",
+        "(units mm, N, MPa; thesis frame: x right, y anterior, z superior). "
+        "`fecheck keys` lists the scene keys.",
     )
+    parser.add_argument("--version", action=_Version)
     sub = parser.add_subparsers(dest="verb", metavar="VERB")
     for info in sorted(pkgutil.iter_modules(__path__), key=lambda m: m.name):
         module = importlib.import_module(f"fecheck.cli.{info.name}")
@@ -34,16 +60,32 @@ def build_parser() -> argparse.ArgumentParser:
 _shown: set[str] = set()
 
 
+def one_line(text: object) -> str:
+    """`text` with its line breaks turned into spaces (messages print on one line)."""
+    return " ".join(str(text).split("\n"))
+
+
 def _one_line_warning(message, category, filename, lineno, file=None, line=None):
     """Print each distinct warning once, on one line (libraries may reset the filters)."""
-    text = f"fecheck: warning: {message}"
+    text = f"fecheck: warning: {one_line(message)}"
     if text not in _shown:
         _shown.add(text)
         print(text, file=sys.stderr if file is None else file)
 
 
+def _silence_stdout() -> None:
+    """After the reader of stdout went away (``fecheck keys | head``): send the rest of
+    the output, and Python's flush at exit, to /dev/null instead of a traceback."""
+    try:
+        devnull = os.open(os.devnull, os.O_WRONLY)
+        os.dup2(devnull, sys.stdout.fileno())
+    except (OSError, ValueError, AttributeError, io.UnsupportedOperation):
+        pass
+
+
 def main(argv: list[str] | None = None) -> int:
-    """Run the CLI; returns the exit code (0 success, 2 user error, 130 interrupted)."""
+    """Run the CLI; returns the exit code (0 success, 2 user error, 130 interrupted, 141
+    output pipe closed by its reader)."""
     parser = build_parser()
     args = parser.parse_args(argv)
     if args.verb is None:
@@ -53,11 +95,14 @@ def main(argv: list[str] | None = None) -> int:
     try:
         return int(args.run(args) or 0)
     except FecheckError as err:
-        print(f"fecheck: error: {err}", file=sys.stderr)
+        print(f"fecheck: error: {one_line(err)}", file=sys.stderr)
         return 2
     except KeyboardInterrupt:
         print("fecheck: interrupted", file=sys.stderr)
         return 130
+    except BrokenPipeError:
+        _silence_stdout()
+        return 141
 
 
 if __name__ == "__main__":

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import argparse
+import json
 import os
 import sys
 from pathlib import Path
@@ -24,12 +25,17 @@ def add_parser(subparsers) -> None:
     p.add_argument("suite", nargs="?", default="pareto", choices=SUITES,
                    help="benchmark suite (default: pareto)")
     p.add_argument("--quick", action="store_true", help="small sizes only (≤ 20,480 faces)")
-    p.add_argument("--json", type=Path, metavar="PATH", help="write rows and ratios as JSON")
+    p.add_argument("--json", type=Path, metavar="PATH",
+                   help="write rows and ratios as JSON ('-': standard output)")
     p.add_argument("--plot", type=Path, metavar="DIR", help="write log-log PNGs into DIR")
     p.set_defaults(run=run)
 
 
 def run(args: argparse.Namespace) -> int:
+    from fecheck.io.outputs import check_output
+
+    check_output(args.json)                     # before minutes of work, not after
+    check_output(args.plot, directory=True)
     os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
     os.environ.setdefault("OMP_NUM_THREADS", "1")
     if args.suite == "pareto":
@@ -38,13 +44,8 @@ def run(args: argparse.Namespace) -> int:
 
     result = bench.run(quick=args.quick,
                        progress=lambda m: print(f"  {m}", file=sys.stderr, flush=True))
-    print(bench.table(result))
-    if args.json:
-        bench.write_json(result, args.json)
-        print(f"wrote {args.json}")
-    if args.plot:
-        for path in bench.plot(result, args.plot):
-            print(f"wrote {path}")
+    _report(args, bench.table(result), json.dumps(result, indent=1) + "\n",
+            lambda: bench.plot(result, args.plot))
     return 0
 
 
@@ -53,11 +54,22 @@ def _pareto(args: argparse.Namespace) -> int:
 
     config = bench.BenchConfig.quick() if args.quick else bench.BenchConfig()
     result = bench.run_bench(config, log=lambda m: print(f"  {m}", file=sys.stderr, flush=True))
-    print(bench.table(result))
-    if args.json:
-        bench.write_json(result, str(args.json))
-        print(f"wrote {args.json}")
-    if args.plot:
-        for path in bench.plot(result, str(args.plot)):
-            print(f"wrote {path}")
+    _report(args, bench.table(result), bench.json_text(result),
+            lambda: bench.plot(result, str(args.plot)))
     return 0
+
+
+def _report(args: argparse.Namespace, table: str, json_text: str, plot) -> None:
+    """Print the table (on stderr when the JSON goes to standard output), write the JSON
+    (atomically; ``-`` = standard output) and the plots."""
+    from fecheck.io.outputs import STDOUT, write_text
+
+    to_stdout = args.json is not None and str(args.json) == STDOUT
+    print(table, file=sys.stderr if to_stdout else sys.stdout)
+    if args.json:
+        write_text(args.json, json_text)
+        if not to_stdout:
+            print(f"wrote {args.json}")
+    if args.plot:
+        for path in plot():
+            print(f"wrote {path}", file=sys.stderr if to_stdout else sys.stdout)

@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import argparse
 import json
+import sys
 from pathlib import Path
 
 
@@ -100,7 +101,8 @@ def add_parser(subparsers) -> None:
 
     q = sub.add_parser("info", help="mesh checks (thesis Table 3.1) for mesh files")
     q.add_argument("files", nargs="+", type=Path, help="mesh files (STL, OBJ, VTK/VTU, MSH, ...)")
-    q.add_argument("--json", type=Path, metavar="PATH", help="also write the rows as JSON")
+    q.add_argument("--json", type=Path, metavar="PATH",
+                   help="also write the rows as JSON ('-': standard output)")
     p.set_defaults(run=run)
 
 
@@ -194,10 +196,12 @@ def format_table(rows: list[dict]) -> str:
 
 def _info(args) -> int:
     from fecheck.errors import FecheckError
+    from fecheck.io.outputs import STDOUT, check_output, write_text
     from geometry.checks import mesh_report, tet_surface
     from geometry.io import load_mesh
     from geometry.mesh import TetMesh
 
+    check_output(args.json)
     rows = []
     for path in args.files:
         mesh = load_mesh(path)
@@ -207,23 +211,23 @@ def _info(args) -> int:
         if report.empty:
             raise FecheckError(f"{path}: the mesh is empty (no faces)")
         rows.append(report.as_dict())
-    print(format_table(rows))
+    to_stdout = args.json is not None and str(args.json) == STDOUT
+    print(format_table(rows), file=sys.stderr if to_stdout else sys.stdout)
     if args.json is not None:
-        try:
-            args.json.write_text(json.dumps(rows, indent=2) + "\n")
-        except OSError as err:
-            raise FecheckError(f"cannot write {args.json}: {err}") from None
+        write_text(args.json, json.dumps(rows, indent=2) + "\n")
     return 0
 
 
 def run(args) -> int:
     if args.mesh_kind == "info":
         return _info(args)
+    from fecheck.io.outputs import check_output
     from geometry.cache import STATS
     from geometry.io import check_format, save_mesh
     from geometry.mesh import TetMesh
 
     check_format(args.output)
+    check_output(args.output)                   # before meshing, not after
     mesh = _build(args)
     save_mesh(mesh, args.output)
     count = f"{len(mesh.tets)} tets" if isinstance(mesh, TetMesh) else f"{mesh.n_faces} faces"

@@ -7,6 +7,7 @@ from __future__ import annotations
 
 import argparse
 import os
+import sys
 from pathlib import Path
 
 
@@ -22,7 +23,8 @@ def add_parser(subparsers) -> None:
                     "known, explained cause.")
     p.add_argument("--quick", action="store_true", help="the CI subset (< ~3 min)")
     p.add_argument("--json", type=Path, metavar="PATH",
-                   help='write {"cases": [...], "summary": {...}} as JSON')
+                   help='write {"cases": [...], "summary": {...}} as JSON '
+                        "('-': standard output; the table then goes to standard error)")
     p.add_argument("--timeout", type=float, default=120.0, metavar="S",
                    help="seconds before a case is killed and reported as a timeout "
                         "(default 120)")
@@ -31,16 +33,21 @@ def add_parser(subparsers) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
+    from fecheck.io.outputs import STDOUT, check_output
+
+    check_output(args.json)                     # before the matrix, not after it
     os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
     os.environ.setdefault("OMP_NUM_THREADS", "1")
     from fecheck.studies import stress
 
-    print(stress.HEADER, flush=True)
+    table = sys.stderr if args.json is not None and str(args.json) == STDOUT else sys.stdout
+    print(stress.HEADER, file=table, flush=True)
     results = stress.run_matrix(quick=args.quick, timeout_s=args.timeout, select=args.only,
-                                log=lambda r: print(stress.row(r), flush=True))
+                                log=lambda r: print(stress.row(r), file=table, flush=True))
     counts = stress.summary(results)
-    print("outcomes: " + ", ".join(f"{k} {v}" for k, v in sorted(counts.items())))
+    print("outcomes: " + ", ".join(f"{k} {v}" for k, v in sorted(counts.items())), file=table)
     if args.json:
         stress.write_json(results, args.json)
-        print(f"wrote {args.json}")
+        if table is sys.stdout:
+            print(f"wrote {args.json}")
     return 1 if stress.unexplained(results) else 0

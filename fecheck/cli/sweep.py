@@ -1,12 +1,25 @@
 """`fecheck sweep [SCENE] --param KEY --values A:B:N`: one scene over a range of one key.
 
 Only the standard library is imported here; the solver inside `run`.
+
+Exit codes: 0 every point converged, 1 a point failed or did not converge, 2 a user
+error before the first solve, 130 interrupted (Ctrl-C or SIGTERM: the finished points
+are kept in the CSV and stderr says how many are missing).
 """
 
 from __future__ import annotations
 
 import argparse
+import contextlib
+import signal
+import sys
+from collections.abc import Iterator
 from pathlib import Path
+from typing import Any, TextIO
+
+_TABLE_COLUMNS = ("converged", "medial_force_N", "lateral_force_N",
+                  "medial_max_pressure_MPa", "lateral_max_pressure_MPa")
+_WIDTH = 24
 
 
 def add_parser(subparsers) -> None:
@@ -15,7 +28,9 @@ def add_parser(subparsers) -> None:
         description="Sweep one numeric scene key (or one component, KEY[i]) and tabulate "
                     "the compartment forces and pressures. Serial sweeps warm-start each "
                     "point from the previous one; --workers/--scheduler run points in "
-                    "parallel. Example: fecheck sweep --param 'load.point_mm[0]' "
+                    "parallel. A failing point is recorded in its row and the sweep goes "
+                    "on (exit code 1); Ctrl-C keeps the finished points (exit code 130). "
+                    "Example: fecheck sweep --param 'load.point_mm[0]' "
                     "--values=-0.1:15.9:17 (write --values=A:B:N when A is negative)")
     p.add_argument("scene", nargs="?", type=Path,
                    help="scene TOML file (default: the packaged baseline scene)")
@@ -25,44 +40,135 @@ def add_parser(subparsers) -> None:
                    help="N values from A to B, or a comma list")
     p.add_argument("--set", dest="overrides", action="append", default=[], metavar="KEY=VALUE",
                    help="override a scene key for every point (TOML literal)")
-    p.add_argument("--csv", type=Path, metavar="PATH", help="write one CSV row per value")
+    p.add_argument("--csv", metavar="PATH",
+                   help="write one CSV row per finished point, rewritten after each point "
+                        "('-': standard output at the end, the table then goes to stderr)")
     p.add_argument("--plot", type=Path, metavar="DIR",
                    help="write PNG plots of forces and max pressures against the value")
     p.add_argument("--workers", type=int, default=1, metavar="N",
                    help="run points in N local processes (default 1: serial, warm-started)")
     p.add_argument("--scheduler", metavar="ADDRESS",
                    help="run points on a Dask distributed scheduler (needs fecheck[dask])")
+    p.add_argument("--fail-fast", action="store_true",
+                   help="stop at the first failing point (the finished rows are still "
+                        "written)")
     p.set_defaults(run=run)
 
 
+def _raise_interrupt(signum, frame) -> None:
+    """SIGTERM handler: stop the way Ctrl-C does."""
+    raise KeyboardInterrupt
+
+
+@contextlib.contextmanager
+def _sigterm_as_interrupt() -> Iterator[None]:
+    """Turn SIGTERM into KeyboardInterrupt in the block (main thread only)."""
+    try:
+        previous = signal.signal(signal.SIGTERM, _raise_interrupt)
+    except ValueError:                       # not the main thread: leave signals alone
+        yield
+        return
+    try:
+        yield
+    finally:
+        signal.signal(signal.SIGTERM, signal.SIG_DFL if previous is None else previous)
+
+
+def _cell(value: Any) -> str:
+    """One right-aligned table cell: numbers to 6 digits, None as '-'."""
+    if isinstance(value, float):
+        return f"{value:{_WIDTH}.6g}"
+    return f"{'-' if value is None else value!s:>{_WIDTH}.{_WIDTH}s}"
+
+
+def _print_table(table: list[dict[str, Any]], param: str, stream: TextIO) -> None:
+    """The sweep's main columns, one line per finished point; failed points show their
+    error instead of the forces."""
+    print("  ".join(f"{c:>{_WIDTH}s}" for c in (param, *_TABLE_COLUMNS)), file=stream)
+    for row in table:
+        if row["error"]:
+            cells = [_cell(row[param]), _cell(False), f"error: {row['error']}"]
+        else:
+            cells = [_cell(row[c]) for c in (param, *_TABLE_COLUMNS)]
+        print("  ".join(cells), file=stream)
+
+
+def _summary(points: list, total: int, param: str, interrupted: bool) -> list[str]:
+    """Lines for stderr: missing points, failed points, points that did not converge."""
+    lines = []
+    failed = [p for p in points if p.failed]
+    stalled = [p for p in points if not p.failed and not p.converged]
+    if interrupted:
+        lines.append(f"interrupted: {total - len(points)} of {total} points missing "
+                     f"({len(points)} finished)")
+    elif failed and len(points) < total:
+        lines.append(f"stopped at {param} = {failed[0].value:g} (--fail-fast): "
+                     f"{failed[0].error}; {total - len(points)} of {total} points not run")
+    if failed:
+        lines.append(f"{len(failed)} of {total} points failed: {param} = "
+                     + ", ".join(f"{p.value:g}" for p in failed))
+    if stalled:
+        lines.append(f"{len(stalled)} of {total} points did not converge: {param} = "
+                     + ", ".join(f"{p.value:g}" for p in stalled))
+    return lines
+
+
+def _report(args: argparse.Namespace, points: list, total: int, interrupted: bool) -> int:
+    """Write the CSV and plots, print the table and summary; return the exit code."""
+    from fecheck.studies.sweep import rows, write_csv, write_plots
+
+    stream = sys.stderr if args.csv == "-" else sys.stdout
+    _print_table(rows(points, args.param), args.param, stream)
+    if args.csv:
+        write_csv(points, args.param, args.csv)
+    if args.plot:
+        paths = write_plots(points, args.param, args.plot)
+        for path in paths:
+            print(f"wrote {path}", file=stream)
+        if not paths:
+            print("fecheck: no point was solved: no plots", file=sys.stderr)
+    for line in _summary(points, total, args.param, interrupted):
+        print(f"fecheck: {line}", file=sys.stderr)
+    if interrupted:
+        return 130
+    return 0 if len(points) == total and all(p.converged for p in points) else 1
+
+
 def run(args: argparse.Namespace) -> int:
+    """Check every value and output path, run the sweep (SIGTERM stops it like Ctrl-C),
+    report; the CSV is rewritten after each finished point."""
     from fecheck.errors import FecheckError
+    from fecheck.io.outputs import check_output
     from fecheck.scene import load_scene
     from fecheck.studies.sweep import (
+        SweepInterrupted,
         dask_executor,
+        interrupts_ignored,
         parse_values,
-        rows,
         run_sweep,
+        sweep_overrides,
         write_csv,
-        write_plots,
     )
 
     if args.workers < 1:
         raise FecheckError("--workers must be at least 1")
     values = parse_values(args.values)
     scene = load_scene(args.scene, args.overrides)
-    executor = dask_executor(args.scheduler) if args.scheduler else None
-    points = run_sweep(scene, args.param, values, workers=args.workers, executor=executor)
-    table = rows(points, args.param)
-    cols = [args.param, "converged", "medial_force_N", "lateral_force_N",
-            "medial_max_pressure_MPa", "lateral_max_pressure_MPa"]
-    print("  ".join(f"{c:>24s}" for c in cols))
-    for row in table:
-        print("  ".join(f"{'-' if row[c] is None else row[c]!s:>24.24s}"
-                        if not isinstance(row[c], float) else f"{row[c]:24.6g}" for c in cols))
-    if args.csv:
-        write_csv(points, args.param, args.csv)
-    if args.plot:
-        for path in write_plots(points, args.param, args.plot):
-            print(f"wrote {path}")
-    return 0 if all(p.result.converged for p in points) else 1
+    sweep_overrides(scene, args.param, values)
+    check_output(args.csv)
+    check_output(args.plot, directory=True)
+
+    def save(points) -> None:
+        if args.csv and args.csv != "-":
+            write_csv(points, args.param, args.csv)
+
+    executor = (dask_executor(args.scheduler) if args.scheduler
+                else contextlib.nullcontext(None))
+    try:
+        with _sigterm_as_interrupt(), executor as pool:
+            points = run_sweep(scene, args.param, values, workers=args.workers,
+                               executor=pool, fail_fast=args.fail_fast, on_point=save)
+    except SweepInterrupted as stop:
+        with interrupts_ignored():
+            return _report(args, stop.points, len(values), interrupted=True)
+    return _report(args, points, len(values), interrupted=False)

@@ -29,12 +29,14 @@ def add_parser(subparsers) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
+    from fecheck.io.outputs import check_output
     from fecheck.studies.validate import discover, find_validation_dir, run_validation
 
     if args.list:
         for name, path in discover(find_validation_dir(args.dir)).items():
             print(f"{name:20s} {path}")
         return 0
+    check_output(args.out, directory=True)      # before the rows run, not after
     _, rows = run_validation(args.out, quick=args.quick, only=args.only, vdir=args.dir)
     failed = [r.name for r in rows if r.status.startswith("failed")]
     return 1 if failed else 0

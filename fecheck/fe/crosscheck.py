@@ -9,7 +9,10 @@ the same load, the EF model's own compartment result, and Donahue 2002.
 
 from __future__ import annotations
 
+import math
+import sys
 import time
+from collections.abc import Callable
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -17,15 +20,26 @@ import numpy as np
 
 from fecheck.errors import FecheckError
 from fecheck.fe.axisym import axisym_sphere_on_layer
-from fecheck.fe.layer3d import sphere_on_layer_3d
+from fecheck.fe.layer3d import check_cost, estimate_cost, sphere_on_layer_3d
 from fecheck.fe.results import ContactMetrics, FEContactResult
+from fecheck.model.plausibility import modulus_warning
 from fecheck.reference.closed_forms import (
     DONAHUE_2002,
     column_stiffness,
     ef_sphere_on_plane,
     hertz_sphere_on_plane,
 )
-from fecheck.scene.constants import COMPARTMENTS
+from fecheck.scene.constants import COMPARTMENTS, GRAVITY_MPS2
+
+REFERENCE_ELEMENTS = 4
+"""The axisymmetric answer is a converged reference for the 3D one only when its contact
+radius spans at least this many of its elements (a 3D/axisymmetric gap is then the 3D
+discretization error)."""
+
+
+def stderr_log(message: str) -> None:
+    """Progress of `fecheck fe` on standard error, one line per step."""
+    print(f"fecheck fe: {message}", file=sys.stderr, flush=True)
 
 
 @dataclass(frozen=True)
@@ -62,9 +76,23 @@ class CompartmentCheck:
     ef_model: ContactMetrics | None
     timing_s: dict = field(default_factory=dict)
 
-    def deviation(self) -> dict[str, float | None]:
-        """Relative differences 3D FE vs the axisymmetric FE (flat layers only)."""
+    def comparable(self) -> bool:
+        """Whether a 3D/axisymmetric gap is the 3D discretization error: both solves ran
+        (converged) on the same flat layer, material and load, and the axisymmetric
+        contact spans `REFERENCE_ELEMENTS` of its elements (a converged reference)."""
         if self.axisym is None:
+            return False
+        a = self.axisym.metrics
+        radius = math.sqrt(max(a.area_mm2, 0.0) / math.pi)
+        size = self.axisym.size_under_contact_mm
+        same_load = math.isclose(a.force_N, self.fe.metrics.force_N, rel_tol=1e-9)
+        return same_load and radius >= REFERENCE_ELEMENTS * size
+
+    def deviation(self) -> dict[str, float | None]:
+        """Relative differences 3D FE vs the axisymmetric FE: the 3D discretization error,
+        only where the two are `comparable` (flat layers, same load, a converged
+        reference); else {}."""
+        if not self.comparable():
             return {}
         f, a = self.fe.metrics, self.axisym.metrics
         return {"max_pressure": f.max_pressure_MPa / a.max_pressure_MPa - 1,
@@ -158,40 +186,89 @@ def plateau_geometry(scene, compartment: str) -> dict[str, Any]:
     return {"top": Polynomial2D(_shifted(coeffs, cx, cy))}
 
 
+def check_physical(label: str, result: FEContactResult, E_MPa: float,
+                   size_mm: float) -> None:
+    """`FecheckError` naming the quantity of an FE answer that is not physical (NaN, a
+    zero contact area or pressure under the load) and its likely cause."""
+    m = result.metrics
+    values = {"max pressure": m.max_pressure_MPa, "mean pressure": m.mean_pressure_MPa,
+              "contact area": m.area_mm2, "indentation": m.depth_mm}
+    bad = [f"{k} {v:g}" for k, v in values.items()
+           if not math.isfinite(v) or (k != "indentation" and v <= 0)]
+    if not bad:
+        return
+    cause = modulus_warning(E_MPa) or "check contact.youngs_MPa and load.force_N"
+    raise FecheckError(f"{label}: {', '.join(bad)}: not a physical answer; the contact "
+                       f"is smaller than the elements under it ({size_mm:g} mm), so no "
+                       f"patch is resolved: refine (--size, fe.size_mm); {cause}")
+
+
 def check_compartment(name: str, load_N: float, radius_mm: float, E_MPa: float, nu: float,
                       thickness_mm: float, settings: FESettings,
                       geometry: dict[str, Any] | None = None,
-                      ef_model: ContactMetrics | None = None) -> CompartmentCheck:
-    """FE (3D and, for a flat layer, axisymmetric) and references for one compartment."""
+                      ef_model: ContactMetrics | None = None,
+                      log: Callable[[str], None] | None = None) -> CompartmentCheck:
+    """FE (3D and, for a flat layer, axisymmetric) and references for one compartment.
+    `log` gets progress lines (None: silent); a non-physical FE answer raises
+    `FecheckError` (`check_physical`)."""
     geometry = geometry or {}
+    say = log or (lambda message: None)
+    estimate = check_cost(estimate_cost(load_N, radius_mm, E_MPa, nu, thickness_mm,
+                                        settings.size_mm, settings.far_size_mm,
+                                        settings.half_extent_mm))
+    say(f"{name}: 3D layer under {load_N:.1f} N at {settings.size_mm:g} mm: "
+        f"{estimate.text()}")
     timing = {}
     t = time.perf_counter()
     fe = sphere_on_layer_3d(load_N, radius_mm, E_MPa, nu, thickness_mm,
                             footprint=settings.footprint, half_extent_mm=settings.half_extent_mm,
                             size_mm=settings.size_mm, far_size_mm=settings.far_size_mm,
-                            gap=settings.gap, solver=settings.solver, **geometry)
+                            gap=settings.gap, solver=settings.solver,
+                            log=lambda m: say(f"{name}: {m}"), **geometry)
     timing["fe_3d"] = time.perf_counter() - t
+    say(f"{name}: 3D FE done in {timing['fe_3d']:.1f} s")
+    check_physical(f"{name} 3D FE", fe, E_MPa, settings.size_mm)
     axisym = None
     if not geometry:
+        say(f"{name}: axisymmetric reference at {settings.axisym_size_mm:g} mm")
         t = time.perf_counter()
         axisym = axisym_sphere_on_layer(load_N, radius_mm, E_MPa, nu, thickness_mm,
                                         layer_radius_mm=settings.half_extent_mm,
                                         size_mm=settings.axisym_size_mm, gap=settings.gap,
                                         solver=settings.solver)
         timing["fe_axisym"] = time.perf_counter() - t
+        check_physical(f"{name} axisymmetric FE", axisym, E_MPa, settings.axisym_size_mm)
     return CompartmentCheck(name=name, load_N=load_N, radius_mm=radius_mm, fe=fe, axisym=axisym,
                             ef=ef_sphere_on_plane(load_N, radius_mm, E_MPa, nu, thickness_mm),
                             hertz=hertz_sphere_on_plane(load_N, radius_mm, E_MPa, nu),
                             ef_model=ef_model, timing_s=timing)
 
 
-def cross_check(scene, size_mm: float | None = None) -> CrossCheck:
-    """Solve the scene's EF equilibrium, then one FE solve per compartment under its load."""
+def refuse_costly(scene, settings: FESettings) -> None:
+    """Before any work: `FecheckError` for a 3D size below the floor or beyond the memory
+    available, estimated at the whole load (and weight) on the larger condyle."""
+    weight = scene["tibia.mass_kg"] * GRAVITY_MPS2 * scene["gravity"]
+    load = max(scene["load.force_N"] + weight, 1.0)
+    radius = max(scene.knee.radius_mm(c) for c in COMPARTMENTS)
+    check_cost(estimate_cost(load, radius, scene["contact.youngs_MPa"], scene["contact.poisson"],
+                             scene["contact.thickness_mm"], settings.size_mm,
+                             settings.far_size_mm, settings.half_extent_mm))
+
+
+def cross_check(scene, size_mm: float | None = None,
+                log: Callable[[str], None] | None = stderr_log) -> CrossCheck:
+    """Solve the scene's EF equilibrium, then one FE solve per compartment under its load.
+
+    Sizes whose estimated cost is out of reach are refused first (`refuse_costly`);
+    `log` gets progress lines (default: standard error; None: silent)."""
     from fecheck.model.run import run_scene
 
     settings = FESettings.from_scene(scene, size_mm)
+    refuse_costly(scene, settings)
+    say = log or (lambda message: None)
     E, nu, h = scene["contact.youngs_MPa"], scene["contact.poisson"], scene["contact.thickness_mm"]
     t = time.perf_counter()
+    say("solving the EF equilibrium")
     run = run_scene(scene)
     ef_time = time.perf_counter() - t
     if not run.converged:
@@ -210,7 +287,7 @@ def cross_check(scene, size_mm: float | None = None) -> CrossCheck:
             ef_model = ContactMetrics(float(res.max_pressure_MPa), float(res.mean_pressure_MPa),
                                       float(res.area_mm2), float(res.max_depth_mm), load)
         chk = check_compartment(c, load, scene.knee.radius_mm(c), E, nu, h, settings,
-                                plateau_geometry(scene, c), ef_model)
+                                plateau_geometry(scene, c), ef_model, log)
         checks[c] = chk
         timing[c] = {**chk.timing_s, "fe_3d_over_ef_equilibrium": chk.timing_s["fe_3d"] / ef_time}
     return CrossCheck(checks, settings, {"E_MPa": E, "nu": nu, "thickness_mm": h,

@@ -28,7 +28,10 @@ sub-triangles of each facet, p_max +2%, area -5%. Tied vertices: p_max -0.1%.
 
 from __future__ import annotations
 
+import math
 import time
+from collections.abc import Callable
+from dataclasses import dataclass
 
 import numpy as np
 
@@ -40,6 +43,140 @@ from fecheck.reference.closed_forms import hertz_sphere_on_plane
 
 GAPS = ("reference", "deformed")
 
+MIN_SIZE_MM = 0.2
+"""Smallest element size under the contact: below it the 3D layer needs millions of dofs
+(`estimate_cost`); the default 1.5 mm with its 0.9 mm edge band is within 2% of the
+converged axisymmetric answer on the baseline compartments."""
+
+DOFS_PER_SIZE_INTEGRAL = 15.9
+DOFS_OFFSET = 3740.0
+"""n_dofs ≈ 15.9·∫ dV / s(x)³ + 3740 over the layer, s(x) the element size field of
+`geometry.layer.cartilage_layer` (`size_integral`): least squares on 18 meshes of the
+baseline compartments (medial 323.71 N at 0.6-5 mm, lateral 456.67 N at 0.85-1.5 mm;
+9,559-108,441 dofs), within 2.2% of every count from 0.6 to 2 mm (+5-8% at 3-5 mm)."""
+
+SECONDS_PER_10K_DOFS = 1.74
+SECONDS_EXPONENT = 2.17
+"""CPU seconds of one 3D solve (meshing, assembly, CHOLMOD factorization, condensation
+onto the contact candidates, active set) ≈ 1.74·(n_dofs / 1e4)^2.17, one core: fitted
+on 11 of those meshes (10,351 dofs: 2.4 s … 108,441 dofs: 319 s), within 20%, 8% from
+16,000 dofs up. The factorization and the condensation (one solve per contact
+candidate) dominate. Wall time equals it on an idle core and grows when other processes
+share the core (1.0-2.9x measured on a loaded machine)."""
+
+MEGABYTES_PER_10K_DOFS = 133.0
+MEMORY_EXPONENT = 1.06
+"""Peak memory of one 3D solve above the process's own ≈ 133 MB·(n_dofs / 1e4)^1.06
+(sparse P2 stiffness and quadrature data, the Cholesky factor, block solves): fitted on
+the 18 meshes, within 6% (127 MB at 9,559 dofs, 1.76 GB at 108,441)."""
+
+
+@dataclass(frozen=True)
+class CostEstimate:
+    """The estimated size and cost of one 3D layer solve (`estimate_cost`).
+
+    n_dofs : degrees of freedom; seconds : CPU time, s; bytes : peak memory above the
+    process's own, bytes; available_bytes : MemAvailable of /proc/meminfo (None if
+    unknown)
+    """
+
+    size_mm: float
+    n_dofs: int
+    seconds: float
+    bytes: float
+    available_bytes: float | None
+
+    def text(self, dofs: bool = True) -> str:
+        """One line: dofs (if `dofs`), time and memory."""
+        avail = ("" if self.available_bytes is None
+                 else f" of {_gigabytes(self.available_bytes)} GB available")
+        count = f"~{self.n_dofs:,} dofs, " if dofs else ""
+        return (f"{count}~{_duration(self.seconds)} and ~{_gigabytes(self.bytes)} GB{avail} "
+                "(fitted cost model)")
+
+
+def _duration(seconds: float) -> str:
+    for unit, length in (("days", 172800.0), ("h", 7200.0), ("min", 120.0)):
+        if seconds >= length:
+            return f"{seconds / (length / 2):,.0f} {unit}"
+    return f"{seconds:.0f} s"
+
+
+def _gigabytes(n_bytes: float) -> str:
+    gb = n_bytes / 1e9
+    return f"{gb:.2g}" if gb < 100 else f"{gb:,.0f}"
+
+
+def available_memory_bytes() -> float | None:
+    """MemAvailable of /proc/meminfo, bytes (None where there is no /proc/meminfo)."""
+    try:
+        with open("/proc/meminfo") as fh:
+            for line in fh:
+                if line.startswith("MemAvailable:"):
+                    return float(line.split()[1]) * 1024.0
+    except OSError:
+        return None
+    return None
+
+
+def size_integral(size_mm: float, far_size_mm: float, half_extent_mm: float,
+                  thickness_mm: float, refine_radius_mm: float, edge_radius_mm: float,
+                  edge_size_mm: float | None, edge_band_mm: float = 1.0) -> float:
+    """∫ dV / s(x)³ (dimensionless) over the layer, a disc of `half_extent_mm` and
+    `thickness_mm`, for the size field of `geometry.layer.cartilage_layer`: `size_mm`
+    within `refine_radius_mm` (3D distance) of the touch point, `edge_size_mm` within
+    `edge_band_mm` of the edge circle of `edge_radius_mm`, growing linearly to
+    `far_size_mm` over a further thickness + far size (band: band + far size)."""
+    rho = np.linspace(0.0, half_extent_mm, 600)[:, None]
+    z = np.linspace(0.0, thickness_mm, 120)[None, :]
+    far = far_size_mm
+    ramp = (np.hypot(rho, z) - refine_radius_mm) / (thickness_mm + far)
+    s = np.clip(size_mm + (far - size_mm) * ramp, size_mm, far)
+    if edge_size_mm is not None and edge_size_mm < size_mm:
+        ramp = (np.hypot(rho - edge_radius_mm, z) - edge_band_mm) / (edge_band_mm + far)
+        s = np.minimum(s, np.clip(edge_size_mm + (far - edge_size_mm) * ramp, edge_size_mm,
+                                  far))
+    inner = np.trapezoid(2.0 * np.pi * rho / s ** 3, z[0], axis=1)
+    return float(np.trapezoid(inner, rho[:, 0]))
+
+
+def estimate_cost(load_N: float, radius_mm: float, E_MPa: float, nu: float,
+                  thickness_mm: float, size_mm: float, far_size_mm: float = 5.0,
+                  half_extent_mm: float = 30.0, edge_size_mm: float | None = 0.9
+                  ) -> CostEstimate:
+    """dofs, CPU time and memory of `sphere_on_layer_3d` with these arguments, before
+    any meshing: the refined zone and edge band from the Hertz contact radius, the
+    counts from `size_integral`, the cost from the fits above."""
+    a = math.sqrt(hertz_sphere_on_plane(load_N, radius_mm, E_MPa, nu).area_mm2 / math.pi)
+    edge = None if edge_size_mm is None else min(edge_size_mm, size_mm)
+    integral = size_integral(size_mm, far_size_mm, half_extent_mm, thickness_mm, 1.3 * a, a,
+                             edge)
+    n = DOFS_PER_SIZE_INTEGRAL * integral + DOFS_OFFSET
+    return _cost(size_mm, n)
+
+
+def _cost(size_mm: float, n_dofs: float) -> CostEstimate:
+    """The cost model at `n_dofs` (see the fits above)."""
+    seconds = SECONDS_PER_10K_DOFS * (n_dofs / 1e4) ** SECONDS_EXPONENT
+    n_bytes = 1e6 * MEGABYTES_PER_10K_DOFS * (n_dofs / 1e4) ** MEMORY_EXPONENT
+    return CostEstimate(size_mm, int(round(n_dofs)), seconds, n_bytes, available_memory_bytes())
+
+
+def check_cost(estimate: CostEstimate) -> CostEstimate:
+    """`FecheckError`, with the estimate, for a size below `MIN_SIZE_MM` or a solve whose
+    memory exceeds the memory available; else the estimate."""
+    if estimate.size_mm < MIN_SIZE_MM:
+        raise FecheckError(f"3D FE element size {estimate.size_mm:g} mm is below the "
+                           f"{MIN_SIZE_MM:g} mm floor: {estimate.text()} per compartment; "
+                           f"use a size ≥ {MIN_SIZE_MM:g} mm (the default 1.5 mm with its "
+                           "0.9 mm edge band is within 2% of the converged answer)")
+    avail = estimate.available_bytes
+    if avail is not None and estimate.bytes > avail:
+        raise FecheckError(f"3D FE at {estimate.size_mm:g} mm needs more memory than is "
+                           f"available: {estimate.text()}; use a larger size (fe.size_mm, "
+                           "--size)")
+    return estimate
+
 
 def sphere_on_layer_3d(load_N: float, radius_mm: float, E_MPa: float, nu: float,
                        thickness_mm: float, *, footprint: str = "ellipse",
@@ -48,7 +185,8 @@ def sphere_on_layer_3d(load_N: float, radius_mm: float, E_MPa: float, nu: float,
                        edge_band_mm: float = 1.0, edge_radius_mm: float | None = None,
                        sagittal_deg: float = 0.0,
                        frontal_deg: float = 0.0, top=None, gap: str = "reference",
-                       solver: str = "cholmod", cache: bool = True) -> FEContactResult:
+                       solver: str = "cholmod", cache: bool = True,
+                       log: Callable[[str], None] | None = None) -> FEContactResult:
     """Rigid sphere of radius R pressed vertically with `load_N` on a bonded layer.
 
     Parameters
@@ -73,6 +211,8 @@ def sphere_on_layer_3d(load_N: float, radius_mm: float, E_MPa: float, nu: float,
         from the displaced node position)
     solver : "cholmod" or "superlu"
     cache : reuse the cached Gmsh mesh
+    log : called with a progress line before each step (meshing, assembly, factorization
+        and contact) and with the counts and times after; None: silent
 
     Returns
     -------
@@ -90,6 +230,9 @@ def sphere_on_layer_3d(load_N: float, radius_mm: float, E_MPa: float, nu: float,
     if not (0 < size_mm <= far_size_mm):
         raise FecheckError(f"FE sizes must satisfy 0 < size ({size_mm}) <= far size "
                            f"({far_size_mm}) mm")
+    say = log or (lambda message: None)
+    check_cost(estimate_cost(load_N, radius_mm, E_MPa, nu, thickness_mm, size_mm,
+                             far_size_mm, half_extent_mm, edge_size_mm))
     hertz = hertz_sphere_on_plane(load_N, radius_mm, E_MPa, nu)
     a_max = float(np.sqrt(hertz.area_mm2 / np.pi))
     if 1.3 * a_max + 2 * size_mm >= half_extent_mm:
@@ -108,6 +251,7 @@ def sphere_on_layer_3d(load_N: float, radius_mm: float, E_MPa: float, nu: float,
                        if edge_radius_mm is None else float(edge_radius_mm))
     timing = {}
     t = time.perf_counter()
+    say(f"meshing the layer ({size_mm:g} mm under the contact, {far_size_mm:g} mm away)")
     layer = cartilage_layer(footprint, center_xy=tuple(touch), half_x=half_extent_mm,
                             half_y=half_extent_mm, thickness=thickness_mm, top=top,
                             sagittal_deg=sagittal_deg, frontal_deg=frontal_deg,
@@ -115,6 +259,7 @@ def sphere_on_layer_3d(load_N: float, radius_mm: float, E_MPa: float, nu: float,
                             refine_radius=1.3 * a_max, band_radius=edge_radius,
                             band_size=edge_size, band_width=edge_band_mm, cache=cache)
     timing["mesh"] = time.perf_counter() - t
+    say(_mesh_line(layer, timing["mesh"]))
     t = time.perf_counter()
     mesh = MeshTet(np.ascontiguousarray(layer.points.T), np.ascontiguousarray(layer.tets.T))
     basis = Basis(mesh, ElementVector(ElementTetP2()), intorder=2)
@@ -167,9 +312,13 @@ def sphere_on_layer_3d(load_N: float, radius_mm: float, E_MPa: float, nu: float,
         return zc - np.sqrt(R * R - r2) - z0
 
     timing["setup"] = time.perf_counter() - t
+    say(f"assembled {K_red.shape[0]:,} free dofs in {timing['assemble']:.1f} s; factorizing "
+        f"({solver}), condensing onto {len(cand_v)} contact candidates, contact iterations")
     sol = solve_contact(K_red, cand, gap0, load_N, hertz.depth_mm, tangential=tangential,
                         solver=solver, deformed_gap=(gap == "deformed"))
     timing.update(sol.timing_s)
+    say(f"factorization {timing['factorize']:.1f} s, condensation {timing['condense']:.1f} "
+        f"s, {sol.iterations} active-set iterations ({timing['active_set']:.2f} s)")
     pos = np.full(nv, -1)
     pos[cand_v] = np.arange(len(cand_v))
     faces = pos[tri]
@@ -189,6 +338,18 @@ def sphere_on_layer_3d(load_N: float, radius_mm: float, E_MPa: float, nu: float,
                            iterations=sol.iterations, timing_s=timing,
                            max_penetration_mm=float(max(0.0, -sol.gap_mm.min())),
                            node_area_mm2=float(tributary[sol.active].sum()))
+
+
+def _mesh_line(layer, seconds: float) -> str:
+    """Progress line after meshing: element and dof counts, the cost they imply."""
+    tets = layer.tets[:, :4]
+    n_tets = len(tets)
+    a, b = tets[:, [0, 0, 0, 1, 1, 2]].ravel(), tets[:, [1, 2, 3, 2, 3, 3]].ravel()
+    lo, hi = np.minimum(a, b).astype(np.int64), np.maximum(a, b)
+    edges = len(np.unique(lo * len(layer.points) + hi))
+    n_dofs = 3 * (len(np.unique(tets)) + edges)     # P2: a node per vertex and per edge
+    return (f"meshed in {seconds:.1f} s: {n_tets:,} tets (P2), {n_dofs:,} dofs; expect "
+            f"{_cost(0.0, n_dofs).text(dofs=False)}")
 
 
 def _expected_contact_radius(load_N: float, radius_mm: float, E_MPa: float, nu: float,

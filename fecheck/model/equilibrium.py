@@ -21,9 +21,18 @@ from fecheck.model.assembly import (
     start_pose,
     wrench_parts,
 )
+from fecheck.model.plausibility import before_solve, load_hint
 from fecheck.model.results import CompartmentResult
 from fecheck.scene import Scene
-from fecheck.statics.newton import ConstraintFn, Problem, Solution, cross3, pose, solve
+from fecheck.statics.newton import (
+    ConstraintFn,
+    NoEquilibrium,
+    Problem,
+    Solution,
+    cross3,
+    pose,
+    solve,
+)
 
 
 @dataclass(frozen=True, eq=False)
@@ -50,8 +59,11 @@ def solve_equilibrium(scene: Scene, comps: Sequence[Compartment],
     """Newton statics of the scene's tibia with contact in `comps`, the scene's load and
     gravity, ligament `springs` (wrench parts) and `constraints` (rods, equal forces).
 
-    `warm_start` (5,) = (x, y, z mm, θy, θz rad) starts the solve there (sweeps).
+    `warm_start` (5,) = (x, y, z mm, θy, θz rad) starts the solve there (sweeps). The
+    scene and meshes are checked first (`fecheck.model.plausibility.before_solve`); a
+    failure to find any equilibrium names a load below the tibia's weight.
     """
+    before_solve(scene, comps)
     contact = ContactModel(comps)
     parts = wrench_parts(contact, applied_load(scene), *springs)
     q0 = start_pose(scene) if warm_start is None else np.asarray(warm_start, dtype=float)
@@ -61,12 +73,23 @@ def solve_equilibrium(scene: Scene, comps: Sequence[Compartment],
                       max_iterations=scene["solver.max_iterations"],
                       touching=lambda: contact.touching)
     t0 = time.perf_counter()
-    sol = solve(problem)
+    sol = _solve(scene, problem)
     seconds = time.perf_counter() - t0
     rot, t = pose(sol.q, problem.theta_x)
     evaluated = contact.evaluate(rot, t)              # at the solution, for the report
     return Equilibrium(sol, rot, t, [res for res, _, _ in evaluated],
                        [w for _, w, _ in evaluated], contact, seconds)
+
+
+def _solve(scene: Scene, problem: Problem) -> Solution:
+    """`solve`, with the load's cause added to a failure to find any equilibrium."""
+    try:
+        return solve(problem)
+    except NoEquilibrium as err:
+        hint = load_hint(scene)
+        if not hint:
+            raise
+        raise NoEquilibrium(f"{err}; {hint}") from None
 
 
 def compartment_result(comp: Compartment, res: LawResult, w: np.ndarray, rot: np.ndarray,
@@ -87,9 +110,23 @@ def compartment_result(comp: Compartment, res: LawResult, w: np.ndarray, rot: np
         # the thesis's area: the full (unprojected) area of every face touching the master
         area = float(mesh.face_areas[res.surface.face].sum())
         mean = force / area
+    face_area, face_depth = _face_fields(res.surface)
     return CompartmentResult(force, res.max_pressure, mean, area, res.max_depth,
                              float(np.linalg.norm(torque)), torque, faces,
-                             face_pressure, points, mesh.faces)
+                             face_pressure, points, mesh.faces, face_area, face_depth)
+
+
+def _face_fields(surface) -> tuple[np.ndarray | None, np.ndarray | None]:
+    """(n_slave_faces,) in-contact area (mm²) and mean depth over it (mm) of every slave
+    face of a `ContactSurface`; (None, None) for a point contact."""
+    if not isinstance(surface, ContactSurface):
+        return None, None
+    area, depth = np.zeros(surface.n_slave_faces), np.zeros(surface.n_slave_faces)
+    fa = surface.face_area
+    ok = fa > 0
+    area[surface.face] = fa
+    depth[surface.face[ok]] = surface.face_depth_integral[ok] / fa[ok]
+    return area, depth
 
 
 def compartment_results(comps: Sequence[Compartment], eq: Equilibrium

@@ -91,10 +91,6 @@ def plateau_mesh_sizes(scene: Scene, radius_mm: float) -> dict[str, float]:
             "refine_radius": out["refine_radius"]}
 
 
-MESH_DETECTION = ("bvh", "ray-parity", "fcl")
-"""Detection methods that need a mesh master: the analytic surface is meshed instead."""
-
-
 def condyle_mesh(scene: Scene, knee: Knee, c: str):
     from geometry.icosphere import icosphere
 

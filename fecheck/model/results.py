@@ -28,6 +28,11 @@ class CompartmentResult:
     slave_points, slave_faces : the slave mesh in world coordinates at equilibrium (plots)
     torque_vector_Nmm : (3,) moment of the compartment's contact force on the tibia about
         the tibial origin, world axes; `torque_Nmm` is its norm
+    face_area_mm2 : (n_slave_faces,) in-contact area of every slave face (the face clipped
+        at zero depth, as the law integrates it; 0 off contact), so that
+        Σ face_pressure_MPa · face_area_mm2 is the compartment's normal force (None for
+        point contacts)
+    face_depth_mm : (n_slave_faces,) mean depth over that area, mm (None for point contacts)
     """
 
     force_N: float
@@ -41,6 +46,8 @@ class CompartmentResult:
     face_pressure_MPa: np.ndarray | None = None
     slave_points: np.ndarray | None = None
     slave_faces: np.ndarray | None = None
+    face_area_mm2: np.ndarray | None = None
+    face_depth_mm: np.ndarray | None = None
 
     def as_dict(self) -> dict[str, Any]:
         """JSON-ready metrics (no per-face arrays)."""

@@ -16,6 +16,7 @@ from fecheck.model.assembly import (
     pose_dict,
     start_pose,
 )
+from fecheck.model.plausibility import before_solve
 from fecheck.model.results import CompartmentResult, LigamentResult, RunResult
 from fecheck.scene import Scene
 from fecheck.scene.constants import COMPARTMENTS
@@ -31,6 +32,7 @@ def run_rigid(scene: Scene, warm_start: np.ndarray | None = None) -> RunResult:
     if scene["ligaments.model"] == "spring":
         raise FecheckError("the rigid model takes ligaments as rods (ligaments.model = 'rod') "
                            "or none")
+    before_solve(scene)
     knee = scene.knee
     q = start_pose(scene) + np.array([0.0, 0.0, scene["solver.start_gap_mm"], 0.0, 0.0])
     theta_x = math.radians(scene["dofs.flexion_deg"])

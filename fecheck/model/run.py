@@ -12,6 +12,7 @@ from collections.abc import Callable
 import numpy as np
 
 from fecheck.errors import FecheckError
+from fecheck.model.plausibility import after_solve
 from fecheck.model.results import RunResult
 from fecheck.model.rigid import run_rigid
 from fecheck.model.scanned import run_scanned
@@ -30,11 +31,18 @@ def run_scene(scene: Scene, warm_start: np.ndarray | None = None) -> RunResult:
     """Solve a scene and return its `RunResult`.
 
     `warm_start` (5,) = (x, y, z mm, θy, θz rad) starts the Newton solve there (sweeps).
+    Inputs and meshes are checked before the solve (warnings, or `FecheckError` where the
+    solve could mean nothing) and the result after it: a value that cannot be physical
+    raises `FecheckError` (`fecheck.model.plausibility`).
     """
     kind = scene["model.kind"]
     if scene["scanned.ligaments"] != "none":
-        return run_scanned(scene, warm_start)
-    if kind not in MODEL_RUNNERS:
+        runner = run_scanned
+    elif kind in MODEL_RUNNERS:
+        runner = MODEL_RUNNERS[kind]
+    else:
         raise FecheckError(f"model.kind {kind!r} has no runner; known: "
                            f"{', '.join(MODEL_RUNNERS)}")
-    return MODEL_RUNNERS[kind](scene, warm_start)
+    result = runner(scene, warm_start)
+    after_solve(scene, result)
+    return result

@@ -30,7 +30,6 @@ from fecheck.model.assembly import (
 )
 from fecheck.model.equilibrium import compartment_results, not_converged_note, solve_equilibrium
 from fecheck.model.meshing import (
-    MESH_DETECTION,
     condyle_mesh,
     plateau_box,
     plateau_master,
@@ -46,17 +45,8 @@ from fecheck.model.results import CompartmentResult, LigamentResult, RunResult
 from fecheck.reference.closed_forms import ef_sphere_plane
 from fecheck.scene import Scene
 from fecheck.scene.constants import COMPARTMENTS
+from fecheck.scene.relevance import MESH_DETECTION, hertz_point_contact
 from fecheck.statics.ligaments import rod_constraint, spring_wrench, transition_strain_check
-
-
-def hertz_point_contact(scene: Scene) -> bool:
-    """Whether the scene's Hertz compartments use the closed-form sphere-plane contact:
-    Hertz law, plane plateaus, analytic detection, clipped areas (``whole-face`` asks for
-    the thesis's counting of mesh faces, so it keeps the meshed, deepest-vertex path)."""
-    return (scene["contact.law"] == "hertz"
-            and scene["plateau.kind"] in ("transverse", "inclined")
-            and scene["contact.detection"] not in MESH_DETECTION
-            and scene["contact.area"] == "clipped")
 
 
 def _hertz_point_compartments(scene: Scene) -> list[Compartment]:

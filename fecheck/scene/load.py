@@ -1,5 +1,10 @@
 """Scenes: TOML files describing one knee-contact problem, validated on load.
 
+Every problem with a scene file or an override raises `FecheckError` with a one-line
+message naming the file or key and what to change. A key the user gave that has no
+effect in the scene's configuration is reported by an `InertKeyWarning`
+(`fecheck.scene.relevance`).
+
 >>> scene = load_scene(overrides=["contact.poisson=0.4"])
 >>> scene["contact.poisson"], scene["contact.law"]
 (0.4, 'ef')
@@ -9,7 +14,8 @@ from __future__ import annotations
 
 import difflib
 import math
-from collections.abc import Mapping, Sequence
+import warnings
+from collections.abc import Iterable, Mapping, Sequence
 from dataclasses import dataclass
 from importlib import resources
 from pathlib import Path
@@ -20,6 +26,7 @@ import tomllib
 from fecheck.errors import FecheckError
 from fecheck.scene.constants import COMPARTMENTS, DOF_NAMES
 from fecheck.scene.knee import PRESETS, Knee, knee_from_landmarks
+from fecheck.scene.relevance import InertKeyWarning, inert_keys, inert_message
 from fecheck.scene.schema import SCHEMA, Key
 
 
@@ -53,20 +60,47 @@ def packaged_scene_path(name: str = "baseline") -> Path:
     return Path(str(resources.files("fecheck") / "scenes" / f"{name}.toml"))
 
 
-def _flatten(data: Mapping[str, Any], prefix: str = "") -> dict[str, Any]:
+KEY_PREFIXES = frozenset(".".join(k.split(".")[:i]) for k in SCHEMA
+                    for i in range(1, k.count(".") + 1))
+"""Dotted prefixes of the scene keys (``contact``, ``ligaments.ACL``): tables, not values."""
+
+KIND_TEXT = {"int": "an integer", "float": "a number", "bool": "true or false",
+             "str": "a string", "vec3": "a list of 3 numbers", "pair": "a list of 2 numbers",
+             "strings": "a list of strings", "table": "a table",
+             "matrix": "a list of lists of numbers"}
+"""Key kind → what a value of it is, for messages."""
+
+
+def _flatten(data: Mapping[str, Any], source: str, prefix: str = "") -> dict[str, Any]:
+    """Nested TOML tables → dotted keys; a table where a value belongs (or the reverse)
+    raises `FecheckError`. Unknown keys pass through (`validate` names them)."""
     out: dict[str, Any] = {}
     for k, v in data.items():
         key = f"{prefix}{k}"
-        if isinstance(v, Mapping) and SCHEMA.get(key, Key("", None, "")).kind != "table":
-            out.update(_flatten(v, key + "."))
+        kind = SCHEMA[key].kind if key in SCHEMA else None
+        if isinstance(v, Mapping) and kind not in (None, "table"):
+            raise FecheckError(f"{source}: {key} must be {KIND_TEXT[kind]}, got a table")
+        if key in KEY_PREFIXES and not isinstance(v, Mapping):
+            raise _section_as_value(key, source)
+        if isinstance(v, Mapping) and kind is None:
+            out.update(_flatten(v, source, key + "."))
         else:
             out[key] = v
     return out
 
 
+def _section_as_value(key: str, source: str) -> FecheckError:
+    example = next(k for k in SCHEMA if k.startswith(key + "."))
+    return FecheckError(f"{source}: {key} is a section of keys, not a value; give one of its "
+                        f"keys, e.g. {example} (`fecheck keys {key}` lists them)")
+
+
 def _unknown(key: str, source: str) -> FecheckError:
+    if key in KEY_PREFIXES:
+        return _section_as_value(key, source)
     close = difflib.get_close_matches(key, SCHEMA, n=1, cutoff=0.5)
-    hint = f"; did you mean {close[0]!r}?" if close else ""
+    hint = (f"; did you mean {close[0]!r}?" if close
+            else "; `fecheck keys` lists the scene keys")
     return FecheckError(f"{source}: unknown scene key {key!r}{hint}")
 
 
@@ -105,9 +139,19 @@ def _check_strings(key: str, spec: Key, value: Any, source: str) -> list[str]:
 
 
 def _check_table(key: str, spec: Key, value: Any, source: str) -> Mapping:
+    """A table of tables of 3-vectors (``knee.landmarks``); which tables and entries it
+    must give is checked where it is read (`fecheck.scene.knee.knee_from_landmarks`)."""
     if not isinstance(value, Mapping):
-        raise FecheckError(f"{source}: {key} must be a table")
-    return value
+        raise FecheckError(f"{source}: {key} must be a table, got {value!r}")
+    vec3 = Key("vec3", None, "")
+    out = {}
+    for name, table in value.items():
+        if not isinstance(table, Mapping):
+            raise FecheckError(f"{source}: {key}.{name} must be a table of 3-coordinate "
+                               f"points (mm), got {table!r}")
+        out[name] = {k: _check_vector(f"{key}.{name}.{k}", vec3, v, source)
+                     for k, v in table.items()}
+    return out
 
 
 def _check_vector(key: str, spec: Key, value: Any, source: str) -> list[float]:
@@ -118,7 +162,7 @@ def _check_vector(key: str, spec: Key, value: Any, source: str) -> list[float]:
 
 
 def _check_matrix(key: str, spec: Key, value: Any, source: str) -> list[list[float]]:
-    if not isinstance(value, list) or not value or not all(
+    if not isinstance(value, list) or not value or not value[0] or not all(
             isinstance(r, list) and len(r) == len(value[0]) for r in value):
         raise FecheckError(f"{source}: {key} must be a rectangular list of lists "
                            f"(c[i][j] multiplies x^i y^j)")
@@ -165,16 +209,32 @@ def parse_override(text: str) -> tuple[str, Any]:
     return key, value
 
 
-def validate(data: Mapping[str, Any], source: str = "scene") -> Scene:
-    """Check a nested scene mapping against `SCHEMA`; fill defaults; return the `Scene`."""
-    flat = _flatten(data)
+def validate(data: Mapping[str, Any], source: str = "scene", where: str = "") -> Scene:
+    """Check a nested scene mapping against `SCHEMA`; fill defaults; return the `Scene`.
+
+    Messages start with `where` (default: `source`, the file the scene came from).
+    """
+    where = where or source
     values = {k: spec.default for k, spec in SCHEMA.items()}
-    for key, value in flat.items():
+    for key, value in _flatten(data, where).items():
         if key not in SCHEMA:
-            raise _unknown(key, source)
-        values[key] = _check(key, value, source)
+            raise _unknown(key, where)
+        values[key] = _check(key, value, where)
     scene = Scene(values, source)
-    _ = scene.knee                               # validates custom landmarks
+    _check_consistent(scene, where)
+    return scene
+
+
+def _check_consistent(scene: Scene, source: str) -> None:
+    """Rules across keys: custom landmarks, polynomial coefficients, load, free DOFs."""
+    try:
+        _ = scene.knee                           # validates custom landmarks
+    except FecheckError as err:
+        raise FecheckError(f"{source}: {err}") from None
+    if not scene["dofs.free"]:
+        raise FecheckError(f"{source}: dofs.free is empty: at least one tibia DOF must be "
+                           f"free to solve the equilibrium, e.g. dofs.free = ['z'] "
+                           f"(allowed: {', '.join(DOF_NAMES)})")
     if scene["plateau.kind"] == "polynomial":
         for c in COMPARTMENTS:
             if scene[f"plateau.{c}_coefficients"] is None:
@@ -182,40 +242,77 @@ def validate(data: Mapping[str, Any], source: str = "scene") -> Scene:
                                    f"plateau.{c}_coefficients")
     if scene["load.force_N"] > 0 and not any(scene["load.direction"]):
         raise FecheckError(f"{source}: load.direction must not be the zero vector")
-    return scene
+
+
+def _read_scene_file(path: Path) -> dict[str, Any]:
+    """The parsed TOML of a scene file; `FecheckError` saying what is wrong with it."""
+    if path.is_dir():
+        raise FecheckError(f"{path} is a directory, not a scene file; give the path of a "
+                           f"scene TOML file (or none for the packaged baseline scene)")
+    if path.exists() and not path.is_file():
+        raise FecheckError(f"{path} is not a regular file; give the path of a scene TOML file")
+    try:
+        raw = path.read_bytes()
+    except FileNotFoundError:
+        raise FecheckError(f"scene file not found: {path}; check the path (give none for "
+                           f"the packaged baseline scene)") from None
+    except OSError as err:
+        raise FecheckError(f"cannot read scene file {path}: {err.strerror}") from None
+    try:
+        text = raw.decode("utf-8-sig")
+    except UnicodeDecodeError as err:
+        raise FecheckError(f"{path} is not a text file (byte 0x{raw[err.start]:02x} at offset "
+                           f"{err.start} is not UTF-8); a scene is a TOML text file, e.g. "
+                           f"the output of `fecheck keys --format toml`") from None
+    try:
+        return tomllib.loads(text)
+    except tomllib.TOMLDecodeError as err:
+        raise FecheckError(f"{path}: not valid TOML: {err}") from None
 
 
 def load_scene(path: str | Path | None = None, overrides: Sequence[str] = ()) -> Scene:
     """Read and validate a scene TOML file (None → the packaged baseline).
 
     `overrides` are ``KEY=VALUE`` strings (``--set``) applied before validation.
-    Raises `FecheckError` naming the file or key on any problem.
+    Raises `FecheckError` naming the file or key on any problem. Warns
+    (`InertKeyWarning`, one warning per key) for each key the user gave that has no
+    effect in the scene's configuration: every ``--set`` key, and the keys of the file
+    whose value differs from the default (a file that writes out a default, like the
+    packaged baseline, documents it rather than sets it).
     """
     path = packaged_scene_path() if path is None else Path(path)
-    try:
-        text = path.read_text()
-    except FileNotFoundError:
-        raise FecheckError(f"scene file not found: {path}") from None
-    except OSError as err:
-        raise FecheckError(f"cannot read scene file {path}: {err.strerror}") from None
-    try:
-        data = tomllib.loads(text)
-    except tomllib.TOMLDecodeError as err:
-        raise FecheckError(f"{path}: not valid TOML: {err}") from None
-    return apply_overrides(validate(data, str(path)), overrides)
+    scene = validate(_read_scene_file(path), str(path))
+    given = [k for k, v in scene.values.items() if v != SCHEMA[k].default]
+    scene, keys = _overridden(scene, overrides)
+    warn_inert(scene, given + keys)
+    return scene
+
+
+def warn_inert(scene: Scene, given_keys: Iterable[str]) -> None:
+    """Warn (`InertKeyWarning`) for each of `given_keys` with no effect in `scene`."""
+    for key, reason in inert_keys(scene, given_keys):
+        warnings.warn(inert_message(key, reason), InertKeyWarning, stacklevel=3)
 
 
 def apply_overrides(scene: Scene, overrides: Sequence[str]) -> Scene:
-    """A copy of `scene` with ``KEY=VALUE`` overrides applied and validated."""
+    """A copy of `scene` with ``KEY=VALUE`` overrides applied and validated (no warning
+    for inert keys: `load_scene` gives those)."""
+    return _overridden(scene, overrides)[0]
+
+
+def _overridden(scene: Scene, overrides: Sequence[str]) -> tuple[Scene, list[str]]:
+    """`scene` with ``KEY=VALUE`` overrides applied and validated, and the keys set."""
     if not overrides:
-        return scene
+        return scene, []
     values = dict(scene.values)
+    keys = []
     for text in overrides:
         key, value = parse_override(text)
         if key not in SCHEMA:
             raise _unknown(key, "--set")
         values[key] = _check(key, value, "--set")
-    return validate(_nest(values), scene.source)
+        keys.append(key)
+    return validate(_nest(values), scene.source, f"--set on {scene.source}"), keys
 
 
 def with_values(scene: Scene, **dotted: Any) -> Scene:

@@ -1,11 +1,15 @@
 """The scene schema: every key with its type, default, allowed range and documentation.
 
 A scene is a flat mapping of dotted keys (``contact.poisson``) to values; every key has
-a type, a default, an allowed range and a line of documentation in `SCHEMA`. The
-packaged ``fecheck/scenes/baseline.toml`` documents every key with comments.
+a type, a default, an allowed range, a unit and a line of documentation in `SCHEMA`.
+The documentation is written to be read alone (``fecheck keys``, ``docs/scene-keys.md``
+and the comments of the packaged ``fecheck/scenes/baseline.toml`` are generated from it
+by `fecheck.scene.document`).
 
 >>> SCHEMA["contact.poisson"].default
 0.3
+>>> unit_of("contact.youngs_MPa"), unit_of("ligaments.ACL.stiffness_N")
+('MPa', 'N per unit strain')
 """
 
 from __future__ import annotations
@@ -21,8 +25,12 @@ from fecheck.scene.knee import PRESETS
 @dataclass(frozen=True)
 class Key:
     """One scene key: kind ("int", "float", "bool", "str", "vec3", "pair", "strings",
-    "table", "matrix"), default, allowed choices or numeric bounds, and documentation.
-    Numbers must be finite unless `allow_inf` (then +inf is allowed, e.g. a rigid body)."""
+    "table", "matrix"), default, documentation, allowed choices or numeric bounds.
+
+    Numbers must be finite unless `allow_inf` (then +inf is allowed, e.g. a rigid body).
+    `unit` overrides the unit read from the key's name suffix (`unit_of`); `example` is a
+    value shown in the generated documents for a key whose default is unset (None).
+    """
 
     kind: str
     default: Any
@@ -33,137 +41,354 @@ class Key:
     low_open: bool = False
     high_open: bool = False
     allow_inf: bool = False
+    unit: str = ""
+    example: Any = None
 
 
-def _lig(name: str, stiffness_N: float, reference_strain: float) -> dict[str, Key]:
+DIMENSIONLESS = "dimensionless"
+
+UNIT_SUFFIXES = (("_N_per_mm3", "N/mm³"), ("_MPa", "MPa"), ("_mm", "mm"), ("_deg", "deg"),
+                 ("_kg", "kg"), ("_N", "N"))
+"""Key-name suffix → unit, longest first."""
+
+
+def unit_of(key: str) -> str:
+    """The unit of a scene key: its explicit `Key.unit`, else from its name suffix
+    (`UNIT_SUFFIXES`), else "" (not a physical quantity: a name, switch or count)."""
+    spec = SCHEMA[key]
+    if spec.unit:
+        return spec.unit
+    for suffix, unit in UNIT_SUFFIXES:
+        if key.endswith(suffix):
+            return unit
+    return ""
+
+
+SECTIONS: dict[str, str] = {
+    "": "Scene",
+    "model": "Model kind",
+    "mesh": "Meshes of the sphere-plane model (condyle icospheres and plateau discs)",
+    "knee": "Knee landmarks",
+    "plateau": "Tibial plateau shape",
+    "contact": "Contact law, detection and cartilage material",
+    "load": "External load on the tibia",
+    "tibia": "Tibia mass",
+    "ligaments": "Ligaments ACL, PCL and MCL of the knee landmarks",
+    "dofs": "Tibia degrees of freedom and pose",
+    "constraints": "Extra constraints",
+    "solver": "Newton solver",
+    "scanned": "Scanned knee (lenhart2015 data set): sphere-tibia and femur-tibia models",
+    "fe": "FE cross-check (`fecheck fe`)",
+}
+"""Section (first part of a dotted key; "" for top-level keys) → its title."""
+
+
+def _lig(name: str, stiffness_N: float, reference_strain: float, bundles: str) -> dict[str, Key]:
     return {
         f"ligaments.{name}.stiffness_N": Key(
-            "float", stiffness_N, f"{name} spring stiffness, N per unit strain", low=0.0),
+            "float", stiffness_N,
+            f"Stiffness of the {name} spring in its linear region, N per unit strain "
+            f"(ligaments.model = 'spring'). Default: the sum of the linear stiffnesses of "
+            f"the {name} bundles of Lenhart et al. 2015 ({bundles}; ligaments.json of the "
+            f"scanned knee data).",
+            low=0.0, unit="N per unit strain"),
         f"ligaments.{name}.reference_strain": Key(
-            "float", reference_strain, f"{name} strain at the reference pose", low=-0.5,
-            high=1.0),
+            "float", reference_strain,
+            f"Strain of the {name} spring at the reference pose, dimensionless: its slack "
+            f"length is the reference length / (1 + strain); negative = slack "
+            f"(ligaments.model = 'spring'). Default: the mean rest strain of the {name} "
+            f"bundles of Lenhart et al. 2015.", low=-0.5, high=1.0, unit=DIMENSIONLESS),
     }
 
 
-# Spring defaults: Lenhart et al. 2015 (J. Biomech. Eng. 137, 081006), as shipped in
-# /work/shared/data/knee/lenhart2015/ligaments.json: per ligament the sum of its bundles'
-# Blankevoort1991Ligament linear stiffnesses (MCL 16 x 500 N, ACL 12 x 820 N,
-# PCL 5 x 900 + 5 x 300 N) and the mean of its bundles' strains at rest.
+def _dof(axis: str, what: str, extra: str = "") -> str:
+    return (f"Tibia {what}: its driven value, or the start of the solve when "
+            f"{axis} is in dofs.free.{extra}")
+
+
+_LANDMARKS_EXAMPLE = {
+    "condyle_center": {"medial": [-20.4, 12.8, 16.8], "lateral": [28.3, 12.8, 25.8]},
+    "contact_point": {"medial": [-20.4, 12.8, -8.7], "lateral": [28.3, 12.8, -6.0]},
+    "femur_attachment": {"ACL": [17.0, 31.4, 20.4], "PCL": [-7.9, 21.3, 8.8],
+                         "MCL": [-38.0, 13.8, 11.2]},
+    "tibia_attachment": {"ACL": [0.0, 0.0, 0.0], "PCL": [18.3, 35.5, -21.3],
+                         "MCL": [-3.0, -1.0, -64.6]},
+}
+"""The baseline-right landmarks (thesis Table B.1), as a custom table."""
+
+_FE = "`fecheck fe` only: "
+
 SCHEMA: dict[str, Key] = {
-    "name": Key("str", "", "free-text scene name"),
-    "gravity": Key("bool", True, "apply the tibia's weight (tibia.mass_kg · 9.81 N, -z)"),
-    "model.kind": Key("str", "sphere-plane", "model: rigid (point contacts, linear statics) "
-                      "or sphere-plane (meshed condyles on plateaus)", choices=MODEL_KINDS),
-    "mesh.sphere_subdivisions": Key("int", 4, "icosphere level: 20·4^n faces per condyle",
-                                    low=0, high=7),
-    "mesh.method": Key("str", "gmsh", "icosphere builder", choices=("gmsh", "trimesh")),
-    "mesh.plateau_radius_mm": Key("float", 14.0, "contact.master = condyle: radius of the "
-                                  "meshed plateau disc around each contact point, mm",
-                                  low=1.0, high=100.0),
-    "mesh.plateau_size_mm": Key("float", 2.0, "plateau element size away from the contact, mm",
+    "name": Key("str", "", "Free-text name of the scene, shown in reports and result files "
+                "('' shows the scene file's path)."),
+    "gravity": Key("bool", True, "Apply the tibia's weight: tibia.mass_kg × 9.81 N along -z "
+                   "at tibia.com_mm."),
+    "model.kind": Key(
+        "str", "sphere-plane",
+        "Model: 'rigid' = each condyle a ball on a frictionless plateau plane, point "
+        "contacts and linear statics (thesis §5.1); 'sphere-plane' = condyle spheres on "
+        "transverse, inclined or polynomial plateaus with a contact law, Newton statics "
+        "(§5.2.1); 'sphere-tibia' = the condyle spheres on the scanned tibial cartilage; "
+        "'femur-tibia' = the scanned femoral on the scanned tibial cartilage (§5.2.2-5.2.3; "
+        "these two read the scanned knee data, see scanned.data_dir).",
+        choices=MODEL_KINDS),
+    "mesh.sphere_subdivisions": Key(
+        "int", 4,
+        "Icosphere level n of each meshed femoral condyle: 20·4^n faces (4 → 5,120 faces). "
+        "A condyle is meshed with contact.master = 'plateau', with mesh detection "
+        "(contact.detection 'bvh', 'ray-parity' or 'fcl') and for scanned.condyle = "
+        "'hemisphere'; otherwise it is an exact sphere.", low=0, high=7),
+    "mesh.method": Key("str", "gmsh", "How a meshed condyle icosphere is built: 'gmsh' "
+                       "(refined icosahedron) or 'trimesh' (see mesh.sphere_subdivisions).",
+                       choices=("gmsh", "trimesh")),
+    "mesh.plateau_radius_mm": Key(
+        "float", 14.0,
+        "Radius of the meshed plateau disc around each contact point, mm (sphere-plane "
+        "model with contact.master = 'condyle'; for the Hertz point contact it only draws "
+        "the pressure). Left at the default it is widened to 1.25 × the expected contact "
+        "radius at the whole load; raise it if a contact reaches the disc rim.",
+        low=1.0, high=100.0),
+    "mesh.plateau_size_mm": Key("float", 2.0, "Element size of the meshed plateau disc away "
+                                "from the contact, mm (see mesh.plateau_radius_mm).",
                                 low=0.01, high=20.0),
-    "mesh.plateau_refine_mm": Key("float", 0.8, "plateau element size under the contact, mm",
-                                  low=0.01, high=20.0),
-    "mesh.plateau_refine_radius_mm": Key("float", 9.0, "radius of the refined zone, mm",
-                                         low=0.0, high=100.0),
-    "knee.preset": Key("str", "baseline-right", "landmarks: thesis Table B.1, Table B.3 or "
-                       "custom (knee.side + knee.landmarks)",
-                       choices=tuple(PRESETS) + ("custom",)),
-    "knee.side": Key("str", "right", "custom knee side", choices=("right", "left")),
-    "knee.landmarks": Key("table", None, "custom landmarks (see fecheck.scene.knee)"),
-    "plateau.kind": Key("str", "transverse", "tibial plateau: transverse planes, inclined "
-                        "planes, or z = f(x, y) polynomials",
-                        choices=("transverse", "inclined", "polynomial")),
-    "plateau.medial_angles_deg": Key("pair", [-0.36, -5.93], "medial plane slopes (λ sagittal, "
-                                     "γ frontal), deg, thesis Table 2.1 without outliers"),
-    "plateau.lateral_angles_deg": Key("pair", [-0.34, 9.82], "lateral plane (λ, γ)"),
-    "plateau.medial_coefficients": Key("matrix", None, "medial z = Σ c[i][j] x^i y^j, "
-                                       "tibia frame, mm"),
-    "plateau.lateral_coefficients": Key("matrix", None, "lateral z = Σ c[i][j] x^i y^j"),
-    "contact.law": Key("str", "ef", "contact law", choices=("ef", "hertz", "volumetric",
-                                                            "blankevoort")),
-    "contact.area": Key("str", "clipped", "in-contact area of a face: clipped at zero depth "
-                        "(exact) or the whole face (thesis)", choices=("clipped", "whole-face")),
-    "contact.master": Key("str", "condyle", "analytic master: plateau (plane master, "
-                          "icosphere slave) or condyle (sphere master, meshed plateau slave)",
-                          choices=("plateau", "condyle")),
-    "contact.detection": Key("str", "auto", "detection method",
-                             choices=("auto", "closed-form", "bvh", "ray-parity", "fcl")),
-    "contact.margin_mm": Key("float", 2.0, "broad-phase margin, mm", low=0.0),
-    "contact.youngs_MPa": Key("float", 20.0, "cartilage Young's modulus, MPa", low=0.0,
+    "mesh.plateau_refine_mm": Key(
+        "float", 0.8,
+        "Element size of the meshed plateau disc under the contact, mm (see "
+        "mesh.plateau_radius_mm). Left at the default it is halved until 8 elements span "
+        "the expected contact radius at half the load.", low=0.01, high=20.0),
+    "mesh.plateau_refine_radius_mm": Key(
+        "float", 9.0,
+        "Radius of the refined zone (element size mesh.plateau_refine_mm) of the meshed "
+        "plateau disc around the contact point, mm. Left at the default it is fitted to "
+        "the expected contact.", low=0.0, high=100.0),
+    "knee.preset": Key(
+        "str", "baseline-right",
+        "Knee landmarks (condyle centres, contact points, ligament attachments): "
+        "'baseline-right' = the thesis's right knee (Table B.1), 'additional-left' = its "
+        "left knee (Table B.3), 'custom' = knee.side and the knee.landmarks table.",
+        choices=tuple(PRESETS) + ("custom",)),
+    "knee.side": Key("str", "right", "Side of a custom knee (knee.preset = 'custom'): "
+                     "'right' has its medial compartment at -x, 'left' at +x.",
+                     choices=("right", "left")),
+    "knee.landmarks": Key(
+        "table", None,
+        "Landmarks of a custom knee (knee.preset = 'custom'), mm, tibia frame at the "
+        "reference pose: tables condyle_center and contact_point (keys medial, lateral) "
+        "and femur_attachment and tibia_attachment (keys ACL, PCL, MCL), each value 3 "
+        "coordinates. Condyle radius = centre-to-contact-point distance; ligament "
+        "reference length = distance between its attachments.",
+        unit="mm", example=_LANDMARKS_EXAMPLE),
+    "plateau.kind": Key(
+        "str", "transverse",
+        "Tibial plateau shape: 'transverse' = horizontal planes through the contact "
+        "points, 'inclined' = planes sloped by plateau.medial_angles_deg and "
+        "plateau.lateral_angles_deg, 'polynomial' = surfaces z = Σ c[i][j] x^i y^j "
+        "(plateau.medial_coefficients, plateau.lateral_coefficients).",
+        choices=("transverse", "inclined", "polynomial")),
+    "plateau.medial_angles_deg": Key(
+        "pair", [-0.36, -5.93],
+        "Slopes (λ sagittal, γ frontal) of the medial plateau plane for plateau.kind = "
+        "'inclined', deg: the plane z = x·tan γ + y·tan λ + c touching the condyle sphere "
+        "at the reference pose. Default: thesis Table 2.1 without outliers."),
+    "plateau.lateral_angles_deg": Key(
+        "pair", [-0.34, 9.82],
+        "Slopes (λ sagittal, γ frontal) of the lateral plateau plane for plateau.kind = "
+        "'inclined', deg (see plateau.medial_angles_deg). Default: thesis Table 2.1 "
+        "without outliers."),
+    "plateau.medial_coefficients": Key(
+        "matrix", None,
+        "Medial plateau surface for plateau.kind = 'polynomial': z = Σ c[i][j] x^i y^j, "
+        "mm, tibia frame; a list of rows, c[i][j] multiplies x^i y^j.",
+        unit="mm", example=[[-8.7, 0.0], [0.01, 0.0]]),
+    "plateau.lateral_coefficients": Key(
+        "matrix", None,
+        "Lateral plateau surface for plateau.kind = 'polynomial': z = Σ c[i][j] x^i y^j, "
+        "mm, tibia frame (see plateau.medial_coefficients).",
+        unit="mm", example=[[-6.0, 0.0], [-0.01, 0.0]]),
+    "contact.law": Key(
+        "str", "ef",
+        "Contact law: 'ef' = linear elastic foundation (thesis eq. 4.1-4.3, stiffness from "
+        "contact.youngs_MPa, contact.poisson and contact.thickness_mm), 'hertz' (eq. "
+        "4.4-4.8, from the maximum depth), 'volumetric' (eq. 4.9, stiffness "
+        "contact.volumetric_stiffness_N_per_mm3), 'blankevoort' = the nonlinear foundation "
+        "of Blankevoort et al. 1991.", choices=("ef", "hertz", "volumetric", "blankevoort")),
+    "contact.area": Key(
+        "str", "clipped",
+        "In-contact area of a mesh face: 'clipped' at its zero-depth line (exact) or "
+        "'whole-face' (the thesis's counting: it overestimates the area and underestimates "
+        "the depth by 12-16% at 5,000 faces, its Table 5.3).",
+        choices=("clipped", "whole-face")),
+    "contact.master": Key(
+        "str", "condyle",
+        "Which surface of the sphere-plane model is analytic (the master): 'condyle' = an "
+        "exact sphere over a meshed plateau disc refined under the contact (depth, area "
+        "and pressure within 0.2% of the exact EF values), or 'plateau' = an exact plane "
+        "under a meshed icosphere, the thesis's way (at 5,120 faces the inscribed "
+        "polyhedron holds less volume: depth and maximum pressure ~2% too large, area and "
+        "force exact to 0.1%).", choices=("plateau", "condyle")),
+    "contact.detection": Key(
+        "str", "auto",
+        "Contact detection: 'auto' (closed form for analytic masters), 'closed-form', "
+        "'bvh', or the thesis's stacks 'ray-parity' and 'fcl'. The last three are mesh "
+        "detection: the analytic master is meshed as well.",
+        choices=("auto", "closed-form", "bvh", "ray-parity", "fcl")),
+    "contact.margin_mm": Key("float", 2.0, "Broad-phase margin, mm: candidate faces within "
+                             "this distance are found once and reused while the pose moves "
+                             "less than half of it.", low=0.0),
+    "contact.youngs_MPa": Key("float", 20.0, "Young's modulus E of the cartilage, MPa (the "
+                              "foundation and Hertz laws and the FE cross-check).", low=0.0,
                               low_open=True),
-    "contact.poisson": Key("float", 0.3, "cartilage Poisson's ratio", low=0.0, high=0.5,
-                           high_open=True),
-    "contact.thickness_mm": Key("float", 6.0, "cartilage thickness h, mm", low=0.0,
-                                low_open=True),
+    "contact.poisson": Key("float", 0.3, "Poisson's ratio ν of the cartilage, "
+                           "dimensionless, below 0.5 (the EF stiffness diverges as ν → 0.5).",
+                           low=0.0, high=0.5, high_open=True, unit=DIMENSIONLESS),
+    "contact.thickness_mm": Key(
+        "float", 6.0,
+        "Thickness h of the cartilage layer, mm: EF stiffness k = (1-ν)E / ((1+ν)(1-2ν)h); "
+        "the Blankevoort law's layer; a solved depth ≥ h stops the foundation laws (the "
+        "layer is crushed through).", low=0.0, low_open=True),
     "contact.volumetric_stiffness_N_per_mm3": Key(
-        "float", 1e-2, "volumetric k_V, N/mm³ (thesis 1e7 N/m³ = 1e-2 N/mm³)", low=0.0,
-        low_open=True),
-    "contact.indenter_youngs_MPa": Key("float", math.inf, "Hertz: indenter modulus, MPa "
-                                       "(inf = rigid)", low=0.0, low_open=True,
-                                       allow_inf=True),
-    "contact.indenter_poisson": Key("float", 0.3, "Hertz: indenter Poisson's ratio",
-                                    low=0.0, high=0.5, high_open=True),
-    "load.force_N": Key("float", 800.0, "external load magnitude, N", low=0.0),
-    "load.point_mm": Key("vec3", [7.9, 12.8, -380.0], "load point in the tibia frame, mm "
-                         "(x = +7.9 reproduces the thesis's Table 5.1; it prints -7.9 in error)"),
-    "load.frame": Key("str", "world", "the load point is fixed in the world (line of action "
-                      "fixed, e.g. a ground reaction) or moves with the tibia",
-                      choices=("world", "tibia")),
-    "load.direction": Key("vec3", [0.0, 0.0, 1.0], "load direction (normalised), world"),
-    "tibia.mass_kg": Key("float", 2.0, "tibia mass, kg", low=0.0),
-    "tibia.com_mm": Key("vec3", [0.0, 12.8, -190.0], "tibia centre of mass, tibia frame, mm"),
-    "ligaments.model": Key("str", "none", "ligaments: none, rods of constant length "
-                           "(Lagrange multipliers) or Blankevoort 1991 springs",
-                           choices=("none", "rod", "spring")),
-    "ligaments.transition_strain": Key("float", 0.06, "spring: 2ε_l, end of the toe region",
-                                       low=0.0, low_open=True, high=1.0),
-    **_lig("ACL", 9840.0, -0.0708),
-    **_lig("PCL", 6000.0, -0.057),
-    **_lig("MCL", 8000.0, 0.0289),
-    "dofs.free": Key("strings", ["z", "abduction"], "free tibia DOFs (others driven)",
-                     choices=DOF_NAMES),
-    "dofs.x_mm": Key("float", 0.0, "tibia x: driven value or start, mm"),
-    "dofs.y_mm": Key("float", 0.0, "tibia y, mm"),
-    "dofs.z_mm": Key("float", 0.0, "tibia z, mm"),
-    "dofs.abduction_deg": Key("float", 0.0, "θy, deg", low=-45.0, high=45.0),
-    "dofs.internal_deg": Key("float", 0.0, "θz, deg", low=-45.0, high=45.0),
-    "dofs.flexion_deg": Key("float", 0.0, "θx (always driven), deg", low=-45.0, high=45.0),
-    "constraints.equal_forces": Key("bool", False, "constrain medial force = lateral force"),
-    "solver.start_gap_mm": Key("float", 0.0, "start with the tibia this far below the "
-                               "reference pose, mm", low=0.0, high=50.0),
-    "solver.max_iterations": Key("int", 60, "Newton iteration cap", low=1, high=1000),
-    "solver.tolerance": Key("float", 1e-8, "residual tolerance relative to the load",
-                            low=0.0, low_open=True, high=1e-2),
-    # Scanned knee (fecheck.scene.scanned, fecheck.model.scanned): sphere-tibia, femur-tibia.
-    "scanned.data_dir": Key("str", "", "scanned knee folder; '' = $FECHECK_KNEE_DIR or "
-                            "<repo>/../shared/data/knee/lenhart2015"),
-    "scanned.thickness": Key("str", "uniform", "sphere-tibia/femur-tibia foundation "
-                             "thickness: contact.thickness_mm, or per face the tibial + "
-                             "femoral cartilage to bone",
-                             choices=("uniform", "bone-distance")),
-    "scanned.decimate_faces": Key("int", 0, "sphere-tibia/femur-tibia: 0 = full meshes, "
-                                  "N = about N tibial faces",
-                                  low=0),
-    "scanned.condyle": Key("str", "sphere", "sphere-tibia condyles: spheres or hemispheres "
-                           "cut towards the notch", choices=("sphere", "hemisphere")),
-    "scanned.hemisphere_cut_mm": Key("float", 10.0, "hemisphere cut: distance of the "
-                                     "sagittal cut plane from the centre towards the notch, mm",
-                                     low=0.0),
-    "scanned.ligaments": Key("str", "none", "the scanned knee's 55 Blankevoort bundles as "
-                             "springs (any contact model)", choices=("none", "bundles")),
-    # FE cross-check (fecheck.fe, `fecheck fe`).
-    "fe.size_mm": Key("float", 1.5, "3D FE element size under the contact, mm", low=0.05,
-                      high=10.0),
-    "fe.far_size_mm": Key("float", 5.0, "3D FE element size away from the contact, mm",
-                          low=0.1, high=20.0),
-    "fe.half_extent_mm": Key("float", 30.0, "FE layer half-extent (disc radius), mm",
-                             low=1.0, high=200.0),
-    "fe.footprint": Key("str", "ellipse", "FE layer outline", choices=("ellipse", "rectangle")),
-    "fe.gap": Key("str", "reference", "FE contact gap: vertical in the reference or the "
-                  "deformed configuration", choices=("reference", "deformed")),
-    "fe.solver": Key("str", "cholmod", "FE sparse factorization",
+        "float", 1e-2,
+        "Stiffness k_V of the volumetric law (contact.law = 'volumetric'), N/mm³: pressure "
+        "= k_V × depth, force = k_V × overlap volume. The thesis's 1e7 N/m³ = 1e-2 N/mm³.",
+        low=0.0, low_open=True),
+    "contact.indenter_youngs_MPa": Key(
+        "float", math.inf,
+        "Young's modulus of the indenting condyle for the Hertz law (contact.law = "
+        "'hertz'), MPa; inf = rigid: E* = E / (1 - ν²).", low=0.0, low_open=True,
+        allow_inf=True),
+    "contact.indenter_poisson": Key(
+        "float", 0.3,
+        "Poisson's ratio of the indenting condyle for the Hertz law, dimensionless; used "
+        "only with a finite contact.indenter_youngs_MPa.", low=0.0, high=0.5,
+        high_open=True, unit=DIMENSIONLESS),
+    "load.force_N": Key("float", 800.0, "Magnitude of the external load on the tibia, N, "
+                        "along load.direction through load.point_mm.", low=0.0),
+    "load.point_mm": Key(
+        "vec3", [7.9, 12.8, -380.0],
+        "Point of application of the external load, tibia frame, mm. x = +7.9 mm "
+        "reproduces the thesis's Table 5.1 (with a 2.0 kg tibia at x = 0: F_m + F_l = "
+        "780.38 N and -20.4·F_m + 28.3·F_l = 800·7.9); the thesis prints x = -7.9 mm, a "
+        "sign error."),
+    "load.frame": Key(
+        "str", "world",
+        "'world': the point of application stays fixed in space (a ground reaction with a "
+        "fixed centre of pressure); 'tibia': it moves with the tibia. With 'tibia' the "
+        "0.11° tilt of the baseline equilibrium swings the point 0.7 mm (380 mm lever) and "
+        "moves about 11 N from the medial to the lateral compartment; the thesis's Table "
+        "5.3 agrees with its rigid Table 5.1 to 0.5 N, i.e. with 'world'.",
+        choices=("world", "tibia")),
+    "load.direction": Key("vec3", [0.0, 0.0, 1.0], "Direction of the external load, world "
+                          "frame, normalised on use: [0, 0, 1] pushes the tibia up against "
+                          "the femur."),
+    "tibia.mass_kg": Key("float", 2.0, "Mass of the tibia (shank), kg; its weight acts at "
+                         "tibia.com_mm when gravity = true. 2.0 kg at x = 0 reproduces the "
+                         "thesis's Table 5.1 (weight 19.62 N).", low=0.0),
+    "tibia.com_mm": Key("vec3", [0.0, 12.8, -190.0], "Centre of mass of the tibia, where "
+                        "its weight acts, tibia frame, mm."),
+    "ligaments.model": Key(
+        "str", "none",
+        "Ligaments ACL, PCL and MCL between the knee's attachment landmarks: 'none', "
+        "'rod' = inextensible rods of constant length (Lagrange multipliers, thesis eq. "
+        "1.7) or 'spring' = Blankevoort 1991 springs (their stiffness_N and "
+        "reference_strain keys, e.g. ligaments.ACL.stiffness_N; contact models only).",
+        choices=("none", "rod", "spring")),
+    "ligaments.transition_strain": Key(
+        "float", 0.06,
+        "Spring ligaments: the strain 2ε_l (ε_l = 0.03) that ends the quadratic toe region, "
+        "dimensionless; the spring is linear beyond it.", low=0.0, low_open=True, high=1.0,
+        unit=DIMENSIONLESS),
+    **_lig("ACL", 9840.0, -0.0708, "12 × 820 N"),
+    **_lig("PCL", 6000.0, -0.057, "5 × 900 N + 5 × 300 N"),
+    **_lig("MCL", 8000.0, 0.0289, "16 × 500 N"),
+    "dofs.free": Key(
+        "strings", ["z", "abduction"],
+        "Tibia degrees of freedom solved for, at least one, among x, y, z, abduction (θy) "
+        "and internal (θz); the others are driven at their dofs.* values, which also start "
+        "the free ones. Flexion (θx) is always driven. On frictionless transverse plateaus "
+        "without ligaments x, y and internal carry no load and must be driven.",
+        choices=DOF_NAMES),
+    "dofs.x_mm": Key("float", 0.0, _dof("x", "translation x (to the subject's right), mm")),
+    "dofs.y_mm": Key("float", 0.0, _dof("y", "translation y (anterior), mm")),
+    "dofs.z_mm": Key("float", 0.0, _dof("z", "translation z (superior), mm", " 0 = the "
+                                         "reference pose, the condyles touching the "
+                                         "plateaus.")),
+    "dofs.abduction_deg": Key("float", 0.0, _dof("abduction", "abduction angle θy, deg"),
+                              low=-45.0, high=45.0),
+    "dofs.internal_deg": Key("float", 0.0, _dof("internal", "internal rotation θz, deg"),
+                             low=-45.0, high=45.0),
+    "dofs.flexion_deg": Key("float", 0.0, "Tibia flexion angle θx, deg; always driven.",
+                            low=-45.0, high=45.0),
+    "constraints.equal_forces": Key("bool", False, "Constrain the medial and lateral contact "
+                                    "forces to be equal (thesis Fig. 5.12); not available "
+                                    "in the scanned models."),
+    "solver.start_gap_mm": Key("float", 0.0, "Start the Newton solve with the tibia this far "
+                               "below the reference (touching) pose, mm.", low=0.0, high=50.0),
+    "solver.max_iterations": Key("int", 60, "Cap on the Newton iterations (the rigid model "
+                                 "is solved directly).", low=1, high=1000),
+    "solver.tolerance": Key(
+        "float", 1e-8,
+        "Newton convergence: residual force norm relative to the load scale (the largest "
+        "of load.force_N, the tibia's weight and 1 N), dimensionless.", low=0.0,
+        low_open=True, high=1e-2, unit=DIMENSIONLESS),
+    "scanned.data_dir": Key(
+        "str", "",
+        "Folder of the scanned lenhart2015 knee data (fits.json, STL meshes, "
+        "ligaments.json), read by the sphere-tibia and femur-tibia models and by "
+        "scanned.ligaments = 'bundles'. '' = $FECHECK_KNEE_DIR if set, else "
+        "../shared/data/knee/lenhart2015 beside the repository. The data do not ship with "
+        "fecheck (docs/data.md)."),
+    "scanned.thickness": Key(
+        "str", "uniform",
+        "Foundation thickness of the sphere-tibia and femur-tibia models: 'uniform' = "
+        "contact.thickness_mm everywhere; 'bone-distance' = per tibial face the tibial and "
+        "femoral cartilage in series, each the distance from the articular surface to its "
+        "bone along the inward normal (OpenSim-JAM's way; needs contact.law = 'ef').",
+        choices=("uniform", "bone-distance")),
+    "scanned.decimate_faces": Key(
+        "int", 0,
+        "Sphere-tibia and femur-tibia models: 0 = the full meshes (8,602 tibial and 29,782 "
+        "femoral cartilage faces); N = about N tibial faces in total, the femoral sheet "
+        "decimated in the same proportion.", low=0, unit="faces"),
+    "scanned.condyle": Key(
+        "str", "sphere",
+        "Condyles of the sphere-tibia model: 'sphere' = exact spheres, or 'hemisphere' = "
+        "meshed spheres cut by a sagittal plane scanned.hemisphere_cut_mm from the centre "
+        "towards the notch, so they cannot reach the intercondylar eminence (thesis Fig. "
+        "5.13).", choices=("sphere", "hemisphere")),
+    "scanned.hemisphere_cut_mm": Key(
+        "float", 10.0,
+        "Distance of the hemisphere's sagittal cut plane from the sphere centre towards "
+        "the notch, mm (scanned.condyle = 'hemisphere').", low=0.0),
+    "scanned.ligaments": Key(
+        "str", "none",
+        "'bundles' adds the scanned knee's 55 ligament bundles (Lenhart et al. 2015, "
+        "Blankevoort 1991 springs) to any contact model; ligaments.model must then be "
+        "'none'. 'none' = no bundles.", choices=("none", "bundles")),
+    "fe.size_mm": Key("float", 1.5, _FE + "element size of the 3D FE cartilage layer under "
+                      "the contact, mm.", low=0.05, high=10.0),
+    "fe.far_size_mm": Key("float", 5.0, _FE + "element size of the 3D FE cartilage layer "
+                          "away from the contact, mm.", low=0.1, high=20.0),
+    "fe.half_extent_mm": Key("float", 30.0, _FE + "half-extent of the FE cartilage layer, "
+                             "mm: the radius of the ellipse footprint, half the side of the "
+                             "rectangle, the radius of the axisymmetric layer.", low=1.0,
+                             high=200.0),
+    "fe.footprint": Key("str", "ellipse", _FE + "outline of the 3D FE cartilage layer.",
+                        choices=("ellipse", "rectangle")),
+    "fe.gap": Key("str", "reference", _FE + "the contact gap is vertical in the "
+                  "'reference' or the 'deformed' configuration.",
+                  choices=("reference", "deformed")),
+    "fe.solver": Key("str", "cholmod", _FE + "sparse factorization, 'cholmod' "
+                     "(scikit-sparse, about 3.5 × faster) or 'superlu' (SciPy).",
                      choices=("cholmod", "superlu")),
-    "fe.axisym_size_mm": Key("float", 0.1, "axisymmetric FE element size under the contact, mm",
+    "fe.axisym_size_mm": Key("float", 0.1, _FE + "element size of the axisymmetric FE "
+                             "reference under the contact, mm; that reference runs only "
+                             "for flat layers (plateau.kind = 'transverse').",
                              low=0.005, high=2.0),
 }
+"""Every scene key (dotted) → its `Key`; the order is the order of the documents."""
+
+
+def section_of(key: str) -> str:
+    """The section of a dotted key: its first part, or "" for a top-level key."""
+    head, dot, _ = key.partition(".")
+    return head if dot else ""

@@ -43,6 +43,12 @@ ConstraintFn = Callable[[np.ndarray, np.ndarray, Sequence[Part]],
 constraint g = 0."""
 
 
+class NoEquilibrium(FecheckError):
+    """The unbalanced load moved the tibia without meeting an equilibrium: no contact
+    along the load within 1 m, or none with a lower residual. The model adds what it
+    knows of the cause (e.g. a load below the tibia's weight)."""
+
+
 def cross3(a: np.ndarray, b: np.ndarray) -> np.ndarray:
     """a × b for two 3-vectors (np.cross costs ~10x more on single vectors)."""
     return np.array([a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2],
@@ -410,8 +416,8 @@ def _free_flight(sysm, z, res, jac, phi, merit, was_touching, null):
                 delta *= 0.5
         if was_touching and null.shape[1]:
             raise FecheckError(_no_stiffness_message(sysm.p, null))
-        raise FecheckError("no equilibrium found along the load within 1 m: check the load "
-                           "direction, the start pose (solver.start_gap_mm) and dofs.free")
+        raise NoEquilibrium("no equilibrium found along the load within 1 m: check the load "
+                            "direction, the start pose (solver.start_gap_mm) and dofs.free")
     for _ in range(60):
         mid = 0.5 * (lo + hi)
         z_new, res_new, jac_new, phi_new, touching = trial(mid)
@@ -421,5 +427,5 @@ def _free_flight(sysm, z, res, jac, phi, merit, was_touching, null):
             hi = mid
         else:
             lo = mid
-    raise FecheckError("could not bring the bodies into contact along the load; check the "
-                       "load direction and the start pose (solver.start_gap_mm)")
+    raise NoEquilibrium("could not bring the bodies into contact along the load; check the "
+                        "load direction and the start pose (solver.start_gap_mm)")

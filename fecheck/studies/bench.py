@@ -549,13 +549,18 @@ def table(result: dict) -> str:
     return "\n".join(lines)
 
 
-def write_json(result: dict, path: str) -> None:
-    """Write the bench result (rows, ratios, scaling, machine) as JSON."""
+def json_text(result: dict) -> str:
+    """The bench result (rows, ratios, scaling, machine) as JSON text."""
     import json
 
-    with open(path, "w") as fh:
-        json.dump(result, fh, indent=2)
-        fh.write("\n")
+    return json.dumps(result, indent=2) + "\n"
+
+
+def write_json(result: dict, path: str) -> None:
+    """Write the bench result as JSON, atomically (``-``: standard output)."""
+    from fecheck.io.outputs import write_text
+
+    write_text(path, json_text(result))
 
 
 def pareto_front(rows: list[dict], key: str = "error") -> list[dict]:

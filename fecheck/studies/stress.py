@@ -548,12 +548,15 @@ def unexplained(results: list[CaseResult]) -> list[CaseResult]:
 
 
 def write_json(results: list[CaseResult], path: str | Path) -> None:
-    """{"cases": [...], "summary": {outcome: count}} (NaN residuals written as null)."""
+    """{"cases": [...], "summary": {outcome: count}} (NaN residuals written as null),
+    written atomically (``-``: standard output)."""
     import json
+
+    from fecheck.io.outputs import write_text
 
     def clean(d: dict) -> dict:
         return {k: (None if isinstance(v, float) and not math.isfinite(v) else v)
                 for k, v in d.items()}
 
     doc = {"cases": [clean(asdict(r)) for r in results], "summary": summary(results)}
-    Path(path).write_text(json.dumps(doc, indent=2) + "\n")
+    write_text(path, json.dumps(doc, indent=2) + "\n")

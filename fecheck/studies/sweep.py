@@ -6,16 +6,28 @@ a Dask distributed cluster's executor (``fecheck[dask]``) through the same code 
 The thesis's load-point sweeps (Figs. 5.2/5.6/5.8: ``load.point_mm[0]`` from −8 to +8
 mm around the reference) and material sweeps (Tables 5.4, 5.5) are sweeps of scenes.
 
+A sweep keeps going past a failing point: the failure is recorded in that point
+(`SweepPoint.error`) and the other points still run, unless ``fail_fast`` is set. Every
+value is validated before the first solve. An interrupt (Ctrl-C, or SIGTERM turned into
+one by the CLI) cancels the queued points, kills the local pool's workers (they ignore
+SIGINT, so only the parent decides) and raises `SweepInterrupted` carrying the finished
+points.
+
 >>> parse_values("-8:8:5")
 [-8.0, -4.0, 0.0, 4.0, 8.0]
 """
 
 from __future__ import annotations
 
+import csv
+import io
+import os
 import re
+import socket
 import sys
-from collections.abc import Callable, Sequence
-from concurrent.futures import Executor
+from collections.abc import Callable, Iterator, Sequence
+from concurrent.futures import FIRST_COMPLETED, Executor, Future, wait
+from contextlib import contextmanager
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -23,10 +35,24 @@ from typing import Any
 import numpy as np
 
 from fecheck.errors import FecheckError
-from fecheck.model.results import RunResult, write_rows
-from fecheck.scene import SCHEMA, Scene, apply_overrides
+from fecheck.io.outputs import write_text
+from fecheck.model.results import RunResult
+from fecheck.scene import SCHEMA, Scene, apply_overrides, with_values
+from fecheck.scene.relevance import SCANNED_KINDS
+from fecheck.scene.scanned import knee_dir
+from fecheck.studies.pool import (
+    KILL_WAIT_S,
+    ProcessPool,
+    interrupts_held,
+    interrupts_ignored,
+    rearm_handlers,
+)
 
 _INDEXED = re.compile(r"^(?P<key>[\w.]+)\[(?P<index>\d+)\]$")
+_SET_PREFIX = re.compile(r"^--set( on [^:]*)?: ")
+"""How `apply_overrides` starts its messages; a sweep's values are not ``--set``."""
+_POLL_S = 0.25
+"""Longest wait for a finished point before the main thread looks at signals again, s."""
 
 
 def parse_values(text: str) -> list[float]:
@@ -70,21 +96,105 @@ def override_for(scene: Scene, param: str, value: float) -> str:
     return f"{key}={float(value)!r}"
 
 
+def sweep_overrides(scene: Scene, param: str, values: Sequence[float]) -> list[str]:
+    """The override of every value, each checked against the scene before any solve.
+
+    Raises
+    ------
+    FecheckError
+        Naming ``--values`` and the first value the scene does not accept.
+    """
+    overrides = []
+    for value in values:
+        override = override_for(scene, param, value)
+        try:
+            apply_overrides(scene, [override])
+        except FecheckError as err:
+            reason = _SET_PREFIX.sub("", str(err))
+            if not reason.startswith(f"{param} ="):
+                reason = f"{_label(param, value)}: {reason}"
+            raise FecheckError(f"--values: {reason}") from None
+        overrides.append(override)
+    return overrides
+
+
 @dataclass(frozen=True)
 class SweepPoint:
-    """One swept value and its result."""
+    """One swept value and its result, or the one-line error that stopped its solve.
+
+    value : the swept value (units of the swept key)
+    result : the run's result; None when the point failed
+    error : the failure message ("" when the point was solved)
+    """
 
     value: float
-    result: RunResult
+    result: RunResult | None
+    error: str = ""
+
+    @property
+    def failed(self) -> bool:
+        """True when the point's solve raised an error."""
+        return self.result is None
+
+    @property
+    def converged(self) -> bool:
+        """True when the point was solved and its Newton solve converged."""
+        return self.result is not None and bool(self.result.converged)
+
+
+class SweepInterrupted(KeyboardInterrupt):
+    """A sweep stopped by Ctrl-C (or SIGTERM turned into one): its finished points.
+
+    points : the finished points, in value order
+    total : how many points the sweep had
+    """
+
+    def __init__(self, points: list[SweepPoint], total: int):
+        super().__init__(f"sweep interrupted: {len(points)} of {total} points finished")
+        self.points = points
+        self.total = total
+
+
+def _label(param: str, value: float) -> str:
+    """``"KEY = VALUE"``: how messages name a point."""
+    return f"{param} = {value:g}"
+
+
+def _describe(err: BaseException) -> str:
+    """One line for an error: its message (a `FecheckError`) or type and message."""
+    text = str(err) if isinstance(err, FecheckError) else f"{type(err).__name__}: {err}"
+    return " ".join(text.split())
 
 
 def _run_point(scene: Scene, override: str, warm_start=None) -> RunResult:
+    """Solve `scene` with one override, from `warm_start` (5,) if given."""
     from fecheck.model.run import run_scene
 
     return run_scene(apply_overrides(scene, [override]), warm_start)
 
 
+def _solve_here(scene: Scene, override: str, value: float, warm_start=None) -> SweepPoint:
+    """Solve one point in this process (retried from the scene's start if it stalls)."""
+    try:
+        result = _run_point(scene, override, warm_start)
+        if not result.converged and warm_start is not None:
+            result = _run_point(scene, override)
+    except Exception as err:
+        return SweepPoint(value, None, _describe(err))
+    return SweepPoint(value, result)
+
+
+def _solve_on_worker(scene: Scene, override: str, value: float, label: str) -> SweepPoint:
+    """Solve one point on a pool or Dask worker; an error names the point and worker."""
+    point = _solve_here(scene, override, value)
+    if not point.failed:
+        return point
+    where = f"worker {socket.gethostname()} pid {os.getpid()}"
+    return SweepPoint(value, None, f"{label} failed on {where}: {point.error}")
+
+
 def _progress(show: bool, done: int, total: int) -> None:
+    """Redraw the text progress bar on stderr (when `show`)."""
     if not show:
         return
     stream = sys.stderr
@@ -96,70 +206,243 @@ def _progress(show: bool, done: int, total: int) -> None:
     stream.flush()
 
 
+class _Finished:
+    """The finished points of a sweep: progress bar and `on_point` after each one."""
+
+    def __init__(self, total: int, progress: bool,
+                 on_point: Callable[[list[SweepPoint]], None] | None):
+        self.total = total
+        self._progress = progress
+        self._on_point = on_point
+        self._points: dict[int, SweepPoint] = {}
+        _progress(progress, 0, total)
+
+    def add(self, index: int, point: SweepPoint) -> None:
+        """Record the point of value number `index`."""
+        self._points[index] = point
+        _progress(self._progress, len(self._points), self.total)
+        if self._on_point is not None:
+            self._on_point(self.points())
+
+    def points(self) -> list[SweepPoint]:
+        """The finished points in value order."""
+        return [self._points[i] for i in sorted(self._points)]
+
+    def end_line(self) -> None:
+        """End an unfinished progress bar's line."""
+        if self._progress and len(self._points) < self.total:
+            sys.stderr.write("\n")
+            sys.stderr.flush()
+
+
+def _run_serial(scene: Scene, values: Sequence[float], overrides: Sequence[str],
+                finished: _Finished, fail_fast: bool) -> None:
+    """Solve the points in order, each warm-started from the previous equilibrium."""
+    warm = None
+    for i, (value, override) in enumerate(zip(values, overrides, strict=True)):
+        point = _solve_here(scene, override, value, warm)
+        rearm_handlers()
+        warm = None if point.failed else point.result.extra.get("q")
+        finished.add(i, point)
+        if fail_fast and point.failed:
+            return
+
+
+def _completed(futures: Sequence[Future]) -> Iterator[Future]:
+    """The futures as they finish; the main thread wakes every `_POLL_S` for signals."""
+    pending = set(futures)
+    while pending:
+        done, pending = wait(pending, timeout=_POLL_S, return_when=FIRST_COMPLETED)
+        yield from done
+
+
+def _collect(future: Future, value: float, label: str) -> SweepPoint:
+    """A finished future's point; an error raised around the worker call is recorded."""
+    try:
+        return future.result()
+    except Exception as err:
+        return SweepPoint(value, None, f"{label} failed on a worker: {_describe(err)}")
+
+
+def _run_on(executor: Executor, scene: Scene, param: str, values: Sequence[float],
+            overrides: Sequence[str], finished: _Finished, fail_fast: bool) -> bool:
+    """Submit every point to `executor` and collect them as they finish.
+
+    Returns True when every point finished, False when `fail_fast` stopped the sweep.
+    On any early exit, the futures not yet started are cancelled.
+    """
+    labels = [_label(param, v) for v in values]
+    futures: dict[Future, int] = {}
+    complete = False
+    try:
+        with interrupts_held():
+            for i, (value, override) in enumerate(zip(values, overrides, strict=True)):
+                future = executor.submit(_solve_on_worker, scene, override, value, labels[i])
+                futures[future] = i
+        for future in _completed(list(futures)):
+            i = futures[future]
+            point = _collect(future, values[i], labels[i])
+            finished.add(i, point)
+            if fail_fast and point.failed:
+                return False
+        complete = True
+        return True
+    finally:
+        if not complete:
+            with interrupts_ignored():
+                for future in futures:
+                    future.cancel()
+
+
+def _run_pool(workers: int, scene: Scene, param: str, values: Sequence[float],
+              overrides: Sequence[str], finished: _Finished, fail_fast: bool) -> None:
+    """Run the points on a local pool of `workers` processes, terminated on any early
+    exit (its queued points cancelled, its running points abandoned)."""
+    pool = ProcessPool(workers)
+    complete = False
+    try:
+        complete = _run_on(pool, scene, param, values, overrides, finished, fail_fast)
+    finally:
+        with interrupts_ignored():
+            if complete:
+                pool.shutdown()
+            else:
+                pool.terminate()
+
+
+def uses_scanned_data(scene: Scene) -> bool:
+    """True when solving `scene` reads the scanned-knee data folder."""
+    return scene["model.kind"] in SCANNED_KINDS or scene["scanned.ligaments"] != "none"
+
+
+def pin_data_dir(scene: Scene) -> Scene:
+    """`scene` with ``scanned.data_dir`` set to the folder found here, for workers.
+
+    Workers elsewhere (Dask) see neither this process's ``FECHECK_KNEE_DIR`` nor its
+    folders' defaults. Scenes that do not read scanned data, or that name their folder,
+    are returned as they are. Raises `FecheckError` when the folder is missing.
+    """
+    if scene["scanned.data_dir"] or not uses_scanned_data(scene):
+        return scene
+    return with_values(scene, scanned__data_dir=str(knee_dir()))
+
+
 def run_sweep(scene: Scene, param: str, values: Sequence[float], *, workers: int = 1,
-              executor: Executor | None = None, progress: bool = True
+              executor: Executor | None = None, progress: bool = True,
+              fail_fast: bool = False,
+              on_point: Callable[[list[SweepPoint]], None] | None = None
               ) -> list[SweepPoint]:
     """Solve `scene` for each value of `param`.
 
-    workers = 1 and no executor: serial, each point warm-started from the previous one.
-    Otherwise the points run independently on `executor` (or a new process pool of
-    `workers` processes). `progress` draws a text bar on stderr.
+    Parameters
+    ----------
+    scene, param, values
+        The scene, the swept key (``key`` or ``key[i]``) and its values (key's units).
+    workers
+        1 and no `executor`: serial, each point warm-started from the previous one.
+        More: the points run independently on a new local pool of `workers` processes.
+    executor
+        Run the points independently on this executor (threads, Dask); the caller
+        owns it.
+    progress
+        Draw a text bar on stderr.
+    fail_fast
+        Stop at the first failing point (the points not yet run are left out).
+    on_point
+        Called after each finished point with the finished points, in value order.
+
+    Returns
+    -------
+    list of SweepPoint
+        The finished points in value order; a failed point carries its error.
+
+    Raises
+    ------
+    FecheckError
+        A value the scene does not accept (before any solve).
+    SweepInterrupted
+        On KeyboardInterrupt: the queued points are cancelled, the local pool's
+        workers terminated; it carries the finished points.
     """
-    overrides = [override_for(scene, param, v) for v in values]
-    total = len(values)
-    results: list[RunResult] = []
-    _progress(progress, 0, total)
-    if executor is None and workers <= 1:
-        warm = None
-        for i, override in enumerate(overrides):
-            result = _run_point(scene, override, warm)
-            if not result.converged:
-                result = _run_point(scene, override)      # retry from the scene's start
-            warm = result.extra.get("q")
-            results.append(result)
-            _progress(progress, i + 1, total)
-        return [SweepPoint(v, r) for v, r in zip(values, results, strict=True)]
-    owned = executor is None
-    if owned:
-        from concurrent.futures import ProcessPoolExecutor
-
-        executor = ProcessPoolExecutor(max_workers=workers)
+    overrides = sweep_overrides(scene, param, values)
+    finished = _Finished(len(values), progress, on_point)
     try:
-        futures = [executor.submit(_run_point, scene, o) for o in overrides]
-        for i, future in enumerate(futures):
-            results.append(future.result())
-            _progress(progress, i + 1, total)
-    finally:
-        if owned:
-            executor.shutdown()
-    return [SweepPoint(v, r) for v, r in zip(values, results, strict=True)]
+        if executor is None and workers <= 1:
+            _run_serial(scene, values, overrides, finished, fail_fast)
+        elif executor is None:
+            _run_pool(workers, pin_data_dir(scene), param, values, overrides, finished,
+                      fail_fast)
+        else:
+            _run_on(executor, pin_data_dir(scene), param, values, overrides, finished,
+                    fail_fast)
+    except KeyboardInterrupt:
+        finished.end_line()
+        raise SweepInterrupted(finished.points(), len(values)) from None
+    finished.end_line()
+    return finished.points()
 
 
-def dask_executor(address: str) -> Executor:
-    """A `concurrent.futures` executor on the Dask cluster at `address` (fecheck[dask])."""
+@contextmanager
+def dask_executor(address: str) -> Iterator[Executor]:
+    """A `concurrent.futures` executor on the Dask cluster at `address` (fecheck[dask]).
+
+    The client is closed when the block ends (its unfinished futures cancelled).
+
+    Raises
+    ------
+    FecheckError
+        Without Dask, or when no scheduler answers at `address`.
+    """
     try:
         from dask.distributed import Client
     except ImportError:
         raise FecheckError("--scheduler needs Dask: pip install 'fecheck[dask]'") from None
     try:
-        return Client(address).get_executor()
-    except OSError as err:
-        raise FecheckError(f"cannot reach the Dask scheduler at {address}: {err}") from None
+        client = Client(address)
+    except Exception as err:
+        raise FecheckError(f"--scheduler {address!r}: cannot reach a Dask scheduler there "
+                           f"({_describe(err)})") from None
+    try:
+        yield client.get_executor()
+    finally:
+        with interrupts_ignored():
+            client.close(timeout=2 * KILL_WAIT_S)
 
 
 def rows(points: Sequence[SweepPoint], param: str) -> list[dict[str, Any]]:
-    """Flat CSV rows: the swept value, then `RunResult.flat_row()`."""
-    return [{param: p.value, **p.result.flat_row()} for p in points]
+    """Flat CSV rows: the swept value, `RunResult.flat_row()`, then the point's error."""
+    out = []
+    for p in points:
+        solved = {} if p.failed else p.result.flat_row()
+        out.append({param: p.value, "converged": False, **solved, "error": p.error})
+    return out
+
+
+def csv_text(points: Sequence[SweepPoint], param: str) -> str:
+    """The sweep as CSV text: one row per finished point, columns of every row."""
+    table = rows(points, param)
+    columns = [param, "converged"]
+    for row in table:
+        columns += [c for c in row if c not in columns and c != "error"]
+    buffer = io.StringIO()
+    writer = csv.DictWriter(buffer, fieldnames=[*columns, "error"], restval="")
+    writer.writeheader()
+    writer.writerows(table)
+    return buffer.getvalue()
 
 
 def write_csv(points: Sequence[SweepPoint], param: str, path: str | Path) -> None:
-    """Write the sweep as CSV (one row per value)."""
-    write_rows(path, rows(points, param))
+    """Write the sweep as CSV (one row per finished point), atomically; ``-`` = stdout."""
+    write_text(path, csv_text(points, param))
 
 
 def write_plots(points: Sequence[SweepPoint], param: str, directory: str | Path
                 ) -> list[Path]:
-    """PNG plots of compartment forces and max pressures against the swept value."""
+    """PNG plots of compartment forces and max pressures against the swept value
+    (failed points left out; no plots when none was solved)."""
+    solved = [p for p in points if not p.failed]
+    if not solved:
+        return []
     import matplotlib
 
     matplotlib.use("Agg")
@@ -167,15 +450,15 @@ def write_plots(points: Sequence[SweepPoint], param: str, directory: str | Path
 
     out = Path(directory)
     out.mkdir(parents=True, exist_ok=True)
-    x = [p.value for p in points]
+    x = [p.value for p in solved]
     paths = []
     metrics: list[tuple[str, str, Callable]] = [
         ("force_N", "compartment force (N)", lambda c: c.force_N),
         ("max_pressure_MPa", "max pressure (MPa)", lambda c: c.max_pressure_MPa)]
     for name, label, get in metrics:
         fig, ax = plt.subplots(figsize=(6, 4))
-        for comp in points[0].result.compartments:
-            ax.plot(x, [get(p.result.compartments[comp]) for p in points], "o-", label=comp)
+        for comp in solved[0].result.compartments:
+            ax.plot(x, [get(p.result.compartments[comp]) for p in solved], "o-", label=comp)
         ax.set_xlabel(param)
         ax.set_ylabel(label)
         ax.grid(True, alpha=0.3)

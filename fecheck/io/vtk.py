@@ -1,0 +1,214 @@
+"""Per-face results as VTK unstructured grids (``.vtu``, meshio) and as a CSV table.
+
+One ``<compartment>.vtu`` per contact surface, triangles in world coordinates (mm) with
+the cell data
+
+* ``pressure_MPa`` : mean contact pressure over the in-contact part of each face, MPa
+  (0 off contact; the face pressure `fecheck run --plot` draws);
+* ``contact_area_mm2`` : in-contact area of each face, mm² (the quadrature area: the
+  face clipped at zero depth, projected as the contact law integrates it), so that
+  Σ pressure_MPa · contact_area_mm2 is the compartment's normal force, N;
+* ``depth_mm`` : mean depth over the in-contact part of each face, mm (0 off contact).
+
+The per-face area and depth come from the run's `CompartmentResult` fields
+``face_area_mm2`` and ``face_depth_mm``. Without them (results that do not carry them)
+``contact_area_mm2`` is the whole area of each face under pressure — an overestimate at
+the contact edge, ~0.5 % on Σ p·A for the baseline — and ``depth_mm`` is left out; the
+writers say so in their notes.
+
+FE cross-check surfaces (`write_fe_vtk`): the 3D FE top triangles near the contact, moved
+to the knee's contact point, with point data of the FE fields and cell data of their face
+means (see `fe_surface`).
+"""
+
+from __future__ import annotations
+
+import csv
+import io
+import os
+import tempfile
+from collections.abc import Mapping
+from pathlib import Path
+
+import numpy as np
+
+from fecheck.errors import FecheckError
+from fecheck.fe.crosscheck import CompartmentCheck, CrossCheck
+from fecheck.io.fe_plots import ef_depth, ef_pressure, placed_points
+from fecheck.model.results import CompartmentResult, RunResult
+
+AREA_ESTIMATE_NOTE = ("contact_area_mm2 is the whole area of each face under pressure (this "
+                      "result carries no per-face in-contact area), so Σ p·A overestimates "
+                      "the force slightly; depth_mm is left out (no per-face depth)")
+FACE_COLUMNS = ("compartment", "face", "x_mm", "y_mm", "z_mm", "pressure_MPa",
+                "contact_area_mm2", "depth_mm")
+
+
+def triangle_areas(points: np.ndarray, faces: np.ndarray) -> np.ndarray:
+    """(m,) areas of the triangles `faces` over `points`, mm²."""
+    p = np.asarray(points, dtype=float)[np.asarray(faces)]
+    return 0.5 * np.linalg.norm(np.cross(p[:, 1] - p[:, 0], p[:, 2] - p[:, 0]), axis=1)
+
+
+def has_face_fields(comp: CompartmentResult) -> bool:
+    """Whether the compartment carries per-face pressures and a slave mesh."""
+    return comp.face_pressure_MPa is not None and comp.slave_points is not None
+
+
+def exact_face_fields(comp: CompartmentResult) -> bool:
+    """Whether the compartment carries its per-face in-contact area and depth."""
+    return (getattr(comp, "face_area_mm2", None) is not None
+            and getattr(comp, "face_depth_mm", None) is not None)
+
+
+def face_fields(comp: CompartmentResult) -> dict[str, np.ndarray]:
+    """Cell data of one contact surface: pressure_MPa (face mean), contact_area_mm2 (the
+    in-contact area; the whole area of the faces under pressure without
+    `exact_face_fields`) and depth_mm (face mean, only with `exact_face_fields`)."""
+    p = np.asarray(comp.face_pressure_MPa, dtype=float)
+    if exact_face_fields(comp):
+        return {"pressure_MPa": p,
+                "contact_area_mm2": np.asarray(comp.face_area_mm2, dtype=float),
+                "depth_mm": np.asarray(comp.face_depth_mm, dtype=float)}
+    whole = triangle_areas(comp.slave_points, comp.slave_faces)
+    return {"pressure_MPa": p, "contact_area_mm2": np.where(p > 0, whole, 0.0)}
+
+
+def field_notes(result: RunResult) -> list[str]:
+    """What the per-face outputs of `result` lack (empty when they are complete)."""
+    comps = [c for c in result.compartments.values() if has_face_fields(c)]
+    return [] if all(exact_face_fields(c) for c in comps) else [AREA_ESTIMATE_NOTE]
+
+
+def write_vtu(path: str | Path, points: np.ndarray, faces: np.ndarray,
+              cell_data: Mapping[str, np.ndarray],
+              point_data: Mapping[str, np.ndarray] | None = None) -> Path:
+    """Write a triangle surface (mm) with cell and point data to `path` (.vtu, meshio),
+    atomically (a temporary file renamed into place)."""
+    import meshio
+
+    path = Path(path)
+    mesh = meshio.Mesh(np.asarray(points, dtype=float),
+                       [("triangle", np.asarray(faces, dtype=np.int64))],
+                       point_data={k: np.asarray(v) for k, v in (point_data or {}).items()},
+                       cell_data={k: [np.asarray(v)] for k, v in cell_data.items()})
+    path.parent.mkdir(parents=True, exist_ok=True)
+    fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.stem}.", suffix=".vtu")
+    os.close(fd)
+    try:
+        meshio.write(tmp, mesh, file_format="vtu")
+        os.replace(tmp, path)
+    except OSError as err:
+        raise FecheckError(f"cannot write {path}: {err.strerror or err}") from None
+    finally:
+        Path(tmp).unlink(missing_ok=True)
+    return path
+
+
+def write_run_vtk(result: RunResult, directory: str | Path) -> list[Path]:
+    """Write ``<compartment>.vtu`` (see the module docstring) for every compartment with
+    per-face results into `directory`; returns the written paths (none for the rigid
+    model)."""
+    paths = []
+    for name, comp in result.compartments.items():
+        if has_face_fields(comp):
+            paths.append(write_vtu(Path(directory) / f"{name}.vtu", comp.slave_points,
+                                   comp.slave_faces, face_fields(comp)))
+    return paths
+
+
+def face_rows(result: RunResult) -> list[dict[str, object]]:
+    """One row per slave face of every compartment (columns `FACE_COLUMNS`): centroid
+    (mm), pressure (MPa), in-contact area (mm²) and depth (mm, empty when unknown)."""
+    rows = []
+    for name, comp in result.compartments.items():
+        if not has_face_fields(comp):
+            continue
+        fields = face_fields(comp)
+        centroids = np.asarray(comp.slave_points)[np.asarray(comp.slave_faces)].mean(axis=1)
+        depth = fields.get("depth_mm")
+        for i, (x, y, z) in enumerate(centroids):
+            rows.append({"compartment": name, "face": i, "x_mm": float(x), "y_mm": float(y),
+                         "z_mm": float(z), "pressure_MPa": float(fields["pressure_MPa"][i]),
+                         "contact_area_mm2": float(fields["contact_area_mm2"][i]),
+                         "depth_mm": "" if depth is None else float(depth[i])})
+    return rows
+
+
+def faces_csv_text(result: RunResult) -> str:
+    """`face_rows` as CSV text with a header row ('' for a model without faces)."""
+    rows = face_rows(result)
+    if not rows:
+        return ""
+    buf = io.StringIO()
+    writer = csv.DictWriter(buf, fieldnames=FACE_COLUMNS, lineterminator="\n")
+    writer.writeheader()
+    writer.writerows(rows)
+    return buf.getvalue()
+
+
+# ---------------------------------------------------------------------- FE cross-check
+def _face_mean(faces: np.ndarray, values: np.ndarray) -> np.ndarray:
+    return np.asarray(values, dtype=float)[faces].mean(axis=1)
+
+
+def _positive_area(points: np.ndarray, faces: np.ndarray, values: np.ndarray) -> np.ndarray:
+    """(k,) area of each triangle where the linear interpolant of the vertex `values` is
+    positive, mm² (the triangle clipped at the zero line)."""
+    q = np.asarray(values, dtype=float)[faces]
+    area = triangle_areas(points, faces)
+    pos = q > 0
+    npos = pos.sum(axis=1)
+    out = np.where(npos == 3, area, 0.0)
+    for i in range(3):
+        j, k = (i + 1) % 3, (i + 2) % 3
+        with np.errstate(divide="ignore", invalid="ignore"):
+            corner = q[:, i] ** 2 / ((q[:, i] - q[:, j]) * (q[:, i] - q[:, k]))
+        out = np.where((npos == 1) & pos[:, i], area * corner, out)
+        out = np.where((npos == 2) & ~pos[:, i], area * (1.0 - corner), out)
+    return out
+
+
+def fe_surface(check: CompartmentCheck, material: Mapping[str, float],
+               contact_point: np.ndarray | None
+               ) -> tuple[np.ndarray, np.ndarray, dict, dict]:
+    """Points (mm), triangles, cell data and point data of one FE top surface.
+
+    Point data: the FE fields pressure_MPa, nodal_force_N, gap0_mm (initial gap),
+    gap_mm (after loading), active (1 in contact), and ef_pressure_MPa, ef_depth_mm (the
+    EF law's overlap and pressure at the same points under the same load).
+    Cell data: pressure_MPa and ef_pressure_MPa (means of the vertex values),
+    contact_area_mm2 (FE: face area × the fraction of its vertices in contact, whose sum
+    is the FE's tributary contact area), ef_contact_area_mm2 (the face clipped at zero EF
+    overlap) and depth_mm (mean EF overlap of the vertices; FE has no depth field).
+    """
+    fe = check.fe
+    faces = np.asarray(fe.faces)
+    pts = placed_points(check, contact_point)
+    active = np.asarray(fe.active, dtype=float)
+    ef_p = ef_pressure(check, material["E_MPa"], material["nu"], material["thickness_mm"])
+    ef_d = ef_depth(check)
+    point_data = {"pressure_MPa": fe.pressure_MPa, "nodal_force_N": fe.nodal_force_N,
+                  "gap0_mm": fe.gap0_mm, "gap_mm": fe.gap_mm, "active": active,
+                  "ef_pressure_MPa": ef_p, "ef_depth_mm": ef_d}
+    cell_data = {"pressure_MPa": _face_mean(faces, fe.pressure_MPa),
+                 "ef_pressure_MPa": _face_mean(faces, ef_p),
+                 "contact_area_mm2": triangle_areas(pts, faces) * _face_mean(faces, active),
+                 "ef_contact_area_mm2": _positive_area(pts, faces,
+                                                       check.ef.depth_mm - fe.gap0_mm),
+                 "depth_mm": _face_mean(faces, ef_d)}
+    return pts, faces, cell_data, point_data
+
+
+def write_fe_vtk(cross: CrossCheck, contact_points: Mapping[str, np.ndarray],
+                 directory: str | Path) -> list[Path]:
+    """Write ``<compartment>.vtu`` of every FE top surface (see `fe_surface`) into
+    `directory`; returns the written paths (a compartment without FE top triangles is
+    skipped)."""
+    paths = []
+    for name, chk in cross.compartments.items():
+        if len(chk.fe.faces) == 0:
+            continue
+        pts, faces, cells, nodes = fe_surface(chk, cross.material, contact_points.get(name))
+        paths.append(write_vtu(Path(directory) / f"{name}.vtu", pts, faces, cells, nodes))
+    return paths

@@ -1,0 +1,238 @@
+"""Which scene keys have no effect in a scene's configuration, and why.
+
+A key is inert when no verb (``run``, ``sweep``, ``fe``) reads it for the scene's model,
+law, plateau and options: ``mesh.sphere_subdivisions`` when the condyles are exact
+spheres, ``scanned.*`` on a sphere-plane scene, spring stiffnesses without springs. The
+rules mirror how `fecheck.model` and `fecheck.fe` read each key, in one table, `RULES`;
+`load_scene` warns (`InertKeyWarning`) for the inert keys a user gave.
+
+>>> from fecheck.scene.load import load_scene
+>>> scene = load_scene()
+>>> inert_keys(scene, ["mesh.sphere_subdivisions", "contact.poisson"])[0][0]
+'mesh.sphere_subdivisions'
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Callable, Iterable
+from typing import Any, Protocol
+
+from fecheck.scene.constants import COMPARTMENTS, LIGAMENTS
+
+MESH_DETECTION = ("bvh", "ray-parity", "fcl")
+"""Detection methods that need a mesh master: the analytic surface is meshed instead."""
+
+SCANNED_KINDS = ("sphere-tibia", "femur-tibia")
+"""Model kinds that read the scanned tibial cartilage."""
+
+
+class InertKeyWarning(UserWarning):
+    """A scene key the user gave has no effect in the scene's configuration."""
+
+
+class SceneValues(Protocol):
+    """A `Scene`, or any mapping of every dotted scene key to its value."""
+
+    def __getitem__(self, key: str) -> Any: ...
+
+
+Reason = Callable[[SceneValues], "str | None"]
+"""A rule's test: the scene → why its keys have no effect there, or None if they do."""
+
+
+def hertz_point_contact(scene: SceneValues) -> bool:
+    """Whether a sphere-plane scene uses the closed-form Hertz point contact (Hertz law,
+    plane plateaus, analytic detection, clipped areas): no mesh enters its solve."""
+    return (scene["contact.law"] == "hertz"
+            and scene["plateau.kind"] in ("transverse", "inclined")
+            and scene["contact.detection"] not in MESH_DETECTION
+            and scene["contact.area"] == "clipped")
+
+
+_HERTZ_POINT = ("the Hertz law on plane plateaus with analytic detection and clipped areas "
+                "is the closed-form sphere-plane point contact")
+
+
+def _rigid(scene: SceneValues) -> str | None:
+    if scene["model.kind"] == "rigid":
+        return ("model.kind = 'rigid' has point contacts solved directly: no contact law, "
+                "mesh or Newton iteration")
+    return None
+
+
+def _condyle_not_meshed(scene: SceneValues) -> str | None:
+    kind = scene["model.kind"]
+    if kind == "sphere-plane":
+        if hertz_point_contact(scene):
+            return _HERTZ_POINT + " (no condyle mesh)"
+        if (scene["contact.master"] == "condyle"
+                and scene["contact.detection"] not in MESH_DETECTION):
+            return ("contact.master = 'condyle' with analytic detection meshes only the "
+                    "plateau; the condyle is an exact sphere")
+        return None
+    if kind == "sphere-tibia" and scene["scanned.condyle"] == "sphere":
+        return "scanned.condyle = 'sphere' makes the condyles exact spheres"
+    if kind == "femur-tibia":
+        return "model.kind = 'femur-tibia' contacts the scanned femoral cartilage, not spheres"
+    return None
+
+
+def _plateau_not_meshed(scene: SceneValues) -> str | None:
+    kind = scene["model.kind"]
+    if kind in SCANNED_KINDS:
+        return f"model.kind = '{kind}' contacts the scanned tibial cartilage (no plateau disc)"
+    if kind == "sphere-plane" and not hertz_point_contact(scene) \
+            and scene["contact.master"] == "plateau":
+        return ("contact.master = 'plateau' keeps the plateau analytic (a box for mesh "
+                "detection); only the condyle is meshed")
+    return None
+
+
+def _master_fixed(scene: SceneValues) -> str | None:
+    kind = scene["model.kind"]
+    if kind in SCANNED_KINDS:
+        return f"model.kind = '{kind}' always takes the scanned tibial cartilage as the mesh"
+    if kind == "sphere-plane" and hertz_point_contact(scene):
+        return _HERTZ_POINT
+    return None
+
+
+def _no_margin(scene: SceneValues) -> str | None:
+    if scene["model.kind"] == "sphere-plane" and hertz_point_contact(scene):
+        return _HERTZ_POINT + " (no broad phase)"
+    return None
+
+
+def _law_is_not(law: str, title: str) -> Reason:
+    def reason(scene: SceneValues) -> str | None:
+        if scene["contact.law"] != law:
+            return f"contact.law = '{scene['contact.law']}' (only the {title} law reads it)"
+        return None
+
+    return reason
+
+
+def _rigid_indenter(scene: SceneValues) -> str | None:
+    if math.isinf(scene["contact.indenter_youngs_MPa"]):
+        return "contact.indenter_youngs_MPa = inf makes the indenter rigid"
+    return None
+
+
+def _plateau_is_not(kind: str, what: str) -> Reason:
+    def reason(scene: SceneValues) -> str | None:
+        if scene["plateau.kind"] != kind:
+            return (f"plateau.kind = '{scene['plateau.kind']}' (only {kind} plateaus read "
+                    f"{what})")
+        return None
+
+    return reason
+
+
+def _preset_knee(scene: SceneValues) -> str | None:
+    if scene["knee.preset"] != "custom":
+        return (f"knee.preset = '{scene['knee.preset']}' gives the landmarks; side and "
+                f"landmarks are read only for knee.preset = 'custom'")
+    return None
+
+
+def _no_springs(scene: SceneValues) -> str | None:
+    if scene["ligaments.model"] != "spring":
+        return (f"ligaments.model = '{scene['ligaments.model']}' (only spring ligaments have "
+                f"a stiffness and a strain)")
+    return None
+
+
+def _no_gravity(scene: SceneValues) -> str | None:
+    if not scene["gravity"]:
+        return "gravity = false: the tibia's weight is not applied"
+    return None
+
+
+def _no_scanned_tibia(scene: SceneValues) -> str | None:
+    if scene["model.kind"] not in SCANNED_KINDS:
+        return (f"model.kind = '{scene['model.kind']}' does not read the scanned tibial "
+                f"cartilage (only sphere-tibia and femur-tibia do)")
+    return None
+
+
+def _not_sphere_tibia(scene: SceneValues) -> str | None:
+    if scene["model.kind"] != "sphere-tibia":
+        return (f"model.kind = '{scene['model.kind']}' (only sphere-tibia has condyle spheres "
+                f"on the scanned tibia)")
+    return None
+
+
+def _no_hemisphere(scene: SceneValues) -> str | None:
+    if scene["model.kind"] == "sphere-tibia" and scene["scanned.condyle"] != "hemisphere":
+        return "scanned.condyle = 'sphere' (only hemispheres are cut)"
+    return _not_sphere_tibia(scene)
+
+
+def _no_scanned_data(scene: SceneValues) -> str | None:
+    if scene["model.kind"] not in SCANNED_KINDS and scene["scanned.ligaments"] == "none":
+        return (f"model.kind = '{scene['model.kind']}' with scanned.ligaments = 'none' reads "
+                f"no scanned knee data")
+    return None
+
+
+def _no_axisymmetric(scene: SceneValues) -> str | None:
+    if scene["plateau.kind"] != "transverse":
+        return (f"plateau.kind = '{scene['plateau.kind']}': the axisymmetric FE reference of "
+                f"`fecheck fe` runs only for flat (transverse) layers")
+    return None
+
+
+_MESH_KEYS = ("mesh.sphere_subdivisions", "mesh.method", "mesh.plateau_radius_mm",
+              "mesh.plateau_size_mm", "mesh.plateau_refine_mm", "mesh.plateau_refine_radius_mm")
+_PLATEAU_MESH_KEYS = _MESH_KEYS[2:]
+_CONTACT_KEYS = ("contact.law", "contact.area", "contact.master", "contact.detection",
+                 "contact.margin_mm", "contact.volumetric_stiffness_N_per_mm3",
+                 "contact.indenter_youngs_MPa", "contact.indenter_poisson")
+_SOLVER_KEYS = ("solver.start_gap_mm", "solver.max_iterations", "solver.tolerance")
+_SPRING_KEYS = ("ligaments.transition_strain",) + tuple(
+    f"ligaments.{n}.{p}" for n in LIGAMENTS for p in ("stiffness_N", "reference_strain"))
+_INDENTER_KEYS = ("contact.indenter_youngs_MPa", "contact.indenter_poisson")
+
+RULES: tuple[tuple[tuple[str, ...], Reason], ...] = (
+    (_MESH_KEYS + _CONTACT_KEYS + _SOLVER_KEYS, _rigid),
+    (("mesh.sphere_subdivisions", "mesh.method"), _condyle_not_meshed),
+    (_PLATEAU_MESH_KEYS, _plateau_not_meshed),
+    (("contact.master",), _master_fixed),
+    (("contact.margin_mm",), _no_margin),
+    (("contact.volumetric_stiffness_N_per_mm3",), _law_is_not("volumetric", "volumetric")),
+    (_INDENTER_KEYS, _law_is_not("hertz", "Hertz")),
+    (("contact.indenter_poisson",), _rigid_indenter),
+    (tuple(f"plateau.{c}_angles_deg" for c in COMPARTMENTS),
+     _plateau_is_not("inclined", "slope angles")),
+    (tuple(f"plateau.{c}_coefficients" for c in COMPARTMENTS),
+     _plateau_is_not("polynomial", "coefficients")),
+    (("knee.side", "knee.landmarks"), _preset_knee),
+    (_SPRING_KEYS, _no_springs),
+    (("tibia.mass_kg", "tibia.com_mm"), _no_gravity),
+    (("scanned.thickness", "scanned.decimate_faces"), _no_scanned_tibia),
+    (("scanned.condyle",), _not_sphere_tibia),
+    (("scanned.hemisphere_cut_mm",), _no_hemisphere),
+    (("scanned.data_dir",), _no_scanned_data),
+    (("fe.axisym_size_mm",), _no_axisymmetric),
+)
+"""(keys, reason): the keys have no effect in a scene where ``reason(scene)`` is not None.
+The first rule that applies to a key gives its reason."""
+
+
+def inert_keys(scene: SceneValues, given_keys: Iterable[str]) -> list[tuple[str, str]]:
+    """(key, reason) for each of `given_keys` that has no effect in `scene`, in the order
+    given (each key once)."""
+    out = []
+    for key in dict.fromkeys(given_keys):
+        for keys, reason in RULES:
+            why = reason(scene) if key in keys else None
+            if why:
+                out.append((key, why))
+                break
+    return out
+
+
+def inert_message(key: str, reason: str) -> str:
+    """The one-line warning for an inert key."""
+    return f"{key} has no effect: {reason}"

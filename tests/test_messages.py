@@ -1,0 +1,250 @@
+"""Messages name the real cause: wrong units, flipped or mixed winding, meshes in metres or
+far from their landmarks, truncated mesh files, FE sizes out of reach, bad output paths.
+
+Every case runs through `fecheck.cli.main` as a user would: one line on standard error,
+a non-zero exit code where the run cannot be trusted, no traceback. The mesh cases use a
+synthetic knee folder (a sphere-tibia scene of the baseline knee: a flat tibial sheet
+under each condyle sphere), so they need no scanned data.
+"""
+
+from __future__ import annotations
+
+import json
+import time
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+import fecheck.cli
+from fecheck.cli import main
+from fecheck.scene import load_scene, scanned
+from geometry.io import save_mesh
+from geometry.mesh import TriMesh
+from geometry.plateau import plane_patch
+
+
+@pytest.fixture(autouse=True)
+def _fresh_warnings(monkeypatch):
+    """Each test sees every warning the CLI prints (it prints a warning once a process)."""
+    monkeypatch.setattr(fecheck.cli, "_shown", set())
+
+
+def _run(capsys, *args: str) -> tuple[int, str, str]:
+    code = main(list(args))
+    out, err = capsys.readouterr()
+    assert "Traceback" not in err
+    return code, out, err
+
+
+def _error_line(err: str) -> str:
+    """The one error line of standard error."""
+    lines = [line for line in err.splitlines() if line.startswith("fecheck: error:")]
+    assert len(lines) == 1, err
+    return lines[0]
+
+
+# ----------------------------------------------------------------------- units
+def test_pascals_typed_as_megapascals_is_an_error_not_a_table(capsys):
+    code, out, err = _run(capsys, "run", "--set", "contact.youngs_MPa=20e6")
+    assert code == 2
+    assert "max pressure MPa" not in out                 # no table of 4,263 MPa
+    line = _error_line(err)
+    assert "Pa typed as MPa" in line and "max pressure" in line
+    assert "fecheck: warning:" in err and "Pa typed as MPa" in err
+
+
+def test_load_below_the_tibia_weight_says_so_in_the_no_equilibrium_error(capsys):
+    code, _, err = _run(capsys, "run", "--set", "load.force_N=0.8")
+    assert code == 2
+    line = _error_line(err)
+    assert "no equilibrium" in line
+    assert "tibia's weight 19.62 N" in line and "kN typed as N" in line
+
+
+# ----------------------------------------------------------------------- meshes
+def _sheets() -> dict[str, TriMesh]:
+    """A flat tibial sheet (disc, 14 mm) under each baseline condyle, normals up."""
+    knee = load_scene().knee
+    out = {}
+    for c in ("medial", "lateral"):
+        foot = knee.condyle_center[c] - knee.radius_mm(c) * np.array([0.0, 0.0, 1.0])
+        out[c] = plane_patch(foot, (0.0, 0.0, 1.0), radius=14.0, size=1.0)
+    return out
+
+
+def _knee_folder(folder: Path, change=lambda c, m: m) -> Path:
+    """A scanned-knee folder holding fits.json and the two tibial sheets, each passed
+    through `change(compartment, mesh)` first."""
+    folder.mkdir(parents=True, exist_ok=True)
+    knee = load_scene().knee
+    fits = {}
+    for c, mesh in _sheets().items():
+        save_mesh(change(c, mesh), folder / scanned.FILES[f"tibia_cartilage_{c}"])
+        fits[f"femoral_condyle_{c}_sphere"] = {"centre_mm": knee.condyle_center[c].tolist(),
+                                               "radius_mm": knee.radius_mm(c)}
+    (folder / "fits.json").write_text(json.dumps({"fits": fits}))
+    return folder
+
+
+def _run_folder(capsys, folder: Path) -> tuple[int, str, str]:
+    return _run(capsys, "run", "--set", "model.kind='sphere-tibia'",
+                "--set", f"scanned.data_dir='{folder}'", "--set", "scanned.thickness='uniform'")
+
+
+def test_the_synthetic_knee_folder_runs_clean(tmp_path, capsys):
+    code, out, err = _run_folder(capsys, _knee_folder(tmp_path / "clean"))
+    assert code == 0 and "converged: True" in out
+    assert "warning" not in err
+
+
+def _flipped(c, m):
+    return TriMesh(m.points, m.faces[:, ::-1])
+
+
+def _mixed(c, m):
+    faces = m.faces.copy()
+    half = m.face_centroids[:, 0] > np.median(m.face_centroids[:, 0])
+    faces[half] = faces[half][:, ::-1]
+    return TriMesh(m.points, faces)
+
+
+def _metres(c, m):
+    return TriMesh(m.points * 1e-3, m.faces)
+
+
+def _far_below(c, m):
+    return TriMesh(m.points + np.array([0.0, 0.0, -100.0]), m.faces)
+
+
+def _far_aside(c, m):
+    return TriMesh(m.points + np.array([100.0, 0.0, 0.0]), m.faces)
+
+
+FAR_WORDS = ["medial: the condyle sphere is", "mm from the tibial sheet", "landmarks",
+             "do not match the meshes"]
+
+
+@pytest.mark.parametrize("change, words", [
+    (_flipped, ["medial tibial contact sheet", "normals point down", "winding is inverted"]),
+    (_mixed, ["medial tibial contact sheet", "mixed winding", "face down", "(x, y)"]),
+    (_metres, ["medial tibial contact sheet", "0.028 mm across", "mesh in metres"]),
+    (_far_below, FAR_WORDS),
+    (_far_aside, FAR_WORDS),
+], ids=["flipped", "mixed", "metres", "100-mm-below", "100-mm-aside"])
+def test_mesh_defects_are_named_before_the_solve(tmp_path, capsys, change, words):
+    code, out, err = _run_folder(capsys, _knee_folder(tmp_path / "knee", change))
+    assert code == 2 and "converged" not in out
+    line = _error_line(err)
+    assert all(w in line for w in words), line
+    for misleading in ("no equilibrium", "max_iterations", "load direction"):
+        assert misleading not in line
+
+
+def test_mesh_100_mm_away_says_the_distance(tmp_path, capsys):
+    _, _, err = _run_folder(capsys, _knee_folder(tmp_path / "knee", _far_below))
+    distance = float(_error_line(err).split(" is ")[1].split(" mm")[0])
+    assert distance == pytest.approx(100.0, abs=0.05)    # straight below the sphere
+
+
+def _folded(c, m):
+    """The sheet's front part (y > y0 + 4 mm) folded back over it, 10° above."""
+    p = m.points.copy()
+    y0 = float(np.median(p[:, 1])) + 4.0
+    flap = p[:, 1] > y0
+    u = p[flap, 1] - y0
+    p[flap, 1] = y0 - u * np.cos(np.radians(10.0))
+    p[flap, 2] += u * np.sin(np.radians(10.0)) + 0.3
+    return TriMesh(p, m.faces)
+
+
+def test_a_folded_tibial_sheet_is_warned_with_the_count_and_place(tmp_path, capsys):
+    _, _, err = _run_folder(capsys, _knee_folder(tmp_path / "knee", _folded))
+    warning = [w for w in err.splitlines() if "folds back over itself" in w]
+    assert len(warning) == 2                             # one per compartment
+    assert "faces turn more than 120°" in warning[0] and "(x, y) = (" in warning[0]
+    count = int(warning[0].split("itself: ")[1].split(" of ")[0])
+    assert count > 100
+
+
+def test_a_truncated_binary_stl_is_one_line_naming_the_file(tmp_path, capsys):
+    folder = _knee_folder(tmp_path / "knee")
+    path = folder / scanned.FILES["tibia_cartilage_medial"]
+    data = path.read_bytes()
+    path.write_bytes(data[:len(data) // 2])
+    code, _, err = _run_folder(capsys, folder)
+    assert code == 2
+    line = _error_line(err)
+    assert str(path) in line and "truncated" in line and "triangles" in line
+
+
+def test_mesh_info_names_a_truncated_stl_too(tmp_path, capsys):
+    import trimesh
+
+    path = tmp_path / "cut.stl"
+    trimesh.creation.icosphere(subdivisions=2, radius=20.0).export(path)
+    path.write_bytes(path.read_bytes()[:-7])
+    code, _, err = _run(capsys, "mesh", "info", str(path))
+    assert code == 2 and "binary STL truncated" in _error_line(err)
+
+
+# ----------------------------------------------------------------------- FE
+def test_fe_size_below_the_floor_is_refused_with_its_estimate(capsys):
+    t0 = time.perf_counter()
+    code, _, err = _run(capsys, "fe", "--size", "0.05")
+    assert code == 2 and time.perf_counter() - t0 < 30     # refused before the EF solve
+    line = _error_line(err)
+    assert "0.2 mm floor" in line and "dofs" in line and "GB" in line
+    assert "EF equilibrium" not in err                        # no work began
+
+
+def test_fe_shows_its_estimate_and_each_step_on_stderr(capsys):
+    code, out, err = _run(capsys, "fe", "--size", "5")
+    assert code == 0
+    steps = ["solving the EF equilibrium", "medial: 3D layer under", "dofs, ~",
+             "GB available (fitted cost model)", "medial: meshing the layer",
+             "tets (P2)", "medial: assembled", "medial: factorization",
+             "active-set iterations", "medial: 3D FE done", "lateral: 3D FE done"]
+    where = [err.find(s) for s in steps]
+    assert -1 not in where and where == sorted(where), err
+    # same flat layer, same load, converged reference: the gap is the discretization error
+    assert out.count("(the 3D discretization error)") == 2
+
+
+def test_fe_size_beyond_the_memory_available_is_refused(capsys, monkeypatch):
+    from fecheck.fe import layer3d
+
+    monkeypatch.setattr(layer3d, "available_memory_bytes", lambda: 50e6)
+    code, _, err = _run(capsys, "fe", "--size", "1.0")
+    assert code == 2
+    line = _error_line(err)
+    assert "more memory than is available" in line and "0.05 GB available" in line
+
+
+# ----------------------------------------------------------------------- outputs
+@pytest.mark.parametrize("args", [
+    ["bench", "--json", "/proc/x.json"],
+    ["bench", "detection", "--json", "/proc/x.json"],
+    ["stress", "--json", "/proc/x.json"],
+    ["mesh", "icosphere", "--radius", "10", "--subdivisions", "1", "-o", "/proc/x.stl"],
+    ["validate", "--out", "/proc", "--only", "rigid"],      # a folder that exists
+], ids=["bench", "bench-detection", "stress", "mesh", "validate"])
+def test_an_unwritable_output_is_one_line_before_the_work(capsys, args):
+    from geometry.cache import STATS
+
+    meshes = (STATS.builds, STATS.hits)
+    t0 = time.perf_counter()
+    code, out, err = _run(capsys, *args)
+    assert code == 2 and time.perf_counter() - t0 < 20
+    assert err.strip() == _error_line(err)              # no progress: nothing ran first
+    assert "/proc" in err and out == ""
+    assert (STATS.builds, STATS.hits) == meshes          # no mesh built or read
+
+
+def test_json_dash_goes_to_standard_output_not_a_file(tmp_path, capsys, monkeypatch):
+    monkeypatch.chdir(tmp_path)
+    code, out, err = _run(capsys, "stress", "--only", "E nan", "--json", "-")
+    assert code == 0
+    doc = json.loads(out)                               # standard output is the JSON only
+    assert doc["summary"]["clear-error"] == 1 and "E nan" in err
+    assert not (tmp_path / "-").exists()

@@ -1,0 +1,201 @@
+"""Plausibility rules (`fecheck.model.plausibility`, the FE cost model and physical checks
+of `fecheck.fe`): each rule fires on the implausible value it guards, names the likely
+unit mistake, and stays silent on the shipped scenes and the scanned knee."""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+import warnings
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from fecheck.errors import FecheckError
+from fecheck.fe import layer3d
+from fecheck.fe.axisym import axisym_sphere_on_layer
+from fecheck.fe.crosscheck import CompartmentCheck, FESettings, check_compartment
+from fecheck.model import plausibility as pl
+from fecheck.model.run import run_scene
+from fecheck.scene import load_scene, scanned
+from geometry.mesh import TriMesh
+from geometry.plateau import plane_patch
+
+SCENES = Path(__file__).resolve().parents[1] / "validation" / "scenes"
+SHIPPED = ("baseline", "hertz", "volumetric", "rigid", "rigid_ligaments", "springs",
+           "ligaments", "equal_force", "additional_left")
+
+
+def _implausible(record) -> list[str]:
+    return [str(w.message) for w in record if issubclass(w.category, pl.ImplausibleInput)]
+
+
+@pytest.fixture(scope="module")
+def baseline():
+    scene = load_scene()
+    return scene, run_scene(scene)
+
+
+@pytest.fixture(scope="module")
+def patch() -> TriMesh:
+    """A flat tibial sheet, 28 mm across, normals up."""
+    return plane_patch((0.0, 0.0, 0.0), (0.0, 0.0, 1.0), radius=14.0, size=1.0)
+
+
+# ----------------------------------------------------------------------- inputs
+@pytest.mark.parametrize("e, words", [
+    (2e7, ["Pa typed as MPa", "UHMWPE"]), (0.05, ["GPa typed as MPa"]),
+    (0.1, []), (20.0, []), (1000.0, []), (5000.0, []),
+])
+def test_modulus_outside_knee_materials_names_the_unit_mistake(e, words):
+    text = pl.modulus_warning(e)
+    assert all(w in text for w in words) and bool(text) == bool(words)
+
+
+def test_load_below_the_weight_is_warned_and_hinted(baseline):
+    scene = load_scene(overrides=["load.force_N=0.8"])
+    hints = pl.input_warnings(scene)
+    assert len(hints) == 1 and "kN typed as N" in hints[0] and "19.62 N" in hints[0]
+    assert pl.load_hint(baseline[0]) == ""
+    assert pl.load_hint(load_scene(overrides=["load.force_N=0.8", "gravity=false"])) == ""
+
+
+@pytest.mark.parametrize("name", SHIPPED)
+def test_shipped_scenes_raise_no_plausibility_warning(name):
+    with warnings.catch_warnings(record=True) as record:
+        warnings.simplefilter("always")
+        result = run_scene(load_scene(SCENES / f"{name}.toml"))
+    assert result.converged and not _implausible(record)
+
+
+def test_an_implant_modulus_runs_without_warnings():
+    with warnings.catch_warnings(record=True) as record:
+        warnings.simplefilter("always")
+        result = run_scene(load_scene(overrides=["contact.youngs_MPa=1000"]))
+    assert not _implausible(record)
+    assert 10.0 < result.compartments["medial"].max_pressure_MPa < pl.P_MAX_MPA
+
+
+# ----------------------------------------------------------------------- results
+@pytest.mark.parametrize("changes, words", [
+    ({"max_pressure_MPa": math.nan}, ["max pressure came out NaN"]),
+    ({"area_mm2": 0.0}, ["without a contact patch"]),
+    ({"max_pressure_MPa": 0.0}, ["without a contact patch"]),
+    ({"max_pressure_MPa": 4263.0}, ["above the 1000 MPa", "units"]),
+])
+def test_non_physical_results_are_errors(baseline, changes, words):
+    scene, result = baseline
+    comps = dict(result.compartments)
+    comps["medial"] = dataclasses.replace(comps["medial"], **changes)
+    with pytest.raises(FecheckError) as err:
+        pl.after_solve(scene, dataclasses.replace(result, compartments=comps))
+    assert all(w in str(err.value) for w in words)
+    assert str(err.value).startswith("medial:")
+
+
+def test_a_contact_on_two_faces_is_warned(baseline):
+    scene, result = baseline
+    comps = dict(result.compartments)
+    comps["lateral"] = dataclasses.replace(comps["lateral"], n_contact_faces=2)
+    with pytest.warns(pl.ImplausibleInput, match="spans only 2 face"):
+        pl.after_solve(scene, dataclasses.replace(result, compartments=comps))
+
+
+def test_baseline_result_passes(baseline):
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", pl.ImplausibleInput)
+        pl.after_solve(*baseline)
+
+
+def test_rigid_balls_pulling_under_a_load_below_the_weight_is_an_error():
+    scene = load_scene(SCENES / "rigid.toml", ["load.force_N=0.8"])
+    with pytest.warns(pl.ImplausibleInput), pytest.raises(FecheckError) as err:
+        run_scene(scene)
+    assert "tensile contact force" in str(err.value) and "kN typed as N" in str(err.value)
+
+
+# ----------------------------------------------------------------------- meshes
+def test_mesh_extents_name_metres_and_scaling(patch):
+    pl.check_extent(patch, "sheet")
+    with pytest.raises(FecheckError, match="0.028 mm across.*mesh in metres"):
+        pl.check_extent(TriMesh(patch.points * 1e-3, patch.faces), "sheet")
+    with pytest.warns(pl.ImplausibleInput, match="28,000 mm across"):
+        pl.check_extent(TriMesh(patch.points * 1e3, patch.faces), "sheet")
+
+
+def test_winding_checks_tell_flipped_from_mixed(patch):
+    pl.check_winding(patch, "sheet")
+    with pytest.raises(FecheckError, match="normals point down.*n_z = -1.00"):
+        pl.check_winding(TriMesh(patch.points, patch.faces[:, ::-1]), "sheet")
+    faces = patch.faces.copy()
+    left = patch.face_centroids[:, 0] < -5.0
+    faces[left] = faces[left][:, ::-1]
+    with pytest.raises(FecheckError, match=r"mixed winding: \d+ edges.*around \(x, y\) = \(-"):
+        pl.check_winding(TriMesh(patch.points, faces), "sheet")
+
+
+def test_folds_are_found_where_they_are(patch):
+    assert not pl.fold_faces(patch).any()
+    p = patch.points.copy()
+    flap = p[:, 0] > 6.0                       # fold x > 6 mm back over the sheet, 10° up
+    u = p[flap, 0] - 6.0
+    p[flap, 0] = 6.0 - u * np.cos(np.radians(10.0))
+    p[flap, 2] = u * np.sin(np.radians(10.0)) + 0.2
+    folded = pl.fold_faces(TriMesh(p, patch.faces))
+    in_flap = flap[patch.faces].all(axis=1)
+    assert in_flap.sum() > 50 and folded[in_flap].all()      # the flap faces down
+    reach = patch.points[patch.faces][folded][:, :, 0].max(axis=1)
+    assert np.all(reach > 6.0 - 2.0)                         # nothing away from the crease
+    with pytest.warns(pl.ImplausibleInput, match=r"folds back over itself: \d+ of"):
+        pl.check_folds(TriMesh(p, patch.faces), "sheet")
+
+
+def test_scanned_tibial_sheets_pass_every_mesh_check():
+    if not (scanned.knee_dir(must_exist=False) / "fits.json").is_file():
+        pytest.skip("scanned knee data not found")
+    for c in ("medial", "lateral"):
+        sheet = scanned.load_scanned_mesh(f"tibia_cartilage_{c}")
+        pl.check_extent(sheet, c)
+        pl.check_winding(sheet, c)
+        assert not pl.fold_faces(sheet).any()
+
+
+# ----------------------------------------------------------------------- FE
+def test_fe_dof_estimate_matches_measured_meshes():
+    # measured (baseline medial, 323.71 N): 16,593 dofs at 1.5 mm, 108,441 at 0.6 mm,
+    # 4.6 s and 319 s of CPU, 233 MB and 1.76 GB above the process's own
+    for size, dofs, seconds, megabytes in ((1.5, 16593, 4.6, 233), (0.6, 108441, 319, 1763)):
+        est = layer3d.estimate_cost(323.71, 25.5, 20.0, 0.3, 6.0, size)
+        assert est.n_dofs == pytest.approx(dofs, rel=0.05)
+        assert est.seconds == pytest.approx(seconds, rel=0.2)
+        assert est.bytes == pytest.approx(1e6 * megabytes, rel=0.1)
+
+
+def test_fe_cost_refuses_below_the_floor_and_beyond_memory(monkeypatch):
+    with pytest.raises(FecheckError, match=r"0.1 mm is below the 0.2 mm floor: ~[\d,]+ dofs"):
+        layer3d.check_cost(layer3d.estimate_cost(323.71, 25.5, 20.0, 0.3, 6.0, 0.1))
+    monkeypatch.setattr(layer3d, "available_memory_bytes", lambda: 1e8)
+    est = layer3d.estimate_cost(323.71, 25.5, 20.0, 0.3, 6.0, 1.5)
+    with pytest.raises(FecheckError, match="more memory than is available"):
+        layer3d.check_cost(est)
+
+
+def test_fe_area_zero_under_the_load_is_an_error_naming_the_cause():
+    with pytest.raises(FecheckError) as err:
+        check_compartment("medial", 323.71, 25.5, 2e7, 0.3, 6.0, FESettings(size_mm=3.0))
+    text = str(err.value)
+    assert text.startswith("medial 3D FE:") and "contact area 0" in text
+    assert "Pa typed as MPa" in text
+
+
+def test_3d_axisymmetric_gap_is_a_discretization_error_only_against_a_converged_reference():
+    ref = axisym_sphere_on_layer(323.71, 25.5, 20.0, 0.3, 6.0, size_mm=0.25)
+    chk = CompartmentCheck("medial", 323.71, 25.5, ref, ref, ref.metrics, ref.metrics, None)
+    assert chk.comparable() and chk.deviation()["area"] == pytest.approx(0.0)
+    tiny = dataclasses.replace(ref, metrics=dataclasses.replace(ref.metrics, area_mm2=0.5))
+    assert not dataclasses.replace(chk, axisym=tiny).comparable()
+    assert dataclasses.replace(chk, axisym=tiny).deviation() == {}
+    other = dataclasses.replace(ref, metrics=dataclasses.replace(ref.metrics, force_N=300.0))
+    assert dataclasses.replace(chk, axisym=other).deviation() == {}
+    assert dataclasses.replace(chk, axisym=None).deviation() == {}
