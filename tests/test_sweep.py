@@ -270,3 +270,10 @@ def test_scanned_scenes_name_their_data_folder_for_remote_workers(tmp_path, monk
     assert pin_data_dir(named)["scanned.data_dir"] == "/elsewhere"
     baseline = load_scene()
     assert pin_data_dir(baseline) is baseline
+
+
+def test_sweeping_a_key_with_no_effect_warns_before_the_solve(capsys):
+    # the default condyles are exact spheres: their mesh level changes nothing
+    assert main(["sweep", "--param", "mesh.sphere_subdivisions", "--values=3,4"]) == 0
+    err = capsys.readouterr().err
+    assert err.count("mesh.sphere_subdivisions has no effect") == 1

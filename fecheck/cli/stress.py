@@ -39,15 +39,26 @@ def run(args: argparse.Namespace) -> int:
     os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
     os.environ.setdefault("OMP_NUM_THREADS", "1")
     from fecheck.studies import stress
+    from fecheck.studies.pool import sigterm_as_interrupt
 
     table = sys.stderr if args.json is not None and str(args.json) == STDOUT else sys.stdout
     print(stress.HEADER, file=table, flush=True)
-    results = stress.run_matrix(quick=args.quick, timeout_s=args.timeout, select=args.only,
-                                log=lambda r: print(stress.row(r), file=table, flush=True))
+    interrupted = None
+    try:
+        with sigterm_as_interrupt():
+            results = stress.run_matrix(
+                quick=args.quick, timeout_s=args.timeout, select=args.only,
+                log=lambda r: print(stress.row(r), file=table, flush=True))
+    except stress.StressInterrupted as stop:
+        results, interrupted = stop.results, stop
     counts = stress.summary(results)
     print("outcomes: " + ", ".join(f"{k} {v}" for k, v in sorted(counts.items())), file=table)
     if args.json:
         stress.write_json(results, args.json)
         if table is sys.stdout:
             print(f"wrote {args.json}")
+    if interrupted is not None:
+        print(f"fecheck: interrupted: {interrupted.total - len(results)} of "
+              f"{interrupted.total} cases not run", file=sys.stderr)
+        return 130
     return 1 if stress.unexplained(results) else 0

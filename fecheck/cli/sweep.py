@@ -11,9 +11,7 @@ from __future__ import annotations
 
 import argparse
 import contextlib
-import signal
 import sys
-from collections.abc import Iterator
 from pathlib import Path
 from typing import Any, TextIO
 
@@ -53,25 +51,6 @@ def add_parser(subparsers) -> None:
                    help="stop at the first failing point (the finished rows are still "
                         "written)")
     p.set_defaults(run=run)
-
-
-def _raise_interrupt(signum, frame) -> None:
-    """SIGTERM handler: stop the way Ctrl-C does."""
-    raise KeyboardInterrupt
-
-
-@contextlib.contextmanager
-def _sigterm_as_interrupt() -> Iterator[None]:
-    """Turn SIGTERM into KeyboardInterrupt in the block (main thread only)."""
-    try:
-        previous = signal.signal(signal.SIGTERM, _raise_interrupt)
-    except ValueError:                       # not the main thread: leave signals alone
-        yield
-        return
-    try:
-        yield
-    finally:
-        signal.signal(signal.SIGTERM, signal.SIG_DFL if previous is None else previous)
 
 
 def _cell(value: Any) -> str:
@@ -140,6 +119,7 @@ def run(args: argparse.Namespace) -> int:
     from fecheck.errors import FecheckError
     from fecheck.io.outputs import check_output
     from fecheck.scene import load_scene
+    from fecheck.studies.pool import sigterm_as_interrupt
     from fecheck.studies.sweep import (
         SweepInterrupted,
         dask_executor,
@@ -165,7 +145,7 @@ def run(args: argparse.Namespace) -> int:
     executor = (dask_executor(args.scheduler) if args.scheduler
                 else contextlib.nullcontext(None))
     try:
-        with _sigterm_as_interrupt(), executor as pool:
+        with sigterm_as_interrupt(), executor as pool:
             points = run_sweep(scene, args.param, values, workers=args.workers,
                                executor=pool, fail_fast=args.fail_fast, on_point=save)
     except SweepInterrupted as stop:

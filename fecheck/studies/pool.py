@@ -254,3 +254,22 @@ class ProcessPool(Executor):
         for future, _, _ in queued:
             if future.set_running_or_notify_cancel():
                 future.set_exception(BrokenProcessPool("the sweep pool stopped"))
+
+
+def _raise_interrupt(signum, frame) -> None:
+    """SIGTERM handler: stop the way Ctrl-C does."""
+    raise KeyboardInterrupt
+
+
+@contextmanager
+def sigterm_as_interrupt() -> Iterator[None]:
+    """Turn SIGTERM into KeyboardInterrupt in the block (main thread only)."""
+    try:
+        previous = signal.signal(signal.SIGTERM, _raise_interrupt)
+    except ValueError:                       # not the main thread: leave signals alone
+        yield
+        return
+    try:
+        yield
+    finally:
+        signal.signal(signal.SIGTERM, signal.SIG_DFL if previous is None else previous)

@@ -35,6 +35,7 @@ import numpy as np
 
 from fecheck.errors import FecheckError
 from fecheck.statics.load_control import NotConverged
+from fecheck.studies.pool import interrupts_held
 
 OK_OUTCOMES = ("converged", "clear-error")
 BALANCE_TOL = 1e-6      # relative to the load scale: the solver's tolerance is 1e-8
@@ -481,14 +482,22 @@ def run_case(case: Case, timeout_s: float, runner=None) -> CaseResult:
     recv, send = ctx.Pipe(duplex=False)
     proc = ctx.Process(target=_child, args=(case, send, runner), daemon=True)
     t0 = time.perf_counter()
-    proc.start()
-    send.close()
     out = None
-    if recv.poll(timeout_s):
-        try:
-            out = recv.recv()
-        except EOFError:
-            out = None
+    try:
+        with interrupts_held():        # a signal in the middle of a spawn waits until it ends
+            proc.start()
+            send.close()
+        if recv.poll(timeout_s):
+            try:
+                out = recv.recv()
+            except EOFError:
+                out = None
+    except KeyboardInterrupt:                   # Ctrl-C or SIGTERM: no case left running
+        proc.kill()
+        proc.join()
+        recv.close()
+        time.sleep(0.1)          # the fork server reaps the case before `stop_servers` ends it
+        raise
     elapsed = time.perf_counter() - t0
     if out is None:
         if proc.is_alive():
@@ -508,16 +517,46 @@ def run_case(case: Case, timeout_s: float, runner=None) -> CaseResult:
     return CaseResult(time_s=elapsed, known_issue=known, **out)
 
 
+class StressInterrupted(KeyboardInterrupt):
+    """The matrix stopped by Ctrl-C (or SIGTERM turned into one): the finished cases.
+
+    results : the cases that finished, in order;  total : how many cases were chosen
+    """
+
+    def __init__(self, results: list[CaseResult], total: int):
+        super().__init__(f"stress matrix interrupted: {len(results)} of {total} cases run")
+        self.results = results
+        self.total = total
+
+
+def stop_servers() -> None:
+    """Stop the fork server of the case processes and multiprocessing's resource tracker,
+    if they run, and wait for them to exit, so that no process of the matrix outlives the
+    command (not even as a zombie where nothing reaps orphans)."""
+    from multiprocessing import forkserver, resource_tracker
+
+    for server in (forkserver._forkserver, resource_tracker._resource_tracker):
+        stop = getattr(server, "_stop", None)            # CPython ≥ 3.8
+        if stop is not None:
+            stop()
+
+
 def run_matrix(quick: bool = False, timeout_s: float = 120.0, select: str | None = None,
                log=lambda r: None) -> list[CaseResult]:
-    """Run the (quick) matrix, or the cases whose name contains `select`."""
+    """Run the (quick) matrix, or the cases whose name contains `select`. An interrupt
+    kills the running case and raises `StressInterrupted` with the finished ones."""
     chosen = [c for c in cases() if (c.quick or not quick)
               and (select is None or select in c.name)]
     results = []
-    for case in chosen:
-        result = run_case(case, timeout_s)
-        results.append(result)
-        log(result)
+    try:
+        for case in chosen:
+            result = run_case(case, timeout_s)
+            results.append(result)
+            log(result)
+    except KeyboardInterrupt:
+        raise StressInterrupted(results, len(chosen)) from None
+    finally:
+        stop_servers()
     return results
 
 

@@ -38,6 +38,7 @@ from fecheck.errors import FecheckError
 from fecheck.io.outputs import write_text
 from fecheck.model.results import RunResult
 from fecheck.scene import SCHEMA, Scene, apply_overrides, with_values
+from fecheck.scene.load import warn_inert
 from fecheck.scene.relevance import SCANNED_KINDS
 from fecheck.scene.scanned import knee_dir
 from fecheck.studies.pool import (
@@ -97,7 +98,8 @@ def override_for(scene: Scene, param: str, value: float) -> str:
 
 
 def sweep_overrides(scene: Scene, param: str, values: Sequence[float]) -> list[str]:
-    """The override of every value, each checked against the scene before any solve.
+    """The override of every value, each checked against the scene before any solve; an
+    `InertKeyWarning` when the swept key has no effect in the scene.
 
     Raises
     ------
@@ -115,6 +117,8 @@ def sweep_overrides(scene: Scene, param: str, values: Sequence[float]) -> list[s
                 reason = f"{_label(param, value)}: {reason}"
             raise FecheckError(f"--values: {reason}") from None
         overrides.append(override)
+    match = _INDEXED.match(param)
+    warn_inert(scene, [match["key"] if match else param])     # a sweep of a key that does nothing
     return overrides
 
 
