@@ -39,6 +39,7 @@ from fecheck.errors import FecheckError
 from fecheck.fe.contact import solve_contact
 from fecheck.fe.recovery import contact_metrics, tributary_areas, zero_contour_area
 from fecheck.fe.results import FEContactResult
+from fecheck.fe.solid import edge_lookup
 from fecheck.reference.closed_forms import hertz_sphere_on_plane
 
 GAPS = ("reference", "deformed")
@@ -267,7 +268,7 @@ def sphere_on_layer_3d(load_N: float, radius_mm: float, E_MPa: float, nu: float,
     timing["assemble"] = time.perf_counter() - t
     t = time.perf_counter()
     nv = mesh.p.shape[1]
-    find_edge = _edge_lookup(mesh.edges, nv)
+    find_edge = edge_lookup(mesh.edges, nv)
     bottom = layer.boundaries["bottom"]
     bottom_e = np.unique(np.concatenate([find_edge(bottom[:, i], bottom[:, j])
                                          for i, j in ((0, 1), (1, 2), (0, 2))]))
@@ -375,18 +376,6 @@ def _tie_matrix(n: int, tied: np.ndarray, masters: np.ndarray):
     cols = np.concatenate([col[kept], col[masters[:, 0]], col[masters[:, 1]]])
     vals = np.concatenate([np.ones(len(kept)), np.full(2 * len(tied), 0.5)])
     return sp.csr_matrix((vals, (rows, cols)), shape=(n, len(kept))), kept
-
-
-def _edge_lookup(edges: np.ndarray, n: int):
-    """A function mapping vertex pairs (a, b) to indices into ``edges`` (2, ne)."""
-    keys = np.minimum(edges[0], edges[1]).astype(np.int64) * n + np.maximum(edges[0], edges[1])
-    order = np.argsort(keys)
-
-    def find(a: np.ndarray, b: np.ndarray) -> np.ndarray:
-        want = np.minimum(a, b).astype(np.int64) * n + np.maximum(a, b)
-        return order[np.searchsorted(keys[order], want)]
-
-    return find
 
 
 def _touch_point(radius_mm: float, top_height) -> np.ndarray:

@@ -77,7 +77,7 @@ def layer_solid(surface: TriMesh, thickness_mm: float | np.ndarray, youngs_MPa: 
     timing["assemble"] = time.perf_counter() - t0
     t0 = time.perf_counter()
     s = surface.n_points
-    find_edge = _edge_lookup(mesh.edges, mesh.p.shape[1])
+    find_edge = edge_lookup(mesh.edges, mesh.p.shape[1])
     bottom = np.unique(layer.boundaries["bottom"])
     bottom_edges = _face_edges(layer.boundaries["bottom"])
     fixed = np.concatenate([basis.nodal_dofs[:, bottom].ravel(),
@@ -141,7 +141,7 @@ def _tie_matrix(n: int, fixed: np.ndarray, mid: np.ndarray, ends: np.ndarray,
     return T, kept
 
 
-def _edge_lookup(edges: np.ndarray, n: int):
+def edge_lookup(edges: np.ndarray, n: int):
     """A function mapping vertex pairs (a, b) to indices into ``edges`` (2, ne)."""
     keys = np.minimum(edges[0], edges[1]).astype(np.int64) * n + np.maximum(edges[0], edges[1])
     order = np.argsort(keys)
