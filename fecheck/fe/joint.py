@@ -83,7 +83,7 @@ class _Compliance:
 
     def __init__(self, layer: ContactLayer, solver: str, block: int = 256):
         self.layer = layer
-        self.solve = factorize(layer.solid.K, solver)
+        self.solve = factorize(layer.solid.K, solver, ordering="metis")
         rows = layer.solid.normal_rows[layer.candidates]              # (m, n)
         self.rows = rows
         m = rows.shape[0]
