@@ -4,6 +4,7 @@
 from __future__ import annotations
 
 import json
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -147,3 +148,11 @@ def test_layer_band_needs_a_centre_and_a_size_below_the_far_size():
     with pytest.raises(FecheckError, match="band"):
         cartilage_layer(refine_point=(0.0, 0.0), band_radius=5.0, band_size=9.0, size=5.0,
                         cache=False)
+
+
+@pytest.mark.parametrize("scene", ["femur_tibia", "sphere_tibia", "rigid"])
+def test_fe_refuses_scenes_it_would_answer_for_another_geometry(scene, capsys):
+    path = Path(__file__).resolve().parents[1] / "validation" / "scenes" / f"{scene}.toml"
+    assert main(["fe", str(path)]) == 2
+    err = capsys.readouterr().err
+    assert "fecheck: error:" in err and ("stand in" in err or "no cartilage" in err)

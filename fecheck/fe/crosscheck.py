@@ -30,6 +30,7 @@ from fecheck.reference.closed_forms import (
     hertz_sphere_on_plane,
 )
 from fecheck.scene.constants import COMPARTMENTS, GRAVITY_MPS2
+from fecheck.scene.relevance import SCANNED_KINDS
 
 REFERENCE_ELEMENTS = 4
 """The axisymmetric answer is a converged reference for the 3D one only when its contact
@@ -255,6 +256,21 @@ def refuse_costly(scene, settings: FESettings) -> None:
                              settings.far_size_mm, settings.half_extent_mm))
 
 
+def refuse_stand_in(scene) -> None:
+    """`FecheckError` for a scene whose surfaces this FE cannot model: it meshes a condyle
+    sphere over a plateau-shaped layer, so for the scanned cartilage surfaces it would
+    answer for another geometry (never a silent stand-in)."""
+    kind = scene["model.kind"]
+    if kind in SCANNED_KINDS:
+        raise FecheckError(f"fecheck fe models a condyle sphere on a plateau-shaped layer; "
+                           f"the scanned cartilage surfaces of model.kind = '{kind}' are not "
+                           "modelled by it yet (a sphere on a flat layer would stand in for "
+                           "them): no FE cross-check for this scene")
+    if kind == "rigid":
+        raise FecheckError("model.kind = 'rigid' has no cartilage: nothing to cross-check "
+                           "with the FE")
+
+
 def cross_check(scene, size_mm: float | None = None,
                 log: Callable[[str], None] | None = stderr_log) -> CrossCheck:
     """Solve the scene's EF equilibrium, then one FE solve per compartment under its load.
@@ -263,6 +279,7 @@ def cross_check(scene, size_mm: float | None = None,
     `log` gets progress lines (default: standard error; None: silent)."""
     from fecheck.model.run import run_scene
 
+    refuse_stand_in(scene)
     settings = FESettings.from_scene(scene, size_mm)
     refuse_costly(scene, settings)
     say = log or (lambda message: None)
