@@ -21,4 +21,8 @@ PY=${PYTHON:-python3}
 echo "fecheck setup: installing Python packages into .venv (about 1-2 minutes the first time)"
 .venv/bin/python -m pip install -q --upgrade pip
 .venv/bin/python -m pip install -q -e ".[test]"
+# numba compiles the contact and law kernels on first use and caches them on disk: compile
+# them here, by solving the default scene once, so that a user's first run does not wait
+echo "fecheck setup: compiling the contact kernels (once, under a minute)"
+.venv/bin/fecheck run > /dev/null
 echo "fecheck setup: done"
