@@ -39,7 +39,7 @@ from fecheck.errors import FecheckError
 from fecheck.fe.contact import solve_contact
 from fecheck.fe.recovery import contact_metrics, tributary_areas, zero_contour_area
 from fecheck.fe.results import FEContactResult
-from fecheck.fe.solid import edge_lookup
+from fecheck.fe.solid import edge_lookup, p2_elasticity
 from fecheck.reference.closed_forms import hertz_sphere_on_plane
 
 GAPS = ("reference", "deformed")
@@ -221,8 +221,6 @@ def sphere_on_layer_3d(load_N: float, radius_mm: float, E_MPa: float, nu: float,
     piecewise-linear contact pressure on ``faces`` (the top triangles there);
     ``gap_mm`` and ``nodal_force_N`` are given at all quadratic top nodes there.
     """
-    from skfem import Basis, ElementTetP2, ElementVector, MeshTet, asm
-    from skfem.models.elasticity import lame_parameters, linear_elasticity
 
     from geometry.layer import cartilage_layer, top_height
 
@@ -262,9 +260,7 @@ def sphere_on_layer_3d(load_N: float, radius_mm: float, E_MPa: float, nu: float,
     timing["mesh"] = time.perf_counter() - t
     say(_mesh_line(layer, timing["mesh"]))
     t = time.perf_counter()
-    mesh = MeshTet(np.ascontiguousarray(layer.points.T), np.ascontiguousarray(layer.tets.T))
-    basis = Basis(mesh, ElementVector(ElementTetP2()), intorder=2)
-    K = asm(linear_elasticity(*lame_parameters(E_MPa, nu)), basis)
+    mesh, basis, K = p2_elasticity(layer, E_MPa, nu)
     timing["assemble"] = time.perf_counter() - t
     t = time.perf_counter()
     nv = mesh.p.shape[1]

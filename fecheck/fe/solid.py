@@ -59,9 +59,6 @@ def layer_solid(surface: TriMesh, thickness_mm: float | np.ndarray, youngs_MPa: 
                 poisson: float, *, layers: int = 4, ratio: float = 1.5) -> LayerSolid:
     """Assemble the bonded layer under `surface`, `thickness_mm` deep (a number or one value
     per surface vertex, mm), with `layers` levels of elements graded by `ratio`."""
-    from skfem import Basis, ElementTetP2, ElementVector, MeshTet, asm
-    from skfem.models.elasticity import lame_parameters, linear_elasticity
-
     if not (np.isfinite(youngs_MPa) and youngs_MPa > 0):
         raise FecheckError(f"Young's modulus must be a positive number of MPa, got {youngs_MPa}")
     if not (np.isfinite(poisson) and 0.0 <= poisson < 0.5):
@@ -71,9 +68,7 @@ def layer_solid(surface: TriMesh, thickness_mm: float | np.ndarray, youngs_MPa: 
     layer = extrude_layer(surface, thickness_mm, layers=layers, ratio=ratio)
     timing["mesh"] = time.perf_counter() - t0
     t0 = time.perf_counter()
-    mesh = MeshTet(np.ascontiguousarray(layer.points.T), np.ascontiguousarray(layer.tets.T))
-    basis = Basis(mesh, ElementVector(ElementTetP2()), intorder=2)
-    K = asm(linear_elasticity(*lame_parameters(youngs_MPa, poisson)), basis)
+    mesh, basis, K = p2_elasticity(layer, youngs_MPa, poisson)
     timing["assemble"] = time.perf_counter() - t0
     t0 = time.perf_counter()
     s = surface.n_points
@@ -97,6 +92,17 @@ def layer_solid(surface: TriMesh, thickness_mm: float | np.ndarray, youngs_MPa: 
     timing["reduce"] = time.perf_counter() - t0
     return LayerSolid(layer, K_red, normal_rows, normals, _tributary(surface), surface,
                       len(kept), timing)
+
+
+def p2_elasticity(layer: TetMesh, youngs_MPa: float, poisson: float):
+    """(skfem mesh, basis, K): isotropic small-strain elasticity on quadratic tetrahedra
+    (degree-2 quadrature, exact for affine P2), stiffness K in N/mm."""
+    from skfem import Basis, ElementTetP2, ElementVector, MeshTet, asm
+    from skfem.models.elasticity import lame_parameters, linear_elasticity
+
+    mesh = MeshTet(np.ascontiguousarray(layer.points.T), np.ascontiguousarray(layer.tets.T))
+    basis = Basis(mesh, ElementVector(ElementTetP2()), intorder=2)
+    return mesh, basis, asm(linear_elasticity(*lame_parameters(youngs_MPa, poisson)), basis)
 
 
 def _face_edges(faces: np.ndarray) -> np.ndarray:
