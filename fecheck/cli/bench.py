@@ -19,7 +19,7 @@ def add_parser(subparsers) -> None:
                     "default): time and error of EF (clipped, whole-face, analytic master), "
                     "the thesis stack, Hertz and FE on the baseline compartments against "
                     "each model's converged reference, and time per contact evaluation "
-                    "against faces (fecheck.bench). 'detection': "
+                    "against faces (fecheck.studies.bench). 'detection': "
                     "contact detection time and area/volume errors against exact values, "
                     "our engine vs the thesis stack (fcl, ray parity + cKDTree).")
     p.add_argument("suite", nargs="?", default="pareto", choices=SUITES,

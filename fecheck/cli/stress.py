@@ -1,4 +1,4 @@
-"""`fecheck stress`: the numerical-stability matrix of hard cases (see `fecheck.stress`).
+"""`fecheck stress`: the numerical-stability matrix of hard cases (see `fecheck.studies.stress`).
 
 Only the standard library is imported here; the matrix is imported inside `run`.
 """

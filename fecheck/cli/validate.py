@@ -1,6 +1,6 @@
 """`fecheck validate`: reproduce the thesis's tables and figures and write report.md.
 
-Only the standard library is imported here; the runner (`fecheck.validate`) and the row
+Only the standard library is imported here; the runner (`fecheck.studies.validate`) and the row
 scripts are imported inside `run`.
 """
 

@@ -47,7 +47,7 @@ def _raise_bad_pose(status: int, name: str) -> None:
         raise FecheckError(f"{name} pose translation contains NaN or infinite values")
     if status == 2:
         raise FecheckError(f"{name} rotation is not orthonormal with det +1 (or contains "
-                           "NaN); build it with fecheck.frames.rotation")
+                           "NaN); build it with fecheck.statics.frames.rotation")
 
 
 def validate_pose(pose, name: str) -> tuple[np.ndarray, np.ndarray]:

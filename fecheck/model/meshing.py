@@ -125,7 +125,7 @@ def plateau_master(scene: Scene, knee: Knee, c: str):
 
 def plateau_mesh(scene: Scene, knee: Knee, c: str):
     """The meshed plateau disc under condyle `c`, sized to resolve and contain the
-    expected contact (`fecheck.contact_size.plateau_mesh_sizes`)."""
+    expected contact (`plateau_mesh_sizes`)."""
     from geometry.plateau import plane_patch, polynomial_patch
     from geometry.polynomial import Polynomial2D
 
