@@ -153,3 +153,19 @@ def test_sigterm_stops_a_serial_sweep_the_same_way(tmp_path):
     assert elapsed < EXIT_WITHIN_S
     assert "points missing" in err
     _assert_finished_rows(out, param)
+
+
+def test_an_interrupt_swallowed_inside_a_kernel_is_raised_at_the_next_point():
+    # numba's dispatcher swallows a KeyboardInterrupt raised while it calls back into
+    # Python; the serial sweep must still stop after the point it was in
+    from fecheck.studies.pool import interrupts_raised, raise_pending_interrupt
+
+    with interrupts_raised():
+        raise_pending_interrupt()                     # nothing caught yet: no raise
+        try:
+            signal.raise_signal(signal.SIGTERM)
+        except KeyboardInterrupt:
+            pass                                      # what the kernel's callback does
+        with pytest.raises(KeyboardInterrupt):
+            raise_pending_interrupt()
+    assert signal.getsignal(signal.SIGTERM) is signal.SIG_DFL

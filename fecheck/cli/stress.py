@@ -39,13 +39,13 @@ def run(args: argparse.Namespace) -> int:
     os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
     os.environ.setdefault("OMP_NUM_THREADS", "1")
     from fecheck.studies import stress
-    from fecheck.studies.pool import sigterm_as_interrupt
+    from fecheck.studies.pool import interrupts_raised
 
     table = sys.stderr if args.json is not None and str(args.json) == STDOUT else sys.stdout
     print(stress.HEADER, file=table, flush=True)
     interrupted = None
     try:
-        with sigterm_as_interrupt():
+        with interrupts_raised():
             results = stress.run_matrix(
                 quick=args.quick, timeout_s=args.timeout, select=args.only,
                 log=lambda r: print(stress.row(r), file=table, flush=True))

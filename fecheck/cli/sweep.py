@@ -119,7 +119,7 @@ def run(args: argparse.Namespace) -> int:
     from fecheck.errors import FecheckError
     from fecheck.io.outputs import check_output
     from fecheck.scene import load_scene
-    from fecheck.studies.pool import sigterm_as_interrupt
+    from fecheck.studies.pool import interrupts_raised
     from fecheck.studies.sweep import (
         SweepInterrupted,
         dask_executor,
@@ -145,7 +145,7 @@ def run(args: argparse.Namespace) -> int:
     executor = (dask_executor(args.scheduler) if args.scheduler
                 else contextlib.nullcontext(None))
     try:
-        with sigterm_as_interrupt(), executor as pool:
+        with interrupts_raised(), executor as pool:
             points = run_sweep(scene, args.param, values, workers=args.workers,
                                executor=pool, fail_fast=args.fail_fast, on_point=save)
     except SweepInterrupted as stop:

@@ -256,20 +256,39 @@ class ProcessPool(Executor):
                 future.set_exception(BrokenProcessPool("the sweep pool stopped"))
 
 
+_CAUGHT: list[int] = []
+"""The interrupts caught inside `interrupts_raised` (signal numbers, in order)."""
+
+
 def _raise_interrupt(signum, frame) -> None:
-    """SIGTERM handler: stop the way Ctrl-C does."""
+    """SIGINT and SIGTERM handler: remember the signal, stop the way Ctrl-C does."""
+    _CAUGHT.append(signum)
     raise KeyboardInterrupt
 
 
 @contextmanager
-def sigterm_as_interrupt() -> Iterator[None]:
-    """Turn SIGTERM into KeyboardInterrupt in the block (main thread only)."""
+def interrupts_raised() -> Iterator[None]:
+    """Turn SIGINT and SIGTERM into KeyboardInterrupt in the block (main thread only).
+
+    The signals are also remembered: a KeyboardInterrupt raised while a compiled kernel
+    calls back into Python is swallowed there (numba does), and `raise_pending_interrupt`
+    raises it again at the next safe point.
+    """
     try:
-        previous = signal.signal(signal.SIGTERM, _raise_interrupt)
+        previous = {sig: signal.signal(sig, _raise_interrupt) for sig in INTERRUPTS}
     except ValueError:                       # not the main thread: leave signals alone
         yield
         return
+    _CAUGHT.clear()
     try:
         yield
     finally:
-        signal.signal(signal.SIGTERM, signal.SIG_DFL if previous is None else previous)
+        for sig, handler in previous.items():
+            signal.signal(sig, signal.SIG_DFL if handler is None else handler)
+
+
+def raise_pending_interrupt() -> None:
+    """Raise KeyboardInterrupt if an interrupt was caught by `interrupts_raised` but
+    swallowed before it could stop the work."""
+    if _CAUGHT:
+        raise KeyboardInterrupt

@@ -46,6 +46,7 @@ from fecheck.studies.pool import (
     ProcessPool,
     interrupts_held,
     interrupts_ignored,
+    raise_pending_interrupt,
     rearm_handlers,
 )
 
@@ -246,6 +247,7 @@ def _run_serial(scene: Scene, values: Sequence[float], overrides: Sequence[str],
     for i, (value, override) in enumerate(zip(values, overrides, strict=True)):
         point = _solve_here(scene, override, value, warm)
         rearm_handlers()
+        raise_pending_interrupt()
         warm = None if point.failed else point.result.extra.get("q")
         finished.add(i, point)
         if fail_fast and point.failed:
