@@ -1,10 +1,24 @@
-"""FE cross-check of a scene: per compartment, the FE layer solve under the EF load.
+"""FE cross-check of a scene: the EF equilibrium, then the FE of the same geometry,
+materials and load, compared on the same tibial faces.
 
-For each compartment (medial, lateral) the EF equilibrium's contact force presses the
-condyle sphere (radius = the knee's condyle radius) vertically on a bonded cartilage layer
-(the scene's E, ν, h; its plateau: transverse, inclined or polynomial). Beside the 3D FE
-answer sit the axisymmetric FE reference (flat layer), the closed-form EF law and Hertz at
-the same load, the EF model's own compartment result, and Donahue 2002.
+1. The scene's EF equilibrium (`fecheck.model.run.run_scene`).
+2. Per compartment the tibial surface the EF run used, extruded into a bonded cartilage
+   layer by its thickness (`fecheck.fe.bodies`, `fecheck.fe.solid`), pressed by the
+   rigid femoral surface (sphere or mesh) with exact frictionless contact along the
+   surface normals (`fecheck.fe.joint`).
+3. ``fe.mode = "joint"`` (default): the tibia's free DOFs are unknowns of the FE
+   problem, under the scene's load, gravity and ligament springs, so the FE finds its
+   own medial/lateral split and pose. ``"compartment"``: each compartment is pushed
+   along the EF compartment force's line with that force's magnitude, from the EF pose.
+4. Per compartment: force (vector, axial component, magnitude), p_max, p_mean, area,
+   depth and centre of pressure of FE and EF; the FE pressure averaged onto the EF's
+   faces beside the EF's own face pressure. For a transverse plateau with a uniform
+   layer the axisymmetric FE, the EF closed form and Hertz at the FE's compartment force
+   are added (the axisymmetric answer is then the 3D discretisation reference).
+
+The FE models one deformable layer (the tibial side) under a rigid femoral surface;
+with ``scanned.thickness = "bone-distance"`` that layer has the EF's series thickness
+(tibial + femoral cartilage). Units: mm, N, MPa; tibia frame for centres of pressure.
 """
 
 from __future__ import annotations
@@ -12,30 +26,39 @@ from __future__ import annotations
 import math
 import sys
 import time
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
 from typing import Any
 
 import numpy as np
 
 from fecheck.errors import FecheckError
-from fecheck.fe.axisym import axisym_sphere_on_layer
-from fecheck.fe.layer3d import check_cost, estimate_cost, sphere_on_layer_3d
-from fecheck.fe.results import ContactMetrics, FEContactResult
-from fecheck.model.plausibility import modulus_warning
+from fecheck.fe.bodies import scene_bodies
+from fecheck.fe.press import (
+    FELayer,
+    build_layers,
+    joint_drive,
+    push_drive,
+    rigid_gaps,
+    solve_pressed,
+)
+from fecheck.fe.recovery import zero_contour_area
+from fecheck.fe.results import ContactMetrics, FEContactResult, SideMetrics
+from fecheck.fe.settings import FESettings
+from fecheck.model.assembly import pose_dict
+from fecheck.model.equilibrium import axial_force
+from fecheck.model.results import CompartmentResult, RunResult
 from fecheck.reference.closed_forms import (
     DONAHUE_2002,
     column_stiffness,
     ef_sphere_on_plane,
     hertz_sphere_on_plane,
 )
-from fecheck.scene.constants import COMPARTMENTS, GRAVITY_MPS2
-from fecheck.scene.relevance import SCANNED_KINDS
+from fecheck.scene import Scene
+from fecheck.statics.newton import pose
 
-REFERENCE_ELEMENTS = 4
-"""The axisymmetric answer is a converged reference for the 3D one only when its contact
-radius spans at least this many of its elements (a 3D/axisymmetric gap is then the 3D
-discretization error)."""
+DONAHUE_NOTE = ("* Donahue 2002 is another knee under another load (800 N, whole joint with "
+                "menisci): a scale for the numbers, not a reference for this scene")
 
 
 def stderr_log(message: str) -> None:
@@ -43,72 +66,66 @@ def stderr_log(message: str) -> None:
     print(f"fecheck fe: {message}", file=sys.stderr, flush=True)
 
 
-@dataclass(frozen=True)
-class FESettings:
-    """FE options of a scene's ``[fe]`` table (sizes in mm)."""
-
-    size_mm: float = 1.5
-    far_size_mm: float = 5.0
-    half_extent_mm: float = 30.0
-    footprint: str = "ellipse"
-    gap: str = "reference"
-    solver: str = "cholmod"
-    axisym_size_mm: float = 0.1
-
-    @classmethod
-    def from_scene(cls, scene, size_mm: float | None = None) -> FESettings:
-        values = {k: scene[f"fe.{k}"] for k in cls.__dataclass_fields__}
-        if size_mm is not None:
-            values["size_mm"] = float(size_mm)
-        return cls(**values)
-
-
 @dataclass(frozen=True, eq=False)
 class CompartmentCheck:
-    """One compartment's FE answer beside its references (all at ``load_N``)."""
+    """One compartment: FE and EF side by side, the FE maps and the flat-layer references.
+
+    fe_pressure_MPa : (n_fe_points,) FE pressure at the FE surface vertices
+    fe_face_pressure_MPa : (n_ef_faces,) FE pressure averaged onto the EF run's faces
+    ef_face_pressure_MPa : (n_ef_faces,) EF face pressure on the same faces (None when the
+        EF run's pressure lives on another mesh, e.g. contact.master = 'plateau')
+    axisym, ef_closed_form, hertz : at the FE compartment force, flat uniform layers only
+    """
 
     name: str
-    load_N: float
-    radius_mm: float
-    fe: FEContactResult
-    axisym: FEContactResult | None
-    ef: ContactMetrics
-    hertz: ContactMetrics
-    ef_model: ContactMetrics | None
-    timing_s: dict = field(default_factory=dict)
+    fe: SideMetrics
+    ef_model: SideMetrics
+    layer: FELayer
+    fe_pressure_MPa: np.ndarray
+    fe_force_N: np.ndarray
+    active: np.ndarray
+    fe_face_pressure_MPa: np.ndarray
+    ef_face_pressure_MPa: np.ndarray | None
+    max_penetration_mm: float
+    axisym: FEContactResult | None = None
+    ef_closed_form: ContactMetrics | None = None
+    hertz: ContactMetrics | None = None
 
-    def comparable(self) -> bool:
-        """Whether a 3D/axisymmetric gap is the 3D discretization error: both solves ran
-        (converged) on the same flat layer, material and load, and the axisymmetric
-        contact spans `REFERENCE_ELEMENTS` of its elements (a converged reference)."""
+    @property
+    def cop_distance_mm(self) -> float:
+        """Distance between the FE and EF centres of pressure, mm (NaN if either is
+        undefined)."""
+        a, b = self.fe.center_of_pressure_mm, self.ef_model.center_of_pressure_mm
+        if a is None or b is None:
+            return math.nan
+        return float(np.linalg.norm(np.asarray(a) - np.asarray(b)))
+
+    def deviation(self) -> dict[str, float]:
+        """FE vs the axisymmetric FE at the same load (the 3D discretisation error of a
+        flat layer): relative p_max and area differences; {} when there is no reference."""
         if self.axisym is None:
-            return False
-        a = self.axisym.metrics
-        radius = math.sqrt(max(a.area_mm2, 0.0) / math.pi)
-        size = self.axisym.size_under_contact_mm
-        same_load = math.isclose(a.force_N, self.fe.metrics.force_N, rel_tol=1e-9)
-        return same_load and radius >= REFERENCE_ELEMENTS * size
-
-    def deviation(self) -> dict[str, float | None]:
-        """Relative differences 3D FE vs the axisymmetric FE: the 3D discretization error,
-        only where the two are `comparable` (flat layers, same load, a converged
-        reference); else {}."""
-        if not self.comparable():
             return {}
-        f, a = self.fe.metrics, self.axisym.metrics
-        return {"max_pressure": f.max_pressure_MPa / a.max_pressure_MPa - 1,
-                "area": f.area_mm2 / a.area_mm2 - 1, "depth": f.depth_mm / a.depth_mm - 1}
+        a = self.axisym.metrics
+        return {"max_pressure": self.fe.max_pressure_MPa / a.max_pressure_MPa - 1,
+                "area": self.fe.area_mm2 / a.area_mm2 - 1}
 
     def as_dict(self) -> dict[str, Any]:
-        out = {"load_N": self.load_N, "radius_mm": self.radius_mm, "fe": self.fe.as_dict(),
-               "axisym": None if self.axisym is None else self.axisym.as_dict(),
-               "fe_vs_axisym": self.deviation(), "ef": self.ef.as_dict(),
-               "hertz": self.hertz.as_dict(),
-               "ef_model": None if self.ef_model is None else self.ef_model.as_dict(),
-               "donahue_2002": {f"{s:g}mm": m.as_dict()
-                                for s, m in DONAHUE_2002[self.name].items()},
-               "timing_s": dict(self.timing_s)}
-        return out
+        def metrics(m):
+            return None if m is None else m.as_dict()
+
+        return {"fe": self.fe.as_dict(), "ef_model": self.ef_model.as_dict(),
+                "cop_distance_mm": _num(self.cop_distance_mm),
+                "max_penetration_mm": self.max_penetration_mm,
+                "min_contact_force_N": float(self.fe_force_N.min()),
+                "vertices_in_contact": int(self.active.sum()),
+                "fe_geometry": {"tibial_surface": self.layer.body.tibial_surface,
+                                "femoral_surface": self.layer.body.femoral_surface,
+                                "smoothing_rounds": self.layer.smoothing_rounds},
+                "axisym": None if self.axisym is None else self.axisym.as_dict(),
+                "fe_vs_axisym": self.deviation(),
+                "ef_closed_form": metrics(self.ef_closed_form), "hertz": metrics(self.hertz),
+                "donahue_2002": {f"{s:g}mm": m.as_dict()
+                                 for s, m in DONAHUE_2002[self.name].items()}}
 
 
 @dataclass(frozen=True, eq=False)
@@ -118,194 +135,236 @@ class CrossCheck:
     compartments: dict[str, CompartmentCheck]
     settings: FESettings
     material: dict[str, float]
-    timing_s: dict
+    pose: dict[str, dict[str, float]]
+    geometry: dict[str, Any]
+    timing_s: dict[str, float]
+    notes: tuple[str, ...] = field(default=())
+
+    def split(self, side: str) -> dict[str, float]:
+        """{compartment: share of the summed compartment force magnitudes} of `side`
+        ("fe" or "ef_model")."""
+        forces = {c: getattr(chk, side).force_N for c, chk in self.compartments.items()}
+        total = sum(forces.values())
+        return {c: f / total if total > 0 else math.nan for c, f in forces.items()}
 
     def as_dict(self) -> dict[str, Any]:
-        fe = {c: chk.fe for c, chk in self.compartments.items()}
-        mesh = {"element": next(iter(fe.values())).element,
-                **{c: {"n_dofs": r.n_dofs, "n_elements": r.n_elements,
-                       "size_under_contact_mm": r.size_under_contact_mm} for c, r in fe.items()}}
-        return {"compartments": {c: chk.as_dict() for c, chk in self.compartments.items()},
-                "mesh": mesh, "settings": self.settings.__dict__, "material": self.material,
-                "timing_s": self.timing_s}
-
-    def table(self) -> str:
-        """A plain-text comparison table."""
-        rows = [f"{'':24s}" + "".join(f"{c:>34s}" for c in self.compartments)]
-        head = f"{'':24s}" + "".join(f"{'p_max':>9s}{'p_mean':>8s}{'area':>9s}{'depth':>8s}"
-                                      for _ in self.compartments)
-        rows.append(head)
-        labels = (("FE 3D", "fe"), ("FE axisymmetric", "axisym"), ("EF (closed form)", "ef"),
-                  ("EF model", "ef_model"), ("Hertz", "hertz"))
-        for label, attr in labels:
-            line = f"{label:24s}"
-            for chk in self.compartments.values():
-                m = getattr(chk, attr)
-                m = m.metrics if isinstance(m, FEContactResult) else m
-                line += (f"{'(flat layers only)':>34s}" if m is None else
-                         f"{m.max_pressure_MPa:9.3f}{m.mean_pressure_MPa:8.3f}"
-                         f"{m.area_mm2:9.1f}{m.depth_mm:8.3f}")
-            rows.append(line)
-        for size in (1.0,):
-            line = f"{'Donahue 2002 (1 mm)':24s}"
-            for c in self.compartments:
-                m = DONAHUE_2002[c][size]
-                line += f"{m.max_pressure_MPa:9.3f}{m.mean_pressure_MPa:8.3f}{m.area_mm2:9.1f}" \
-                        f"{'':>8s}"
-            rows.append(line)
-        rows.append("units: MPa, MPa, mm², mm; loads " + ", ".join(
-            f"{c} {chk.load_N:.2f} N" for c, chk in self.compartments.items()))
-        return "\n".join(rows)
+        return {"mode": self.settings.mode,
+                "compartments": {c: chk.as_dict() for c, chk in self.compartments.items()},
+                "split": {"fe": self.split("fe"), "ef_model": self.split("ef_model")},
+                "fe_geometry": self.geometry, "pose": self.pose,
+                "settings": dict(self.settings.__dict__), "material": self.material,
+                "timing_s": self.timing_s, "notes": list(self.notes)}
 
 
-def _shifted(coeffs: np.ndarray, dx: float, dy: float) -> np.ndarray:
-    """Coefficients of q(x, y) = p(x + dx, y + dy) (``c[i, j]`` multiplies x^i y^j)."""
-    from math import comb
-
-    c = np.asarray(coeffs, dtype=float)
-    out = np.zeros_like(c)
-    for i in range(c.shape[0]):
-        for j in range(c.shape[1]):
-            for a in range(i + 1):
-                for b in range(j + 1):
-                    out[a, b] += c[i, j] * comb(i, a) * comb(j, b) * dx ** (i - a) * dy ** (j - b)
-    return out
+def _num(value: float) -> float | None:
+    return float(value) if value is not None and math.isfinite(value) else None
 
 
-def plateau_geometry(scene, compartment: str) -> dict[str, Any]:
-    """Keyword arguments of `sphere_on_layer_3d` for the scene's plateau under a condyle."""
-    kind = scene["plateau.kind"]
-    if kind == "transverse":
+# ---------------------------------------------------------------------- the metrics
+def _fe_metrics(layer: FELayer, force_N: np.ndarray, active: np.ndarray, gaps0: np.ndarray,
+                rot: np.ndarray) -> tuple[SideMetrics, np.ndarray]:
+    """FE metrics of one compartment (forces at the surface vertices, rigid gaps at the
+    solution pose) and the vertex pressures."""
+    surface, solid = layer.surface, layer.solid
+    pressure = force_N / solid.tributary_mm2
+    vector = -(force_N @ solid.normals) @ rot.T                  # on the tibia, world
+    total = float(force_N.sum())
+    area = zero_contour_area(surface.points, surface.faces, pressure, active)
+    cop = (force_N @ surface.points) / total if total > 0 else None
+    depth = float(max(0.0, -gaps0.min()))
+    return SideMetrics(vector, axial_force(vector, rot), float(pressure.max()),
+                       total / area if area > 0 else math.nan, area, depth, cop), pressure
+
+
+def _ef_metrics(res: CompartmentResult, rot: np.ndarray, t: np.ndarray) -> SideMetrics:
+    """The EF run's metrics of one compartment, its centre of pressure in the tibia frame
+    (from its face pressures and in-contact face areas; None for a point contact)."""
+    cop = None
+    if res.face_area_mm2 is not None and res.face_pressure_MPa is not None:
+        load = res.face_pressure_MPa * res.face_area_mm2
+        if load.sum() > 0:
+            centroid = res.slave_points[res.slave_faces].mean(axis=1)
+            cop = rot.T @ ((load @ centroid) / load.sum() - t)
+    vector = (np.full(3, math.nan) if res.force_vector_N is None
+              else np.asarray(res.force_vector_N, dtype=float))
+    return SideMetrics(vector, res.axial_force_N, res.max_pressure_MPa,
+                       res.mean_pressure_MPa, res.area_mm2, res.max_depth_mm, cop)
+
+
+def _on_ef_faces(layer: FELayer, pressure: np.ndarray) -> np.ndarray:
+    """FE vertex pressure averaged onto the EF faces (over each face's FE children)."""
+    face = pressure[layer.surface.faces].mean(axis=1)
+    n = layer.body.surface.n_faces
+    total = np.bincount(layer.parent, weights=face * layer.surface.face_areas, minlength=n)
+    area = np.bincount(layer.parent, weights=layer.surface.face_areas, minlength=n)
+    return total / area
+
+
+def _ef_face_pressure(layer: FELayer, res: CompartmentResult, rot: np.ndarray,
+                      t: np.ndarray) -> np.ndarray | None:
+    """The EF face pressure when it lives on this layer's EF faces, else None."""
+    ef = layer.body.surface
+    if (res.face_pressure_MPa is None or res.slave_faces is None
+            or res.slave_faces.shape != ef.faces.shape
+            or not np.array_equal(res.slave_faces, ef.faces)):
+        return None
+    back = (res.slave_points - t) @ rot                           # world → tibia frame
+    if not np.allclose(back, ef.points, atol=1e-6):
+        return None
+    return np.asarray(res.face_pressure_MPa, dtype=float)
+
+
+def _flat_references(scene: Scene, layer: FELayer, load_N: float, settings: FESettings
+                     ) -> dict[str, Any]:
+    """Axisymmetric FE, EF closed form and Hertz at `load_N` for a transverse plateau with
+    a uniform layer under a sphere ({} otherwise)."""
+    from fecheck.fe.axisym import axisym_sphere_on_layer
+    from fecheck.fe.indenter import SphereIndenter
+
+    body = layer.body
+    if (scene["plateau.kind"] != "transverse" or scene["model.kind"] != "sphere-plane"
+            or not isinstance(body.indenter, SphereIndenter) or load_N <= 0):
         return {}
-    if kind == "inclined":
-        lam, gam = scene[f"plateau.{compartment}_angles_deg"]
-        return {"sagittal_deg": float(lam), "frontal_deg": float(gam)}
-    from geometry.polynomial import Polynomial2D
+    E, nu, h = (scene["contact.youngs_MPa"], scene["contact.poisson"],
+                scene["contact.thickness_mm"])
+    radius = body.indenter.radius_mm
+    return {"axisym": axisym_sphere_on_layer(load_N, radius, E, nu, h,
+                                             size_mm=settings.axisym_size_mm,
+                                             solver=settings.solver),
+            "ef_closed_form": ef_sphere_on_plane(load_N, radius, E, nu, h),
+            "hertz": hertz_sphere_on_plane(load_N, radius, E, nu)}
 
-    cx, cy = np.asarray(scene.knee.condyle_center[compartment])[:2]
-    coeffs = np.asarray(scene[f"plateau.{compartment}_coefficients"], dtype=float)
-    return {"top": Polynomial2D(_shifted(coeffs, cx, cy))}
 
-
-def check_physical(label: str, result: FEContactResult, E_MPa: float,
-                   size_mm: float) -> None:
-    """`FecheckError` naming the quantity of an FE answer that is not physical (NaN, a
-    zero contact area or pressure under the load) and its likely cause."""
-    m = result.metrics
-    values = {"max pressure": m.max_pressure_MPa, "mean pressure": m.mean_pressure_MPa,
-              "contact area": m.area_mm2, "indentation": m.depth_mm}
-    bad = [f"{k} {v:g}" for k, v in values.items()
-           if not math.isfinite(v) or (k != "indentation" and v <= 0)]
-    if not bad:
+# ---------------------------------------------------------------------- the scene
+def _refuse_constraints(scene: Scene, settings: FESettings) -> None:
+    if settings.mode != "joint":
         return
-    cause = modulus_warning(E_MPa) or "check contact.youngs_MPa and load.force_N"
-    raise FecheckError(f"{label}: {', '.join(bad)}: not a physical answer; the contact "
-                       f"is smaller than the elements under it ({size_mm:g} mm), so no "
-                       f"patch is resolved: refine (--size, fe.size_mm); {cause}")
+    if scene["constraints.equal_forces"]:
+        raise FecheckError("fe.mode = 'joint' lets the FE find its own medial/lateral split, "
+                           "which constraints.equal_forces would fix: use fe.mode = "
+                           "'compartment' (each compartment under its EF force)")
+    if scene["ligaments.model"] == "rod":
+        raise FecheckError("fe.mode = 'joint' models ligament springs, not rigid rods "
+                           "(ligaments.model = 'rod'): use ligaments.model = 'spring' or "
+                           "fe.mode = 'compartment'")
 
 
-def check_compartment(name: str, load_N: float, radius_mm: float, E_MPa: float, nu: float,
-                      thickness_mm: float, settings: FESettings,
-                      geometry: dict[str, Any] | None = None,
-                      ef_model: ContactMetrics | None = None,
-                      log: Callable[[str], None] | None = None) -> CompartmentCheck:
-    """FE (3D and, for a flat layer, axisymmetric) and references for one compartment.
-    `log` gets progress lines (None: silent); a non-physical FE answer raises
-    `FecheckError` (`check_physical`)."""
-    geometry = geometry or {}
-    say = log or (lambda message: None)
-    estimate = check_cost(estimate_cost(load_N, radius_mm, E_MPa, nu, thickness_mm,
-                                        settings.size_mm, settings.far_size_mm,
-                                        settings.half_extent_mm))
-    say(f"{name}: 3D layer under {load_N:.1f} N at {settings.size_mm:g} mm: "
-        f"{estimate.text()}")
-    timing = {}
-    t = time.perf_counter()
-    fe = sphere_on_layer_3d(load_N, radius_mm, E_MPa, nu, thickness_mm,
-                            footprint=settings.footprint, half_extent_mm=settings.half_extent_mm,
-                            size_mm=settings.size_mm, far_size_mm=settings.far_size_mm,
-                            gap=settings.gap, solver=settings.solver,
-                            log=lambda m: say(f"{name}: {m}"), **geometry)
-    timing["fe_3d"] = time.perf_counter() - t
-    say(f"{name}: 3D FE done in {timing['fe_3d']:.1f} s")
-    check_physical(f"{name} 3D FE", fe, E_MPa, settings.size_mm)
-    axisym = None
-    if not geometry:
-        say(f"{name}: axisymmetric reference at {settings.axisym_size_mm:g} mm")
-        t = time.perf_counter()
-        axisym = axisym_sphere_on_layer(load_N, radius_mm, E_MPa, nu, thickness_mm,
-                                        layer_radius_mm=settings.half_extent_mm,
-                                        size_mm=settings.axisym_size_mm, gap=settings.gap,
-                                        solver=settings.solver)
-        timing["fe_axisym"] = time.perf_counter() - t
-        check_physical(f"{name} axisymmetric FE", axisym, E_MPa, settings.axisym_size_mm)
-    return CompartmentCheck(name=name, load_N=load_N, radius_mm=radius_mm, fe=fe, axisym=axisym,
-                            ef=ef_sphere_on_plane(load_N, radius_mm, E_MPa, nu, thickness_mm),
-                            hertz=hertz_sphere_on_plane(load_N, radius_mm, E_MPa, nu),
-                            ef_model=ef_model, timing_s=timing)
-
-
-def refuse_costly(scene, settings: FESettings) -> None:
-    """Before any work: `FecheckError` for a 3D size below the floor or beyond the memory
-    available, estimated at the whole load (and weight) on the larger condyle."""
-    weight = scene["tibia.mass_kg"] * GRAVITY_MPS2 * scene["gravity"]
-    load = max(scene["load.force_N"] + weight, 1.0)
-    radius = max(scene.knee.radius_mm(c) for c in COMPARTMENTS)
-    check_cost(estimate_cost(load, radius, scene["contact.youngs_MPa"], scene["contact.poisson"],
-                             scene["contact.thickness_mm"], settings.size_mm,
-                             settings.far_size_mm, settings.half_extent_mm))
-
-
-def refuse_stand_in(scene) -> None:
-    """`FecheckError` for a scene whose surfaces this FE cannot model: it meshes a condyle
-    sphere over a plateau-shaped layer, so for the scanned cartilage surfaces it would
-    answer for another geometry (never a silent stand-in)."""
-    kind = scene["model.kind"]
-    if kind in SCANNED_KINDS:
-        raise FecheckError(f"fecheck fe models a condyle sphere on a plateau-shaped layer; "
-                           f"the scanned cartilage surfaces of model.kind = '{kind}' are not "
-                           "modelled by it yet (a sphere on a flat layer would stand in for "
-                           "them): no FE cross-check for this scene")
-    if kind == "rigid":
-        raise FecheckError("model.kind = 'rigid' has no cartilage: nothing to cross-check "
-                           "with the FE")
-
-
-def cross_check(scene, size_mm: float | None = None,
-                log: Callable[[str], None] | None = stderr_log) -> CrossCheck:
-    """Solve the scene's EF equilibrium, then one FE solve per compartment under its load.
-
-    Sizes whose estimated cost is out of reach are refused first (`refuse_costly`);
-    `log` gets progress lines (default: standard error; None: silent)."""
+def _ef_run(scene: Scene, log: Callable[[str], None]) -> tuple[RunResult, float]:
     from fecheck.model.run import run_scene
 
-    refuse_stand_in(scene)
-    settings = FESettings.from_scene(scene, size_mm)
-    refuse_costly(scene, settings)
-    say = log or (lambda message: None)
-    E, nu, h = scene["contact.youngs_MPa"], scene["contact.poisson"], scene["contact.thickness_mm"]
-    t = time.perf_counter()
-    say("solving the EF equilibrium")
+    log("solving the EF equilibrium")
+    t0 = time.perf_counter()
     run = run_scene(scene)
-    ef_time = time.perf_counter() - t
+    seconds = time.perf_counter() - t0
     if not run.converged:
         raise FecheckError("the EF equilibrium of this scene did not converge; fix the scene "
                            "(see `fecheck run`) before the FE cross-check")
+    for c, res in run.compartments.items():
+        if not (math.isfinite(res.force_N) and res.force_N > 0):
+            raise FecheckError(f"the {c} compartment carries no load at the EF equilibrium "
+                               f"({res.force_N:g} N): the FE cross-check compares loaded "
+                               "compartments; raise load.force_N or move load.point_mm")
+    return run, seconds
+
+
+def _solve(scene: Scene, layers: Sequence[FELayer], run: RunResult, settings: FESettings,
+           log: Callable[[str], None]) -> tuple[dict, np.ndarray, float]:
+    """FE solve(s) of the mode: {compartment: (layer, contact, worst penetration, (R, t)
+    the tibia pose of that compartment's solution)}, the FE pose q (5,) (the EF pose in
+    compartment mode) and the condensation time."""
+    from fecheck.model.run import ligament_springs
+
+    q_ef = np.asarray(run.extra["q"], dtype=float)
+    depth = max(r.max_depth_mm for r in run.compartments.values())
+    margin = settings.candidate_gap_mm + (depth if math.isfinite(depth) else 0.0)
+    if settings.mode == "joint":
+        drive = joint_drive(scene, q_ef, ligament_springs(scene))
+        sol, condense, _, worst = solve_pressed(layers, drive, margin, settings, log)
+        at = drive.pose(sol.q)
+        out = {lay.body.name: (lay, lc, worst, at) for lay, lc in zip(layers, sol.layers,
+                                                                        strict=True)}
+        return out, drive.full(sol.q), condense
+    rot, t = pose(q_ef, math.radians(scene["dofs.flexion_deg"]))
+    out, condense = {}, 0.0
+    for lay in layers:
+        force = run.compartments[lay.body.name].force_vector_N
+        drive = push_drive(rot, t, np.asarray(force, dtype=float))
+        sol, seconds, _, worst = solve_pressed([lay], drive, margin, settings, log)
+        out[lay.body.name] = (lay, sol.layers[0], worst, drive.pose(sol.q))
+        condense += seconds
+    return out, q_ef, condense
+
+
+def cross_check(scene: Scene, *, mode: str | None = None, refine: int | None = None,
+                log: Callable[[str], None] | None = stderr_log) -> CrossCheck:
+    """The FE cross-check of `scene` (module docstring); `mode` and `refine` override
+    ``fe.mode`` and ``fe.refine``; `log` gets progress lines (None: silent).
+
+    Raises
+    ------
+    FecheckError
+        A scene the FE cannot model faithfully (no cartilage, constraints in joint mode,
+        an unloaded compartment), or an FE answer that is not physical.
+    """
+    say = log or (lambda message: None)
+    settings = FESettings.from_scene(scene, mode=mode, refine=refine)
+    _refuse_constraints(scene, settings)
+    E, nu = scene["contact.youngs_MPa"], scene["contact.poisson"]
+    t0 = time.perf_counter()
+    bodies = scene_bodies(scene)
+    run, ef_seconds = _ef_run(scene, say)
+    t1 = time.perf_counter()
+    layers = build_layers(bodies, E, nu, settings, say)
+    t2 = time.perf_counter()
+    solved, q_fe, condense = _solve(scene, layers, run, settings, say)
+    t3 = time.perf_counter()
+    theta = math.radians(scene["dofs.flexion_deg"])
+    rot_ef, t_ef = pose(np.asarray(run.extra["q"], dtype=float), theta)
     checks = {}
-    timing: dict[str, Any] = {"ef_equilibrium": ef_time}
-    for c in COMPARTMENTS:
-        res = run.compartments[c]
-        load = float(res.force_N)
-        if not (np.isfinite(load) and load > 0):
-            raise FecheckError(f"the {c} compartment carries no load ({load} N) at equilibrium: "
-                               "nothing to cross-check")
-        ef_model = None
-        if np.isfinite(res.max_pressure_MPa):
-            ef_model = ContactMetrics(float(res.max_pressure_MPa), float(res.mean_pressure_MPa),
-                                      float(res.area_mm2), float(res.max_depth_mm), load)
-        chk = check_compartment(c, load, scene.knee.radius_mm(c), E, nu, h, settings,
-                                plateau_geometry(scene, c), ef_model, log)
-        checks[c] = chk
-        timing[c] = {**chk.timing_s, "fe_3d_over_ef_equilibrium": chk.timing_s["fe_3d"] / ef_time}
-    return CrossCheck(checks, settings, {"E_MPa": E, "nu": nu, "thickness_mm": h,
-                                         "ef_k_N_per_mm3": column_stiffness(E, nu, h)}, timing)
+    for name, (lay, lc, worst, (rot, t)) in solved.items():
+        fe, pressure = _fe_metrics(lay, lc.force_N, lc.active, rigid_gaps(lay, rot, t), rot)
+        res = run.compartments[name]
+        refs = _flat_references(scene, lay, float(lc.force_N.sum()), settings)
+        checks[name] = CompartmentCheck(
+            name, fe, _ef_metrics(res, rot_ef, t_ef), lay, pressure, lc.force_N, lc.active,
+            _on_ef_faces(lay, pressure), _ef_face_pressure(lay, res, rot_ef, t_ef), worst,
+            **refs)
+    t4 = time.perf_counter()
+    dofs = sum(lay.solid.n_dofs for lay in layers)
+    geometry = _geometry(layers, dofs)
+    timing = {"ef_equilibrium": ef_seconds, "fe_build": t2 - t1, "fe_condense": condense,
+              "fe_contact": t3 - t2 - condense, "references": t4 - t3, "total": t4 - t0,
+              "fe": t3 - t1}
+    timing["ef_over_fe"] = ef_seconds / timing["fe"]
+    notes = [DONAHUE_NOTE]
+    if geometry["thickness_source"] == "bone-distance":
+        notes.insert(0, "one deformable layer on the tibia with the EF's series thickness "
+                        "(tibial + femoral cartilage, from the bone distances) under a rigid "
+                        "femoral surface: two deformable layers in contact are not modelled")
+    return CrossCheck(checks, settings,
+                      {"E_MPa": E, "nu": nu, "thickness_mm": scene["contact.thickness_mm"],
+                       "ef_k_N_per_mm3": column_stiffness(E, nu, scene["contact.thickness_mm"])},
+                      {"fe": pose_dict(q_fe), "ef": pose_dict(run.extra["q"])}, geometry,
+                      timing, tuple(notes))
+
+
+def _geometry(layers: Sequence[FELayer], dofs: int) -> dict[str, Any]:
+    """The top-level `fe_geometry` of the JSON."""
+    def joined(values):
+        unique = list(dict.fromkeys(values))
+        return unique[0] if len(unique) == 1 else " + ".join(unique)
+
+    edges = []
+    for lay in layers:
+        s = lay.surface
+        e = s.points[s.faces[:, [1, 2, 0]]] - s.points[s.faces]
+        edges.append(np.linalg.norm(e, axis=2).min())
+    return {"tibial_surface": joined(lay.body.tibial_surface for lay in layers),
+            "femoral_surface": joined(lay.body.femoral_surface for lay in layers),
+            "thickness_source": joined(lay.body.thickness_source for lay in layers),
+            "deformable_layers": 1,
+            "elements": int(sum(len(lay.solid.mesh.tets) for lay in layers)),
+            "nodes": int(sum(lay.solid.n_nodes for lay in layers)),
+            "dofs": int(dofs),
+            "smallest_size_mm": float(min(edges)),
+            "element": "quadratic tetrahedron (P2), prisms of the extruded surface split in 3"}

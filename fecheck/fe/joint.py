@@ -9,10 +9,11 @@ layer, reused for every pose and load) and J_i = ∂g0_i/∂q. The contact force
 acting along −n_i on the layer) and the pose step δq solve the mixed complementarity
 problem
 
-    g0 + J δq + C λ ≥ 0,   λ ≥ 0,   λ·(g0 + J δq + C λ) = 0,   Jᵀ λ = −Q(q),
+    g0 + J δq + C λ ≥ 0,   λ ≥ 0,   λ·(g0 + J δq + C λ) = 0,   Jᵀ λ + Q(q) = 0,
 
-the last row being the equilibrium of the tibia's free DOFs under the external load and
-gravity Q (generalised forces, N and N·mm). For an active set A the equalities are one
+the last row being the equilibrium of the tibia's free DOFs under the external load,
+gravity and ligaments Q (generalised forces, N and N·mm; Q's own change with the pose,
+∂Q/∂q, joins that row as + ∂Q/∂q·δq when given). For an active set A the equalities are one
 dense symmetric solve; vertices that pull are released and those that penetrate are
 added until A stops changing (Hintermüller-Ito-Kunisch). The outer loop re-linearises
 g0 and J at the new pose (rotations are finite) until the pose stops moving: the
@@ -33,7 +34,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from fecheck.errors import FecheckError
-from fecheck.fe.contact import factorize
+from fecheck.fe.contact import condensed_compliance, factorize
 from fecheck.fe.solid import LayerSolid
 
 POSE_TOL = 1e-9
@@ -83,23 +84,26 @@ class _Compliance:
 
     def __init__(self, layer: ContactLayer, solver: str, block: int = 256):
         self.layer = layer
-        self.solve = factorize(layer.solid.K, solver, ordering="metis")
         rows = layer.solid.normal_rows[layer.candidates]              # (m, n)
         self.rows = rows
-        m = rows.shape[0]
-        self.C = np.empty((m, m))
-        rhs_all = rows.T.tocsc()
-        for start in range(0, m, block):
-            stop = min(start + block, m)
-            x = self.solve(rhs_all[:, start:stop].toarray())
-            self.C[:, start:stop] = rows @ x
-        self.C = 0.5 * (self.C + self.C.T)
+        if solver == "cholmod":
+            C, self.solve = condensed_compliance(layer.solid.K, rows)
+        else:
+            self.solve = factorize(layer.solid.K, solver)
+            m = rows.shape[0]
+            C = np.empty((m, m))
+            rhs_all = rows.T.tocsc()
+            for start in range(0, m, block):
+                stop = min(start + block, m)
+                C[:, start:stop] = rows @ self.solve(rhs_all[:, start:stop].toarray())
+        self.C = 0.5 * (C + C.T)
 
 
-def _active_set(C: np.ndarray, g0: np.ndarray, J: np.ndarray, Q: np.ndarray,
+def _active_set(C: np.ndarray, g0: np.ndarray, J: np.ndarray, Q: np.ndarray, dQ: np.ndarray,
                 active: np.ndarray, max_iter: int) -> tuple[np.ndarray, np.ndarray,
                                                             np.ndarray, int]:
-    """λ ≥ 0 and δq of the mixed problem for fixed g0, J, Q (module docstring)."""
+    """λ ≥ 0 and δq of the mixed problem for fixed g0, J, Q and the load's stiffness dQ
+    (module docstring)."""
     m, k = J.shape
     for it in range(1, max_iter + 1):
         idx = np.flatnonzero(active)
@@ -108,6 +112,7 @@ def _active_set(C: np.ndarray, g0: np.ndarray, J: np.ndarray, Q: np.ndarray,
         kkt[:a, :a] = C[np.ix_(idx, idx)]
         kkt[:a, a:] = J[idx]
         kkt[a:, :a] = J[idx].T
+        kkt[a:, a:] = dQ
         rhs = np.concatenate([-g0[idx], -Q])
         try:
             sol = np.linalg.solve(kkt, rhs)
@@ -153,6 +158,7 @@ class JointContact:
     def solve(self, pose: Callable[[np.ndarray], tuple[np.ndarray, np.ndarray]],
               basis: Callable[[np.ndarray], np.ndarray],
               load: Callable[[np.ndarray], np.ndarray], q0: np.ndarray, *,
+              stiffness: Callable[[np.ndarray], np.ndarray] | None = None,
               max_outer: int = 30, max_active: int = 200) -> JointSolution:
         """Solve the contact under load control (module docstring).
 
@@ -164,6 +170,8 @@ class JointContact:
         load : q → Q (k,), generalised external force on the unknowns (N, N·mm): load,
             gravity; positive along the unknowns
         q0 : (k,) start, e.g. the EF equilibrium
+        stiffness : q → ∂Q/∂q (k, k) (ligament springs, a load that turns with the
+            tibia); None: the load does not change with the pose
         """
         t0 = time.perf_counter()
         q = np.asarray(q0, dtype=float).copy()
@@ -173,7 +181,8 @@ class JointContact:
             g0, J = _linearised_gaps(self.layers, pose, basis, q)
             if active is None:
                 active = g0 <= np.sort(g0)[min(len(g0) - 1, 3)]
-            lam, dq, active, it = _active_set(self.C, g0, J, load(q), active, max_active)
+            dQ = np.zeros((len(q), len(q))) if stiffness is None else stiffness(q)
+            lam, dq, active, it = _active_set(self.C, g0, J, load(q), dQ, active, max_active)
             inner += it
             q = q + dq
             self.log(f"FE pose update {outer}: {int(active.sum())} vertices in contact, "

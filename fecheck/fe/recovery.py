@@ -60,13 +60,14 @@ def zero_contour_area(points: np.ndarray, faces: np.ndarray, pressure_MPa: np.nd
     to the edge, so q = p² is linear there. q is interpolated linearly on the triangles;
     each free vertex next to the contact gets the value extrapolated from its contact
     neighbours with their q gradient (area-weighted over their all-contact triangles,
-    in the x-y plane), so the zero line of q falls inside the edge triangles instead of
+    in the plane of the contact: normal to the mean normal of the contact's triangles), so
+    the zero line of q falls inside the edge triangles instead of
     on the free vertices. The area is that of {q > 0}, clipped exactly per triangle.
     Counting whole tributary areas of contact nodes instead overestimates the area by
     about 0.3 element sizes of contact radius (measured: +12% at 1.5 mm, +10% at 1 mm
     against the converged axisymmetric solution; this estimate: +2.6%, +2.5%).
     """
-    xy = points[:, :2]
+    xy = _contact_plane(points, faces, active)
     q = np.where(active, pressure_MPa, 0.0) ** 2
     p = xy[faces]
     e1, e2 = p[:, 1] - p[:, 0], p[:, 2] - p[:, 0]
@@ -99,4 +100,28 @@ def zero_contour_area(points: np.ndarray, faces: np.ndarray, pressure_MPa: np.nd
     Q[near] = np.minimum(ext[near], floor)
     Qf = Q[faces]
     Qf = np.where(np.isfinite(Qf), Qf, -np.finfo(float).max ** 0.5)
-    return float(_positive_part_area(Qf, area).sum())
+    fraction = _positive_part_area(Qf, np.ones(len(faces)))
+    return float((fraction * _face_areas(points, faces)).sum())
+
+
+def _face_areas(points: np.ndarray, faces: np.ndarray) -> np.ndarray:
+    p = points[faces]
+    return 0.5 * np.linalg.norm(np.cross(p[:, 1] - p[:, 0], p[:, 2] - p[:, 0]), axis=1)
+
+
+def _contact_plane(points: np.ndarray, faces: np.ndarray, active: np.ndarray) -> np.ndarray:
+    """(n, 2) coordinates of `points` in the plane normal to the area-weighted mean normal
+    of the triangles touching the contact (x-y when there is none)."""
+    p = points[faces]
+    cross = np.cross(p[:, 1] - p[:, 0], p[:, 2] - p[:, 0])
+    touch = active[faces].any(axis=1)
+    normal = cross[touch].sum(axis=0) if touch.any() else np.zeros(3)
+    length = np.linalg.norm(normal)
+    if length == 0:
+        return points[:, :2]
+    normal /= length
+    helper = np.eye(3)[np.argmin(np.abs(normal))]
+    e1 = np.cross(normal, helper)
+    e1 /= np.linalg.norm(e1)
+    e2 = np.cross(normal, e1)
+    return np.column_stack([points @ e1, points @ e2])

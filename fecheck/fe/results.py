@@ -10,6 +10,46 @@ from fecheck.reference.closed_forms import ContactMetrics
 
 
 @dataclass(frozen=True, eq=False)
+class SideMetrics:
+    """One compartment's contact as FE or EF answers it.
+
+    force_vector_N : (3,) contact force on the tibia, world axes; `force_N` its magnitude;
+        `axial_force_N` its component along the tibia's long axis (+ compressive)
+    max_pressure_MPa, mean_pressure_MPa : mean = normal force / area
+    area_mm2 : contact area; depth_mm : deepest rigid overlap of the surfaces at the pose
+    center_of_pressure_mm : (3,) tibia frame (None where undefined, e.g. point contacts)
+    """
+
+    force_vector_N: np.ndarray
+    axial_force_N: float
+    max_pressure_MPa: float
+    mean_pressure_MPa: float
+    area_mm2: float
+    depth_mm: float
+    center_of_pressure_mm: np.ndarray | None
+
+    @property
+    def force_N(self) -> float:
+        return float(np.linalg.norm(self.force_vector_N))
+
+    def contact_metrics(self) -> ContactMetrics:
+        return ContactMetrics(self.max_pressure_MPa, self.mean_pressure_MPa, self.area_mm2,
+                              self.depth_mm, self.force_N)
+
+    def as_dict(self) -> dict:
+        def num(v):
+            return float(v) if v is not None and np.isfinite(v) else None
+
+        cop = self.center_of_pressure_mm
+        return {"force_N": num(self.force_N), "axial_force_N": num(self.axial_force_N),
+                "force_vector_N": [num(v) for v in self.force_vector_N],
+                "max_pressure_MPa": num(self.max_pressure_MPa),
+                "mean_pressure_MPa": num(self.mean_pressure_MPa),
+                "area_mm2": num(self.area_mm2), "depth_mm": num(self.depth_mm),
+                "center_of_pressure_mm": None if cop is None else [num(v) for v in cop]}
+
+
+@dataclass(frozen=True, eq=False)
 class FEContactResult:
     """An FE contact solve under load control.
 

@@ -43,6 +43,7 @@ class LayerSolid:
     normals : (s, 3) unit outward vertex normals of the surface
     tributary_mm2 : (s,) a third of the adjacent surface triangle areas
     surface : the articular surface (s vertices)
+    n_dofs : kept dofs; n_nodes : quadratic nodes (vertices and edge midpoints)
     """
 
     mesh: TetMesh
@@ -52,20 +53,25 @@ class LayerSolid:
     tributary_mm2: np.ndarray
     surface: TriMesh
     n_dofs: int
+    n_nodes: int
     timing_s: dict = field(default_factory=dict)
 
 
 def layer_solid(surface: TriMesh, thickness_mm: float | np.ndarray, youngs_MPa: float,
-                poisson: float, *, layers: int = 4, ratio: float = 1.5) -> LayerSolid:
+                poisson: float, *, layers: int = 4, ratio: float = 1.5,
+                directions: np.ndarray | None = None) -> LayerSolid:
     """Assemble the bonded layer under `surface`, `thickness_mm` deep (a number or one value
-    per surface vertex, mm), with `layers` levels of elements graded by `ratio`."""
+    per surface vertex, mm, along the normal), with `layers` levels of elements graded by
+    `ratio`, extruded along -`directions` (n, 3) (None: the vertex normals; see
+    `geometry.extrude.extrusion_directions`). Contact acts along the vertex normals."""
     if not (np.isfinite(youngs_MPa) and youngs_MPa > 0):
         raise FecheckError(f"Young's modulus must be a positive number of MPa, got {youngs_MPa}")
     if not (np.isfinite(poisson) and 0.0 <= poisson < 0.5):
         raise FecheckError(f"Poisson's ratio must lie in [0, 0.5), got {poisson}")
     timing = {}
     t0 = time.perf_counter()
-    layer = extrude_layer(surface, thickness_mm, layers=layers, ratio=ratio)
+    layer = extrude_layer(surface, thickness_mm, layers=layers, ratio=ratio,
+                          directions=directions)
     timing["mesh"] = time.perf_counter() - t0
     t0 = time.perf_counter()
     mesh, basis, K = p2_elasticity(layer, youngs_MPa, poisson)
@@ -91,7 +97,7 @@ def layer_solid(surface: TriMesh, thickness_mm: float | np.ndarray, youngs_MPa: 
     normal_rows = (N_full @ T).tocsr()
     timing["reduce"] = time.perf_counter() - t0
     return LayerSolid(layer, K_red, normal_rows, normals, _tributary(surface), surface,
-                      len(kept), timing)
+                      len(kept), basis.N // 3, timing)
 
 
 def p2_elasticity(layer: TetMesh, youngs_MPa: float, poisson: float):

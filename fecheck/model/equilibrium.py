@@ -113,7 +113,14 @@ def compartment_result(comp: Compartment, res: LawResult, w: np.ndarray, rot: np
     face_area, face_depth = _face_fields(res.surface)
     return CompartmentResult(force, res.max_pressure, mean, area, res.max_depth,
                              float(np.linalg.norm(torque)), torque, faces,
-                             face_pressure, points, mesh.faces, face_area, face_depth)
+                             face_pressure, points, mesh.faces, face_area, face_depth,
+                             w[:3].copy(), axial_force(w[:3], rot))
+
+
+def axial_force(force: np.ndarray, rot: np.ndarray) -> float:
+    """Component of a contact force on the tibia (3,) N along the tibia's long axis (its z
+    axis, world R e_z), + compressive."""
+    return float(-force @ rot[:, 2])
 
 
 def _face_fields(surface) -> tuple[np.ndarray | None, np.ndarray | None]:

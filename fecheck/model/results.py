@@ -33,6 +33,10 @@ class CompartmentResult:
         Σ face_pressure_MPa · face_area_mm2 is the compartment's normal force (None for
         point contacts)
     face_depth_mm : (n_slave_faces,) mean depth over that area, mm (None for point contacts)
+    force_vector_N : (3,) the compartment's contact force on the tibia, world axes;
+        `force_N` is its magnitude and `axial_force_N` its component along the tibia's
+        long axis (the tibial z axis at equilibrium; + compressive, i.e. pressing the
+        tibia down its axis)
     """
 
     force_N: float
@@ -48,10 +52,16 @@ class CompartmentResult:
     slave_faces: np.ndarray | None = None
     face_area_mm2: np.ndarray | None = None
     face_depth_mm: np.ndarray | None = None
+    force_vector_N: np.ndarray | None = None
+    axial_force_N: float = math.nan
 
     def as_dict(self) -> dict[str, Any]:
         """JSON-ready metrics (no per-face arrays)."""
-        return {"force_N": _num(self.force_N), "max_pressure_MPa": _num(self.max_pressure_MPa),
+        vector = (None if self.force_vector_N is None
+                  else [_num(v) for v in self.force_vector_N])
+        return {"force_N": _num(self.force_N), "force_vector_N": vector,
+                "axial_force_N": _num(self.axial_force_N),
+                "max_pressure_MPa": _num(self.max_pressure_MPa),
                 "mean_pressure_MPa": _num(self.mean_pressure_MPa),
                 "area_mm2": _num(self.area_mm2), "max_depth_mm": _num(self.max_depth_mm),
                 "torque_Nmm": _num(self.torque_Nmm),

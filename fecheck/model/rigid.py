@@ -16,6 +16,7 @@ from fecheck.model.assembly import (
     pose_dict,
     start_pose,
 )
+from fecheck.model.equilibrium import axial_force
 from fecheck.model.plausibility import before_solve
 from fecheck.model.results import CompartmentResult, LigamentResult, RunResult
 from fecheck.scene import Scene
@@ -46,7 +47,9 @@ def run_rigid(scene: Scene, warm_start: np.ndarray | None = None) -> RunResult:
         f_tibia = -sol.contact_force_N[c] * sol.contact_normal[c]
         torque = np.cross(sol.contact_point[c] - t, f_tibia)
         comps[c] = CompartmentResult(sol.contact_force_N[c], nan, nan, nan, nan,
-                                     float(np.linalg.norm(torque)), torque)
+                                     float(np.linalg.norm(torque)), torque,
+                                     force_vector_N=f_tibia,
+                                     axial_force_N=axial_force(f_tibia, rot))
     ligs = {k: LigamentResult(v, sol.ligament_length_mm[k])
             for k, v in sol.ligament_force_N.items()}
     elapsed = time.perf_counter() - t0

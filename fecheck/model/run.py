@@ -15,8 +15,8 @@ from fecheck.errors import FecheckError
 from fecheck.model.plausibility import after_solve
 from fecheck.model.results import RunResult
 from fecheck.model.rigid import run_rigid
-from fecheck.model.scanned import run_scanned
-from fecheck.model.sphere_plane import run_contact_model
+from fecheck.model.scanned import bundle_springs, run_scanned
+from fecheck.model.sphere_plane import ligament_parts, run_contact_model
 from fecheck.scene import Scene
 
 MODEL_RUNNERS: dict[str, Callable[..., RunResult]] = {
@@ -46,3 +46,11 @@ def run_scene(scene: Scene, warm_start: np.ndarray | None = None) -> RunResult:
     result = runner(scene, warm_start)
     after_solve(scene, result)
     return result
+
+
+def ligament_springs(scene: Scene) -> list[Callable]:
+    """The ligament springs (wrench parts of the pose) the scene's run adds to contact,
+    load and gravity: the scanned knee's bundles or the three spring ligaments."""
+    if scene["scanned.ligaments"] != "none":
+        return bundle_springs(scene)[1]
+    return ligament_parts(scene)[0] if scene["model.kind"] == "sphere-plane" else []

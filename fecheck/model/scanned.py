@@ -86,7 +86,7 @@ def _hemisphere(scene: Scene, compartment: str):
                          method=scene["mesh.method"])
 
 
-def _masters(scene: Scene) -> dict:
+def femoral_masters(scene: Scene) -> dict:
     kind = scene["model.kind"]
     if kind == "femur-tibia":
         femur = femoral_master(scene)
@@ -133,7 +133,7 @@ def build_compartments(scene: Scene) -> list[Compartment]:
         return sphere_plane.build_compartments(scene)
     if kind not in ("sphere-tibia", "femur-tibia"):
         raise FecheckError(f"model.kind {kind!r} is not a scanned-knee model")
-    slaves, masters = tibial_slaves(scene), _masters(scene)
+    slaves, masters = tibial_slaves(scene), femoral_masters(scene)
     opts = {"method": scene["contact.detection"], "area": scene["contact.area"],
             "margin_mm": scene["contact.margin_mm"]}
     out = []

@@ -99,6 +99,23 @@ def build_compartments(scene: Scene) -> list[Compartment]:
     return out
 
 
+def ligament_parts(scene: Scene) -> tuple[list, list]:
+    """The three ligaments as springs (wrench parts) or rods (constraints), as the scene's
+    ``ligaments.model`` asks; ([], []) without ligaments."""
+    knee = scene.knee
+    names = ligament_names(scene)
+    if scene["ligaments.model"] == "spring":
+        transition_strain_check(scene["ligaments.transition_strain"])
+        return [spring_wrench(knee.femur_attachment[n], knee.tibia_attachment[n],
+                              knee.ligament_length_mm(n), scene[f"ligaments.{n}.stiffness_N"],
+                              scene[f"ligaments.{n}.reference_strain"],
+                              scene["ligaments.transition_strain"]) for n in names], []
+    if scene["ligaments.model"] == "rod":
+        return [], [rod_constraint(knee.femur_attachment[n], knee.tibia_attachment[n],
+                                   knee.ligament_length_mm(n)) for n in names]
+    return [], []
+
+
 def run_contact_model(scene: Scene, warm_start: np.ndarray | None = None) -> RunResult:
     """Sphere-plane models: Newton statics with contact laws (thesis §5.2.1)."""
     t_start = time.perf_counter()
@@ -107,18 +124,7 @@ def run_contact_model(scene: Scene, warm_start: np.ndarray | None = None) -> Run
     warm_up()                        # the compiled law kernel loads in the build, not the solve
     t_built = time.perf_counter()
     lig_names = ligament_names(scene)
-    springs = []
-    constraints = []
-    if scene["ligaments.model"] == "spring":
-        transition_strain_check(scene["ligaments.transition_strain"])
-        springs = [spring_wrench(knee.femur_attachment[n], knee.tibia_attachment[n],
-                                 knee.ligament_length_mm(n),
-                                 scene[f"ligaments.{n}.stiffness_N"],
-                                 scene[f"ligaments.{n}.reference_strain"],
-                                 scene["ligaments.transition_strain"]) for n in lig_names]
-    elif scene["ligaments.model"] == "rod":
-        constraints = [rod_constraint(knee.femur_attachment[n], knee.tibia_attachment[n],
-                                      knee.ligament_length_mm(n)) for n in lig_names]
+    springs, constraints = ligament_parts(scene)
     if scene["constraints.equal_forces"]:
         constraints.append(equal_force_constraint)
     eq = solve_equilibrium(scene, comps, springs, constraints, warm_start)

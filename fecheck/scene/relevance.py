@@ -177,6 +177,9 @@ def _no_scanned_data(scene: SceneValues) -> str | None:
 
 
 def _no_axisymmetric(scene: SceneValues) -> str | None:
+    if scene["model.kind"] != "sphere-plane":
+        return (f"model.kind = '{scene['model.kind']}': the axisymmetric FE reference of "
+                "`fecheck fe` runs only for condyle spheres on flat (transverse) layers")
     if scene["plateau.kind"] != "transverse":
         return (f"plateau.kind = '{scene['plateau.kind']}': the axisymmetric FE reference of "
                 f"`fecheck fe` runs only for flat (transverse) layers")

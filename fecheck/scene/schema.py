@@ -364,19 +364,24 @@ SCHEMA: dict[str, Key] = {
         "'bundles' adds the scanned knee's 55 ligament bundles (Lenhart et al. 2015, "
         "Blankevoort 1991 springs) to any contact model; ligaments.model must then be "
         "'none'. 'none' = no bundles.", choices=("none", "bundles")),
-    "fe.size_mm": Key("float", 1.5, _FE + "element size of the 3D FE cartilage layer under "
-                      "the contact, mm.", low=0.05, high=10.0),
-    "fe.far_size_mm": Key("float", 5.0, _FE + "element size of the 3D FE cartilage layer "
-                          "away from the contact, mm.", low=0.1, high=20.0),
-    "fe.half_extent_mm": Key("float", 30.0, _FE + "half-extent of the FE cartilage layer, "
-                             "mm: the radius of the ellipse footprint, half the side of the "
-                             "rectangle, the radius of the axisymmetric layer.", low=1.0,
-                             high=200.0),
-    "fe.footprint": Key("str", "ellipse", _FE + "outline of the 3D FE cartilage layer.",
-                        choices=("ellipse", "rectangle")),
-    "fe.gap": Key("str", "reference", _FE + "the contact gap is vertical in the "
-                  "'reference' or the 'deformed' configuration.",
-                  choices=("reference", "deformed")),
+    "fe.mode": Key("str", "joint", _FE + "'joint' = the tibia's free DOFs are FE unknowns "
+                   "under the scene's load, gravity and ligament springs, so the FE finds its "
+                   "own medial/lateral split and pose; 'compartment' = each compartment is "
+                   "pushed along the EF compartment force's line with its magnitude, from the "
+                   "EF pose.", choices=("joint", "compartment")),
+    "fe.layers": Key("int", 2, _FE + "levels of quadratic tetrahedra through the cartilage "
+                     "thickness (the EF run's tibial surface extruded along its normals).",
+                     low=1, high=32),
+    "fe.grading": Key("float", 1.6, _FE + "each level of elements this many times thicker "
+                      "than the one above it (1 = even levels; > 1 thin levels under the "
+                      "contact).", low=1.0, high=4.0),
+    "fe.refine": Key("int", 0, _FE + "times every surface triangle is split in four before "
+                     "extrusion (0 = the EF run's own faces; each split quarters the element "
+                     "size on the surface, mesh convergence studies).", low=0, high=4),
+    "fe.candidate_gap_mm": Key("float", 0.5, _FE + "surface vertices within this gap of the "
+                               "femoral surface (plus the EF depth) at the EF pose may touch; "
+                               "widened automatically if a vertex outside penetrates, mm.",
+                               low=0.01, high=20.0),
     "fe.solver": Key("str", "cholmod", _FE + "sparse factorization, 'cholmod' "
                      "(scikit-sparse, about 3.5 × faster) or 'superlu' (SciPy).",
                      choices=("cholmod", "superlu")),

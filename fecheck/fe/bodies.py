@@ -1,0 +1,125 @@
+"""What the FE meshes for a scene: per compartment the tibial articular surface the EF run
+used, its thickness and the femoral surface that presses it.
+
+- Tibial surface (tibia frame, outward normals): the meshed plateau disc of a
+  sphere-plane scene (transverse, inclined or polynomial, the same mesh the EF run
+  evaluates), or the scanned tibial cartilage sheet of a sphere-tibia or femur-tibia
+  scene (decimated as the EF run decimates it).
+- Thickness (mm, one value per surface vertex): ``contact.thickness_mm`` everywhere, or
+  with ``scanned.thickness = "bone-distance"`` the EF run's per-face foundation
+  thickness (tibial plus femoral cartilage in series) averaged onto the vertices.
+  The FE then models that total thickness as one deformable layer on the tibia under a
+  rigid femoral surface — the EF's own assumption; two deformable layers in contact are
+  not modelled, and every report says so.
+- Femoral surface (world = femur frame, fixed): the analytic condyle sphere, or the
+  scanned femoral sheet (or the closed hemisphere mesh) as a rigid mesh indenter.
+
+Units: mm.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from fecheck.contact.analytic import Sphere
+from fecheck.errors import FecheckError
+from fecheck.fe.indenter import MeshIndenter, SphereIndenter
+from fecheck.scene import Scene
+from fecheck.scene.constants import COMPARTMENTS
+from fecheck.scene.relevance import SCANNED_KINDS
+from geometry.mesh import TriMesh
+
+PLATEAU_NAMES = {"transverse": "plane", "inclined": "inclined", "polynomial": "polynomial"}
+"""`fe_geometry.tibial_surface` of each plateau kind."""
+
+
+@dataclass(frozen=True, eq=False)
+class FEBody:
+    """One compartment's geometry for the FE.
+
+    surface : tibial articular surface, tibia frame, outward normals (mm)
+    thickness_mm : (n_points,) layer thickness along the surface normal at each vertex
+    indenter : the rigid femoral surface, world frame
+    tibial_surface, femoral_surface : what was meshed ("plane", "inclined",
+        "polynomial", "mesh:<name>"; "sphere R <r> mm", "mesh:<name>")
+    thickness_source : "uniform" or "bone-distance"
+    """
+
+    name: str
+    surface: TriMesh
+    thickness_mm: np.ndarray
+    indenter: SphereIndenter | MeshIndenter
+    tibial_surface: str
+    femoral_surface: str
+    thickness_source: str
+
+
+def vertex_values(surface: TriMesh, face_values: np.ndarray) -> np.ndarray:
+    """Face values averaged onto the vertices, weighted by the adjacent face areas."""
+    w = surface.face_areas
+    total = np.zeros(surface.n_points)
+    weight = np.zeros(surface.n_points)
+    np.add.at(total, surface.faces.ravel(), np.repeat(w * face_values, 3))
+    np.add.at(weight, surface.faces.ravel(), np.repeat(w, 3))
+    return total / np.where(weight > 0, weight, 1.0)
+
+
+def _indenter(master, label: str) -> tuple[SphereIndenter | MeshIndenter, str]:
+    if isinstance(master, Sphere):
+        radius = float(master.radius)
+        return (SphereIndenter(np.asarray(master.center, dtype=float), radius),
+                f"sphere R {radius:.2f} mm")
+    return MeshIndenter(master), f"mesh:{label}"
+
+
+def _sphere_plane_bodies(scene: Scene) -> list[FEBody]:
+    from fecheck.model.meshing import plateau_mesh
+
+    knee = scene.knee
+    h = float(scene["contact.thickness_mm"])
+    out = []
+    for c in COMPARTMENTS:
+        surface = plateau_mesh(scene, knee, c)
+        indenter, femoral = _indenter(Sphere(knee.condyle_center[c], knee.radius_mm(c)), "")
+        out.append(FEBody(c, surface, np.full(surface.n_points, h), indenter,
+                          PLATEAU_NAMES[scene["plateau.kind"]], femoral, "uniform"))
+    return out
+
+
+def _scanned_bodies(scene: Scene) -> list[FEBody]:
+    from fecheck.model.scanned import femoral_masters, slave_thickness, tibial_slaves
+
+    slaves, masters = tibial_slaves(scene), femoral_masters(scene)
+    source = scene["scanned.thickness"]
+    femur_name = ("femoral cartilage" if scene["model.kind"] == "femur-tibia"
+                  else "condyle hemisphere")
+    out = []
+    for c in COMPARTMENTS:
+        surface = slaves[c]
+        if source == "uniform":
+            h = np.full(surface.n_points, float(scene["contact.thickness_mm"]))
+        else:
+            h = vertex_values(surface, slave_thickness(scene, surface))
+        indenter, femoral = _indenter(masters[c], femur_name)
+        out.append(FEBody(c, surface, h, indenter, f"mesh:{c} tibial cartilage", femoral,
+                          source))
+    return out
+
+
+def scene_bodies(scene: Scene) -> list[FEBody]:
+    """The FE geometry of every compartment of `scene` (module docstring).
+
+    Raises
+    ------
+    FecheckError
+        For a scene with no cartilage to model (``model.kind = "rigid"``).
+    """
+    kind = scene["model.kind"]
+    if kind == "rigid":
+        raise FecheckError("model.kind = 'rigid' has no cartilage: nothing to cross-check "
+                           "with the FE")
+    if kind in SCANNED_KINDS:
+        return _scanned_bodies(scene)
+    return _sphere_plane_bodies(scene)

@@ -1,0 +1,209 @@
+"""Cartilage layers pressed by rigid femoral surfaces: the layers of a scene's bodies, the
+rigid-body unknowns that drive them, and the load-controlled solve.
+
+`build_layers` extrudes each body's tibial surface (split `fe.refine` times) into a
+bonded layer, along normals smoothed just enough that no prism inverts. A `Drive` is
+the tibia's motion: the scene's free DOFs under its load, gravity and ligament springs
+(`joint_drive`), or one compartment pushed along a given force (`push_drive`).
+`solve_pressed` condenses the layers onto the surface vertices near the femoral surface,
+solves, and widens that set while any vertex outside it penetrates.
+
+Units: mm, N, MPa; surfaces in the tibia frame, femoral surfaces in the world.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass
+
+import numpy as np
+
+from fecheck.errors import FecheckError
+from fecheck.fe.bodies import FEBody
+from fecheck.fe.joint import ContactLayer, JointContact, JointSolution
+from fecheck.fe.settings import FESettings
+from fecheck.fe.solid import LayerSolid, layer_solid
+from fecheck.model.assembly import applied_load, free_indices
+from fecheck.scene import Scene
+from fecheck.statics.newton import geometric_tangent, pose, twist_basis
+from geometry.extrude import extrusion_directions
+from geometry.mesh import TriMesh
+from geometry.subdivide import subdivide
+
+PENETRATION_TOL_MM = 1e-6
+"""Largest overlap accepted at any surface vertex after the solve, mm."""
+MAX_CANDIDATE_ROUNDS = 3
+"""Times the contact candidates are widened when a vertex outside them penetrates."""
+
+
+@dataclass(frozen=True, eq=False)
+class FELayer:
+    """One compartment's FE layer: its body, the FE surface (the body's surface split
+    `refine` times; `parent` maps each FE face to its EF face) and the assembled solid."""
+
+    body: FEBody
+    surface: TriMesh
+    parent: np.ndarray
+    solid: LayerSolid
+    smoothing_rounds: int
+
+
+def _refined(body: FEBody, times: int) -> tuple[TriMesh, np.ndarray, np.ndarray]:
+    """The body's surface split `times` times, its parent faces and the thickness
+    interpolated linearly onto the new vertices."""
+    surface, parent = subdivide(body.surface, times)
+    h = np.empty(surface.n_points)
+    h[:body.surface.n_points] = body.thickness_mm
+    if times:
+        corners = body.surface.points[body.surface.faces[parent]]          # (m, 3, 3)
+        bary = _barycentric(corners, surface.points[surface.faces])       # (m, 3, 3)
+        values = np.einsum("mkj,mj->mk", bary, body.thickness_mm[body.surface.faces[parent]])
+        h[surface.faces.ravel()] = values.ravel()
+        h[:body.surface.n_points] = body.thickness_mm
+    return surface, parent, h
+
+
+def _barycentric(tri: np.ndarray, pts: np.ndarray) -> np.ndarray:
+    """Barycentric coordinates (m, k, 3) of points pts (m, k, 3) in triangles (m, 3, 3)."""
+    a, b, c = tri[:, 0], tri[:, 1], tri[:, 2]
+    v0, v1 = b - a, c - a
+    d00 = np.einsum("ij,ij->i", v0, v0)
+    d01 = np.einsum("ij,ij->i", v0, v1)
+    d11 = np.einsum("ij,ij->i", v1, v1)
+    den = d00 * d11 - d01 * d01
+    v2 = pts - a[:, None]
+    d20 = np.einsum("mkj,mj->mk", v2, v0)
+    d21 = np.einsum("mkj,mj->mk", v2, v1)
+    v = (d11[:, None] * d20 - d01[:, None] * d21) / den[:, None]
+    w = (d00[:, None] * d21 - d01[:, None] * d20) / den[:, None]
+    return np.stack([1.0 - v - w, v, w], axis=2)
+
+
+def build_layers(bodies: Sequence[FEBody], youngs_MPa: float, poisson: float,
+                 settings: FESettings, log: Callable[[str], None]) -> list[FELayer]:
+    """Extrude and assemble every compartment's layer (the costly setup before contact)."""
+    out = []
+    for body in bodies:
+        surface, parent, h = _refined(body, settings.refine)
+        directions, rounds = extrusion_directions(surface, h, layers=settings.layers,
+                                                  ratio=settings.grading)
+        solid = layer_solid(surface, h, youngs_MPa, poisson, layers=settings.layers,
+                            ratio=settings.grading, directions=directions)
+        log(f"{body.name}: layer of {len(solid.mesh.tets)} quadratic tetrahedra, "
+            f"{solid.n_dofs} dofs, thickness {h.min():.2f}-{h.max():.2f} mm"
+            + (f" (extruded along normals smoothed {rounds} times)" if rounds else ""))
+        out.append(FELayer(body, surface, parent, solid, rounds))
+    return out
+
+
+@dataclass(frozen=True)
+class Drive:
+    """The FE's rigid-body unknowns: pose, twist basis, generalised load and its
+    stiffness as functions of the unknowns x, and the start x0."""
+
+    pose: Callable[[np.ndarray], tuple[np.ndarray, np.ndarray]]
+    basis: Callable[[np.ndarray], np.ndarray]
+    load: Callable[[np.ndarray], np.ndarray]
+    stiffness: Callable[[np.ndarray], np.ndarray] | None
+    x0: np.ndarray
+    full: Callable[[np.ndarray], np.ndarray]
+
+
+def joint_drive(scene: Scene, q_ef: np.ndarray, springs: Sequence[Callable]) -> Drive:
+    """The scene's free DOFs under its load, gravity and ligament springs."""
+    free = list(free_indices(scene))
+    theta = math.radians(scene["dofs.flexion_deg"])
+    parts = [applied_load(scene), *springs]
+
+    def full(x: np.ndarray) -> np.ndarray:
+        q = np.array(q_ef, dtype=float)
+        q[free] = x
+        return q
+
+    def wrench(x: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        q = full(x)
+        rot, t = pose(q, theta)
+        w, dw = np.zeros(6), np.zeros((6, 6))
+        for part in parts:
+            wp, dp = part(rot, t)
+            w += wp
+            dw += dp
+        return q, w, dw
+
+    def load(x: np.ndarray) -> np.ndarray:
+        q, w, _ = wrench(x)
+        return (twist_basis(q, theta).T @ w)[free]
+
+    def stiffness(x: np.ndarray) -> np.ndarray:
+        q, w, dw = wrench(x)
+        b = twist_basis(q, theta)
+        return (b.T @ dw @ b + geometric_tangent(q, w, theta))[np.ix_(free, free)]
+
+    return Drive(lambda x: pose(full(x), theta),
+                  lambda x: twist_basis(full(x), theta)[:, free], load, stiffness,
+                  np.asarray(q_ef, dtype=float)[free], full)
+
+
+def push_drive(rot: np.ndarray, t: np.ndarray, force_on_tibia: np.ndarray) -> Drive:
+    """One compartment pushed from pose (R, t) along the line of the EF force on the
+    tibia, with its magnitude: the unknown is the translation s (mm) into the femur."""
+    magnitude = float(np.linalg.norm(force_on_tibia))
+    u = -np.asarray(force_on_tibia, dtype=float) / magnitude
+    twist = np.concatenate([u, np.zeros(3)])[:, None]
+    return Drive(lambda x: (rot, t + x[0] * u), lambda x: twist,
+                  lambda x: np.array([magnitude]), None, np.zeros(1),
+                  lambda x: np.asarray(x, dtype=float))
+
+
+def rigid_gaps(layer: FELayer, rot: np.ndarray, t: np.ndarray, idx: np.ndarray | None = None
+          ) -> np.ndarray:
+    """Rigid gaps (mm) along the normals of the layer's surface vertices (all, or `idx`)
+    at tibia pose (R, t)."""
+    pts, nrm = layer.surface.points, layer.solid.normals
+    if idx is not None:
+        pts, nrm = pts[idx], nrm[idx]
+    return layer.body.indenter.gap(pts @ rot.T + t, nrm @ rot.T).gap_mm
+
+
+def solve_pressed(layers: Sequence[FELayer], drive: Drive, margin_mm: float,
+                           settings: FESettings, log: Callable[[str], None]
+                           ) -> tuple[JointSolution, float, list[np.ndarray], float]:
+    """Condense onto the vertices within `margin_mm` of the femoral surface at the start
+    pose, solve, and widen the candidates while a vertex outside them penetrates.
+
+    Returns the solution, the condensation time (s), every layer's final gaps at all its
+    surface vertices (mm) and the worst penetration found (mm, ≥ 0)."""
+    rot, t = drive.pose(drive.x0)
+    cands = [np.flatnonzero(rigid_gaps(lay, rot, t) < margin_mm) for lay in layers]
+    condense = 0.0
+    for round_ in range(MAX_CANDIDATE_ROUNDS + 1):
+        if any(len(c) == 0 for c in cands):
+            empty = [lay.body.name for lay, c in zip(layers, cands, strict=True) if not len(c)]
+            raise FecheckError(f"no {' or '.join(empty)} surface vertex lies within "
+                               f"{margin_mm:.2f} mm of the femoral surface at the EF pose: "
+                               "nothing for the FE contact to act on")
+        joint = JointContact([ContactLayer(lay.body.name, lay.solid, lay.body.indenter, c)
+                              for lay, c in zip(layers, cands, strict=True)],
+                             solver=settings.solver, log=log)
+        condense += joint.seconds
+        sol = joint.solve(drive.pose, drive.basis, drive.load, drive.x0,
+                          stiffness=drive.stiffness)
+        rot, t = drive.pose(sol.q)
+        gaps = [rigid_gaps(lay, rot, t) - lay.solid.normal_rows @ lc.u
+                for lay, lc in zip(layers, sol.layers, strict=True)]
+        worst = max(float(max(0.0, -g.min())) for g in gaps)
+        if worst <= PENETRATION_TOL_MM:
+            return sol, condense, gaps, worst
+        grown = [np.union1d(c, np.flatnonzero(g < margin_mm))
+                 for c, g in zip(cands, gaps, strict=True)]
+        if round_ == MAX_CANDIDATE_ROUNDS or all(
+                len(a) == len(b) for a, b in zip(grown, cands, strict=True)):
+            break
+        log(f"a vertex outside the contact candidates penetrates by {worst:.2e} mm: "
+            "widening the candidates")
+        cands = grown
+    raise FecheckError(f"the FE contact leaves a penetration of {worst:.2e} mm outside its "
+                       "candidate vertices; raise fe.candidate_gap_mm")
+
+

@@ -1,0 +1,43 @@
+"""The FE options of a scene's ``[fe]`` table."""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from typing import Any
+
+from fecheck.errors import FecheckError
+from fecheck.scene import Scene
+
+MODES = ("joint", "compartment")
+
+
+@dataclass(frozen=True)
+class FESettings:
+    """FE options of a scene's ``[fe]`` table."""
+
+    mode: str = "joint"
+    layers: int = 2
+    grading: float = 1.6
+    refine: int = 0
+    candidate_gap_mm: float = 0.5
+    solver: str = "cholmod"
+    axisym_size_mm: float = 0.1
+
+    @classmethod
+    def from_scene(cls, scene: Scene, **overrides: Any) -> FESettings:
+        values = {k: scene[f"fe.{k}"] for k in cls.__dataclass_fields__}
+        values.update({k: v for k, v in overrides.items() if v is not None})
+        settings = cls(**values)
+        settings.check()
+        return settings
+
+    def check(self) -> None:
+        if self.mode not in MODES:
+            raise FecheckError(f"fe.mode must be one of {', '.join(MODES)}, got {self.mode!r}")
+        if not 1 <= self.layers <= 32:
+            raise FecheckError(f"fe.layers must be 1 to 32 levels, got {self.layers}")
+        if not 0 <= self.refine <= 4:
+            raise FecheckError(f"fe.refine must be 0 to 4 subdivisions, got {self.refine}")
+        if not (self.candidate_gap_mm > 0 and math.isfinite(self.candidate_gap_mm)):
+            raise FecheckError("fe.candidate_gap_mm must be a positive number of mm")
