@@ -1,4 +1,5 @@
-"""Pressure maps, VTK surfaces, per-face CSV and output paths of `fecheck run` / `fe`.
+"""Pressure maps, VTK surfaces, per-face CSV and output paths of `fecheck run` (and the
+output paths of `fecheck fe`; its maps and VTK surfaces: test_fe_maps.py).
 
 Maps are checked on their pixels: synthetic results (pressure only where we put it) are
 rendered off-screen and the picture is read back.
@@ -7,7 +8,6 @@ rendered off-screen and the picture is read back.
 from __future__ import annotations
 
 import csv
-import dataclasses
 import json
 from pathlib import Path
 
@@ -15,10 +15,8 @@ import numpy as np
 import pytest
 
 from fecheck.cli import main
-from fecheck.fe.crosscheck import CompartmentCheck, CrossCheck, FESettings
-from fecheck.fe.results import FEContactResult
 from fecheck.model.results import CompartmentResult, RunResult
-from fecheck.reference.closed_forms import ContactMetrics, column_stiffness
+from fecheck.reference.closed_forms import column_stiffness
 
 SCENES = Path(__file__).resolve().parents[1] / "validation" / "scenes"
 AXES_CORNER = (0.14, 0.2)          # the orientation-axes viewport of a map, fractions
@@ -263,70 +261,3 @@ def test_the_rigid_model_writes_no_pressure_map(tmp_path, capsys):
     out = capsys.readouterr().out
     assert "rigid model has no pressure map" in out and "--plot, --vtk" in out
     assert not (tmp_path / "p").exists() and not (tmp_path / "v").exists()
-
-
-# ---------------------------------------------------------------------- fecheck fe
-def fe_check(name: str, load: float, resolved: bool = True) -> CompartmentCheck:
-    """A synthetic FE answer on a flat 8 mm square (a Hertz-like cap of radius 5 mm);
-    `resolved=False`: the load on one node, no area (mean pressure NaN)."""
-    pts, faces = grid(-8, 8, -8, 8, n=16)
-    r2 = np.sum(pts[:, :2] ** 2, axis=1)
-    p = 4.0 * np.sqrt(np.clip(1 - r2 / 25.0, 0, None)) if resolved else np.zeros(len(pts))
-    area, mean = (78.5, load / 78.5) if resolved else (0.0, float("nan"))
-    metrics = ContactMetrics(float(p.max()), mean, area, 0.9, load)
-    fe = FEContactResult(metrics, pts, p, r2 / 50.0, p, np.zeros(len(pts)), p > 0, faces,
-                         100, 50, "tet P2", 1.5, 3, {}, 0.0, area)
-    ef = ContactMetrics(4.3, 2.2, 150.0, 1.0, load)
-    return CompartmentCheck(name, load, 25.5, fe, None, ef, ef, None, {"fe_3d": 1.0})
-
-
-@pytest.fixture
-def synthetic_fe(monkeypatch):
-    checks = {"medial": fe_check("medial", 324.2),
-              "lateral": fe_check("lateral", 456.2, resolved=False)}
-    timing = {"ef_equilibrium": 1.0,
-              **{n: {"fe_3d": 1.0, "fe_3d_over_ef_equilibrium": 1.0} for n in checks}}
-    cross = CrossCheck(checks, FESettings(), {"E_MPa": 20.0, "nu": 0.3, "thickness_mm": 6.0,
-                                              "ef_k_N_per_mm3": 1.0}, timing)
-    monkeypatch.setattr("fecheck.fe.crosscheck.cross_check", lambda scene, size_mm: cross)
-    return cross
-
-
-def test_fe_json_dash_vtk_plot_and_a_table_without_bare_nan(synthetic_fe, tmp_path, capsys):
-    import meshio
-
-    assert main(["fe", "--json", "-", "--vtk", str(tmp_path / "v"),
-                 "--plot", str(tmp_path / "p")]) == 0
-    captured = capsys.readouterr()
-    assert json.loads(captured.out)["compartments"]["medial"]["load_N"] == 324.2
-    table = captured.err
-    assert "nan" not in table.lower().replace("n/a", "")
-    assert "n/a(" in table and "resolved no contact area" in table
-    header = next(line for line in table.splitlines() if "p_max" in line)
-    assert header.split() == ["p_max", "p_mean", "area", "depth"] * 2
-    mesh = meshio.read(tmp_path / "v" / "medial.vtu")
-    assert {"pressure_MPa", "ef_pressure_MPa", "contact_area_mm2", "depth_mm"} \
-        <= set(mesh.cell_data)
-    assert {"pressure_MPa", "gap_mm", "active"} <= set(mesh.point_data)
-    ef_area = mesh.cell_data["ef_contact_area_mm2"][0].sum()     # EF overlap 1 - r²/50 > 0
-    assert ef_area == pytest.approx(np.pi * 50.0, rel=0.02)
-    assert mesh.points[:, 0].mean() < 0                    # medial at its contact point
-    assert (tmp_path / "p" / "fe_pressure_map.png").read_bytes()[:4] == b"\x89PNG"
-
-
-def test_fe_table_columns_fit_any_value(synthetic_fe):
-    from fecheck.cli.fe import comparison_table
-
-    big = ContactMetrics(27921.835, 25224.272, 0.0128, 0.00015, 324.0)
-    medial = synthetic_fe.compartments["medial"]
-    synthetic_fe.compartments["medial"] = dataclasses.replace(medial, ef=big)
-    lines = comparison_table(synthetic_fe).splitlines()
-    row = next(line for line in lines if line.startswith("EF (closed form)"))
-    assert row.split()[3:7] == ["27921.835", "25224.272", "0.0128", "0.00015"]
-    table = lines[1:1 + 1 + 6]                        # column heads and the six rows
-    assert len({len(line) for line in table}) == 1, "every column right-aligned"
-    ends = [i for i, ch in enumerate(table[0]) if ch != " " and
-            (i + 1 == len(table[0]) or table[0][i + 1] == " ")]
-    for line in table[1:]:
-        assert all(line[i] != " " and (i + 1 == len(line) or line[i + 1] == " ")
-                   for i in ends), line

@@ -16,9 +16,10 @@ The per-face area and depth come from the run's `CompartmentResult` fields
 the contact edge, ~0.5 % on Σ p·A for the baseline — and ``depth_mm`` is left out; the
 writers say so in their notes.
 
-FE cross-check surfaces (`write_fe_vtk`): the 3D FE top triangles near the contact, moved
-to the knee's contact point, with point data of the FE fields and cell data of their face
-means (see `fe_surface`).
+FE cross-check (`write_fe_vtk`): one ``<compartment>.vtu`` per compartment, the EF run's
+tibial faces in the tibia frame (mm) with the cell data ``fe_pressure_MPa`` (the FE
+pressure averaged onto each face), ``ef_pressure_MPa`` and ``difference_MPa`` (FE − EF;
+both only when the EF pressure lives on these faces), MPa.
 """
 
 from __future__ import annotations
@@ -29,13 +30,15 @@ import os
 import tempfile
 from collections.abc import Mapping
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import numpy as np
 
 from fecheck.errors import FecheckError
-from fecheck.fe.crosscheck import CompartmentCheck, CrossCheck
-from fecheck.io.fe_plots import ef_depth, ef_pressure, placed_points
 from fecheck.model.results import CompartmentResult, RunResult
+
+if TYPE_CHECKING:
+    from fecheck.fe.crosscheck import CompartmentCheck, CrossCheck
 
 AREA_ESTIMATE_NOTE = ("contact_area_mm2 is the whole area of each face under pressure (this "
                       "result carries no per-face in-contact area), so Σ p·A overestimates "
@@ -148,67 +151,23 @@ def faces_csv_text(result: RunResult) -> str:
 
 
 # ---------------------------------------------------------------------- FE cross-check
-def _face_mean(faces: np.ndarray, values: np.ndarray) -> np.ndarray:
-    return np.asarray(values, dtype=float)[faces].mean(axis=1)
+def fe_cell_data(comp: CompartmentCheck) -> dict[str, np.ndarray]:
+    """Cell data of one compartment's EF faces: fe_pressure_MPa (the FE pressure averaged
+    onto each face) and, when the EF pressure lives on these faces, ef_pressure_MPa and
+    difference_MPa (FE − EF), MPa."""
+    fe = np.asarray(comp.fe_face_pressure_MPa, dtype=float)
+    if comp.ef_face_pressure_MPa is None:
+        return {"fe_pressure_MPa": fe}
+    ef = np.asarray(comp.ef_face_pressure_MPa, dtype=float)
+    return {"fe_pressure_MPa": fe, "ef_pressure_MPa": ef, "difference_MPa": fe - ef}
 
 
-def _positive_area(points: np.ndarray, faces: np.ndarray, values: np.ndarray) -> np.ndarray:
-    """(k,) area of each triangle where the linear interpolant of the vertex `values` is
-    positive, mm² (the triangle clipped at the zero line)."""
-    q = np.asarray(values, dtype=float)[faces]
-    area = triangle_areas(points, faces)
-    pos = q > 0
-    npos = pos.sum(axis=1)
-    out = np.where(npos == 3, area, 0.0)
-    for i in range(3):
-        j, k = (i + 1) % 3, (i + 2) % 3
-        with np.errstate(divide="ignore", invalid="ignore"):
-            corner = q[:, i] ** 2 / ((q[:, i] - q[:, j]) * (q[:, i] - q[:, k]))
-        out = np.where((npos == 1) & pos[:, i], area * corner, out)
-        out = np.where((npos == 2) & ~pos[:, i], area * (1.0 - corner), out)
-    return out
-
-
-def fe_surface(check: CompartmentCheck, material: Mapping[str, float],
-               contact_point: np.ndarray | None
-               ) -> tuple[np.ndarray, np.ndarray, dict, dict]:
-    """Points (mm), triangles, cell data and point data of one FE top surface.
-
-    Point data: the FE fields pressure_MPa, nodal_force_N, gap0_mm (initial gap),
-    gap_mm (after loading), active (1 in contact), and ef_pressure_MPa, ef_depth_mm (the
-    EF law's overlap and pressure at the same points under the same load).
-    Cell data: pressure_MPa and ef_pressure_MPa (means of the vertex values),
-    contact_area_mm2 (FE: face area × the fraction of its vertices in contact, whose sum
-    is the FE's tributary contact area), ef_contact_area_mm2 (the face clipped at zero EF
-    overlap) and depth_mm (mean EF overlap of the vertices; FE has no depth field).
-    """
-    fe = check.fe
-    faces = np.asarray(fe.faces)
-    pts = placed_points(check, contact_point)
-    active = np.asarray(fe.active, dtype=float)
-    ef_p = ef_pressure(check, material["E_MPa"], material["nu"], material["thickness_mm"])
-    ef_d = ef_depth(check)
-    point_data = {"pressure_MPa": fe.pressure_MPa, "nodal_force_N": fe.nodal_force_N,
-                  "gap0_mm": fe.gap0_mm, "gap_mm": fe.gap_mm, "active": active,
-                  "ef_pressure_MPa": ef_p, "ef_depth_mm": ef_d}
-    cell_data = {"pressure_MPa": _face_mean(faces, fe.pressure_MPa),
-                 "ef_pressure_MPa": _face_mean(faces, ef_p),
-                 "contact_area_mm2": triangle_areas(pts, faces) * _face_mean(faces, active),
-                 "ef_contact_area_mm2": _positive_area(pts, faces,
-                                                       check.ef.depth_mm - fe.gap0_mm),
-                 "depth_mm": _face_mean(faces, ef_d)}
-    return pts, faces, cell_data, point_data
-
-
-def write_fe_vtk(cross: CrossCheck, contact_points: Mapping[str, np.ndarray],
-                 directory: str | Path) -> list[Path]:
-    """Write ``<compartment>.vtu`` of every FE top surface (see `fe_surface`) into
-    `directory`; returns the written paths (a compartment without FE top triangles is
-    skipped)."""
+def write_fe_vtk(check: CrossCheck, directory: str | Path) -> list[Path]:
+    """Write ``<compartment>.vtu`` of every compartment's EF faces (tibia frame, mm) with
+    the cell data of `fe_cell_data` into `directory`; returns the written paths."""
     paths = []
-    for name, chk in cross.compartments.items():
-        if len(chk.fe.faces) == 0:
-            continue
-        pts, faces, cells, nodes = fe_surface(chk, cross.material, contact_points.get(name))
-        paths.append(write_vtu(Path(directory) / f"{name}.vtu", pts, faces, cells, nodes))
+    for name, comp in check.compartments.items():
+        surface = comp.layer.body.surface
+        paths.append(write_vtu(Path(directory) / f"{name}.vtu", surface.points,
+                               surface.faces, fe_cell_data(comp)))
     return paths
