@@ -86,7 +86,8 @@ def _rows(check) -> list[tuple[str, dict, str]]:
             ("FE axisymmetric (FE load)", refs("axisym"), f"the axisymmetric FE runs {flat}"),
             ("EF closed form (FE load)", refs("ef_closed_form"), f"closed form {flat}"),
             ("Hertz (FE load)", refs("hertz"), f"closed form {flat}"),
-            ("Donahue 2002 (1 mm)*", {c: DONAHUE_2002[c][1.0] for c in comps}, "")]
+            ("Donahue 2002 (1 mm)*", {c: DONAHUE_2002[c][1.0] for c in comps},
+             "Donahue 2002 reports the compartment force, pressures and area only")]
 
 
 def _value(metrics, attr: str) -> float | None:
@@ -99,19 +100,22 @@ def _value(metrics, attr: str) -> float | None:
 
 def comparison_table(check) -> str:
     """Per compartment F, F_axial (N), p_max, p_mean (MPa), area (mm²), depth (mm) of
-    every row; undefined values as ``n/a(k)`` with note k below the table."""
+    every row that has values; undefined values as ``n/a(k)`` with note k below the
+    table, rows without any value left out with a note saying why."""
     names = list(check.compartments)
     notes: list[str] = []
+    skipped: list[str] = []
     body = []
     for label, metrics, why in _rows(check):
+        if all(metrics[c] is None for c in names):
+            skipped.append(f"no {label} row: {why}")
+            continue
         row = [label]
         for c in names:
             for head, attr, decimals in COLUMNS:
                 text = _number(_value(metrics[c], attr), decimals)
                 if text is None:
-                    reason = why or f"{label} reports no {head}"
-                    if metrics[c] is not None and not why:
-                        reason = f"{label} {c}: {head} is undefined for this contact"
+                    reason = why or f"{label} gives no {head}"
                     if reason not in notes:
                         notes.append(reason)
                     text = f"n/a({notes.index(reason) + 1})"
@@ -128,7 +132,7 @@ def comparison_table(check) -> str:
             f"  {c:>{w}s}" for c, w in zip(row[1:], widths[1:], strict=True)))
     lines.append("units: F (magnitude), F_axial (along the tibia's axis) N; p MPa; area mm²; "
                  "depth mm")
-    lines += [f"({i}) {note}" for i, note in enumerate(notes, start=1)]
+    lines += [f"({i}) {note}" for i, note in enumerate(notes, start=1)] + skipped
     return "\n".join(lines)
 
 

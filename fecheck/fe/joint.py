@@ -9,14 +9,17 @@ layer, reused for every pose and load) and J_i = ∂g0_i/∂q. The contact force
 acting along −n_i on the layer) and the pose step δq solve the mixed complementarity
 problem
 
-    g0 + J δq + C λ ≥ 0,   λ ≥ 0,   λ·(g0 + J δq + C λ) = 0,   Jᵀ λ + Q(q) = 0,
+    g0 + J δq + C λ ≥ 0,   λ ≥ 0,   λ·(g0 + J δq + C λ) = 0,   Gᵀ λ + Q(q) = 0,
 
-the last row being the equilibrium of the tibia's free DOFs under the external load,
-gravity and ligaments Q (generalised forces, N and N·mm; Q's own change with the pose,
-∂Q/∂q, joins that row as + ∂Q/∂q·δq when given). For an active set A the equalities are one
-dense symmetric solve; vertices that pull are released and those that penetrate are
-added until A stops changing (Hintermüller-Ito-Kunisch). The outer loop re-linearises
-g0 and J at the new pose (rotations are finite) until the pose stops moving: the
+where G maps each contact force (along minus the vertex's surface normal, at the
+vertex: the force the layer carries to the tibia) to the unknowns — J differs from G
+where the femoral surface is not parallel to the layer — and the last row is the
+equilibrium of the tibia's free DOFs under the external load, gravity and ligaments Q
+(generalised forces, N and N·mm; Q's own change with the pose, ∂Q/∂q, joins that row
+as + ∂Q/∂q·δq when given). For an active set A the equalities are one dense solve;
+vertices that pull are released and those that penetrate are added until A stops
+changing (Hintermüller-Ito-Kunisch). The outer loop re-linearises g0, J and G at the
+new pose (rotations are finite) until the pose stops moving: the
 equilibrium is exact, with no penalty and no tolerance on penetration beyond round-off.
 
 The same solve serves a single compartment pushed along one direction with a given
@@ -99,11 +102,11 @@ class _Compliance:
         self.C = 0.5 * (C + C.T)
 
 
-def _active_set(C: np.ndarray, g0: np.ndarray, J: np.ndarray, Q: np.ndarray, dQ: np.ndarray,
-                active: np.ndarray, max_iter: int) -> tuple[np.ndarray, np.ndarray,
-                                                            np.ndarray, int]:
-    """λ ≥ 0 and δq of the mixed problem for fixed g0, J, Q and the load's stiffness dQ
-    (module docstring)."""
+def _active_set(C: np.ndarray, g0: np.ndarray, J: np.ndarray, G: np.ndarray, Q: np.ndarray,
+                dQ: np.ndarray, active: np.ndarray, max_iter: int
+                ) -> tuple[np.ndarray, np.ndarray, np.ndarray, int]:
+    """λ ≥ 0 and δq of the mixed problem for fixed g0, J, G, Q and the load's stiffness
+    dQ (module docstring)."""
     m, k = J.shape
     for it in range(1, max_iter + 1):
         idx = np.flatnonzero(active)
@@ -111,7 +114,7 @@ def _active_set(C: np.ndarray, g0: np.ndarray, J: np.ndarray, Q: np.ndarray, dQ:
         kkt = np.zeros((a + k, a + k))
         kkt[:a, :a] = C[np.ix_(idx, idx)]
         kkt[:a, a:] = J[idx]
-        kkt[a:, :a] = J[idx].T
+        kkt[a:, :a] = G[idx].T
         kkt[a:, a:] = dQ
         rhs = np.concatenate([-g0[idx], -Q])
         try:
@@ -178,11 +181,12 @@ class JointContact:
         active = None
         inner = 0
         for outer in range(1, max_outer + 1):
-            g0, J = _linearised_gaps(self.layers, pose, basis, q)
+            g0, J, G = _linearised_gaps(self.layers, pose, basis, q)
             if active is None:
                 active = g0 <= np.sort(g0)[min(len(g0) - 1, 3)]
             dQ = np.zeros((len(q), len(q))) if stiffness is None else stiffness(q)
-            lam, dq, active, it = _active_set(self.C, g0, J, load(q), dQ, active, max_active)
+            lam, dq, active, it = _active_set(self.C, g0, J, G, load(q), dQ, active,
+                                              max_active)
             inner += it
             q = q + dq
             self.log(f"FE pose update {outer}: {int(active.sum())} vertices in contact, "
@@ -193,7 +197,7 @@ class JointContact:
         else:
             raise FecheckError(f"the FE joint equilibrium did not settle in {max_outer} pose "
                                "updates; check the load and the free DOFs")
-        g0, _ = _linearised_gaps(self.layers, pose, basis, q)
+        g0, _, _ = _linearised_gaps(self.layers, pose, basis, q)
         out = []
         for i, (layer, c) in enumerate(zip(self.layers, self.compliance, strict=True)):
             block = slice(self.offsets[i], self.offsets[i + 1])
@@ -209,15 +213,18 @@ class JointContact:
 
 
 def _linearised_gaps(layers: Sequence[ContactLayer], pose, basis, q: np.ndarray
-                     ) -> tuple[np.ndarray, np.ndarray]:
-    """Gaps g0 (m,) at the candidates of all layers at pose q, and J (m, k) = ∂g0/∂q."""
+                     ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """At pose q, for the candidates of all layers: gaps g0 (m,), J (m, k) = ∂g0/∂q, and
+    G (m, k), the generalised force on the unknowns of a unit contact force at each
+    candidate (acting on the tibia along minus its surface normal, at the vertex)."""
     rot, t = pose(q)
     b = basis(q)
-    gaps, rows = [], []
+    gaps, rows, forces = [], [], []
     for layer in layers:
         pts = layer.solid.surface.points[layer.candidates] @ rot.T + t
         nrm = layer.solid.normals[layer.candidates] @ rot.T
         g = layer.indenter.gap(pts, nrm)
         gaps.append(g.gap_mm)
         rows.append(g.twist @ b)
-    return np.concatenate(gaps), np.concatenate(rows)
+        forces.append(-np.hstack([nrm, np.cross(pts, nrm)]) @ b)
+    return np.concatenate(gaps), np.concatenate(rows), np.concatenate(forces)
