@@ -146,3 +146,15 @@ def test_pressure_is_smooth_in_the_load():
         pmax.append((sol.layers[0].force_N / solid.tributary_mm2).max())
     jumps = np.abs(np.diff(pmax)) / np.asarray(pmax[:-1])
     assert jumps.max() < 1e-3
+
+
+def test_vectorised_p2_assembly_equals_scikit_fem_forms():
+    from skfem import asm
+    from skfem.models.elasticity import lame_parameters, linear_elasticity
+
+    from fecheck.fe.solid import p2_elasticity
+
+    layer = extrude_layer(_patch(2.0), H, layers=2, ratio=1.6)
+    _, basis, K = p2_elasticity(layer, E, 0.45, chunk=500)          # several chunks
+    reference = asm(linear_elasticity(*lame_parameters(E, 0.45)), basis)
+    assert abs(K - reference).max() <= 1e-12 * abs(reference).max()

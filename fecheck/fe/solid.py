@@ -100,15 +100,39 @@ def layer_solid(surface: TriMesh, thickness_mm: float | np.ndarray, youngs_MPa: 
                       len(kept), basis.N // 3, timing)
 
 
-def p2_elasticity(layer: TetMesh, youngs_MPa: float, poisson: float):
+def p2_elasticity(layer: TetMesh, youngs_MPa: float, poisson: float, chunk: int = 8192):
     """(skfem mesh, basis, K): isotropic small-strain elasticity on quadratic tetrahedra
-    (degree-2 quadrature, exact for affine P2), stiffness K in N/mm."""
-    from skfem import Basis, ElementTetP2, ElementVector, MeshTet, asm
-    from skfem.models.elasticity import lame_parameters, linear_elasticity
+    (degree-2 quadrature, exact for affine P2), stiffness K in N/mm.
+
+    The element matrices are formed at once from the scalar P2 gradients,
+    K_(ia)(jb) = ∫ λ ∂_a φ_i ∂_b φ_j + μ (δ_ab ∇φ_i·∇φ_j + ∂_b φ_i ∂_a φ_j) dx, in chunks
+    of `chunk` elements (memory), and scattered on the vector basis's dofs (node-major
+    local order, as scikit-fem numbers them); scikit-fem's form assembly gives the same
+    matrix to round-off, 2x slower (tests/test_fe_general.py).
+    """
+    from skfem import Basis, ElementTetP2, ElementVector, MeshTet
+    from skfem.models.elasticity import lame_parameters
 
     mesh = MeshTet(np.ascontiguousarray(layer.points.T), np.ascontiguousarray(layer.tets.T))
     basis = Basis(mesh, ElementVector(ElementTetP2()), intorder=2)
-    return mesh, basis, asm(linear_elasticity(*lame_parameters(youngs_MPa, poisson)), basis)
+    lam, mu = lame_parameters(youngs_MPa, poisson)
+    scalar = Basis(mesh, ElementTetP2(), intorder=2)
+    grads = np.array([phi[0].grad for phi in scalar.basis])            # (10, 3, nel, nq)
+    data, rows, cols = [], [], []
+    for start in range(0, mesh.t.shape[1], chunk):
+        part = slice(start, start + chunk)
+        a = np.einsum("iaeq,jbeq,eq->eijab", grads[:, :, part], grads[:, :, part],
+                      scalar.dx[part], optimize=True)
+        ke = lam * a + mu * np.swapaxes(a, 3, 4)
+        ke += mu * np.einsum("eijcc->eij", a)[..., None, None] * np.eye(3)
+        ke = ke.transpose(0, 1, 3, 2, 4).reshape(-1, 30, 30)
+        dofs = basis.element_dofs[:, part].T                             # (e, 30)
+        data.append(ke.ravel())
+        rows.append(np.repeat(dofs, 30, axis=1).ravel())
+        cols.append(np.tile(dofs, (1, 30)).ravel())
+    K = sp.csr_matrix((np.concatenate(data), (np.concatenate(rows), np.concatenate(cols))),
+                      shape=(basis.N, basis.N))
+    return mesh, basis, K
 
 
 def _face_edges(faces: np.ndarray) -> np.ndarray:
