@@ -8,6 +8,7 @@ import subprocess
 import sys
 from pathlib import Path
 
+import numpy as np
 import pytest
 
 from fecheck.cli import main
@@ -85,3 +86,27 @@ def test_plot_writes_one_png_with_both_compartments(tmp_path):
     pngs = sorted(p.name for p in tmp_path.glob("*.png"))
     assert pngs == ["pressure_map.png"]
     assert all((tmp_path / p).read_bytes()[:8] == b"\x89PNG\r\n\x1a\n" for p in pngs)
+
+
+def test_compartment_force_is_given_as_vector_axial_component_and_magnitude():
+    # on a 14-15° plateau the contact force leans off the tibia's axis: its axial part
+    # (along R e_z, compressive +) is below its magnitude, and the vector's norm is it
+    import math
+
+    from fecheck.model.run import run_scene
+    from fecheck.scene import load_scene
+    from fecheck.statics.newton import pose
+
+    scene_dir = Path(__file__).resolve().parents[1] / "validation" / "scenes"
+    for name in ("inclined", "rigid"):
+        scene = load_scene(scene_dir / f"{name}.toml")
+        result = run_scene(scene)
+        q = [result.pose[k] for k in ("x_mm", "y_mm", "z_mm")] + [
+            math.radians(result.pose["abduction_deg"]), math.radians(result.pose["internal_deg"])]
+        rot, _ = pose(q, math.radians(scene["dofs.flexion_deg"]))
+        for comp in result.compartments.values():
+            f = np.asarray(comp.force_vector_N)
+            assert np.linalg.norm(f) == pytest.approx(comp.force_N, rel=1e-12)
+            assert comp.axial_force_N == pytest.approx(-f @ rot[:, 2], rel=1e-12)
+            if name == "inclined":
+                assert comp.axial_force_N < 0.99 * comp.force_N

@@ -133,7 +133,10 @@ class RunResult:
         row.update({k: self.pose[k] for k in POSE_KEYS})
         for name, c in self.compartments.items():
             for k, v in c.as_dict().items():
-                if k != "torque_vector_Nmm":
+                if k == "force_vector_N":
+                    for axis, value in zip("xyz", v or (None,) * 3, strict=True):
+                        row[f"{name}_force_{axis}_N"] = value
+                elif k != "torque_vector_Nmm":
                     row[f"{name}_{k}"] = v
         for name, lig in self.ligaments.items():
             row[f"{name}_force_N"] = lig.force_N
@@ -150,7 +153,8 @@ class RunResult:
                  (f"converged: {self.converged}   iterations: {self.iterations}   "
                   f"residual: {self.residual_norm:.3g} N")]
         lines.append("pose: " + "  ".join(f"{k} {self.pose[k]:+.4f}" for k in POSE_KEYS))
-        rows = [("force N", "force_N", "{:.2f}"), ("max pressure MPa", "max_pressure_MPa",
+        rows = [("force N (|F|)", "force_N", "{:.2f}"),
+                ("axial force N", "axial_force_N", "{:.2f}"), ("max pressure MPa", "max_pressure_MPa",
                 "{:.3f}"), ("mean pressure MPa", "mean_pressure_MPa", "{:.3f}"),
                 ("contact area mm²", "area_mm2", "{:.1f}"), ("max depth mm", "max_depth_mm",
                 "{:.4f}"), ("torque N·mm", "torque_Nmm", "{:.1f}")]
@@ -170,6 +174,9 @@ class RunResult:
                              f"A {ref['area_mm2']:.2f} mm², p_max "
                              f"{ref['max_pressure_MPa']:.3f} MPa; deviation % "
                              + ", ".join(f"{k} {v:+.2f}" for k, v in dev.items()))
+        lines.append("force: |F| is the magnitude of the compartment's contact force on the "
+                     "tibia; axial force its component along the tibia's long axis "
+                     "(+ compressive)")
         lines.extend(f"note: {n}" for n in self.notes)
         lines.append("time s: " + "  ".join(f"{k} {v:.4f}" for k, v in self.timing_s.items()))
         return "\n".join(lines)
