@@ -154,8 +154,9 @@ class RunResult:
                   f"residual: {self.residual_norm:.3g} N")]
         lines.append("pose: " + "  ".join(f"{k} {self.pose[k]:+.4f}" for k in POSE_KEYS))
         rows = [("force N (|F|)", "force_N", "{:.2f}"),
-                ("axial force N", "axial_force_N", "{:.2f}"), ("max pressure MPa", "max_pressure_MPa",
-                "{:.3f}"), ("mean pressure MPa", "mean_pressure_MPa", "{:.3f}"),
+                ("axial force N", "axial_force_N", "{:.2f}"),
+                ("max pressure MPa", "max_pressure_MPa", "{:.3f}"),
+                ("mean pressure MPa", "mean_pressure_MPa", "{:.3f}"),
                 ("contact area mm²", "area_mm2", "{:.1f}"), ("max depth mm", "max_depth_mm",
                 "{:.4f}"), ("torque N·mm", "torque_Nmm", "{:.1f}")]
         names = list(self.compartments)
