@@ -25,6 +25,9 @@ from fecheck.errors import FecheckError
 from geometry.mesh import TriMesh
 
 METHODS = ("auto", "closed-form", "bvh", "ray-parity", "fcl")
+CLOSED_MASTER_METHODS = {"ray-parity": "counting ray crossings",
+                         "fcl": "FCL's penetration query of two solids"}
+"""Detection methods that need a closed (watertight) master mesh, and why."""
 AREAS = ("clipped", "whole-face")
 
 
@@ -114,6 +117,13 @@ def _resolved_method(slave: TriMesh, master, method: str, area: str, margin_mm: 
     if method in ("bvh", "ray-parity", "fcl") and analytic:
         raise FecheckError(f"method {method!r} needs a mesh master; analytic masters "
                            "use 'closed-form'")
+    if method in CLOSED_MASTER_METHODS and boundary_vertices(master).any():
+        raise FecheckError(f"contact.detection = {method!r} tells inside from outside by "
+                           f"{CLOSED_MASTER_METHODS[method]}, which needs a closed master "
+                           f"mesh; this master is open ({int(boundary_vertices(master).sum())} "
+                           "boundary vertices, e.g. a cartilage sheet): use 'bvh' (or "
+                           "'auto'), which measures depth along the face normals of open "
+                           "sheets")
     return method
 
 

@@ -230,7 +230,9 @@ SCHEMA: dict[str, Key] = {
         "str", "auto",
         "Contact detection: 'auto' (closed form for analytic masters), 'closed-form', "
         "'bvh', or the thesis's stacks 'ray-parity' and 'fcl'. The last three are mesh "
-        "detection: the analytic master is meshed as well.",
+        "detection: the analytic master is meshed as well. 'ray-parity' and 'fcl' tell "
+        "inside from outside and need a closed master mesh (they refuse an open sheet; "
+        "'bvh' works on open sheets).",
         choices=("auto", "closed-form", "bvh", "ray-parity", "fcl")),
     "contact.margin_mm": Key("float", 2.0, "Broad-phase margin, mm: candidate faces within "
                              "this distance are found once and reused while the pose moves "
