@@ -13,6 +13,7 @@ from fecheck.errors import FecheckError
 from fecheck.scene import scanned
 from fecheck.statics.ligaments import SpringLigament
 from geometry.decimate import decimate
+from geometry.mesh import TriMesh
 
 SCENES = REPO / "validation" / "scenes"
 
@@ -188,3 +189,20 @@ def test_knee_fits_follow_the_thesis_trends(tmp_path):
         sphere, deg0 = (r for r in t25 if r["side"] == side)
         assert deg0["mean_error_mm"] == pytest.approx(sphere["mean_error_mm"], rel=0.05)
     assert (tmp_path / "knee_fits_table_2_4.csv").is_file()
+
+
+@pytest.mark.parametrize("scale, message", [(1e-3, "looks like metres"),
+                                            (1e4, "check its unit")])
+def test_a_surface_not_in_millimetres_is_refused_with_its_extent(tmp_path, scale, message):
+    # a 50 mm sheet written in metres (0.05 across) or in tenths of micrometres
+    from fecheck.scene.scanned import FILES, load_scanned_mesh
+    from geometry.icosphere import icosphere
+    from geometry.io import save_mesh
+
+    ball = icosphere(25.0, 2, (0.0, 0.0, 0.0), method="trimesh", cache=False)
+    (tmp_path / "fits.json").write_text("{}")            # marks a knee data folder
+    save_mesh(TriMesh(ball.points * scale, ball.faces), tmp_path / FILES["femur_cartilage"])
+    with pytest.raises(FecheckError, match=message):
+        load_scanned_mesh("femur_cartilage", tmp_path)
+    save_mesh(ball, tmp_path / FILES["femur_bone"])
+    assert load_scanned_mesh("femur_bone", tmp_path).n_faces == ball.n_faces

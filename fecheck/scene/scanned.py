@@ -81,11 +81,34 @@ def mesh_path(name: str, directory: str | os.PathLike | None = None) -> Path:
     return path
 
 
+KNEE_EXTENT_MM = (5.0, 1000.0)
+"""Plausible bounding-box diagonal of a knee surface, mm: a cartilage sheet spans some
+20-100 mm, a bone surface a few hundred."""
+
+
+def check_length_unit(points, path: str) -> None:
+    """`FecheckError` when a mesh's extent says its coordinates are not millimetres."""
+    diagonal = float(np.linalg.norm(np.ptp(points, axis=0))) if len(points) else 0.0
+    low, high = KNEE_EXTENT_MM
+    if diagonal < low:
+        hint = (" - it looks like metres: scale it by 1000" if 0.005 <= diagonal <= 1.0
+                else "")
+        raise FecheckError(f"{path} spans {diagonal:.4g} units across; a knee surface in "
+                           f"millimetres spans {low:g}-{high:g}{hint} (fecheck reads "
+                           "millimetres)")
+    if diagonal > high:
+        raise FecheckError(f"{path} spans {diagonal:.4g} units across; a knee surface in "
+                           f"millimetres spans {low:g}-{high:g}: check its unit (fecheck "
+                           "reads millimetres)")
+
+
 @lru_cache(maxsize=16)
 def _load(path: str):
     from geometry.io import load_mesh
 
-    return load_mesh(path)
+    mesh = load_mesh(path)
+    check_length_unit(mesh.points, path)
+    return mesh
 
 
 def load_scanned_mesh(name: str, directory: str | os.PathLike | None = None):
