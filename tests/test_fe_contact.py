@@ -75,3 +75,26 @@ def test_hertz_closed_form_is_self_consistent():
     assert 4 / 3 * e_star * np.sqrt(30.0) * h.depth_mm ** 1.5 == pytest.approx(800.0, rel=1e-12)
     assert h.max_pressure_MPa == pytest.approx(1.5 * h.mean_pressure_MPa, rel=1e-12)
     assert h.depth_mm == pytest.approx(a * a / 30.0, rel=1e-12)
+
+
+def test_condensed_compliance_equals_the_solves_it_replaces():
+    # a P2 layer's compliance along tilted unit directions at scattered surface nodes,
+    # against K⁻¹ column by column; and its solver solves K
+    from fecheck.fe.contact import condensed_compliance
+    from fecheck.fe.solid import layer_solid
+    from geometry.plateau import plane_patch
+
+    sheet = plane_patch((0.0, 0.0, 0.0), (0.0, 0.0, 1.0), radius=8.0, size=2.0, cache=False)
+    solid = layer_solid(sheet, 3.0, 20.0, 0.45, layers=2)
+    rng = np.random.default_rng(3)
+    nodes = rng.choice(sheet.n_points, 25, replace=False)
+    directions = rng.normal(size=(25, 3))
+    directions /= np.linalg.norm(directions, axis=1, keepdims=True)
+    C, solve = condensed_compliance(solid.K, solid.vertex_dofs[nodes], directions)
+    rows = np.zeros((25, solid.K.shape[0]))
+    rows[np.arange(25)[:, None], solid.vertex_dofs[nodes]] = directions
+    K = solid.K.toarray()
+    reference = rows @ np.linalg.solve(K, rows.T)
+    assert np.abs(C - reference).max() <= 1e-10 * np.abs(reference).max()
+    b = rng.normal(size=K.shape[0])
+    assert np.linalg.norm(K @ solve(b) - b) <= 1e-10 * np.linalg.norm(b)

@@ -80,41 +80,62 @@ def factorize(K: sp.spmatrix, solver: str = "cholmod", ordering: str = "default"
     return splu(K, permc_spec="MMD_AT_PLUS_A").solve
 
 
-def condensed_compliance(K: sp.spmatrix, rows: sp.csr_matrix
+def condensed_compliance(K: sp.spmatrix, dofs: np.ndarray, directions: np.ndarray
                          ) -> tuple[np.ndarray, Callable[[np.ndarray], np.ndarray]]:
-    """C = R K⁻¹ Rᵀ (m, m) for sparse rows R (m, n) touching few dofs, and a solver of K.
+    """C (m, m) with C_ij = d_iᵀ (K⁻¹)_(dofs_i)(dofs_j) d_j, the compliance of K along the
+    unit `directions` (m, 3) at the node dof triplets `dofs` (m, 3, distinct), and a
+    solver of K.
 
-    One CHOLMOD factorization with the dofs that R touches ordered last (METIS on the
-    others): the trailing block L₂₂ of K = L Lᵀ then holds their Schur complement,
-    S = L₂₂ L₂₂ᵀ = ((K⁻¹)_cc)⁻¹, so C = (L₂₂⁻¹ R_cᵀ)ᵀ (L₂₂⁻¹ R_cᵀ) costs one
-    factorization and a dense triangular solve of the touched dofs, instead of m
-    solves with K (measured 9x faster at 30k dofs and 600 rows).
+    Each triplet is turned into a frame whose first axis is its direction (K' = Qᵀ K Q,
+    Q orthogonal), and one CHOLMOD factorization of K' orders the m direction dofs last
+    (METIS on the others): the trailing block L₂₂ of K' = L Lᵀ then holds their Schur
+    complement, S = L₂₂ L₂₂ᵀ = ((K'⁻¹)_dd)⁻¹, so C = (L₂₂⁻¹)ᵀ L₂₂⁻¹ — one factorization
+    and a dense triangular inverse instead of m solves with K (measured 9x faster at
+    30k dofs and 600 directions). Only one dof per node goes last, not three, which
+    keeps that factorization close to a free METIS one.
     """
     from scipy.linalg import solve_triangular
     from sksparse.cholmod import CholmodNotPositiveDefiniteError, analyze, cholesky
 
     K = sp.csc_matrix(K)
-    n = K.shape[0]
-    touched = np.unique(sp.csr_matrix(rows).indices)
-    inner = np.setdiff1d(np.arange(n), touched)
-    K_ii = K[inner][:, inner]
-    order = inner[analyze(K_ii, ordering_method="metis").P()]
-    perm = np.concatenate([order, touched])
+    n, m = K.shape[0], len(dofs)
+    Q = _frames(n, np.asarray(dofs), np.asarray(directions, dtype=float))
+    Kq = (Q.T @ K @ Q).tocsc()
+    last = np.asarray(dofs)[:, 0]
+    inner = np.setdiff1d(np.arange(n), last)
+    order = inner[analyze(Kq[inner][:, inner], ordering_method="metis").P()]
+    perm = np.concatenate([order, last])
     try:
-        factor = cholesky(sp.csc_matrix(K[perm][:, perm]), ordering_method="natural")
+        factor = cholesky(sp.csc_matrix(Kq[perm][:, perm]), ordering_method="natural")
     except CholmodNotPositiveDefiniteError as err:
         raise FecheckError("the layer's stiffness is not positive definite: check its "
                            "supports and material (0 < E, -1 < ν < 0.5)") from err
-    c = len(touched)
-    L22 = factor.L()[n - c:, n - c:].toarray()
-    Y = solve_triangular(L22, sp.csr_matrix(rows)[:, touched].T.toarray(), lower=True)
+    L22 = factor.L()[n - m:, n - m:].toarray()
+    Y = solve_triangular(L22, np.eye(m), lower=True)
     inverse = np.empty(n, dtype=np.int64)
     inverse[perm] = np.arange(n)
 
     def solve(b: np.ndarray) -> np.ndarray:
-        return factor.solve_A(np.asarray(b)[perm])[inverse]
+        return Q @ factor.solve_A((Q.T @ np.asarray(b))[perm])[inverse]
 
     return Y.T @ Y, solve
+
+
+def _frames(n: int, dofs: np.ndarray, directions: np.ndarray) -> sp.csr_matrix:
+    """Orthogonal Q (n, n): identity, except on each triplet dofs_k, whose new first dof is
+    along directions_k and the other two complete a right-handed frame."""
+    d = directions / np.linalg.norm(directions, axis=1, keepdims=True)
+    helper = np.eye(3)[np.argmin(np.abs(d), axis=1)]
+    t1 = np.cross(d, helper)
+    t1 /= np.linalg.norm(t1, axis=1, keepdims=True)
+    t2 = np.cross(d, t1)
+    frame = np.stack([d, t1, t2], axis=2)                     # (m, 3 old, 3 new)
+    rows = np.repeat(dofs, 3, axis=1).ravel()                 # old dof of each entry
+    cols = np.tile(dofs, (1, 3)).ravel()                      # new dof of each entry
+    other = np.setdiff1d(np.arange(n), dofs.ravel())
+    return sp.csr_matrix((np.concatenate([frame.ravel(), np.ones(len(other))]),
+                          (np.concatenate([rows, other]), np.concatenate([cols, other]))),
+                         shape=(n, n))
 
 
 def _active_set(C: np.ndarray, g0: np.ndarray, load_N: float, active: np.ndarray,

@@ -90,7 +90,9 @@ class _Compliance:
         rows = layer.solid.normal_rows[layer.candidates]              # (m, n)
         self.rows = rows
         if solver == "cholmod":
-            C, self.solve = condensed_compliance(layer.solid.K, rows)
+            C, self.solve = condensed_compliance(layer.solid.K,
+                                                 layer.solid.vertex_dofs[layer.candidates],
+                                                 layer.solid.normals[layer.candidates])
         else:
             self.solve = factorize(layer.solid.K, solver)
             m = rows.shape[0]

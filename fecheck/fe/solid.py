@@ -40,6 +40,7 @@ class LayerSolid:
     mesh : the tetrahedra; surface vertex v is mesh point v
     K : (n, n) stiffness of the kept dofs, N/mm (symmetric positive definite)
     normal_rows : (s, n) sparse: row v maps the kept dofs to n_v · u_v (mm) at vertex v
+    vertex_dofs : (s, 3) the kept dofs of u_v (x, y, z) at each surface vertex
     normals : (s, 3) unit outward vertex normals of the surface
     tributary_mm2 : (s,) a third of the adjacent surface triangle areas
     surface : the articular surface (s vertices)
@@ -49,6 +50,7 @@ class LayerSolid:
     mesh: TetMesh
     K: sp.csc_matrix
     normal_rows: sp.csr_matrix
+    vertex_dofs: np.ndarray
     normals: np.ndarray
     tributary_mm2: np.ndarray
     surface: TriMesh
@@ -95,9 +97,11 @@ def layer_solid(surface: TriMesh, thickness_mm: float | np.ndarray, youngs_MPa: 
     rows = np.repeat(np.arange(s), 3)
     N_full = sp.csr_matrix((normals.ravel(), (rows, vertex_dofs.ravel())), shape=(s, basis.N))
     normal_rows = (N_full @ T).tocsr()
+    position = np.full(basis.N, -1)
+    position[kept] = np.arange(len(kept))
     timing["reduce"] = time.perf_counter() - t0
-    return LayerSolid(layer, K_red, normal_rows, normals, _tributary(surface), surface,
-                      len(kept), basis.N // 3, timing)
+    return LayerSolid(layer, K_red, normal_rows, position[vertex_dofs], normals,
+                      _tributary(surface), surface, len(kept), basis.N // 3, timing)
 
 
 def p2_elasticity(layer: TetMesh, youngs_MPa: float, poisson: float, chunk: int = 8192):
