@@ -108,18 +108,17 @@ def _scanned_bodies(scene: Scene) -> list[FEBody]:
     return out
 
 
-def scene_bodies(scene: Scene) -> list[FEBody]:
-    """The FE geometry of every compartment of `scene` (module docstring).
-
-    Raises
-    ------
-    FecheckError
-        For a scene with no cartilage to model (``model.kind = "rigid"``).
-    """
-    kind = scene["model.kind"]
-    if kind == "rigid":
+def refuse_rigid(scene: Scene) -> None:
+    """`FecheckError` for a scene with no cartilage to model (``model.kind = "rigid"``)."""
+    if scene["model.kind"] == "rigid":
         raise FecheckError("model.kind = 'rigid' has no cartilage: nothing to cross-check "
                            "with the FE")
-    if kind in SCANNED_KINDS:
+
+
+def scene_bodies(scene: Scene) -> list[FEBody]:
+    """The FE geometry of every compartment of `scene` (module docstring); refuses a
+    scene without cartilage (`refuse_rigid`)."""
+    refuse_rigid(scene)
+    if scene["model.kind"] in SCANNED_KINDS:
         return _scanned_bodies(scene)
     return _sphere_plane_bodies(scene)

@@ -33,7 +33,7 @@ from typing import Any
 import numpy as np
 
 from fecheck.errors import FecheckError
-from fecheck.fe.bodies import scene_bodies
+from fecheck.fe.bodies import refuse_rigid, scene_bodies
 from fecheck.fe.press import (
     FELayer,
     build_layers,
@@ -267,6 +267,21 @@ def _ef_run(scene: Scene, log: Callable[[str], None]) -> tuple[RunResult, float]
     return run, seconds
 
 
+def _expected_depth(scene: Scene, run: RunResult) -> float:
+    """The deepest FE indentation to expect, mm: per compartment the EF run's depth, but
+    no more than the linear EF of the scene's own layer would give at that force (a law
+    with another stiffness, e.g. 'volumetric', can sink the EF far deeper than the layer
+    the FE models)."""
+    E, nu, h = (scene["contact.youngs_MPa"], scene["contact.poisson"],
+                scene["contact.thickness_mm"])
+    deepest = 0.0
+    for c, res in run.compartments.items():
+        layer = ef_sphere_on_plane(res.force_N, scene.knee.radius_mm(c), E, nu, h).depth_mm
+        ef = res.max_depth_mm if math.isfinite(res.max_depth_mm) else layer
+        deepest = max(deepest, min(ef, layer))
+    return deepest
+
+
 def _solve(scene: Scene, layers: Sequence[FELayer], run: RunResult, settings: FESettings,
            log: Callable[[str], None]) -> tuple[dict, np.ndarray, float]:
     """FE solve(s) of the mode: {compartment: (layer, contact, worst penetration, (R, t)
@@ -275,8 +290,7 @@ def _solve(scene: Scene, layers: Sequence[FELayer], run: RunResult, settings: FE
     from fecheck.model.run import ligament_springs
 
     q_ef = np.asarray(run.extra["q"], dtype=float)
-    depth = max(r.max_depth_mm for r in run.compartments.values())
-    margin = settings.candidate_gap_mm + (depth if math.isfinite(depth) else 0.0)
+    margin = settings.candidate_gap_mm + _expected_depth(scene, run)
     if settings.mode == "joint":
         drive = joint_drive(scene, q_ef, ligament_springs(scene))
         sol, condense, _, worst = solve_pressed(layers, drive, margin, settings, log)
@@ -308,6 +322,7 @@ def cross_check(scene: Scene, *, mode: str | None = None, refine: int | None = N
     """
     say = log or (lambda message: None)
     settings = FESettings.from_scene(scene, mode=mode, refine=refine)
+    refuse_rigid(scene)
     _refuse_constraints(scene, settings)
     E, nu = scene["contact.youngs_MPa"], scene["contact.poisson"]
     t0 = time.perf_counter()

@@ -33,6 +33,9 @@ from geometry.subdivide import subdivide
 
 PENETRATION_TOL_MM = 1e-6
 """Largest overlap accepted at any surface vertex after the solve, mm."""
+MAX_CANDIDATES = 6000
+"""Most contact candidates per layer (the condensed compliance is dense: 6000² doubles
+are 0.3 GB)."""
 MAX_CANDIDATE_ROUNDS = 3
 """Times the contact candidates are widened when a vertex outside them penetrates."""
 
@@ -183,6 +186,12 @@ def solve_pressed(layers: Sequence[FELayer], drive: Drive, margin_mm: float,
             raise FecheckError(f"no {' or '.join(empty)} surface vertex lies within "
                                f"{margin_mm:.2f} mm of the femoral surface at the EF pose: "
                                "nothing for the FE contact to act on")
+        if max(len(c) for c in cands) > MAX_CANDIDATES:
+            raise FecheckError(f"{max(len(c) for c in cands)} surface vertices may touch "
+                               f"(within {margin_mm:.2f} mm of the femoral surface), more "
+                               f"than the {MAX_CANDIDATES} the dense contact solve takes: "
+                               "coarsen the surface (fe.refine, scanned.decimate_faces) or "
+                               "lower fe.candidate_gap_mm")
         joint = JointContact([ContactLayer(lay.body.name, lay.solid, lay.body.indenter, c)
                               for lay, c in zip(layers, cands, strict=True)],
                              solver=settings.solver, log=log)
