@@ -131,7 +131,8 @@ def test_scanned_femur_tibia_runs_on_its_own_surfaces():
 
 @pytest.mark.parametrize("scene, overrides, message", [
     ("rigid.toml", [], "no cartilage"),
-    ("equal_force.toml", [], "constraints.equal_forces"),
+    ("baseline.toml", ["constraints.equal_forces=true"], "constraints.equal_forces"),
+    ("equal_force.toml", [], "no cartilage"),
     ("baseline.toml", ["ligaments.model='rod'"], "ligaments.model = 'rod'"),
     ("baseline.toml", ["fe.mode='both'"], "fe.mode"),
 ])
