@@ -1,5 +1,6 @@
 """Messages name the real cause: wrong units, flipped or mixed winding, meshes in metres or
-far from their landmarks, truncated mesh files, FE sizes out of reach, bad output paths.
+far from their landmarks, truncated mesh files, FE settings out of range, bad output
+paths.
 
 Every case runs through `fecheck.cli.main` as a user would: one line on standard error,
 a non-zero exit code where the run cannot be trusted, no traceback. The mesh cases use a
@@ -128,7 +129,8 @@ FAR_WORDS = ["medial: the condyle sphere is", "mm from the tibial sheet", "landm
 @pytest.mark.parametrize("change, words", [
     (_flipped, ["medial tibial contact sheet", "normals point down", "winding is inverted"]),
     (_mixed, ["medial tibial contact sheet", "mixed winding", "face down", "(x, y)"]),
-    (_metres, ["medial tibial contact sheet", "0.028 mm across", "mesh in metres"]),
+    (_metres, ["tibia_cartilage_medial.stl", "0.0396 units across", "looks like metres",
+               "scale it by 1000"]),
     (_far_below, FAR_WORDS),
     (_far_aside, FAR_WORDS),
 ], ids=["flipped", "mixed", "metres", "100-mm-below", "100-mm-aside"])
@@ -189,36 +191,27 @@ def test_mesh_info_names_a_truncated_stl_too(tmp_path, capsys):
 
 
 # ----------------------------------------------------------------------- FE
-def test_fe_size_below_the_floor_is_refused_with_its_estimate(capsys):
+@pytest.mark.parametrize("args, words", [
+    (["--refine", "9"], "fe.refine must be 0 to 4 subdivisions, got 9"),
+    (["--set", "fe.layers=0"], "fe.layers = 0 is out of range"),
+], ids=["refine", "layers"])
+def test_fe_settings_out_of_range_are_refused_before_any_work(capsys, args, words):
     t0 = time.perf_counter()
-    code, _, err = _run(capsys, "fe", "--size", "0.05")
-    assert code == 2 and time.perf_counter() - t0 < 30     # refused before the EF solve
-    line = _error_line(err)
-    assert "0.2 mm floor" in line and "dofs" in line and "GB" in line
+    code, _, err = _run(capsys, "fe", *args)
+    assert code == 2 and time.perf_counter() - t0 < 30
+    assert words in _error_line(err)
     assert "EF equilibrium" not in err                        # no work began
 
 
-def test_fe_shows_its_estimate_and_each_step_on_stderr(capsys):
-    code, out, err = _run(capsys, "fe", "--size", "5")
+def test_fe_shows_each_step_on_stderr(capsys):
+    # a 2 mm plateau mesh: two layers of ~9k dofs, a few seconds
+    code, _, err = _run(capsys, "fe", "--set", "mesh.plateau_refine_mm=2")
     assert code == 0
-    steps = ["solving the EF equilibrium", "medial: 3D layer under", "dofs, ~",
-             "GB available (fitted cost model)", "medial: meshing the layer",
-             "tets (P2)", "medial: assembled", "medial: factorization",
-             "active-set iterations", "medial: 3D FE done", "lateral: 3D FE done"]
+    steps = ["solving the EF equilibrium", "medial: layer of", "quadratic tetrahedra",
+             "lateral: layer of", "FE medial: factorizing", "contact candidates",
+             "FE lateral: factorizing", "FE pose update 1:", "vertices in contact"]
     where = [err.find(s) for s in steps]
     assert -1 not in where and where == sorted(where), err
-    # same flat layer, same load, converged reference: the gap is the discretization error
-    assert out.count("(the 3D discretization error)") == 2
-
-
-def test_fe_size_beyond_the_memory_available_is_refused(capsys, monkeypatch):
-    from fecheck.fe import layer3d
-
-    monkeypatch.setattr(layer3d, "available_memory_bytes", lambda: 50e6)
-    code, _, err = _run(capsys, "fe", "--size", "1.0")
-    assert code == 2
-    line = _error_line(err)
-    assert "more memory than is available" in line and "0.05 GB available" in line
 
 
 # ----------------------------------------------------------------------- outputs

@@ -2,10 +2,13 @@
 
 Scene `validation/scenes/fe_hertz_block.toml`: the medial condyle sphere pressed with
 load.force_N on a layer of thickness contact.thickness_mm (60 mm: contact radius / h ≈
-0.04) and radius fe.half_extent_mm, bonded at its base. The axisymmetric and 3D FE
-solutions are compared with Hertz (rigid sphere on an elastic half-space). The depth
-is reported but not judged: a finite block's displacement under the contact depends on
-its far field (the half-space's decays like 1/r), so it sits a few percent below Hertz.
+0.04) over a disc of mesh.plateau_radius_mm, bonded at its base. The axisymmetric FE and
+the general 3D path of `fecheck fe` (`fecheck.fe.sphere_layer.sphere_on_flat_layer`:
+mesh.plateau_refine_mm under the contact, mesh.plateau_size_mm away from it, fe.layers
+levels graded by fe.grading) are compared with Hertz (rigid sphere on an elastic
+half-space). The depth is reported but not judged: a finite block's displacement under
+the contact depends on its far field (the half-space's decays like 1/r), so it sits a
+few percent below Hertz.
 
     python validation/fe_hertz_block.py [--quick] [--out DIR]
 
@@ -23,13 +26,35 @@ import numpy as np
 from report import save_figure
 
 from fecheck.fe.axisym import axisym_sphere_on_layer
-from fecheck.fe.crosscheck import FESettings
-from fecheck.fe.layer3d import sphere_on_layer_3d
+from fecheck.fe.settings import FESettings
+from fecheck.fe.sphere_layer import sphere_on_flat_layer
 from fecheck.reference.closed_forms import hertz_sphere_on_plane
 from fecheck.scene import load_scene
 
 SCENE = Path(__file__).resolve().parent / "scenes" / "fe_hertz_block.toml"
 TOLERANCE = 0.03
+
+
+def solves(scene, quick: bool) -> dict:
+    """{model: (FE result, wall time s)}: axisymmetric, and 3D unless `quick`."""
+    fe = FESettings.from_scene(scene)
+    load = scene["load.force_N"]
+    radius = scene.knee.radius_mm("medial")
+    mat = (scene["contact.youngs_MPa"], scene["contact.poisson"], scene["contact.thickness_mm"])
+    disc = scene["mesh.plateau_radius_mm"]
+    runs = {}
+    t = time.perf_counter()
+    res = axisym_sphere_on_layer(load, radius, *mat, layer_radius_mm=disc,
+                                 size_mm=fe.axisym_size_mm, solver=fe.solver)
+    runs["axisymmetric"] = res, time.perf_counter() - t
+    if not quick:
+        t = time.perf_counter()
+        res = sphere_on_flat_layer(load, radius, *mat,
+                                   refine_size_mm=scene["mesh.plateau_refine_mm"],
+                                   size_mm=scene["mesh.plateau_size_mm"], disc_radius_mm=disc,
+                                   layers=fe.layers, grading=fe.grading, solver=fe.solver)
+        runs["3d"] = res, time.perf_counter() - t
+    return runs
 
 
 def main() -> None:
@@ -38,25 +63,14 @@ def main() -> None:
     parser.add_argument("--out", type=Path, default=Path("out/fe"))
     args = parser.parse_args()
     scene = load_scene(SCENE)
-    fe = FESettings.from_scene(scene)
-    load = scene["load.force_N"]
-    radius = scene.knee.radius_mm("medial")
-    mat = (scene["contact.youngs_MPa"], scene["contact.poisson"], scene["contact.thickness_mm"])
-    hertz = hertz_sphere_on_plane(load, radius, mat[0], mat[1])
+    load, radius = scene["load.force_N"], scene.knee.radius_mm("medial")
+    E, nu, h = (scene["contact.youngs_MPa"], scene["contact.poisson"],
+                scene["contact.thickness_mm"])
+    hertz = hertz_sphere_on_plane(load, radius, E, nu)
     a_hertz = np.sqrt(hertz.area_mm2 / np.pi)
     print(f"Hertz: {load} N, R {radius:.1f} mm: p0 {hertz.max_pressure_MPa:.4f} MPa, "
-          f"a {a_hertz:.4f} mm, d {hertz.depth_mm:.4f} mm; a/h = {a_hertz / mat[2]:.3f}")
-    runs = {}
-    t = time.perf_counter()
-    runs["axisymmetric"] = axisym_sphere_on_layer(load, radius, *mat,
-                                                  layer_radius_mm=fe.half_extent_mm,
-                                                  size_mm=fe.axisym_size_mm), \
-        time.perf_counter() - t
-    if not args.quick:
-        t = time.perf_counter()
-        runs["3d"] = sphere_on_layer_3d(load, radius, *mat, half_extent_mm=fe.half_extent_mm,
-                                        size_mm=fe.size_mm, far_size_mm=fe.far_size_mm), \
-            time.perf_counter() - t
+          f"a {a_hertz:.4f} mm, d {hertz.depth_mm:.4f} mm; a/h = {a_hertz / h:.3f}")
+    runs = solves(scene, args.quick)
     rows = []
     for name, (res, sec) in runs.items():
         m = res.metrics
@@ -91,8 +105,7 @@ def plot(runs: dict, hertz, a_hertz: float, path: Path) -> None:
 
     fig, ax = plt.subplots(figsize=(7, 4.5))
     for name, (res, _) in runs.items():
-        center = res.points[np.argmin(res.gap0_mm), :2]
-        r = np.hypot(res.points[:, 0] - center[0], res.points[:, 1] - center[1])
+        r = np.hypot(res.points[:, 0], res.points[:, 1])
         style = "-" if name == "axisymmetric" else "."
         order = np.argsort(r) if name == "axisymmetric" else slice(None)
         ax.plot(r[order], res.pressure_MPa[order], style, ms=3, label=f"FE {name}")

@@ -6,23 +6,19 @@ without it this script says so and exits. The file is both the SfePy problem des
 ``examples/linear_elasticity/elastic_contact_sphere.py``: ``dw_lin_elastic`` +
 ``dw_contact_sphere`` (penalty k, gap along the sphere normal in the deformed
 configuration), Newton with a direct solver. The rigid sphere (R 25.5 mm) presses a 6 mm
-layer (E 20 MPa, ν 0.3) bonded at its base, on the same Gmsh mesh as fecheck's default 3D
-solve, with quadratic elements like fecheck. SfePy is displacement controlled: a secant
-on the sphere position finds the load (323.71 N, the rigid Table 5.1 medial force), one
-Newton solve per step.
+layer (E 20 MPa, ν 0.3) bonded at its base, on the same mesh as fecheck's general FE path
+(the extruded layer of `fecheck.fe.sphere_layer.sphere_on_flat_layer`), with quadratic
+elements like fecheck. SfePy is displacement controlled: a secant on the sphere position
+finds the load (323.71 N, the rigid Table 5.1 medial force), one Newton solve per step.
 
     python validation/fe_sfepy_peer.py [--quick] [MESH [D0 D1]]
 
-MESH is a layer mesh written by
-
-    fecheck mesh layer --footprint ellipse --half-x 30 --half-y 30 --thickness 6 --size 5 \\
-        --refine-point 0 0 --refine-size 1.5 --refine-radius 8.5218 -o /tmp/layer.vtu
-
-(8.5218 mm = 1.3 × the Hertz contact radius, fecheck's refined zone); without MESH the
-script writes it itself. D0 and D1 (mm) start the secant. --quick refines to 3 mm under
-the contact instead of 1.5 mm and stops after 4 Newton solves instead of 8. Prints δ, the
-contact force of each step and the CPU time of the Newton solves; compare with the CPU
-time of ``sphere_on_layer_3d(323.71, 25.5, 20, 0.3, 6, size_mm=1.5)``.
+MESH is a layer mesh (VTU, top at z = 0, base at z = -6); without MESH the script writes
+the general path's layer itself (`fecheck.fe.sphere_layer.flat_layer`, 0.8 mm under the
+contact). D0 and D1 (mm) start the secant. --quick refines to 2 mm under the contact
+instead of 0.8 mm and stops after 4 Newton solves instead of 8. Prints δ, the contact
+force of each step and the CPU time of the Newton solves; compare with the CPU time of
+``sphere_on_flat_layer(323.71, 25.5, 20, 0.3, 6)``.
 """
 
 import argparse
@@ -36,7 +32,6 @@ from pathlib import Path
 from report import Missing, require
 
 RADIUS_MM, LOAD_N, PENALTY = 25.5, 323.71, 1e4   # penalty N/mm³: 4 MPa -> 0.4 µm overlap
-REFINE_RADIUS_MM = 8.5218
 
 
 def define() -> dict:
@@ -68,17 +63,12 @@ def define() -> dict:
 
 
 def layer_mesh(refine_size_mm: float, folder: Path) -> Path:
-    """fecheck's default medial layer mesh (``fecheck mesh layer``, as above) in `folder`."""
-    from fecheck.cli import main as fecheck
+    """The general path's medial layer (`flat_layer`, linear tetrahedra) in `folder`."""
+    from fecheck.fe.sphere_layer import flat_layer
+    from geometry.io import save_mesh
 
-    path = folder / "layer.vtu"
-    code = fecheck(["mesh", "layer", "--footprint", "ellipse", "--half-x", "30", "--half-y",
-                    "30", "--thickness", "6", "--size", "5", "--refine-point", "0", "0",
-                    "--refine-size", str(refine_size_mm), "--refine-radius",
-                    str(REFINE_RADIUS_MM), "-o", str(path)])
-    if code:
-        raise RuntimeError(f"fecheck mesh layer failed (exit status {code})")
-    return path
+    layer, _ = flat_layer(LOAD_N, RADIUS_MM, 20.0, 0.3, 6.0, refine_size_mm=refine_size_mm)
+    return save_mesh(layer.solid.mesh, folder / "layer.vtu")
 
 
 def contact_force(delta_mm: float, cpu: list) -> float:
@@ -113,9 +103,9 @@ def secant(d0: float, d1: float, max_solves: int) -> dict:
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--quick", action="store_true",
-                        help="3 mm under the contact, at most 4 Newton solves")
+                        help="2 mm under the contact, at most 4 Newton solves")
     parser.add_argument("mesh", nargs="?", type=Path,
-                        help="layer mesh (VTU); default: written here by fecheck mesh layer")
+                        help="layer mesh (VTU); default: the general path's layer, written here")
     parser.add_argument("d0", nargs="?", type=float, default=0.930, help="first δ, mm")
     parser.add_argument("d1", nargs="?", type=float, default=0.9315, help="second δ, mm")
     args = parser.parse_args(argv)
@@ -128,7 +118,7 @@ def main(argv: list[str] | None = None) -> int:
 
     output.set_output(quiet=True)
     with tempfile.TemporaryDirectory() as folder:
-        mesh = args.mesh or layer_mesh(3.0 if args.quick else 1.5, Path(folder))
+        mesh = args.mesh or layer_mesh(2.0 if args.quick else 0.8, Path(folder))
         os.environ["PEER_MESH"] = str(mesh)
         result = secant(args.d0, args.d1, 4 if args.quick else 8)
     print(json.dumps(result))

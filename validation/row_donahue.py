@@ -3,8 +3,9 @@
 At the load point where the EF compartment forces are equal (as the thesis did, to
 match Donahue's loading), each compartment's force presses its condyle sphere on a 6 mm
 cartilage layer: fecheck's EF (exact and whole-face) beside the thesis's EF, and
-fecheck's FE cross-check (scikit-fem, P2 tetrahedra, element size 5, 2, 1 mm under the
-contact) beside Donahue's FE (5, 2, 1 mm elements, real geometry with menisci).
+fecheck's FE (the general path of `fecheck fe` on the flat layer, P2 tetrahedra, element
+size 5, 2, 1 mm under the contact) beside Donahue's FE (5, 2, 1 mm elements, real
+geometry with menisci).
 
     python validation/row_donahue.py [--quick] [--out DIR]
 """
@@ -49,7 +50,7 @@ def _metrics(result, c: str) -> dict[str, float]:
 
 
 def _compute(quick: bool) -> dict:
-    from fecheck.fe import crosscheck as cc
+    from fecheck.fe.sphere_layer import sphere_on_flat_layer
     from fecheck.reference import closed_forms as refs
 
     x_eq, exact = equal_force_point()
@@ -62,8 +63,8 @@ def _compute(quick: bool) -> dict:
     for c in ("medial", "lateral"):
         load = exact.compartments[c].force_N
         for s in sizes:
-            fe[c, s] = cc.check_compartment(c, load, knee.radius_mm(c), 20.0, 0.3, 6.0,
-                                            cc.FESettings(size_mm=s, far_size_mm=max(5.0, s)))
+            fe[c, s] = sphere_on_flat_layer(load, knee.radius_mm(c), 20.0, 0.3, 6.0,
+                                            refine_size_mm=s).metrics
     return {"x_eq": x_eq, "exact": exact, "whole": whole, "fe": fe, "sizes": sizes,
             "donahue": refs.DONAHUE_2002}
 
@@ -82,7 +83,7 @@ def _row(name: str, ref: str, c: str, thesis_ef: dict, data: dict, out: Path) ->
         for key in tv.DONAHUE_KEYS:
             note = "Donahue 2002 (thesis Table a) vs fecheck FE"
             lines.append(Line(f"FE {s:g} mm: {LABELS[key]}", getattr(don, key),
-                              getattr(fe.fe.metrics, key), note))
+                              getattr(fe, key), note))
     from matplotlib.ticker import NullFormatter
 
     fig, axes = figure(ncols=2, width=5.2)
@@ -93,7 +94,7 @@ def _row(name: str, ref: str, c: str, thesis_ef: dict, data: dict, out: Path) ->
                 "k^-", label="Donahue 2002 FE (menisci, CT geometry)")
         ax.plot(list(thesis_ef), [v[i] for v in thesis_ef.values()], "s--", color="tab:gray",
                 label="thesis EF (whole faces)")
-        ax.plot(xs, [getattr(data["fe"][c, s].fe.metrics, key) for s in sizes], "o-",
+        ax.plot(xs, [getattr(data["fe"][c, s], key) for s in sizes], "o-",
                 color="tab:red", label="fecheck FE 3D (P2 tets)")
         ax.plot(xs, [_metrics(data["whole"][s], c)[key] for s in sizes], "D:", mfc="none",
                 color="tab:blue", label="fecheck EF whole-face")
@@ -108,15 +109,16 @@ def _row(name: str, ref: str, c: str, thesis_ef: dict, data: dict, out: Path) ->
     axes[1].set_title(f"{ref} ({c}): contact area")
     axes[1].legend(fontsize=7, loc="upper left", bbox_to_anchor=(1.02, 1.0))
     png = save_figure(fig, out / f"{name}.png")
-    fe_pmax = [data["fe"][c, s].fe.metrics.max_pressure_MPa for s in sizes]
+    fe_pmax = [data["fe"][c, s].max_pressure_MPa for s in sizes]
     note = (f"Load point x = {data['x_eq']:.3f} mm (equal EF forces, "
             f"{exact['force_N']:.1f} N per compartment; the thesis moved it likewise). "
             "EF lines: the thesis's own EF results (its Table b) against fecheck's EF, exact "
             "(mesh-independent) and whole-face on icospheres with edges near each size. FE "
-            "lines: Donahue's FE (Table a) against fecheck's FE cross-check of a rigid sphere "
-            "on a bonded 6 mm layer (P2 tetrahedra, exact frictionless contact) under the same "
-            "force. Donahue's model has menisci and real condyles, which spread the load "
-            "over 2-3 times the area: compare orders of magnitude and convergence trends, "
+            "lines: Donahue's FE (Table a) against fecheck's FE (the general path of fecheck fe) "
+            "of a rigid sphere on a bonded 6 mm layer (P2 tetrahedra, exact frictionless "
+            "contact) under the same force. Donahue's model has menisci and real condyles, "
+            "which spread the load over 2-3 times the area: compare orders of magnitude and "
+            "convergence trends, "
             f"not digits. fecheck's FE p_max over the sizes: "
             f"{', '.join(f'{p:.2f}' for p in fe_pmax)} MPa.")
     return table_row(name, f"Donahue 2002 comparison, {c} condyle", ref, lines, out, DEVIATES,

@@ -14,7 +14,7 @@ convention: gap and force along the foundation normal). For that the normal
 displacement of each top edge's midside node is tied to the mean of its end vertices'
 (along the edge's mean normal), so the top is piecewise linear in the normal direction
 and each vertex force is the lumped load of the pressure over its tributary area
-(`fecheck.fe.layer3d` measured the alternatives on the flat layer: node-wise constraints
+(measured on the flat layer against the axisymmetric reference: node-wise constraints
 on all quadratic top nodes let corner nodes lift off inside the contact).
 
 Units: mm, N, MPa; the layer lives in the frame of its surface (the tibia's).

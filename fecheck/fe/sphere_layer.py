@@ -57,8 +57,8 @@ def flat_layer(load_N: float, radius_mm: float, youngs_MPa: float, poisson: floa
                   "plane", indenter.describe(), "uniform")
     settings = FESettings(mode="compartment", layers=layers, grading=grading, solver=solver)
     settings.check()
-    return build_layers([body], youngs_MPa, poisson, settings, log or (lambda m: None))[0], \
-        settings
+    layer = build_layers([body], youngs_MPa, poisson, settings, log or (lambda m: None))[0]
+    return layer, settings
 
 
 def candidate_margin(load_N: float, radius_mm: float, youngs_MPa: float,

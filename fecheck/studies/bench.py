@@ -16,9 +16,10 @@ p_max and the contact area. Methods and their references:
   their deepest point; same reference.
 * ``hertz-mesh``: Hertz law from the icosphere's maximum depth; against Hertz's formula.
   ``hertz-formula``: the formula itself (its own reference: error 0).
-* ``fe-3d`` (element sizes 5 … 0.5 mm under the contact) and ``fe-axisym``: the
-  scikit-fem layer solves of `fecheck.fe`; against the axisymmetric FE at a finer size
-  than any row (the converged FE).
+* ``fe-3d`` (element sizes 5 … 0.5 mm under the contact: the general path of `fecheck
+  fe` on the flat layer, `fecheck.fe.sphere_layer`) and ``fe-axisym``: the scikit-fem
+  layer solves of `fecheck.fe`; against the axisymmetric FE at a finer size than any row
+  (the converged FE).
 * ``scene-ef-clipped``, ``scene-thesis-fcl``: the whole baseline scene (both
   compartments, 2-DOF Newton, `fecheck.model.run.run_scene`) at 5,120 faces per condyle, our
   way and the thesis's (fcl, whole faces); the compartment farthest from the exact EF
@@ -245,11 +246,11 @@ def hertz_formula(radius_mm: float, force_N: float) -> Callable[[], Outcome]:
 
 
 def fe_3d(radius_mm: float, force_N: float, size_mm: float) -> Callable[[], Outcome]:
-    from fecheck.fe.layer3d import sphere_on_layer_3d
+    """The general FE path (`fecheck.fe.sphere_layer`), `size_mm` under the contact."""
+    from fecheck.fe.sphere_layer import sphere_on_flat_layer
 
     def run() -> Outcome:
-        r = sphere_on_layer_3d(force_N, radius_mm, E_MPA, NU, H_MM, size_mm=size_mm,
-                               far_size_mm=max(size_mm, 5.0))
+        r = sphere_on_flat_layer(force_N, radius_mm, E_MPA, NU, H_MM, refine_size_mm=size_mm)
         return Outcome(r.metrics.max_pressure_MPa, r.metrics.area_mm2, r.iterations, r.n_dofs)
 
     return run

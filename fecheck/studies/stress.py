@@ -198,7 +198,9 @@ def cases() -> list[Case]:
                 expect="clear-error"),
             _fe("FE 3D 5 mm", model="3d", size=5.0),
             _fe("FE 3D 2 mm, 2000 N", model="3d", load=2000.0, size=2.0, quick=False),
-            _fe("FE 3D 5 mm nu 0.4999", model="3d", nu=0.4999, size=5.0, quick=False)]
+            _fe("FE 3D 5 mm nu 0.4999", model="3d", nu=0.4999, size=5.0, quick=False),
+            _fe("FE 3D load nan", model="3d", load=math.nan, expect="clear-error"),
+            _fe("FE 3D nu 0.5", model="3d", nu=0.5, expect="clear-error")]
     return out
 
 
@@ -399,9 +401,9 @@ def run_fe_case(params: dict) -> tuple[int, float, str]:
 
         res = axisym_sphere_on_layer(*args, size_mm=params.get("size", 0.2))
     else:
-        from fecheck.fe.layer3d import sphere_on_layer_3d
+        from fecheck.fe.sphere_layer import sphere_on_flat_layer
 
-        res = sphere_on_layer_3d(*args, size_mm=params.get("size", 2.0))
+        res = sphere_on_flat_layer(*args, refine_size_mm=params.get("size", 2.0))
     m = res.metrics
     _finite("FE metrics", m.max_pressure_MPa, m.area_mm2, m.depth_mm, m.force_N,
             res.pressure_MPa, res.nodal_force_N)
