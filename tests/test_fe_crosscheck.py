@@ -139,3 +139,10 @@ def test_scanned_femur_tibia_runs_on_its_own_surfaces():
 def test_scenes_the_fe_cannot_model_faithfully_are_refused(scene, overrides, message):
     with pytest.raises(FecheckError, match=message.replace(".", r"\.").replace("(", r"\(")):
         cross_check(load_scene(SCENES / scene, overrides), log=None)
+
+
+def test_automatic_levels_thicken_for_a_nearly_incompressible_layer():
+    from fecheck.fe.settings import FESettings
+
+    assert FESettings().levels(0.3) == 2 and FESettings().levels(0.49) == 3
+    assert FESettings(layers=4).levels(0.49) == 4

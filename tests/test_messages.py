@@ -193,7 +193,7 @@ def test_mesh_info_names_a_truncated_stl_too(tmp_path, capsys):
 # ----------------------------------------------------------------------- FE
 @pytest.mark.parametrize("args, words", [
     (["--refine", "9"], "fe.refine must be 0 to 4 subdivisions, got 9"),
-    (["--set", "fe.layers=0"], "fe.layers = 0 is out of range"),
+    (["--set", "fe.layers=-1"], "fe.layers = -1 is out of range"),
 ], ids=["refine", "layers"])
 def test_fe_settings_out_of_range_are_refused_before_any_work(capsys, args, words):
     t0 = time.perf_counter()

@@ -379,6 +379,7 @@ def _geometry(layers: Sequence[FELayer], dofs: int) -> dict[str, Any]:
             "thickness_source": joined(lay.body.thickness_source for lay in layers),
             "deformable_layers": 1,
             "elements": int(sum(len(lay.solid.mesh.tets) for lay in layers)),
+            "levels": int(len(layers[0].solid.mesh.tets) // (3 * layers[0].surface.n_faces)),
             "nodes": int(sum(lay.solid.n_nodes for lay in layers)),
             "dofs": int(dofs),
             "smallest_size_mm": float(min(edges)),

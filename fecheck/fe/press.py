@@ -89,9 +89,10 @@ def build_layers(bodies: Sequence[FEBody], youngs_MPa: float, poisson: float,
     out = []
     for body in bodies:
         surface, parent, h = _refined(body, settings.refine)
-        directions, rounds = extrusion_directions(surface, h, layers=settings.layers,
+        levels = settings.levels(poisson)
+        directions, rounds = extrusion_directions(surface, h, layers=levels,
                                                   ratio=settings.grading)
-        solid = layer_solid(surface, h, youngs_MPa, poisson, layers=settings.layers,
+        solid = layer_solid(surface, h, youngs_MPa, poisson, layers=levels,
                             ratio=settings.grading, directions=directions)
         log(f"{body.name}: layer of {len(solid.mesh.tets)} quadratic tetrahedra, "
             f"{solid.n_dofs} dofs, thickness {h.min():.2f}-{h.max():.2f} mm"

@@ -10,6 +10,8 @@ from fecheck.errors import FecheckError
 from fecheck.scene import Scene
 
 MODES = ("joint", "compartment")
+NEARLY_INCOMPRESSIBLE = 0.45
+"""Poisson's ratio from which the automatic level count is 3 instead of 2."""
 
 
 @dataclass(frozen=True)
@@ -17,7 +19,7 @@ class FESettings:
     """FE options of a scene's ``[fe]`` table."""
 
     mode: str = "joint"
-    layers: int = 2
+    layers: int = 0
     grading: float = 1.6
     refine: int = 0
     candidate_gap_mm: float = 0.5
@@ -35,9 +37,18 @@ class FESettings:
     def check(self) -> None:
         if self.mode not in MODES:
             raise FecheckError(f"fe.mode must be one of {', '.join(MODES)}, got {self.mode!r}")
-        if not 1 <= self.layers <= 32:
-            raise FecheckError(f"fe.layers must be 1 to 32 levels, got {self.layers}")
+        if not 0 <= self.layers <= 32:
+            raise FecheckError(f"fe.layers must be 0 (auto) to 32 levels, got {self.layers}")
         if not 0 <= self.refine <= 4:
             raise FecheckError(f"fe.refine must be 0 to 4 subdivisions, got {self.refine}")
         if not (self.candidate_gap_mm > 0 and math.isfinite(self.candidate_gap_mm)):
             raise FecheckError("fe.candidate_gap_mm must be a positive number of mm")
+
+    def levels(self, poisson: float) -> int:
+        """Levels of elements through the thickness: `layers`, or with 0 (auto) 2, and 3
+        for a nearly incompressible layer (ν ≥ `NEARLY_INCOMPRESSIBLE`), where 2 levels
+        let the vertex pressures zigzag (measured on a sphere on a 6 mm layer at ν 0.49:
+        p_max +7 % at 1 mm and +14 % at 0.7 mm with 2 levels, -0.2 % with 3)."""
+        if self.layers:
+            return self.layers
+        return 3 if poisson >= NEARLY_INCOMPRESSIBLE else 2

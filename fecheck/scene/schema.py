@@ -371,9 +371,10 @@ SCHEMA: dict[str, Key] = {
                    "own medial/lateral split and pose; 'compartment' = each compartment is "
                    "pushed along the EF compartment force's line with its magnitude, from the "
                    "EF pose.", choices=("joint", "compartment")),
-    "fe.layers": Key("int", 2, _FE + "levels of quadratic tetrahedra through the cartilage "
-                     "thickness (the EF run's tibial surface extruded along its normals).",
-                     low=1, high=32),
+    "fe.layers": Key("int", 0, _FE + "levels of quadratic tetrahedra through the cartilage "
+                     "thickness (the EF run's tibial surface extruded along its normals); 0 "
+                     "= automatic: 2, or 3 where contact.poisson >= 0.45 (2 levels let a "
+                     "nearly incompressible layer's pressures zigzag).", low=0, high=32),
     "fe.grading": Key("float", 1.6, _FE + "each level of elements this many times thicker "
                       "than the one above it (1 = even levels; > 1 thin levels under the "
                       "contact).", low=1.0, high=4.0),
