@@ -13,20 +13,21 @@ medial/lateral split). This study runs it on
   the lenhart2015 data set (../shared/data/knee/lenhart2015) and are skipped, saying so,
   where it is absent.
 
-Per case and compartment: EF and FE p_max, the largest pressure on the EF run's faces
-(the EF's face pressure; the FE's averaged over each EF face: like for like, and on a
-meshed surface the FE p_max at a vertex grows under refinement at creases of the
-piecewise-flat surface, see fe_scanned_convergence.py), contact area and p_mean with the
-relative error EF/FE − 1, the distance between the EF and FE centres of pressure, and the distance
-from the FE's p_max vertex to its own centre of pressure (large where the FE peak sits at
-an edge of the contact, e.g. at the rim of the sphere-tibia hemispheres' cut, which the
-EF's depth-only law does not see); per case the medial share of the force (EF and FE),
-the FE dofs, the smallest FE surface edge and the EF and FE times (EF warmed up, so
-without JIT compiling; FE = layer build + contact solve) with their ratio. The
-sphere-plane scenes mesh their plateau discs finer where the expected contact is smaller
-(the default mesh.plateau_refine_mm), so ν 0.45 / 0.49 and h 2 mm get finer FE meshes.
-It ends with one sentence per scene kind on when the EF answer can be trusted, from these
-numbers (tolerances `TRUST`). Times are wall clock on a shared machine: read the ratios.
+Per case and compartment: EF and FE p_max; the largest pressure on the EF run's faces
+(the EF's face pressure against the FE's averaged over each EF face: like for like; on a
+meshed surface the FE's vertex p_max grows under refinement, see
+fe_scanned_convergence.py); contact area and p_mean, each with the relative error
+EF/FE − 1; the distance between the EF and FE centres of pressure, and the distance from
+the FE's p_max vertex to its own centre of pressure (large where the FE peak sits at an
+edge of the contact, e.g. at the rim of the sphere-tibia hemispheres' cut, which the EF's
+depth-only law does not see). Per case: the medial share of the force (EF and FE), the
+FE dofs, levels through the thickness (fe.layers auto: 3 from ν 0.45, else 2) and
+smallest surface edge, and the EF and FE times (EF warmed up, so without JIT compiling;
+FE = layer build + contact solve) with their ratio. The sphere-plane scenes mesh their
+plateau discs finer where the expected contact is smaller (the default
+mesh.plateau_refine_mm), so ν 0.45 / 0.49 and h 2 mm get finer FE meshes. It ends with
+one sentence per scene kind on when the EF answer can be trusted, from these numbers
+(tolerances `TRUST`). Times are wall clock on a shared machine: read the ratios.
 
     python validation/fe_scenes.py [--quick] [--out DIR]
 
@@ -128,6 +129,7 @@ def measure(case: Case) -> dict:
     row["medial_share_fe"] = fe_split["medial"]
     row["share_diff_pp"] = 100 * (ef_split["medial"] - fe_split["medial"])
     row["fe_dofs"] = check.geometry["dofs"]
+    row["fe_levels"] = check.geometry.get("levels", math.nan)
     row["fe_smallest_mm"] = check.geometry["smallest_size_mm"]
     row["fe_thickness"] = check.geometry["thickness_source"]
     row["fe_s"] = check.timing_s["fe"]
@@ -170,9 +172,9 @@ def run_cases(cases: list[Case], have_knee: bool, knee_why: str) -> tuple[list[d
 
 
 def print_table(rows: list[dict]) -> None:
-    print(f"\n{'case':24s}{'':8s} | {'p_max MPa EF':>12s}{'FE':>6s}{'err':>7s} | "
-          f"{'on EF faces EF':>14s}{'FE':>6s}{'err':>7s} | {'area mm² EF':>11s}{'FE':>6s}"
-          f"{'err':>7s} | {'p_mean EF':>9s}{'FE':>6s}{'err':>7s} | {'CoP mm':>6s}{'peak-CoP':>9s}")
+    print(f"\n{'case':24s}{'':8s} | {'p_max MPa EF':>12s}{'FE':>6s}{'err':>8s} | "
+          f"{'on EF faces EF':>14s}{'FE':>6s}{'err':>8s} | {'area mm² EF':>11s}{'FE':>6s}"
+          f"{'err':>8s} | {'p_mean EF':>9s}{'FE':>6s}{'err':>8s} | {'CoP mm':>6s}{'peak-CoP':>9s}")
     for r in rows:
         for c in COMPARTMENTS:
             cells = []
@@ -180,14 +182,15 @@ def print_table(rows: list[dict]) -> None:
                                     ("area", 11, ".0f"),
                                     ("pmean", 9, ".2f")):
                 cells.append(f"{r[f'{c}_ef_{key}']:{width}{fmt}}{r[f'{c}_fe_{key}']:6{fmt}}"
-                             f"{100 * r[f'{c}_err_{key}']:+6.1f}%")
+                             f"{100 * r[f'{c}_err_{key}']:+7.1f}%")
             print(f"{r['case'] if c == 'medial' else '':24s}{c:8s} | " + " | ".join(cells)
                   + f" | {r[f'{c}_cop_mm']:6.2f}{r[f'{c}_fe_pmax_offset_mm']:9.2f}")
     print(f"\n{'case':24s} | {'medial share EF':>15s}{'FE':>7s}{'Δ pp':>7s} | {'FE dofs':>8s}"
-          f"{'min edge':>9s} | {'FE s':>6s}{'EF s':>6s}{'EF/FE':>7s}")
+          f"{'levels':>7s}{'min edge':>9s} | {'FE s':>6s}{'EF s':>6s}{'EF/FE':>7s}")
     for r in rows:
         print(f"{r['case']:24s} | {r['medial_share_ef']:15.3f}{r['medial_share_fe']:7.3f}"
-              f"{r['share_diff_pp']:+7.2f} | {r['fe_dofs']:8d}{r['fe_smallest_mm']:9.2f} | "
+              f"{r['share_diff_pp']:+7.2f} | {r['fe_dofs']:8d}{r['fe_levels']:7g}"
+              f"{r['fe_smallest_mm']:9.2f} | "
               f"{r['fe_s']:6.1f}{r['ef_s']:6.2f}{r['ef_over_fe']:7.3f}")
 
 
@@ -265,7 +268,7 @@ def plot(rows: list[dict], path: Path) -> None:
                        label=f"{LABELS[key]}, {c}")
     ax.axvspan(-100 * TRUST["rel"], 100 * TRUST["rel"], color="grey", alpha=0.15)
     ax.set_xlabel("EF / FE − 1 (%)")
-    ax.legend(fontsize=7, ncol=3, loc="lower center", bbox_to_anchor=(0.5, 1.0),
+    ax.legend(fontsize=7, ncol=4, loc="lower center", bbox_to_anchor=(0.5, 1.0),
               frameon=False)
     axes[1].barh(y, [r["share_diff_pp"] for r in rows], color="C4", height=0.5)
     axes[1].axvspan(-TRUST["share_pp"], TRUST["share_pp"], color="grey", alpha=0.15)
@@ -297,6 +300,8 @@ def main(argv: list[str] | None = None) -> int:
     except Missing as err:
         have_knee, why = False, str(err)
     cases = quick_cases(have_knee) if args.quick else list(CASES)
+    if args.quick and not have_knee:
+        print(f"skipped the scanned femur-tibia (inclined plateaus instead): {why}")
     rows, failed = run_cases(cases, have_knee, why)
     if not rows:
         print("no case ran")
