@@ -43,7 +43,7 @@ _SIGNS = np.array([-1.0, 1.0, -1.0])
 #: Smallest d·n used to stretch an extrusion along a direction d tilted from the normal n.
 MIN_COSINE = 0.5
 #: Total 1-ring smoothing rounds tried by `extrusion_directions`, in order.
-ROUND_SCHEDULE = (0, 1, 2, 4, 8, 16, 32, 64)
+ROUND_SCHEDULE = (0, 1, 2, 4, 8, 16, 32, 64, 128, 256, 512, 1024)
 
 
 def level_fractions(layers: int, ratio: float = 1.0) -> np.ndarray:
@@ -57,8 +57,19 @@ def level_fractions(layers: int, ratio: float = 1.0) -> np.ndarray:
     return np.concatenate([[0.0], np.cumsum(widths) / widths.sum()])
 
 
+def extrusion_offsets(surface: TriMesh, thickness_mm: float | np.ndarray,
+                      directions: np.ndarray | None = None) -> np.ndarray:
+    """(n, 3) vectors from each vertex's bottom copy up to the vertex, mm, as
+    `extrude_layer` places them (along the normals, or along `directions` with the
+    thickness kept along the normal)."""
+    h, normals = _thickness(surface, thickness_mm), _normals(surface)
+    return _offsets(h, normals, None if directions is None else _unit(directions,
+                                                                        surface.n_points))
+
+
 def extrude_layer(surface: TriMesh, thickness_mm: float | np.ndarray, *, layers: int = 4,
-                  ratio: float = 1.0, directions: np.ndarray | None = None) -> TetMesh:
+                  ratio: float = 1.0, directions: np.ndarray | None = None,
+                  offsets: np.ndarray | None = None) -> TetMesh:
     """Tetrahedral layer under `surface` (outward normals), `thickness_mm` deep along the
     inward vertex normals (a number, or one value per surface vertex).
 
@@ -68,14 +79,20 @@ def extrude_layer(surface: TriMesh, thickness_mm: float | np.ndarray, *, layers:
     d_v·n_v clipped below at `MIN_COSINE` (0.5), so its bottom copy lies h_v below the
     tangent plane wherever d_v is within 60° of n_v.
 
+    `offsets` : optional (n, 3) vectors from each bottom copy up to its vertex (e.g. a
+    coarser layer's `extrusion_offsets` interpolated onto a subdivided surface, which
+    then extrudes into that layer subdivided); they replace thickness and directions.
+
     Returns a `TetMesh` whose first ``surface.n_points`` points are the surface's (level 0)
     and whose level-k copy of vertex v is point ``k·n + v``; boundaries ``"top"`` (the
     surface faces) and ``"bottom"`` (the deepest level, oriented outward, i.e. downward).
     Raises `FecheckError` when a tetrahedron comes out inverted or flat.
     """
     tri, n = surface.faces, surface.n_points
-    h, normals = _thickness(surface, thickness_mm), _normals(surface)
-    offsets = _offsets(h, normals, None if directions is None else _unit(directions, n))
+    if offsets is None:
+        offsets = extrusion_offsets(surface, thickness_mm, directions)
+    elif np.shape(offsets) != (n, 3) or not np.all(np.isfinite(offsets)):
+        raise FecheckError(f"extrusion offsets must be a finite ({n}, 3) array")
     points = _levels(surface.points, offsets, level_fractions(layers, ratio))
     tets, expected = _prisms(tri, n, layers)
     if np.any(_inverted(points, tets, expected)):
@@ -90,7 +107,7 @@ def extrude_layer(surface: TriMesh, thickness_mm: float | np.ndarray, *, layers:
 
 def extrusion_directions(surface: TriMesh, thickness_mm: float | np.ndarray, *,
                          layers: int = 4, ratio: float = 1.0,
-                         max_rounds: int = 64) -> tuple[np.ndarray, int]:
+                         max_rounds: int = 1024) -> tuple[np.ndarray, int]:
     """Extrusion directions for `extrude_layer` that invert no tetrahedron.
 
     The unit vertex normals are averaged over each vertex's 1-ring (uniform weights over

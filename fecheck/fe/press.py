@@ -1,8 +1,10 @@
 """Cartilage layers pressed by rigid femoral surfaces: the layers of a scene's bodies, the
 rigid-body unknowns that drive them, and the load-controlled solve.
 
-`build_layers` extrudes each body's tibial surface (split `fe.refine` times) into a
-bonded layer, along normals smoothed just enough that no prism inverts. A `Drive` is
+`build_layers` extrudes each body's tibial surface into a bonded layer, along normals
+smoothed just enough that no prism inverts; with `fe.refine` the surface is split and
+the coarse layer's bottom interpolated onto it, so the refined layer is the coarse one
+subdivided (same geometry, never inverted). A `Drive` is
 the tibia's motion: the scene's free DOFs under its load, gravity and ligament springs
 (`joint_drive`), or one compartment pushed along a given force (`push_drive`).
 `solve_pressed` condenses the layers onto the surface vertices near the femoral surface,
@@ -27,7 +29,7 @@ from fecheck.fe.solid import LayerSolid, layer_solid
 from fecheck.model.assembly import applied_load, free_indices
 from fecheck.scene import Scene
 from fecheck.statics.newton import geometric_tangent, pose, twist_basis
-from geometry.extrude import extrusion_directions
+from geometry.extrude import extrusion_directions, extrusion_offsets
 from geometry.mesh import TriMesh
 from geometry.subdivide import subdivide
 
@@ -52,19 +54,22 @@ class FELayer:
     smoothing_rounds: int
 
 
-def _refined(body: FEBody, times: int) -> tuple[TriMesh, np.ndarray, np.ndarray]:
-    """The body's surface split `times` times, its parent faces and the thickness
-    interpolated linearly onto the new vertices."""
+def _refined(body: FEBody, times: int, offsets: np.ndarray
+             ) -> tuple[TriMesh, np.ndarray, np.ndarray, np.ndarray]:
+    """The body's surface split `times` times, its parent faces, and the thickness and
+    extrusion offsets interpolated linearly onto the new vertices (so the refined layer
+    is the coarse layer subdivided: it cannot invert where the coarse one does not)."""
     surface, parent = subdivide(body.surface, times)
-    h = np.empty(surface.n_points)
-    h[:body.surface.n_points] = body.thickness_mm
+    values = np.column_stack([body.thickness_mm, offsets])               # (n, 4)
+    out = np.empty((surface.n_points, 4))
+    out[:body.surface.n_points] = values
     if times:
         corners = body.surface.points[body.surface.faces[parent]]          # (m, 3, 3)
         bary = _barycentric(corners, surface.points[surface.faces])       # (m, 3, 3)
-        values = np.einsum("mkj,mj->mk", bary, body.thickness_mm[body.surface.faces[parent]])
-        h[surface.faces.ravel()] = values.ravel()
-        h[:body.surface.n_points] = body.thickness_mm
-    return surface, parent, h
+        inner = np.einsum("mkj,mjc->mkc", bary, values[body.surface.faces[parent]])
+        out[surface.faces.ravel()] = inner.reshape(-1, 4)
+        out[:body.surface.n_points] = values
+    return surface, parent, out[:, 0], out[:, 1:]
 
 
 def _barycentric(tri: np.ndarray, pts: np.ndarray) -> np.ndarray:
@@ -88,12 +93,13 @@ def build_layers(bodies: Sequence[FEBody], youngs_MPa: float, poisson: float,
     """Extrude and assemble every compartment's layer (the costly setup before contact)."""
     out = []
     for body in bodies:
-        surface, parent, h = _refined(body, settings.refine)
         levels = settings.levels(poisson)
-        directions, rounds = extrusion_directions(surface, h, layers=levels,
-                                                  ratio=settings.grading)
+        directions, rounds = extrusion_directions(body.surface, body.thickness_mm,
+                                                  layers=levels, ratio=settings.grading)
+        offsets = extrusion_offsets(body.surface, body.thickness_mm, directions)
+        surface, parent, h, offsets = _refined(body, settings.refine, offsets)
         solid = layer_solid(surface, h, youngs_MPa, poisson, layers=levels,
-                            ratio=settings.grading, directions=directions)
+                            ratio=settings.grading, offsets=offsets)
         log(f"{body.name}: layer of {len(solid.mesh.tets)} quadratic tetrahedra, "
             f"{solid.n_dofs} dofs, thickness {h.min():.2f}-{h.max():.2f} mm"
             + (f" (extruded along normals smoothed {rounds} times)" if rounds else ""))

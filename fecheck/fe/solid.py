@@ -61,11 +61,14 @@ class LayerSolid:
 
 def layer_solid(surface: TriMesh, thickness_mm: float | np.ndarray, youngs_MPa: float,
                 poisson: float, *, layers: int = 4, ratio: float = 1.5,
-                directions: np.ndarray | None = None) -> LayerSolid:
+                directions: np.ndarray | None = None,
+                offsets: np.ndarray | None = None) -> LayerSolid:
     """Assemble the bonded layer under `surface`, `thickness_mm` deep (a number or one value
     per surface vertex, mm, along the normal), with `layers` levels of elements graded by
     `ratio`, extruded along -`directions` (n, 3) (None: the vertex normals; see
-    `geometry.extrude.extrusion_directions`). Contact acts along the vertex normals."""
+    `geometry.extrude.extrusion_directions`) or by `offsets` (n, 3) from each bottom copy
+    up to its vertex (they replace thickness and directions). Contact acts along the
+    vertex normals."""
     if not (np.isfinite(youngs_MPa) and youngs_MPa > 0):
         raise FecheckError(f"Young's modulus must be a positive number of MPa, got {youngs_MPa}")
     if not (np.isfinite(poisson) and 0.0 <= poisson < 0.5):
@@ -73,7 +76,7 @@ def layer_solid(surface: TriMesh, thickness_mm: float | np.ndarray, youngs_MPa: 
     timing = {}
     t0 = time.perf_counter()
     layer = extrude_layer(surface, thickness_mm, layers=layers, ratio=ratio,
-                          directions=directions)
+                          directions=directions, offsets=offsets)
     timing["mesh"] = time.perf_counter() - t0
     t0 = time.perf_counter()
     mesh, basis, K = p2_elasticity(layer, youngs_MPa, poisson)
