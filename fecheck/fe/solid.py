@@ -113,7 +113,8 @@ def p2_elasticity(layer: TetMesh, youngs_MPa: float, poisson: float, chunk: int 
 
     The element matrices are formed at once from the scalar P2 gradients,
     K_(ia)(jb) = ∫ λ ∂_a φ_i ∂_b φ_j + μ (δ_ab ∇φ_i·∇φ_j + ∂_b φ_i ∂_a φ_j) dx, in chunks
-    of `chunk` elements (memory), and scattered on the vector basis's dofs (node-major
+    of `chunk` elements summed into K chunk by chunk (memory: K and one chunk, never
+    all element matrices at once), on the vector basis's dofs (node-major
     local order, as scikit-fem numbers them); scikit-fem's form assembly gives the same
     matrix to round-off, 2x slower (tests/test_fe_general.py).
     """
@@ -125,7 +126,7 @@ def p2_elasticity(layer: TetMesh, youngs_MPa: float, poisson: float, chunk: int 
     lam, mu = lame_parameters(youngs_MPa, poisson)
     scalar = Basis(mesh, ElementTetP2(), intorder=2)
     grads = np.array([phi[0].grad for phi in scalar.basis])            # (10, 3, nel, nq)
-    data, rows, cols = [], [], []
+    K = sp.csr_matrix((basis.N, basis.N))
     for start in range(0, mesh.t.shape[1], chunk):
         part = slice(start, start + chunk)
         a = np.einsum("iaeq,jbeq,eq->eijab", grads[:, :, part], grads[:, :, part],
@@ -133,12 +134,10 @@ def p2_elasticity(layer: TetMesh, youngs_MPa: float, poisson: float, chunk: int 
         ke = lam * a + mu * np.swapaxes(a, 3, 4)
         ke += mu * np.einsum("eijcc->eij", a)[..., None, None] * np.eye(3)
         ke = ke.transpose(0, 1, 3, 2, 4).reshape(-1, 30, 30)
-        dofs = basis.element_dofs[:, part].T                             # (e, 30)
-        data.append(ke.ravel())
-        rows.append(np.repeat(dofs, 30, axis=1).ravel())
-        cols.append(np.tile(dofs, (1, 30)).ravel())
-    K = sp.csr_matrix((np.concatenate(data), (np.concatenate(rows), np.concatenate(cols))),
-                      shape=(basis.N, basis.N))
+        dofs = basis.element_dofs[:, part].T.astype(np.int32)           # (e, 30)
+        K = K + sp.csr_matrix((ke.ravel(), (np.repeat(dofs, 30, axis=1).ravel(),
+                                            np.tile(dofs, (1, 30)).ravel())),
+                              shape=(basis.N, basis.N))
     return mesh, basis, K
 
 
