@@ -35,6 +35,17 @@ def _fe_wrench(chk, rot: np.ndarray, t: np.ndarray) -> np.ndarray:
     return np.concatenate([f.sum(axis=0), np.cross(x, f).sum(axis=0)])
 
 
+def _free_residual(scene, check) -> np.ndarray:
+    """Generalised force on the scene's free DOFs at the FE pose: load, gravity and the FE
+    contact forces (N, N·mm); zero at equilibrium."""
+    q = _q(check.pose["fe"])
+    theta = math.radians(scene["dofs.flexion_deg"])
+    rot, t = pose(q, theta)
+    total = applied_load(scene)(rot, t)[0] + sum(_fe_wrench(chk, rot, t)
+                                                 for chk in check.compartments.values())
+    return (twist_basis(q, theta).T @ total)[list(free_indices(scene))]
+
+
 def _q(pose_dict: dict) -> np.ndarray:
     return np.array([pose_dict["x_mm"], pose_dict["y_mm"], pose_dict["z_mm"],
                      math.radians(pose_dict["abduction_deg"]),
@@ -59,12 +70,7 @@ def test_general_path_matches_the_axisymmetric_reference_on_the_baseline(baselin
 
 def test_whole_joint_fe_balances_the_load_and_reports_its_own_split(baseline):
     scene, check = baseline
-    q = _q(check.pose["fe"])
-    theta = math.radians(scene["dofs.flexion_deg"])
-    rot, t = pose(q, theta)
-    total = applied_load(scene)(rot, t)[0] + sum(_fe_wrench(chk, rot, t)
-                                                 for chk in check.compartments.values())
-    residual = (twist_basis(q, theta).T @ total)[list(free_indices(scene))]
+    residual = _free_residual(scene, check)
     scale = scene["load.force_N"]
     assert abs(residual[0]) < 1e-8 * scale                       # z force, N
     assert abs(residual[1]) < 1e-8 * scale * 100.0               # abduction moment, N·mm
@@ -116,12 +122,7 @@ def test_scanned_femur_tibia_runs_on_its_own_surfaces():
     assert check.geometry["femoral_surface"] == "mesh:femoral cartilage"
     assert check.geometry["thickness_source"] == "bone-distance"
     assert any("series thickness" in note for note in check.notes)
-    q = _q(check.pose["fe"])
-    theta = math.radians(scene["dofs.flexion_deg"])
-    rot, t = pose(q, theta)
-    total = applied_load(scene)(rot, t)[0] + sum(_fe_wrench(chk, rot, t)
-                                                 for chk in check.compartments.values())
-    residual = (twist_basis(q, theta).T @ total)[list(free_indices(scene))]
+    residual = _free_residual(scene, check)
     assert abs(residual[0]) < 1e-8 * scene["load.force_N"]
     for chk in check.compartments.values():
         assert chk.fe_force_N.min() >= 0.0

@@ -13,6 +13,7 @@ import math
 
 import numpy as np
 import pytest
+from test_maps import lut_index
 
 from fecheck.cli import main
 from fecheck.fe.bodies import FEBody
@@ -93,16 +94,6 @@ def crop(img: np.ndarray, renderer) -> np.ndarray:
     h, w = img.shape[:2]
     return img[int(round((1 - y1) * h)):int(round((1 - y0) * h)),
                int(round(x0 * w)):int(round(x1 * w))]
-
-
-def lut_index(pixels: np.ndarray, lut) -> tuple[np.ndarray, np.ndarray]:
-    """Nearest colour-table entry (0-255) of each pixel and its distance (0-255 units)."""
-    n = lut.GetNumberOfTableValues()
-    table = np.array([lut.GetTableValue(i)[:3] for i in range(n)]) * 255.0
-    colours, inverse = np.unique(pixels.reshape(-1, 3), axis=0, return_inverse=True)
-    d = np.linalg.norm(colours[:, None, :] - table[None], axis=-1)
-    shape = pixels.shape[:2]
-    return d.argmin(axis=1)[inverse].reshape(shape), d.min(axis=1)[inverse].reshape(shape)
 
 
 def world_pixel(renderer, point, height: int) -> tuple[int, int]:

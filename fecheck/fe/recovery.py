@@ -30,10 +30,8 @@ def contact_metrics(pressure_MPa: np.ndarray, force_N: np.ndarray, area_mm2: flo
 
 def tributary_areas(points: np.ndarray, faces: np.ndarray) -> np.ndarray:
     """Lumped area of each point: a third of the adjacent triangle areas, mm²."""
-    p = points[faces]
-    areas = 0.5 * np.linalg.norm(np.cross(p[:, 1] - p[:, 0], p[:, 2] - p[:, 0]), axis=1)
     out = np.zeros(len(points))
-    np.add.at(out, faces.ravel(), np.repeat(areas / 3.0, 3))
+    np.add.at(out, faces.ravel(), np.repeat(_face_areas(points, faces) / 3.0, 3))
     return out
 
 

@@ -29,6 +29,7 @@ import numpy as np
 import scipy.sparse as sp
 
 from fecheck.errors import FecheckError
+from fecheck.fe.recovery import tributary_areas
 from geometry.extrude import extrude_layer
 from geometry.mesh import TetMesh, TriMesh
 
@@ -104,7 +105,8 @@ def layer_solid(surface: TriMesh, thickness_mm: float | np.ndarray, youngs_MPa: 
     position[kept] = np.arange(len(kept))
     timing["reduce"] = time.perf_counter() - t0
     return LayerSolid(layer, K_red, normal_rows, position[vertex_dofs], normals,
-                      _tributary(surface), surface, len(kept), basis.N // 3, timing)
+                      tributary_areas(surface.points, surface.faces), surface, len(kept),
+                      basis.N // 3, timing)
 
 
 def p2_elasticity(layer: TetMesh, youngs_MPa: float, poisson: float, chunk: int = 8192):
@@ -145,12 +147,6 @@ def _face_edges(faces: np.ndarray) -> np.ndarray:
     """(e, 2) sorted unique vertex pairs of the edges of triangles `faces`."""
     e = np.sort(faces[:, [0, 1, 1, 2, 2, 0]].reshape(-1, 2), axis=1)
     return np.unique(e, axis=0)
-
-
-def _tributary(surface: TriMesh) -> np.ndarray:
-    out = np.zeros(surface.n_points)
-    np.add.at(out, surface.faces.ravel(), np.repeat(surface.face_areas / 3.0, 3))
-    return out
 
 
 def _tie_matrix(n: int, fixed: np.ndarray, mid: np.ndarray, ends: np.ndarray,
