@@ -105,11 +105,13 @@ def condensed_compliance(K: sp.spmatrix, dofs: np.ndarray, directions: np.ndarra
     inner = np.setdiff1d(np.arange(n), last)
     order = inner[analyze(Kq[inner][:, inner], ordering_method="metis").P()]
     perm = np.concatenate([order, last])
+    Kq = sp.csc_matrix(Kq[perm][:, perm])
     try:
-        factor = cholesky(sp.csc_matrix(Kq[perm][:, perm]), ordering_method="natural")
+        factor = cholesky(Kq, ordering_method="natural")
     except CholmodNotPositiveDefiniteError as err:
         raise FecheckError("the layer's stiffness is not positive definite: check its "
                            "supports and material (0 < E, -1 < ν < 0.5)") from err
+    del K, Kq            # the factor's copy of L (below) is the peak of memory: free these
     L22 = factor.L()[n - m:, n - m:].toarray()
     Y = solve_triangular(L22, np.eye(m), lower=True)
     inverse = np.empty(n, dtype=np.int64)

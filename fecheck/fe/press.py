@@ -25,7 +25,7 @@ from fecheck.errors import FecheckError
 from fecheck.fe.bodies import FEBody
 from fecheck.fe.joint import ContactLayer, JointContact, JointSolution
 from fecheck.fe.settings import FESettings
-from fecheck.fe.solid import LayerSolid, layer_solid
+from fecheck.fe.solid import LayerSolid, layer_solid, release_freed_heap
 from fecheck.model.assembly import applied_load, free_indices
 from fecheck.scene import Scene
 from fecheck.statics.newton import geometric_tangent, pose, twist_basis
@@ -100,6 +100,7 @@ def build_layers(bodies: Sequence[FEBody], youngs_MPa: float, poisson: float,
         surface, parent, h, offsets = _refined(body, settings.refine, offsets)
         solid = layer_solid(surface, h, youngs_MPa, poisson, layers=levels,
                             ratio=settings.grading, offsets=offsets)
+        release_freed_heap()
         log(f"{body.name}: layer of {len(solid.mesh.tets)} quadratic tetrahedra, "
             f"{solid.n_dofs} dofs, thickness {h.min():.2f}-{h.max():.2f} mm"
             + (f" (extruded along normals smoothed {rounds} times)" if rounds else ""))

@@ -143,6 +143,21 @@ def p2_elasticity(layer: TetMesh, youngs_MPa: float, poisson: float, chunk: int 
     return mesh, basis, K
 
 
+def release_freed_heap() -> None:
+    """Hand the heap memory freed by the assembly back to the system (glibc's
+    ``malloc_trim``; nothing elsewhere). The assembly's many mid-sized temporaries leave
+    the heap fragmented, and glibc keeps it: 0.46 GB at 155k dofs, which the
+    factorization that follows (allocated outside the heap) would sit on top of."""
+    import ctypes
+    import ctypes.util
+
+    name = ctypes.util.find_library("c")
+    try:
+        ctypes.CDLL(name).malloc_trim(0)
+    except (OSError, AttributeError, TypeError):
+        return
+
+
 def _face_edges(faces: np.ndarray) -> np.ndarray:
     """(e, 2) sorted unique vertex pairs of the edges of triangles `faces`."""
     e = np.sort(faces[:, [0, 1, 1, 2, 2, 0]].reshape(-1, 2), axis=1)

@@ -51,7 +51,7 @@ def flat_layer(load_N: float, radius_mm: float, youngs_MPa: float, poisson: floa
     disc = disc_radius_mm or max(14.0, 3.0 * a + thickness_mm)
     surface = plane_patch((0.0, 0.0, 0.0), UP, radius=disc, size=max(size_mm, refine_size_mm),
                           refine_point=(0.0, 0.0, 0.0), refine_size=refine_size_mm,
-                          refine_radius=min(disc, 1.5 * a + 2.0 * refine_size_mm))
+                          refine_radius=min(disc, CANDIDATE_RADII * a + 2.0 * refine_size_mm))
     indenter = SphereIndenter(np.array([0.0, 0.0, radius_mm]), radius_mm)
     body = FEBody("layer", surface, np.full(surface.n_points, float(thickness_mm)), indenter,
                   "plane", indenter.describe(), "uniform")
@@ -76,11 +76,12 @@ def sphere_on_flat_layer(load_N: float, radius_mm: float, youngs_MPa: float, poi
                          log: Callable[[str], None] | None = None) -> FEContactResult:
     """The sphere (radius_mm) pressed on the layer with `load_N`, touching it at the origin.
 
-    `refine_size_mm` is the element size within 1.5 Hertz contact radii of the axis (and
-    `size_mm` beyond); the disc radius defaults to 3 contact radii plus the thickness
-    (at least 14 mm); `layers` levels of elements through the thickness, each `grading`
-    times thicker than the one above. Returns the FE answer with its metrics (p_max,
-    mean = load / area, zero-contour area, indentation depth, summed contact force).
+    `refine_size_mm` is the element size within `CANDIDATE_RADII` Hertz contact radii of
+    the axis, plus two elements (and `size_mm` beyond); the disc radius defaults to 3
+    contact radii plus the thickness (at least 14 mm); `layers` levels of elements
+    through the thickness, each `grading` times thicker than the one above. Returns the
+    FE answer with its metrics (p_max, mean = load / area, zero-contour area,
+    indentation depth, summed contact force).
     """
     say = log or (lambda message: None)
     t0 = time.perf_counter()
