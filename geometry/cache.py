@@ -171,12 +171,53 @@ def cached_build(name: str, params: Mapping[str, Any],
     STATS.builds += 1
     STATS.last = "built"
     if path is not None:
-        fd, tmp = tempfile.mkstemp(prefix=".tmp-", suffix=".npz", dir=path.parent)
-        try:
-            with os.fdopen(fd, "wb") as fh:
-                np.savez(fh, **_to_arrays(mesh))
-            os.replace(tmp, path)
-        except OSError as err:
-            Path(tmp).unlink(missing_ok=True)
-            warnings.warn(f"could not write mesh cache entry {path}: {err}", stacklevel=2)
+        _store(path, _to_arrays(mesh))
     return mesh
+
+
+def _store(path: Path, arrays: Mapping[str, np.ndarray]) -> None:
+    """Write an entry atomically (a temporary file renamed into place)."""
+    fd, tmp = tempfile.mkstemp(prefix=".tmp-", suffix=".npz", dir=path.parent)
+    try:
+        with os.fdopen(fd, "wb") as fh:
+            np.savez(fh, **arrays)
+        os.replace(tmp, path)
+    except OSError as err:
+        Path(tmp).unlink(missing_ok=True)
+        warnings.warn(f"could not write cache entry {path}: {err}", stacklevel=3)
+
+
+def content_digest(items: list[TriMesh | np.ndarray]) -> str:
+    """sha256 of the arrays of meshes and arrays (their values, shapes and types)."""
+    h = hashlib.sha256()
+    for item in items:
+        arrays = (item.points, item.faces) if isinstance(item, TriMesh) else (item,)
+        for a in arrays:
+            a = np.ascontiguousarray(a)
+            h.update(f"{a.dtype.str}{a.shape}".encode())
+            h.update(a.tobytes())
+    return h.hexdigest()
+
+
+def cached_arrays(name: str, inputs: list[TriMesh | np.ndarray],
+                  build: Callable[[], tuple[np.ndarray, ...]], *, version: int = 1
+                  ) -> tuple[np.ndarray, ...]:
+    """``build()``, arrays computed from `inputs` alone (meshes, arrays), read from the
+    cache when an entry for (name, version, the inputs' content) exists."""
+    key = cache_key(name, {"inputs": content_digest(inputs)}, version)
+    folder = _writable_dir()
+    path = folder / f"{name}-{key[:32]}.npz" if folder is not None else None
+    if path is not None and path.is_file():
+        try:
+            with np.load(path, allow_pickle=False) as data:
+                out = tuple(data[f"value_{i}"] for i in range(len(data.files)))
+        except (OSError, ValueError, KeyError):
+            path.unlink(missing_ok=True)
+        else:
+            STATS.hits += 1
+            return out
+    out = tuple(np.asarray(a) for a in build())
+    STATS.builds += 1
+    if path is not None:
+        _store(path, {f"value_{i}": a for i, a in enumerate(out)})
+    return out

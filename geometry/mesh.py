@@ -155,3 +155,10 @@ class TetMesh:
     def volume(self) -> float:
         """Total volume, mm³."""
         return float(np.abs(self.tet_volumes).sum())
+
+
+def is_closed(mesh: TriMesh) -> bool:
+    """True if every edge is shared by exactly two faces."""
+    e = np.sort(mesh.faces[:, [0, 1, 1, 2, 2, 0]].reshape(-1, 2), axis=1).astype(np.int64)
+    _, counts = np.unique(e[:, 0] * mesh.n_points + e[:, 1], return_counts=True)
+    return bool(np.all(counts == 2))

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import os
+import sys
 from pathlib import Path
 
 import pytest
@@ -10,6 +11,9 @@ import pytest
 REPO = Path(__file__).resolve().parents[1]
 SHARED_DATA = Path(os.environ.get("FECHECK_SHARED_DATA", REPO.parent / "shared" / "data"))
 KNEE_DIR = SHARED_DATA / "knee" / "lenhart2015"
+os.environ.setdefault("FECHECK_KNEE_DIR", str(KNEE_DIR))
+# the validation scripts' helpers (validation/lenhart.py: the shipped data set's files)
+sys.path.insert(0, str(REPO / "validation"))
 
 
 @pytest.fixture(autouse=True)

@@ -76,9 +76,10 @@ def test_open_cap_sheet_keeps_its_border_area_and_side(cap_sheet):
 
 
 def test_scanned_sheet_halved_stays_close_unfolded_and_keeps_its_border():
-    from fecheck.scene import scanned
+    import lenhart
 
-    sheet = scanned.load_scanned_mesh("tibia_cartilage_medial", require_knee_data())
+    require_knee_data()
+    sheet = lenhart.mesh("tibia_cartilage_medial")
     small = decimate(sheet, 2122)
     assert 0.9 * 2122 <= small.n_faces <= 2122
     # measured: new to old max 0.011 mm, old to new max 0.071 mm (mean 0.0012, 0.0021)

@@ -14,13 +14,13 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from conftest import require_knee_data
 
 from fecheck.errors import FecheckError
 from fecheck.fe.crosscheck import cross_check
 from fecheck.model.assembly import applied_load, free_indices
 from fecheck.scene import load_scene
 from fecheck.scene.knee import plane_normal
-from fecheck.scene.scanned import knee_dir
 from fecheck.statics.newton import pose, twist_basis
 
 SCENES = Path(__file__).resolve().parents[1] / "validation" / "scenes"
@@ -113,13 +113,14 @@ def test_frictionless_on_an_inclined_plateau():
         assert force == pytest.approx(chk.ef_model.force_vector_N, rel=1e-9, abs=1e-9)
 
 
-@pytest.mark.skipif(not (knee_dir() / "lenhart2015_R_tibia_cartilage_medial.stl").is_file(),
-                    reason="the scanned knee data (../shared/data/knee) is absent")
 def test_scanned_femur_tibia_runs_on_its_own_surfaces():
+    require_knee_data()
     scene = load_scene(SCENES / "femur_tibia.toml", ["scanned.decimate_faces=1500"])
     check = cross_check(scene, log=None)
-    assert check.geometry["tibial_surface"].startswith("mesh:")
-    assert check.geometry["femoral_surface"] == "mesh:femoral cartilage"
+    assert check.geometry["tibial_surface"] == ("mesh:lenhart2015_R_tibia_cartilage_medial.stl"
+                                                " + mesh:lenhart2015_R_tibia_cartilage_"
+                                                "lateral.stl")
+    assert check.geometry["femoral_surface"] == "mesh:lenhart2015_R_femur_cartilage.stl"
     assert check.geometry["thickness_source"] == "bone-distance"
     assert any("series thickness" in note for note in check.notes)
     residual = _free_residual(scene, check)

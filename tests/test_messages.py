@@ -19,7 +19,7 @@ import pytest
 
 import fecheck.cli
 from fecheck.cli import main
-from fecheck.scene import load_scene, scanned
+from fecheck.scene import load_scene
 from geometry.io import save_mesh
 from geometry.mesh import TriMesh
 from geometry.plateau import plane_patch
@@ -74,23 +74,25 @@ def _sheets() -> dict[str, TriMesh]:
     return out
 
 
+SHEET = "tibia_{}.stl"
+"""File name of each compartment's tibial sheet in a synthetic knee folder."""
+
+
 def _knee_folder(folder: Path, change=lambda c, m: m) -> Path:
-    """A scanned-knee folder holding fits.json and the two tibial sheets, each passed
+    """A folder holding the two tibial sheets under the baseline condyles, each passed
     through `change(compartment, mesh)` first."""
     folder.mkdir(parents=True, exist_ok=True)
-    knee = load_scene().knee
-    fits = {}
     for c, mesh in _sheets().items():
-        save_mesh(change(c, mesh), folder / scanned.FILES[f"tibia_cartilage_{c}"])
-        fits[f"femoral_condyle_{c}_sphere"] = {"centre_mm": knee.condyle_center[c].tolist(),
-                                               "radius_mm": knee.radius_mm(c)}
-    (folder / "fits.json").write_text(json.dumps({"fits": fits}))
+        save_mesh(change(c, mesh), folder / SHEET.format(c))
     return folder
 
 
 def _run_folder(capsys, folder: Path) -> tuple[int, str, str]:
     return _run(capsys, "run", "--set", "model.kind='sphere-tibia'",
-                "--set", f"scanned.data_dir='{folder}'", "--set", "scanned.thickness='uniform'")
+                "--set", f"geometry.dir='{folder}'",
+                "--set", f"geometry.tibia='{SHEET.format('medial')}'",
+                "--set", f"geometry.tibia_lateral='{SHEET.format('lateral')}'",
+                "--set", "scanned.thickness='uniform'")
 
 
 def test_the_synthetic_knee_folder_runs_clean(tmp_path, capsys):
@@ -129,8 +131,8 @@ FAR_WORDS = ["medial: the condyle sphere is", "mm from the tibial sheet", "landm
 @pytest.mark.parametrize("change, words", [
     (_flipped, ["medial tibial contact sheet", "normals point down", "winding is inverted"]),
     (_mixed, ["medial tibial contact sheet", "mixed winding", "face down", "(x, y)"]),
-    (_metres, ["tibia_cartilage_medial.stl", "0.0396 units across", "looks like metres",
-               "scale it by 1000"]),
+    (_metres, ["tibia_medial.stl", "0.0396 mm across", "looks like metres",
+               "geometry.units = 'm'"]),
     (_far_below, FAR_WORDS),
     (_far_aside, FAR_WORDS),
 ], ids=["flipped", "mixed", "metres", "100-mm-below", "100-mm-aside"])
@@ -171,7 +173,7 @@ def test_a_folded_tibial_sheet_is_warned_with_the_count_and_place(tmp_path, caps
 
 def test_a_truncated_binary_stl_is_one_line_naming_the_file(tmp_path, capsys):
     folder = _knee_folder(tmp_path / "knee")
-    path = folder / scanned.FILES["tibia_cartilage_medial"]
+    path = folder / SHEET.format("medial")
     data = path.read_bytes()
     path.write_bytes(data[:len(data) // 2])
     code, _, err = _run_folder(capsys, folder)

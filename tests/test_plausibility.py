@@ -11,11 +11,12 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from conftest import require_knee_data
 
 from fecheck.errors import FecheckError
 from fecheck.model import plausibility as pl
 from fecheck.model.run import run_scene
-from fecheck.scene import load_scene, scanned
+from fecheck.scene import load_scene
 from geometry.mesh import TriMesh
 from geometry.plateau import plane_patch
 
@@ -149,10 +150,11 @@ def test_folds_are_found_where_they_are(patch):
 
 
 def test_scanned_tibial_sheets_pass_every_mesh_check():
-    if not (scanned.knee_dir(must_exist=False) / "fits.json").is_file():
-        pytest.skip("scanned knee data not found")
+    import lenhart
+
+    require_knee_data()
     for c in ("medial", "lateral"):
-        sheet = scanned.load_scanned_mesh(f"tibia_cartilage_{c}")
+        sheet = lenhart.mesh(f"tibia_cartilage_{c}")
         pl.check_extent(sheet, c)
         pl.check_winding(sheet, c)
         assert not pl.fold_faces(sheet).any()

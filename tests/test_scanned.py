@@ -1,16 +1,16 @@
-"""The scanned knee's data (paths, landmarks, bundles), decimation and open-sheet contact."""
+"""The shipped scanned knee's data (landmarks, bundles), decimation and open-sheet contact."""
 
 import json
 import sys
 from pathlib import Path
 
+import lenhart
 import numpy as np
 import pytest
 import tomllib
 from conftest import REPO, require_knee_data
 
 from fecheck.errors import FecheckError
-from fecheck.scene import scanned
 from fecheck.statics.ligaments import SpringLigament
 from geometry.decimate import decimate
 from geometry.mesh import TriMesh
@@ -18,24 +18,10 @@ from geometry.mesh import TriMesh
 SCENES = REPO / "validation" / "scenes"
 
 
-def test_missing_knee_folder_raises_a_clear_error(tmp_path, monkeypatch):
-    monkeypatch.setenv(scanned.ENV_VAR, str(tmp_path / "nowhere"))
-    with pytest.raises(FecheckError, match=r"nowhere.*FECHECK_KNEE_DIR.*scanned.data_dir"):
-        scanned.knee_dir()
-    with pytest.raises(FecheckError, match="scene key"):
-        scanned.knee_dir(tmp_path)                # an explicit folder wins over the env
-
-
-def test_environment_variable_points_to_the_data(monkeypatch):
-    knee = require_knee_data()
-    monkeypatch.setenv(scanned.ENV_VAR, str(knee))
-    assert scanned.knee_dir() == knee
-
-
 def test_landmarks_are_the_data_sets_condyle_spheres():
     knee = require_knee_data()
     fits = json.loads((knee / "fits.json").read_text())["fits"]
-    lm = scanned.landmarks(knee)
+    lm = lenhart.landmarks()
     for c in ("medial", "lateral"):
         ref = fits[f"femoral_condyle_{c}_sphere"]
         np.testing.assert_allclose(lm.condyle_center[c], ref["centre_mm"])
@@ -46,7 +32,7 @@ def test_landmarks_are_the_data_sets_condyle_spheres():
 def test_bundle_springs_reproduce_the_models_forces_at_rest():
     knee = require_knee_data()
     data = {b["name"]: b for b in json.loads((knee / "ligaments.json").read_text())}
-    bundles = scanned.bundles(knee)
+    bundles = lenhart.bundles()
     assert len(bundles) == 55
     checked = 0
     for b in bundles:
@@ -63,8 +49,8 @@ def test_bundle_springs_reproduce_the_models_forces_at_rest():
 
 
 def test_scene_landmarks_and_plateaus_come_from_the_scanned_knee():
-    knee = require_knee_data()
-    table = scanned.knee_landmarks_table(knee)
+    require_knee_data()
+    table = lenhart.knee_landmarks_table()
     sys.path.insert(0, str(REPO / "validation"))
     try:
         import knee_fits
@@ -75,6 +61,9 @@ def test_scene_landmarks_and_plateaus_come_from_the_scanned_knee():
         data = tomllib.loads(path.read_text())
         if data.get("model", {}).get("kind") not in ("sphere-tibia", "femur-tibia") and \
                 data.get("scanned", {}).get("ligaments", "none") == "none":
+            continue
+        if "landmarks" not in data["knee"]:            # mesh on mesh: none read
+            assert data["model"]["kind"] == "femur-tibia"
             continue
         lm = data["knee"]["landmarks"]
         for group, values in table.items():
@@ -91,8 +80,8 @@ def test_scene_landmarks_and_plateaus_come_from_the_scanned_knee():
 
 
 def test_decimation_keeps_the_sheet_close_and_its_orientation():
-    knee = require_knee_data()
-    sheet = scanned.load_scanned_mesh("tibia_cartilage_medial", knee)
+    require_knee_data()
+    sheet = lenhart.mesh("tibia_cartilage_medial")
     small = decimate(sheet, 1000)
     assert 900 <= small.n_faces <= 1000
     # every new vertex stays near the old surface: well within a new edge length
@@ -118,11 +107,12 @@ def test_decimate_keeps_small_meshes_and_rejects_tiny_targets():
 def test_open_femoral_sheet_master_gives_the_data_sets_rest_overlap_without_hole_filling():
     """Closest-face-normal sign on the OPEN femoral cartilage: tibial vertices penetrate by
     at most 0.409 mm, 341 of 4453 (README rest-pose check, an independent computation)."""
-    from fecheck.contact.mesh_master import MeshMaster, is_closed
+    from fecheck.contact.mesh_master import MeshMaster
+    from geometry.mesh import is_closed
 
-    knee = require_knee_data()
-    femur = scanned.load_scanned_mesh("femur_cartilage", knee)
-    tibia = scanned.load_scanned_mesh("tibia_cartilage", knee)
+    require_knee_data()
+    femur = lenhart.mesh("femur_cartilage")
+    tibia = lenhart.mesh("tibia_cartilage")
     assert not is_closed(femur)
     depth = MeshMaster(femur).depth_values(tibia.points)
     assert -depth.max() == pytest.approx(-0.409, abs=1e-3)
@@ -136,8 +126,8 @@ def test_ray_parity_fails_on_the_open_sheet_where_the_normal_sign_does_not():
 
     from fecheck.contact.mesh_master import MeshMaster
 
-    knee = require_knee_data()
-    femur = decimate(scanned.load_scanned_mesh("femur_cartilage", knee), 3000)
+    require_knee_data()
+    femur = decimate(lenhart.mesh("femur_cartilage"), 3000)
     c, n = femur.face_centroids, femur.face_normals
     inside, outside = c - n, c + n
     master = MeshMaster(femur)
@@ -151,13 +141,13 @@ def test_missing_data_in_a_scene_is_a_one_line_error(tmp_path):
     from fecheck.model.run import run_scene
     from fecheck.scene import load_scene
 
-    scene = load_scene(SCENES / "femur_tibia.toml", [f"scanned.data_dir='{tmp_path}'"])
-    with pytest.raises(FecheckError, match="scanned knee data not found"):
+    scene = load_scene(SCENES / "femur_tibia.toml", [f"geometry.dir='{tmp_path}'"])
+    with pytest.raises(FecheckError, match=r"geometry.tibia = .*file not found at .*geometry.dir"):
         run_scene(scene)
 
 
 def test_default_folder_is_next_to_the_repository():
-    assert scanned.DEFAULT_DIR == Path(REPO).parent / "shared" / "data" / "knee" / "lenhart2015"
+    assert lenhart.DEFAULT_DIR == Path(REPO).parent / "shared" / "data" / "knee" / "lenhart2015"
 
 
 def test_knee_fits_follow_the_thesis_trends(tmp_path):
@@ -191,18 +181,22 @@ def test_knee_fits_follow_the_thesis_trends(tmp_path):
     assert (tmp_path / "knee_fits_table_2_4.csv").is_file()
 
 
-@pytest.mark.parametrize("scale, message", [(1e-3, "looks like metres"),
-                                            (1e4, "check its unit")])
-def test_a_surface_not_in_millimetres_is_refused_with_its_extent(tmp_path, scale, message):
-    # a 50 mm sheet written in metres (0.05 across) or in tenths of micrometres
-    from fecheck.scene.scanned import FILES, load_scanned_mesh
+@pytest.mark.parametrize("scale, units, message", [
+    (1e-3, "mm", "looks like metres - set geometry.units = 'm'"),
+    (1.0, "m", "looks like millimetres - set geometry.units = 'mm'"),
+    (1e4, "mm", "check its unit")])
+def test_a_surface_not_in_its_declared_unit_is_refused_with_its_extent(tmp_path, scale, units,
+                                                                      message):
+    # a 50 mm ball written in metres (0.05 across) read as mm, in mm read as metres, or
+    # in tenths of micrometres
+    from fecheck.scene.surfaces import read_surface
     from geometry.icosphere import icosphere
     from geometry.io import save_mesh
 
     ball = icosphere(25.0, 2, (0.0, 0.0, 0.0), method="trimesh", cache=False)
-    (tmp_path / "fits.json").write_text("{}")            # marks a knee data folder
-    save_mesh(TriMesh(ball.points * scale, ball.faces), tmp_path / FILES["femur_cartilage"])
+    save_mesh(TriMesh(ball.points * scale, ball.faces), tmp_path / "femur.stl")
     with pytest.raises(FecheckError, match=message):
-        load_scanned_mesh("femur_cartilage", tmp_path)
-    save_mesh(ball, tmp_path / FILES["femur_bone"])
-    assert load_scanned_mesh("femur_bone", tmp_path).n_faces == ball.n_faces
+        read_surface(tmp_path / "femur.stl", units)
+    save_mesh(TriMesh(ball.points / 1000.0, ball.faces), tmp_path / "metres.obj")
+    read = read_surface(tmp_path / "metres.obj", "m")
+    np.testing.assert_allclose(read.points, ball.points, atol=1e-5)

@@ -9,6 +9,7 @@ bundles' Blankevoort forces (straight paths) are summed by hand.
 
 from pathlib import Path
 
+import lenhart
 import numpy as np
 import pytest
 import trimesh
@@ -18,7 +19,7 @@ from fecheck.contact.analytic import Sphere
 from fecheck.errors import FecheckError
 from fecheck.model.run import run_scene
 from fecheck.model.scanned import build_compartments, slave_thickness
-from fecheck.scene import load_scene, scanned
+from fecheck.scene import load_scene
 from fecheck.statics.newton import pose
 
 SCENES = REPO / "validation" / "scenes"
@@ -37,10 +38,10 @@ def _balance_tolerance_N(scene) -> float:
 
 
 def require_knee_data() -> Path:
-    """The knee folder the package reads ($FECHECK_KNEE_DIR or its default), or skip."""
-    path = scanned.knee_dir(must_exist=False)
+    """The shipped scenes' knee folder ($FECHECK_KNEE_DIR or its default), or skip."""
+    path = lenhart.knee_dir(must_exist=False)
     if not (path / "fits.json").is_file():
-        pytest.skip(f"scanned knee data not found at {path} (set {scanned.ENV_VAR})")
+        pytest.skip(f"scanned knee data not found at {path} (set {lenhart.ENV_VAR})")
     return path
 
 
@@ -133,7 +134,7 @@ def _hand_balance(scene, result) -> np.ndarray:
     total = total + scene["load.force_N"] * d / np.linalg.norm(d)
     total = total + np.array([0.0, 0.0, -9.81 * scene["tibia.mass_kg"]])
     if scene["scanned.ligaments"] == "bundles":
-        for b in scanned.bundles(scene["scanned.data_dir"] or None):
+        for b in lenhart.bundles():
             total = total + _bundle_force(b.femur_point, rot @ b.tibia_point + t,
                                           b.stiffness_N, b.slack_length_mm,
                                           b.transition_strain)
@@ -160,10 +161,10 @@ def test_scanned_scene_converges_and_balances_the_load(name, ligaments):
 
 
 def test_femur_on_tibia_gives_one_patch_per_condyle_away_from_the_notch():
-    knee = require_knee_data()
+    require_knee_data()
     scene = load_scene(SCENES / "femur_tibia.toml", [DECIMATED])
     result = run_scene(scene)
-    centres = scanned.landmarks(knee).condyle_center
+    centres = lenhart.landmarks().condyle_center
     for name, comp in result.compartments.items():
         p = comp.face_pressure_MPa
         centroid = comp.slave_points[comp.slave_faces].mean(axis=1)
@@ -193,11 +194,11 @@ def test_uniform_thickness_is_softer_than_the_thin_scanned_cartilage():
 def test_hemispheres_keep_the_condyle_spheres_off_the_eminence():
     """Thesis Fig. 5.13: the fitted spheres press hardest on the cartilage rising to the
     eminence; cut 10 mm from their centres towards the notch, they load nothing past it."""
-    knee = require_knee_data()
+    require_knee_data()
     path = SCENES / "sphere_tibia.toml"
     full = run_scene(load_scene(path, [DECIMATED, "scanned.condyle='sphere'"]))
     cut = run_scene(load_scene(path, [DECIMATED]))
-    centres = scanned.landmarks(knee).condyle_center
+    centres = lenhart.landmarks().condyle_center
     for name in ("medial", "lateral"):
         limit = abs(centres[name][0]) - 10.0          # |x| of the cut plane, mm
         for result, peak_inside in ((full, True), (cut, False)):

@@ -21,7 +21,7 @@ from fecheck.studies.sweep import (
     SweepInterrupted,
     override_for,
     parse_values,
-    pin_data_dir,
+    pin_geometry_dir,
     run_sweep,
     write_csv,
 )
@@ -260,16 +260,15 @@ def test_dask_points_run_through_the_executor_path_and_the_client_is_closed(
     assert "contact.youngs_MPa = 0.1 failed on worker" in rows[2]["error"]
 
 
-def test_scanned_scenes_name_their_data_folder_for_remote_workers(tmp_path, monkeypatch):
-    (tmp_path / "fits.json").write_text("{}")
-    monkeypatch.setenv("FECHECK_KNEE_DIR", str(tmp_path))
+def test_scenes_reading_files_pin_an_absolute_folder_for_remote_workers(tmp_path):
     scanned = load_scene(SCENES / "femur_tibia.toml")
-    assert scanned["scanned.data_dir"] == ""
-    assert pin_data_dir(scanned)["scanned.data_dir"] == str(tmp_path)
-    named = load_scene(SCENES / "femur_tibia.toml", ["scanned.data_dir='/elsewhere'"])
-    assert pin_data_dir(named)["scanned.data_dir"] == "/elsewhere"
+    pinned = pin_geometry_dir(scanned)["geometry.dir"]
+    assert Path(pinned).is_absolute()
+    assert Path(pinned) == (SCENES / scanned["geometry.dir"]).resolve()
+    named = load_scene(SCENES / "femur_tibia.toml", [f"geometry.dir='{tmp_path}'"])
+    assert pin_geometry_dir(named)["geometry.dir"] == str(tmp_path)
     baseline = load_scene()
-    assert pin_data_dir(baseline) is baseline
+    assert pin_geometry_dir(baseline) is baseline
 
 
 def test_sweeping_a_key_with_no_effect_warns_before_the_solve(capsys):

@@ -93,13 +93,12 @@ def test_per_face_foundation_integrates_each_face_with_its_own_stiffness():
 
 
 def test_scanned_cartilage_thickness_matches_the_data_set_measurement():
-    from fecheck.scene import scanned
+    import lenhart
 
-    knee = require_knee_data()
+    require_knee_data()
     for name, bone, median in (("femur_cartilage", "femur_bone", 2.07),
                                ("tibia_cartilage", "tibia_bone", 1.40)):
-        h = thickness.bone_distance_thickness(scanned.load_scanned_mesh(name, knee),
-                                              scanned.load_scanned_mesh(bone, knee),
+        h = thickness.bone_distance_thickness(lenhart.mesh(name), lenhart.mesh(bone),
                                               min_mm=1e-6)
         # README: per-vertex ray casting; ours per face centroid: medians agree to 0.1 mm
         assert np.median(h) == pytest.approx(median, abs=0.1)

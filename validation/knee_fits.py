@@ -21,11 +21,11 @@ from __future__ import annotations
 import csv
 from pathlib import Path
 
+import lenhart
 import numpy as np
 import thesis_values as tv
 from report import knee_script_args
 
-from fecheck.scene import scanned
 from fecheck.scene.constants import COMPARTMENTS as SIDES
 from geometry.fits import fit_plane, fit_polynomial_surface, fit_sphere, fit_spherical_polynomial
 
@@ -35,7 +35,7 @@ POLY_DEGREE = 3
 
 def tibial_points(side: str) -> tuple[np.ndarray, np.ndarray]:
     """Face centroids (mm) and areas (mm²) of one tibial cartilage compartment."""
-    m = scanned.load_scanned_mesh(f"tibia_cartilage_{side}")
+    m = lenhart.mesh(f"tibia_cartilage_{side}")
     return m.face_centroids, m.face_areas
 
 
@@ -43,7 +43,7 @@ def condyle_points(side: str) -> tuple[np.ndarray, np.ndarray]:
     """Posterior-distal femoral cartilage face centroids and areas of one condyle (the
     selection of fits.json: -10° < atan2(-n_y, -n_z) < 100°, |n_x| < 0.5, y < 15 mm,
     |x| > 8 mm on the condyle's side)."""
-    femur = scanned.load_scanned_mesh("femur_cartilage")
+    femur = lenhart.mesh("femur_cartilage")
     n, c = femur.face_normals, femur.face_centroids
     angle = np.degrees(np.arctan2(-n[:, 1], -n[:, 2]))
     keep = (angle > -10) & (angle < 100) & (np.abs(n[:, 0]) < 0.5) & (c[:, 1] < 15)

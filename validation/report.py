@@ -143,12 +143,12 @@ def require(module: str, owner: str):
 
 
 def require_knee_data():
-    """The scanned-knee folder (`fecheck.scene.scanned.knee_dir`), or raise `Missing` saying
-    where it was looked for (../shared/data is not shipped with the repository)."""
-    from fecheck.scene import scanned
+    """The scanned-knee folder (`lenhart.knee_dir`), or raise `Missing` saying where it
+    was looked for (../shared/data is not shipped with the repository)."""
+    import lenhart
 
     try:
-        return scanned.knee_dir()
+        return lenhart.knee_dir()
     except Exception as err:  # noqa: BLE001 - FecheckError naming the folder
         raise Missing(str(err)) from None
 

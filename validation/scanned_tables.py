@@ -32,6 +32,7 @@ import csv
 import os
 from pathlib import Path
 
+import lenhart
 import numpy as np
 import thesis_values as tv
 from report import knee_script_args
@@ -39,7 +40,7 @@ from report import knee_script_args
 from fecheck.model.assembly import ContactModel
 from fecheck.model.run import run_scene
 from fecheck.model.scanned import build_compartments, bundle_springs
-from fecheck.scene import apply_overrides, load_scene, scanned
+from fecheck.scene import apply_overrides, load_scene, surfaces
 from fecheck.statics.newton import pose
 
 SCENES = Path(__file__).resolve().parent / "scenes"
@@ -79,7 +80,7 @@ def pressure_png(result, scene, path: Path) -> Path:
         return pv.PolyData(points, np.hstack([np.full((len(faces), 1), 3), faces]).ravel())
 
     rot, t = pose(np.asarray(result.extra["q"]), 0.0)
-    bone = scanned.load_scanned_mesh("tibia_bone", scene["scanned.data_dir"] or None)
+    bone = surfaces.bone(scene, "tibia")
     plotter = pv.Plotter(off_screen=True, window_size=(1000, 800))
     plotter.add_mesh(poly(bone.points @ rot.T + t, bone.faces), color="lightgrey")
     top = max(float(c.face_pressure_MPa.max()) for c in result.compartments.values())
@@ -102,14 +103,14 @@ def pressure_png(result, scene, path: Path) -> Path:
     return path
 
 
-def thesis_lever_load_point(directory=None) -> list[float]:
+def thesis_lever_load_point() -> list[float]:
     """Load point (mm) splitting the load between the scanned contact points as the
     thesis's x = +7.9 mm splits it between its own (-20.4 and 28.3 mm): 58.1 % lateral
     for a rigid lever."""
-    lm = scanned.landmarks(directory)
+    lm = lenhart.landmarks()
     share = (7.9 - (-20.4)) / (28.3 - (-20.4))
     x_m, x_l = lm.contact_point["medial"][0], lm.contact_point["lateral"][0]
-    return [round(float(x_m + share * (x_l - x_m)), 3), *map(float, lm.load_point[1:])]
+    return [round(float(x_m + share * (x_l - x_m)), 3), *map(float, lenhart.ANKLE_CENTRE_MM[1:])]
 
 
 def run_all(quick: bool, out: Path) -> list[dict]:

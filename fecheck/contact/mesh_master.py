@@ -50,16 +50,10 @@ import numpy as np
 from fecheck.contact.coherent import WalkState, edge_frames, face_rings, local_closest
 from fecheck.contact.kernels import mesh_surface, signed_closest, walked_mesh_surface
 from fecheck.errors import FecheckError
-from geometry.mesh import TriMesh
+from geometry.cache import cached_arrays
+from geometry.mesh import TriMesh, is_closed
 
 MAX_STEPS = 4            # 1-ring moves of a warm-started closest-face walk
-
-
-def is_closed(mesh: TriMesh) -> bool:
-    """True if every edge is shared by exactly two faces."""
-    e = np.sort(mesh.faces[:, [0, 1, 1, 2, 2, 0]].reshape(-1, 2), axis=1)
-    _, counts = np.unique(e, axis=0, return_counts=True)
-    return bool(np.all(counts == 2))
 
 
 class MeshMaster:
@@ -100,7 +94,8 @@ class MeshMaster:
         self._normals = mesh.face_normals
         self._tree = igl.AABB()
         self._tree.init(self._V, self._F)
-        self._ring = face_rings(self._F, mesh.n_points)
+        self._ring = cached_arrays("face-rings", [self._F],
+                                   lambda: face_rings(self._F, mesh.n_points))
         self._ring_width = int(np.diff(self._ring[0]).max())
         self._edges = edge_frames(self._V, self._F)
         self._winding = igl.winding_number
@@ -133,6 +128,12 @@ class MeshMaster:
         """(n,) True for points inside the master's bounding box grown by the margin."""
         lo, hi = self._box
         return np.all((y >= lo) & (y <= hi), axis=1)
+
+    def distance_mm(self, points: np.ndarray) -> np.ndarray:
+        """(n,) unsigned distance from each point (master frame, mm) to the surface."""
+        sq, _, _ = self._tree.squared_distance(self._V, self._F,
+                                               np.ascontiguousarray(points.reshape(-1, 3)))
+        return np.sqrt(sq)
 
     def _query(self, y: np.ndarray, start: np.ndarray | None = None):
         pts = np.ascontiguousarray(y.reshape(-1, 3))

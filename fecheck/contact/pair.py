@@ -14,6 +14,7 @@
 from __future__ import annotations
 
 import warnings
+from functools import lru_cache
 
 import numpy as np
 
@@ -89,6 +90,15 @@ def boundary_vertices(mesh: TriMesh) -> np.ndarray:
     out = np.zeros(mesh.n_points, dtype=bool)
     out[edges[counts == 1].ravel()] = True
     return out
+
+
+@lru_cache(maxsize=8)
+def _mesh_master(mesh: TriMesh, sign: str, margin_mm: float):
+    """One `MeshMaster` per master mesh object (the tree, rings and kernels built once:
+    both compartments of a femur-tibia scene share the femoral surface)."""
+    from fecheck.contact.mesh_master import MeshMaster
+
+    return MeshMaster(mesh, sign=sign, margin_mm=margin_mm)
 
 
 def _resolved_method(slave: TriMesh, master, method: str, area: str, margin_mm: float
@@ -184,8 +194,7 @@ class ContactPair:
         if method == "closed-form":
             self.master = master
         elif method == "bvh":
-            from fecheck.contact.mesh_master import MeshMaster
-            self.master = MeshMaster(master, sign=mesh_sign, margin_mm=self.margin_mm)
+            self.master = _mesh_master(master, mesh_sign, self.margin_mm)
         else:
             from fecheck.contact.thesis import thesis_detector
             self.master = master

@@ -3,8 +3,8 @@ used, its thickness and the femoral surface that presses it.
 
 - Tibial surface (tibia frame, outward normals): the meshed plateau disc of a
   sphere-plane scene (transverse, inclined or polynomial, the same mesh the EF run
-  evaluates), or the scanned tibial cartilage sheet of a sphere-tibia or femur-tibia
-  scene (decimated as the EF run decimates it).
+  evaluates), or the tibial articular surface file of a sphere-tibia or femur-tibia
+  scene (``geometry.tibia``; decimated as the EF run decimates it).
 - Thickness (mm, one value per surface vertex): ``contact.thickness_mm`` everywhere, or
   with ``scanned.thickness = "bone-distance"`` the EF run's per-face foundation
   thickness (tibial plus femoral cartilage in series) averaged onto the vertices.
@@ -12,7 +12,8 @@ used, its thickness and the femoral surface that presses it.
   rigid femoral surface — the EF's own assumption; two deformable layers in contact are
   not modelled, and every report says so.
 - Femoral surface (world = femur frame, fixed): the analytic condyle sphere, or the
-  scanned femoral sheet (or the closed hemisphere mesh) as a rigid mesh indenter.
+  femoral surface file (``geometry.femur``; or the closed hemisphere mesh) as a rigid
+  mesh indenter.
 
 Units: mm.
 """
@@ -26,7 +27,7 @@ import numpy as np
 from fecheck.contact.analytic import Sphere
 from fecheck.errors import FecheckError
 from fecheck.fe.indenter import MeshIndenter, SphereIndenter
-from fecheck.scene import Scene
+from fecheck.scene import Scene, surfaces
 from fecheck.scene.constants import COMPARTMENTS
 from fecheck.scene.relevance import SCANNED_KINDS
 from geometry.mesh import TriMesh
@@ -93,8 +94,11 @@ def _scanned_bodies(scene: Scene) -> list[FEBody]:
 
     slaves, masters = tibial_slaves(scene), femoral_masters(scene)
     source = scene["scanned.thickness"]
-    femur_name = ("femoral cartilage" if scene["model.kind"] == "femur-tibia"
-                  else "condyle hemisphere")
+    femur_name = (surfaces.file_path(scene, "femur").name
+                  if scene["model.kind"] == "femur-tibia" else "condyle hemisphere")
+    tibia_name = {c: surfaces.file_path(scene, "tibia").name for c in COMPARTMENTS}
+    if surfaces.file_path(scene, "tibia_lateral") is not None:
+        tibia_name["lateral"] = surfaces.file_path(scene, "tibia_lateral").name
     out = []
     for c in COMPARTMENTS:
         surface = slaves[c]
@@ -103,8 +107,7 @@ def _scanned_bodies(scene: Scene) -> list[FEBody]:
         else:
             h = vertex_values(surface, slave_thickness(scene, surface))
         indenter, femoral = _indenter(masters[c], femur_name)
-        out.append(FEBody(c, surface, h, indenter, f"mesh:{c} tibial cartilage", femoral,
-                          source))
+        out.append(FEBody(c, surface, h, indenter, f"mesh:{tibia_name[c]}", femoral, source))
     return out
 
 

@@ -271,11 +271,14 @@ def _expected_depth(scene: Scene, run: RunResult) -> float:
     """The deepest FE indentation to expect, mm: per compartment the EF run's depth, but
     no more than the linear EF of the scene's own layer would give at that force (a law
     with another stiffness, e.g. 'volumetric', can sink the EF far deeper than the layer
-    the FE models)."""
+    the FE models); a femur-tibia scene, with no sphere, the EF run's depth."""
     E, nu, h = (scene["contact.youngs_MPa"], scene["contact.poisson"],
                 scene["contact.thickness_mm"])
     deepest = 0.0
     for c, res in run.compartments.items():
+        if scene["model.kind"] == "femur-tibia":      # no sphere: the EF run's own depth
+            deepest = max(deepest, res.max_depth_mm)
+            continue
         layer = ef_sphere_on_plane(res.force_N, scene.knee.radius_mm(c), E, nu, h).depth_mm
         ef = res.max_depth_mm if math.isfinite(res.max_depth_mm) else layer
         deepest = max(deepest, min(ef, layer))

@@ -261,6 +261,8 @@ def master_distance_mm(points: np.ndarray, master) -> float | None:
     if isinstance(master, Sphere):
         d = np.linalg.norm(points - master.center, axis=1) - master.radius
         return max(float(d.min()), 0.0)
+    if hasattr(master, "distance_mm"):                  # a mesh master: its own tree
+        return float(master.distance_mm(points).min())
     mesh = getattr(master, "mesh", master)
     if not isinstance(mesh, TriMesh):
         return None

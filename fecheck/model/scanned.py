@@ -1,31 +1,32 @@
-"""Runners for the scanned-knee models (thesis §5.2.2-5.2.3), on the shared statics.
+"""Runners for the models on knee surfaces read from files (thesis §5.2.2-5.2.3), on the
+shared statics.
 
-* ``sphere-tibia``: the femoral condyle spheres of the scene's knee (fitted to the
-  scanned femoral cartilage) on the scanned tibial cartilage; `scanned.condyle` =
-  "hemisphere" cuts each sphere by a sagittal plane `scanned.hemisphere_cut_mm` from its
-  centre towards the notch (thesis Fig. 5.13: no contact with the intercondylar
-  eminence).
-* ``femur-tibia``: the scanned femoral cartilage on the scanned tibial cartilage.
+* ``sphere-tibia``: the femoral condyle spheres of the scene's knee on the tibial
+  articular surface; `scanned.condyle` = "hemisphere" cuts each sphere by a sagittal
+  plane `scanned.hemisphere_cut_mm` from its centre towards the notch (thesis Fig. 5.13:
+  no contact with the intercondylar eminence).
+* ``femur-tibia``: the femoral articular surface on the tibial one (natural cartilage or
+  an implant's component and insert); no landmark is read.
 * ``sphere-plane`` scenes (H3's inclined/polynomial plateaus) come here only for
   `scanned.ligaments` = "bundles"; their contact pairs are H3's.
 
-Slave: each tibial cartilage compartment (the data set's medial/lateral split, an open
-sheet with n_z > 0), optionally decimated to `scanned.decimate_faces` in total; master
-(femur, fixed): the sphere (closed form), the hemisphere mesh or the femoral cartilage
-sheet (libigl AABB closest point, inside by the side of the closest face normal — no
-hole filling, where ray parity fails on an open sheet). Contact law: the scene's, with a
-uniform thickness `contact.thickness_mm`; or, for `scanned.thickness` = "bone-distance",
-the linear EF with a stiffness per slave face from the tibial and femoral cartilage
-thicknesses in series (`fecheck.laws.layer`).
+The surfaces are the scene's ``[geometry]`` files (`fecheck.scene.surfaces`). Slave: each
+tibial compartment (an open sheet with n_z > 0), optionally decimated to
+`scanned.decimate_faces` in total; master (femur, fixed): the sphere (closed form), the
+hemisphere mesh or the femoral surface (libigl AABB closest point, inside by the side of
+the closest face normal — no hole filling, where ray parity fails on an open sheet).
+Contact law: the scene's, with a uniform thickness `contact.thickness_mm`; or, for
+`scanned.thickness` = "bone-distance", the linear EF with a stiffness per slave face
+from the tibial and femoral cartilage thicknesses in series (`fecheck.laws.layer`).
 
-Ligaments: `scanned.ligaments` = "bundles" adds the 55 Blankevoort 1991 bundles of the
-scanned knee (straight paths, own slack lengths and stiffness) as springs.
+Ligaments: `scanned.ligaments` = "bundles" adds the bundles of ``geometry.ligaments``
+(Blankevoort 1991 springs, straight paths, own slack lengths and stiffness).
 """
 
 from __future__ import annotations
 
+import math
 import time
-from functools import lru_cache
 
 import numpy as np
 
@@ -38,22 +39,19 @@ from fecheck.model.assembly import Compartment, applied_load, law_factory, pose_
 from fecheck.model.equilibrium import compartment_results, not_converged_note, solve_equilibrium
 from fecheck.model.notes import layer_depth_notes, mesh_resolution_notes
 from fecheck.model.results import LigamentResult, RunResult
-from fecheck.scene import Scene, scanned
+from fecheck.scene import Scene, surfaces
+from fecheck.scene.bundles import read_bundles
 from fecheck.scene.constants import COMPARTMENTS
 from fecheck.statics.ligaments import SpringLigament, transition_strain_check
+from geometry.cache import cached_arrays
 from geometry.cap import spherical_cap
 from geometry.decimate import decimate
 
 
-def _data_dir(scene: Scene) -> str | None:
-    return scene["scanned.data_dir"] or None
-
-
 def tibial_slaves(scene: Scene) -> dict:
-    """{compartment: tibial cartilage sheet} (decimated to scanned.decimate_faces in total,
-    shared in proportion to the two compartments' face counts)."""
-    meshes = {c: scanned.load_scanned_mesh(f"tibia_cartilage_{c}", _data_dir(scene))
-              for c in COMPARTMENTS}
+    """{compartment: tibial articular surface} (decimated to scanned.decimate_faces in
+    total, shared in proportion to the two compartments' face counts)."""
+    meshes = surfaces.tibial_compartments(scene)
     target = scene["scanned.decimate_faces"]
     if target:
         total = sum(m.n_faces for m in meshes.values())
@@ -63,12 +61,11 @@ def tibial_slaves(scene: Scene) -> dict:
 
 
 def femoral_master(scene: Scene):
-    """The femoral cartilage sheet, decimated in proportion to the tibial slaves."""
-    femur = scanned.load_scanned_mesh("femur_cartilage", _data_dir(scene))
+    """The femoral articular surface, decimated in proportion to the tibial slaves."""
+    femur = surfaces.femoral_surface(scene)
     target = scene["scanned.decimate_faces"]
     if target:
-        tibia = sum(scanned.load_scanned_mesh(f"tibia_cartilage_{c}", _data_dir(scene)).n_faces
-                    for c in COMPARTMENTS)
+        tibia = sum(m.n_faces for m in surfaces.tibial_compartments(scene).values())
         femur = decimate(femur, max(4, round(target * femur.n_faces / tibia)))
     return femur
 
@@ -97,24 +94,25 @@ def femoral_masters(scene: Scene) -> dict:
     return {c: Sphere(knee.condyle_center[c], knee.radius_mm(c)) for c in COMPARTMENTS}
 
 
-@lru_cache(maxsize=4)
-def _femoral_thickness(directory: str) -> np.ndarray:
-    return layer.bone_distance_thickness(
-        scanned.load_scanned_mesh("femur_cartilage", directory),
-        scanned.load_scanned_mesh("femur_bone", directory))
-
-
 def slave_thickness(scene: Scene, slave) -> np.ndarray:
     """Per-face foundation thickness (mm) of a tibial slave: tibial plus femoral cartilage
-    in series, each from the distance to its bone (`fecheck.laws.layer`)."""
-    d = _data_dir(scene)
-    fem = scanned.load_scanned_mesh("femur_cartilage", d)
-    fem_h = _femoral_thickness(str(scanned.knee_dir(d)))
-    tib_h = layer.bone_distance_thickness(slave, scanned.load_scanned_mesh("tibia_bone", d))
-    return layer.series_thickness(slave, tib_h, fem, fem_h)
+    in series, each from the distance to its bone (`fecheck.laws.layer`); cached on disk
+    by the meshes' content."""
+    femur = femoral_master(scene)
+    femur_bone, tibia_bone = surfaces.bone(scene, "femur"), surfaces.bone(scene, "tibia")
+
+    def build() -> tuple[np.ndarray]:
+        fem_h = layer.bone_distance_thickness(femur, femur_bone)
+        tib_h = layer.bone_distance_thickness(slave, tibia_bone)
+        return (layer.series_thickness(slave, tib_h, femur, fem_h),)
+
+    return cached_arrays("series-thickness", [slave, femur, femur_bone, tibia_bone], build)[0]
 
 
 def _law(scene: Scene, slave, radius_mm: float):
+    if scene["contact.law"] == "hertz" and not math.isfinite(radius_mm):
+        raise FecheckError("contact.law = 'hertz' needs a condyle radius, and the femur-tibia "
+                           "model has no sphere: use 'ef', 'blankevoort' or 'volumetric'")
     if scene["scanned.thickness"] == "uniform":
         return law_factory(scene)(radius_mm)
     if scene["contact.law"] != "ef":
@@ -138,7 +136,7 @@ def build_compartments(scene: Scene) -> list[Compartment]:
             "margin_mm": scene["contact.margin_mm"]}
     out = []
     for c in COMPARTMENTS:
-        radius = scene.knee.radius_mm(c)
+        radius = scene.knee.radius_mm(c) if kind == "sphere-tibia" else math.nan
         pair = ContactPair(slaves[c], masters[c], **opts)
         out.append(Compartment(c, pair, _law(scene, slaves[c], radius), True, radius))
     return out
@@ -151,7 +149,8 @@ def bundle_springs(scene: Scene) -> tuple[tuple[str, ...], list[SpringLigament]]
     if scene["ligaments.model"] != "none":
         raise FecheckError("scanned.ligaments = 'bundles' replaces the three-ligament model: "
                            "set ligaments.model = 'none'")
-    out = scanned.bundles(_data_dir(scene))
+    out = read_bundles(surfaces.required_path(scene, "ligaments",
+                                              "scanned.ligaments = 'bundles'"))
     for b in out:
         transition_strain_check(b.transition_strain)
     springs = [SpringLigament(b.femur_point, b.tibia_point, b.slack_length_mm, b.stiffness_N,

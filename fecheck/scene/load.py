@@ -45,9 +45,16 @@ class Scene:
         """The knee landmarks of this scene."""
         if self["knee.preset"] == "custom":
             if self["knee.landmarks"] is None:
-                raise FecheckError("knee.preset = 'custom' needs a [knee.landmarks] table")
+                raise FecheckError(f"knee.preset = 'custom' needs a [knee.landmarks] table "
+                                   f"(model.kind = {self['model.kind']!r} reads the condyle "
+                                   "spheres, contact points or ligament attachments)")
             return knee_from_landmarks(self["knee.side"], self["knee.landmarks"])
         return PRESETS[self["knee.preset"]]
+
+    @property
+    def side(self) -> str:
+        """"right" or "left": knee.side for a custom knee, else the preset's side."""
+        return self["knee.side"] if self["knee.preset"] == "custom" else self.knee.side
 
     @property
     def free_dofs(self) -> tuple[str, ...]:
@@ -225,12 +232,19 @@ def validate(data: Mapping[str, Any], source: str = "scene", where: str = "") ->
     return scene
 
 
+def needs_landmarks(scene: Scene) -> bool:
+    """Whether the scene's model reads knee landmarks: every model but femur-tibia (its
+    surfaces come from files) without the three-ligament model."""
+    return scene["model.kind"] != "femur-tibia" or scene["ligaments.model"] != "none"
+
+
 def _check_consistent(scene: Scene, source: str) -> None:
     """Rules across keys: custom landmarks, polynomial coefficients, load, free DOFs."""
-    try:
-        _ = scene.knee                           # validates custom landmarks
-    except FecheckError as err:
-        raise FecheckError(f"{source}: {err}") from None
+    if scene["knee.landmarks"] is not None or needs_landmarks(scene):
+        try:
+            _ = scene.knee                       # validates custom landmarks
+        except FecheckError as err:
+            raise FecheckError(f"{source}: {err}") from None
     if not scene["dofs.free"]:
         raise FecheckError(f"{source}: dofs.free is empty: at least one tibia DOF must be "
                            f"free to solve the equilibrium, e.g. dofs.free = ['z'] "

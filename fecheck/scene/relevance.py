@@ -151,8 +151,8 @@ def _no_gravity(scene: SceneValues) -> str | None:
 
 def _no_scanned_tibia(scene: SceneValues) -> str | None:
     if scene["model.kind"] not in SCANNED_KINDS:
-        return (f"model.kind = '{scene['model.kind']}' does not read the scanned tibial "
-                f"cartilage (only sphere-tibia and femur-tibia do)")
+        return (f"model.kind = '{scene['model.kind']}' reads no tibial surface file (only "
+                f"sphere-tibia and femur-tibia do)")
     return None
 
 
@@ -169,10 +169,44 @@ def _no_hemisphere(scene: SceneValues) -> str | None:
     return _not_sphere_tibia(scene)
 
 
-def _no_scanned_data(scene: SceneValues) -> str | None:
+def _no_files(scene: SceneValues) -> str | None:
     if scene["model.kind"] not in SCANNED_KINDS and scene["scanned.ligaments"] == "none":
         return (f"model.kind = '{scene['model.kind']}' with scanned.ligaments = 'none' reads "
-                f"no scanned knee data")
+                f"no file")
+    return None
+
+
+def _no_femur_file(scene: SceneValues) -> str | None:
+    kind = scene["model.kind"]
+    if kind == "sphere-tibia" and scene["scanned.thickness"] == "bone-distance":
+        return None                          # the femoral cartilage's own thickness
+    if kind != "femur-tibia":
+        return (f"model.kind = '{kind}' reads no femoral surface (only femur-tibia does, "
+                "and sphere-tibia for scanned.thickness = 'bone-distance')")
+    return None
+
+
+def _no_split(scene: SceneValues) -> str | None:
+    if scene["geometry.tibia_lateral"]:
+        return "geometry.tibia_lateral is given: each compartment has its own file"
+    return _no_scanned_tibia(scene)
+
+
+def _not_sagittal(scene: SceneValues) -> str | None:
+    if scene["geometry.tibia_split"] != "sagittal":
+        return f"geometry.tibia_split = '{scene['geometry.tibia_split']}'"
+    return _no_split(scene)
+
+
+def _no_bones(scene: SceneValues) -> str | None:
+    if scene["scanned.thickness"] != "bone-distance":
+        return "scanned.thickness = 'uniform' reads no bone"
+    return _no_scanned_tibia(scene)
+
+
+def _no_bundle_file(scene: SceneValues) -> str | None:
+    if scene["scanned.ligaments"] != "bundles":
+        return "scanned.ligaments = 'none' reads no bundle file"
     return None
 
 
@@ -216,7 +250,14 @@ RULES: tuple[tuple[tuple[str, ...], Reason], ...] = (
     (("scanned.thickness", "scanned.decimate_faces"), _no_scanned_tibia),
     (("scanned.condyle",), _not_sphere_tibia),
     (("scanned.hemisphere_cut_mm",), _no_hemisphere),
-    (("scanned.data_dir",), _no_scanned_data),
+    (("geometry.dir",), _no_files),
+    (("geometry.femur",), _no_femur_file),
+    (("geometry.split_x_mm",), _not_sagittal),
+    (("geometry.tibia_split",), _no_split),
+    (("geometry.tibia", "geometry.tibia_lateral", "geometry.units", "geometry.rotation_deg",
+      "geometry.translation_mm"), _no_scanned_tibia),
+    (("geometry.femur_bone", "geometry.tibia_bone"), _no_bones),
+    (("geometry.ligaments",), _no_bundle_file),
     (("fe.axisym_size_mm",), _no_axisymmetric),
 )
 """(keys, reason): the keys have no effect in a scene where ``reason(scene)`` is not None.

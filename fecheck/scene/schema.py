@@ -77,7 +77,9 @@ SECTIONS: dict[str, str] = {
     "dofs": "Tibia degrees of freedom and pose",
     "constraints": "Extra constraints",
     "solver": "Newton solver",
-    "scanned": "Scanned knee (lenhart2015 data set): sphere-tibia and femur-tibia models",
+    "geometry": "Knee surfaces from mesh files: sphere-tibia and femur-tibia models",
+    "scanned": "Sphere-tibia and femur-tibia models: thickness, decimation, condyles, "
+               "ligament bundles",
     "fe": "FE cross-check (`fecheck fe`)",
 }
 """Section (first part of a dotted key; "" for top-level keys) → its title."""
@@ -128,9 +130,9 @@ SCHEMA: dict[str, Key] = {
         "Model: 'rigid' = each condyle a ball on a frictionless plateau plane, point "
         "contacts and linear statics (thesis §5.1); 'sphere-plane' = condyle spheres on "
         "transverse, inclined or polynomial plateaus with a contact law, Newton statics "
-        "(§5.2.1); 'sphere-tibia' = the condyle spheres on the scanned tibial cartilage; "
-        "'femur-tibia' = the scanned femoral on the scanned tibial cartilage (§5.2.2-5.2.3; "
-        "these two read the scanned knee data, see scanned.data_dir).",
+        "(§5.2.1); 'sphere-tibia' = the knee's condyle spheres on a tibial articular "
+        "surface read from a file; 'femur-tibia' = a femoral on a tibial articular surface, "
+        "both from files (§5.2.2-5.2.3; natural cartilage or implant; see [geometry]).",
         choices=MODEL_KINDS),
     "mesh.sphere_subdivisions": Key(
         "int", 4,
@@ -332,13 +334,60 @@ SCHEMA: dict[str, Key] = {
         "Newton convergence: residual force norm relative to the load scale (the largest "
         "of load.force_N, the tibia's weight and 1 N), dimensionless.", low=0.0,
         low_open=True, high=1e-2, unit=DIMENSIONLESS),
-    "scanned.data_dir": Key(
+    "geometry.dir": Key(
         "str", "",
-        "Folder of the scanned lenhart2015 knee data (fits.json, STL meshes, "
-        "ligaments.json), read by the sphere-tibia and femur-tibia models and by "
-        "scanned.ligaments = 'bundles'. '' = $FECHECK_KNEE_DIR if set, else "
-        "../shared/data/knee/lenhart2015 beside the repository. The data do not ship with "
-        "fecheck (docs/data.md)."),
+        "Folder the [geometry] file paths are relative to: '' = the scene file's folder; a "
+        "relative folder is itself relative to the scene file's folder; ~ and $VARIABLES "
+        "are expanded."),
+    "geometry.units": Key("str", "mm", "Length unit of every [geometry] mesh file: 'mm' or "
+                          "'m' (scaled by 1000). A surface whose extent is not a knee's in "
+                          "mm (5-1000 mm across) is refused, naming the likely unit.",
+                          choices=("mm", "m")),
+    "geometry.femur": Key(
+        "str", "",
+        "Femoral articular surface (sphere-tibia fits and femur-tibia models): any mesh "
+        "file meshio reads (STL, OBJ, PLY, VTK/VTU, MSH) of triangles; an open cartilage "
+        "sheet with normals pointing out of the cartilage (down, toward the tibia), or a "
+        "closed implant component with outward normals. Fixed (the femur frame is the "
+        "world)."),
+    "geometry.tibia": Key(
+        "str", "",
+        "Tibial articular surface (sphere-tibia and femur-tibia models), normals pointing "
+        "out of the cartilage (up): both compartments in one file, split by "
+        "geometry.tibia_split; or the medial compartment alone when geometry.tibia_lateral "
+        "is given."),
+    "geometry.tibia_lateral": Key("str", "", "Lateral tibial articular surface, one "
+                                  "compartment per file ('' = both compartments are in "
+                                  "geometry.tibia)."),
+    "geometry.tibia_split": Key(
+        "str", "components",
+        "How one geometry.tibia file is split into compartments: 'components' = its two "
+        "connected pieces; 'sagittal' = the two sides of the plane x = "
+        "geometry.split_x_mm. Medial is at -x in a right knee, +x in a left one "
+        "(knee.side).", choices=("components", "sagittal")),
+    "geometry.split_x_mm": Key("float", 0.0, "The sagittal plane x of geometry.tibia_split "
+                               "= 'sagittal', mm (after units and transform).",
+                               low=-500.0, high=500.0),
+    "geometry.femur_bone": Key("str", "", "Femoral bone surface, for scanned.thickness = "
+                               "'bone-distance' (the femoral cartilage's thickness is its "
+                               "distance to this bone)."),
+    "geometry.tibia_bone": Key("str", "", "Tibial bone surface, for scanned.thickness = "
+                               "'bone-distance'."),
+    "geometry.ligaments": Key(
+        "str", "",
+        "Ligament bundle file for scanned.ligaments = 'bundles': a JSON list of bundles, "
+        "each with name, group, points_mm (two attachments), points_bone (which bone each "
+        "is on: 'femur' or another) and parameters linear_stiffness (N per unit strain), "
+        "slack_length (m) and transition_strain (the layout of OpenSim's "
+        "Blankevoort1991Ligament, as exported in the lenhart2015 data set)."),
+    "geometry.rotation_deg": Key(
+        "vec3", [0.0, 0.0, 0.0],
+        "Rotation of every [geometry] surface into the thesis frame, about the fixed x, y "
+        "and z axes in that order, deg (after units, before translation).",
+        low=-360.0, high=360.0),
+    "geometry.translation_mm": Key("vec3", [0.0, 0.0, 0.0], "Translation of every "
+                                   "[geometry] surface after the rotation, mm.",
+                                   low=-10000.0, high=10000.0),
     "scanned.thickness": Key(
         "str", "uniform",
         "Foundation thickness of the sphere-tibia and femur-tibia models: 'uniform' = "

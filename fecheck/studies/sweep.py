@@ -40,7 +40,7 @@ from fecheck.model.results import RunResult
 from fecheck.scene import SCHEMA, Scene, apply_overrides, with_values
 from fecheck.scene.load import warn_inert
 from fecheck.scene.relevance import SCANNED_KINDS
-from fecheck.scene.scanned import knee_dir
+from fecheck.scene.surfaces import base_dir
 from fecheck.studies.pool import (
     KILL_WAIT_S,
     ProcessPool,
@@ -316,21 +316,19 @@ def _run_pool(workers: int, scene: Scene, param: str, values: Sequence[float],
                 pool.terminate()
 
 
-def uses_scanned_data(scene: Scene) -> bool:
-    """True when solving `scene` reads the scanned-knee data folder."""
+def reads_files(scene: Scene) -> bool:
+    """True when solving `scene` reads its ``[geometry]`` files."""
     return scene["model.kind"] in SCANNED_KINDS or scene["scanned.ligaments"] != "none"
 
 
-def pin_data_dir(scene: Scene) -> Scene:
-    """`scene` with ``scanned.data_dir`` set to the folder found here, for workers.
-
-    Workers elsewhere (Dask) see neither this process's ``FECHECK_KNEE_DIR`` nor its
-    folders' defaults. Scenes that do not read scanned data, or that name their folder,
-    are returned as they are. Raises `FecheckError` when the folder is missing.
-    """
-    if scene["scanned.data_dir"] or not uses_scanned_data(scene):
+def pin_geometry_dir(scene: Scene) -> Scene:
+    """`scene` with ``geometry.dir`` made absolute, for workers: a worker elsewhere (Dask)
+    may run in another folder, where a path relative to the scene file's folder, or to
+    this process's working folder, would not resolve. Scenes that read no file are
+    returned as they are."""
+    if not reads_files(scene):
         return scene
-    return with_values(scene, scanned__data_dir=str(knee_dir()))
+    return with_values(scene, geometry__dir=str(base_dir(scene)))
 
 
 def run_sweep(scene: Scene, param: str, values: Sequence[float], *, workers: int = 1,
@@ -376,10 +374,10 @@ def run_sweep(scene: Scene, param: str, values: Sequence[float], *, workers: int
         if executor is None and workers <= 1:
             _run_serial(scene, values, overrides, finished, fail_fast)
         elif executor is None:
-            _run_pool(workers, pin_data_dir(scene), param, values, overrides, finished,
+            _run_pool(workers, pin_geometry_dir(scene), param, values, overrides, finished,
                       fail_fast)
         else:
-            _run_on(executor, pin_data_dir(scene), param, values, overrides, finished,
+            _run_on(executor, pin_geometry_dir(scene), param, values, overrides, finished,
                     fail_fast)
     except KeyboardInterrupt:
         finished.end_line()

@@ -1,0 +1,278 @@
+"""The knee surfaces a scene reads from files: its ``[geometry]`` keys.
+
+A scene names its femoral and tibial articular surfaces (and optionally their bones and
+a ligament-bundle file) by path; relative paths resolve against ``geometry.dir``, itself
+relative to the scene file's folder ("" = that folder; ``~`` and ``$VARIABLES`` are
+expanded). Every file is read once per process and cached on disk by its content hash
+and the conversion options (`geometry.cache`), so a second run of a scene reads no mesh
+file. Conversion, in order: the length unit (``geometry.units``: millimetres or metres,
+checked against the surface's extent), then the rigid transform (``rotation_deg``
+about x, then y, then z, fixed axes; then ``translation_mm``) into the thesis frame:
+mm, x right, y anterior, z superior, origin at the tibial plateau centre, femur and
+tibia frames coinciding at the reference pose.
+
+The tibial surface is one file split into its compartments — its two largest connected
+components (``tibia_split = "components"``) or the two sides of the sagittal plane
+x = ``split_x_mm`` (``"sagittal"``) — or one file per compartment (``tibia`` medial,
+``tibia_lateral`` lateral). The medial compartment is at -x in a right knee and +x in a
+left one (``knee.side``). Articular normals must point out of the cartilage: up (+z) on
+the tibia, down on an open femoral sheet (a closed femoral component: outward); a
+surface whose normals point the other way is refused.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import os
+from functools import lru_cache
+from pathlib import Path
+
+import numpy as np
+
+from fecheck.errors import FecheckError
+from fecheck.scene import Scene
+from geometry.cache import cached_build
+from geometry.mesh import TriMesh, is_closed
+
+FILE_KEYS = ("femur", "tibia", "tibia_lateral", "femur_bone", "tibia_bone", "ligaments")
+"""Keys of ``[geometry]`` that name a file."""
+UNIT_SCALE = {"mm": 1.0, "m": 1000.0}
+"""Millimetres per unit of each ``geometry.units``."""
+KNEE_EXTENT_MM = (5.0, 1000.0)
+"""Plausible bounding-box diagonal of a knee surface, mm: a cartilage sheet spans some
+20-100 mm, a bone surface a few hundred."""
+MIN_COMPONENT_SHARE = 0.01
+"""Connected components with fewer than this share of a surface's faces are specks
+(segmentation debris), not compartments."""
+
+
+def base_dir(scene: Scene) -> Path:
+    """The folder relative ``[geometry]`` paths resolve against."""
+    scene_dir = Path(scene.source).expanduser().resolve().parent
+    given = scene["geometry.dir"]
+    if not given:
+        return scene_dir
+    folder = Path(os.path.expandvars(given)).expanduser()
+    return folder if folder.is_absolute() else (scene_dir / folder).resolve()
+
+
+def file_path(scene: Scene, key: str) -> Path | None:
+    """The resolved path of ``geometry.<key>``, or None where the key is unset."""
+    value = scene[f"geometry.{key}"]
+    if not value:
+        return None
+    path = Path(os.path.expandvars(value)).expanduser()
+    return path if path.is_absolute() else base_dir(scene) / path
+
+
+def required_path(scene: Scene, key: str, why: str) -> Path:
+    """`file_path`, or `FecheckError` saying which key to set and why, or which file is
+    missing."""
+    path = file_path(scene, key)
+    if path is None:
+        raise FecheckError(f"{scene.source}: {why} needs geometry.{key}, the path of its mesh "
+                           "file (relative to geometry.dir, or to the scene file's folder)")
+    if not path.is_file():
+        where = (f" (geometry.dir = {scene['geometry.dir']!r})" if scene["geometry.dir"]
+                 else "")
+        raise FecheckError(f"{scene.source}: geometry.{key} = {scene[f'geometry.{key}']!r}: "
+                           f"file not found at {path}{where}")
+    return path
+
+
+def check_length_unit(points_mm: np.ndarray, path: str | Path, units: str = "mm") -> None:
+    """`FecheckError` when a surface read as `units` does not span a knee's size in mm."""
+    diagonal = float(np.linalg.norm(np.ptp(points_mm, axis=0))) if len(points_mm) else 0.0
+    low, high = KNEE_EXTENT_MM
+    if low <= diagonal <= high:
+        return
+    other = "m" if units == "mm" else "mm"
+    as_other = diagonal * UNIT_SCALE[other] / UNIT_SCALE[units]
+    hint = (f": it looks like {'metres' if other == 'm' else 'millimetres'} - set "
+            f"geometry.units = '{other}'" if low <= as_other <= high else
+            ": check its unit and scale")
+    raise FecheckError(f"{path} spans {diagonal:.4g} mm across read in {units}; a knee surface "
+                       f"spans {low:g}-{high:g} mm{hint}")
+
+
+def rotation_matrix(angles_deg) -> np.ndarray:
+    """R = R_z R_y R_x of rotations about the fixed x, y and z axes (deg), applied in that
+    order."""
+    ax, ay, az = np.radians(np.asarray(angles_deg, dtype=float))
+    cx, sx, cy, sy, cz, sz = np.cos(ax), np.sin(ax), np.cos(ay), np.sin(ay), np.cos(az), np.sin(az)
+    rx = np.array([[1, 0, 0], [0, cx, -sx], [0, sx, cx]])
+    ry = np.array([[cy, 0, sy], [0, 1, 0], [-sy, 0, cy]])
+    rz = np.array([[cz, -sz, 0], [sz, cz, 0], [0, 0, 1]])
+    return rz @ ry @ rx
+
+
+def file_digest(path: Path) -> str:
+    """sha256 of a file's bytes (the cache key of its content)."""
+    return _digest(str(path), path.stat().st_mtime_ns, path.stat().st_size)
+
+
+@lru_cache(maxsize=64)
+def _digest(path: str, mtime_ns: int, size: int) -> str:
+    h = hashlib.sha256()
+    with open(path, "rb") as fh:
+        for block in iter(lambda: fh.read(1 << 20), b""):
+            h.update(block)
+    return h.hexdigest()
+
+
+def read_surface(path: Path, units: str = "mm", rotation_deg=(0.0, 0.0, 0.0),
+                 translation_mm=(0.0, 0.0, 0.0)) -> TriMesh:
+    """A triangle surface from any mesh file meshio reads, converted to mm and moved by
+    the rigid transform; cached on disk by content and options.
+
+    Raises `FecheckError` naming the file when it cannot be read, holds no triangles,
+    has degenerate (zero-area) faces, or its extent says the unit is wrong.
+    """
+    from geometry.io import load_mesh
+
+    params = {"sha256": file_digest(path), "units": units,
+              "rotation_deg": [float(a) for a in rotation_deg],
+              "translation_mm": [float(t) for t in translation_mm]}
+
+    def build() -> TriMesh:
+        mesh = load_mesh(path)
+        if not isinstance(mesh, TriMesh):
+            raise FecheckError(f"{path}: holds tetrahedra; give its articular surface as "
+                               "triangles")
+        rot = rotation_matrix(rotation_deg)
+        points = mesh.points * UNIT_SCALE[units]
+        check_length_unit(points, path, units)
+        return TriMesh(points @ rot.T + np.asarray(translation_mm, dtype=float), mesh.faces)
+
+    mesh = cached_build("surface", params, build, version=1)
+    area = mesh.face_areas
+    bad = int(np.count_nonzero(area <= 1e-12 * max(float(area.max(initial=0.0)), 1e-300)))
+    if bad:
+        raise FecheckError(f"{path}: {bad} of {mesh.n_faces} faces have zero area "
+                           "(degenerate triangles); clean the mesh (merge duplicate "
+                           "vertices, remove collapsed faces) and export it again")
+    return mesh
+
+
+def surface(scene: Scene, key: str, why: str) -> TriMesh:
+    """The surface of ``geometry.<key>`` (mm, thesis frame); `why` names its use in the
+    message when it is unset."""
+    path = required_path(scene, key, why)
+    return read_surface(path, scene["geometry.units"], tuple(scene["geometry.rotation_deg"]),
+                        tuple(scene["geometry.translation_mm"]))
+
+
+def components(mesh: TriMesh) -> list[np.ndarray]:
+    """Face indices of each connected component (faces sharing a vertex), largest first."""
+    import scipy.sparse as sp
+    from scipy.sparse.csgraph import connected_components
+
+    f = mesh.faces
+    n = mesh.n_faces
+    graph = sp.csr_matrix((np.ones(3 * n), (np.repeat(np.arange(n), 3), f.ravel())),
+                          shape=(n, mesh.n_points))
+    count, labels = connected_components(sp.bmat([[None, graph], [graph.T, None]]),
+                                         directed=False)
+    faces = labels[:n]
+    groups = [np.flatnonzero(faces == k) for k in np.unique(faces)]
+    return sorted(groups, key=len, reverse=True)
+
+
+def submesh(mesh: TriMesh, faces: np.ndarray) -> TriMesh:
+    """The faces `faces` of `mesh` with only the vertices they use."""
+    used, inverse = np.unique(mesh.faces[faces], return_inverse=True)
+    return TriMesh(mesh.points[used], inverse.reshape(-1, 3))
+
+
+def medial_first(side: str, parts: list[TriMesh]) -> dict[str, TriMesh]:
+    """{medial, lateral} of two compartment meshes by the x of their centroids (a right
+    knee has its medial compartment at -x)."""
+    x = [float(np.average(p.face_centroids[:, 0], weights=p.face_areas)) for p in parts]
+    low, high = (parts[0], parts[1]) if x[0] < x[1] else (parts[1], parts[0])
+    return {"medial": low, "lateral": high} if side == "right" else {"medial": high,
+                                                                      "lateral": low}
+
+
+def _one_piece(mesh: TriMesh, path: Path) -> TriMesh:
+    """`mesh` without specks; `FecheckError` if it has several real components."""
+    parts = components(mesh)
+    real = [p for p in parts if len(p) >= MIN_COMPONENT_SHARE * mesh.n_faces]
+    if len(real) > 1:
+        sizes = ", ".join(str(len(p)) for p in real)
+        raise FecheckError(f"{path}: one compartment per file was expected, but the surface "
+                           f"has {len(real)} separate pieces ({sizes} faces); give one "
+                           "compartment per file, or both in geometry.tibia with "
+                           "geometry.tibia_split")
+    return mesh if len(parts) == 1 else submesh(mesh, real[0])
+
+
+def tibial_compartments(scene: Scene) -> dict[str, TriMesh]:
+    """{medial, lateral}: the tibial articular surface split into its compartments (mm,
+    thesis frame; their winding is checked with the other sheet checks before the
+    solve, `fecheck.model.plausibility.check_winding`)."""
+    why = f"model.kind = {scene['model.kind']!r} (the tibial articular surface)"
+    path = required_path(scene, "tibia", why)
+    side = scene.side
+    if file_path(scene, "tibia_lateral") is not None:
+        medial = _one_piece(surface(scene, "tibia", why), path)
+        lateral_path = required_path(scene, "tibia_lateral", why)
+        lateral = _one_piece(surface(scene, "tibia_lateral", why), lateral_path)
+        out = {"medial": medial, "lateral": lateral}
+    else:
+        mesh = surface(scene, "tibia", why)
+        if scene["geometry.tibia_split"] == "sagittal":
+            out = _sagittal_split(mesh, scene["geometry.split_x_mm"], side, path)
+        else:
+            out = _component_split(mesh, side, path)
+    return out
+
+
+def _component_split(mesh: TriMesh, side: str, path: Path) -> dict[str, TriMesh]:
+    parts = [p for p in components(mesh) if len(p) >= MIN_COMPONENT_SHARE * mesh.n_faces]
+    if len(parts) != 2:
+        sizes = ", ".join(str(len(p)) for p in parts)
+        raise FecheckError(f"{path}: geometry.tibia_split = 'components' needs the two "
+                           f"compartments as two separate pieces, but the surface has "
+                           f"{len(parts)} ({sizes} faces); split it by a sagittal plane "
+                           "(geometry.tibia_split = 'sagittal', geometry.split_x_mm) or give "
+                           "one file per compartment (geometry.tibia_lateral)")
+    return medial_first(side, [submesh(mesh, p) for p in parts])
+
+
+def _sagittal_split(mesh: TriMesh, x_mm: float, side: str, path: Path) -> dict[str, TriMesh]:
+    left = mesh.face_centroids[:, 0] < x_mm
+    if left.all() or not left.any():
+        raise FecheckError(f"{path}: the sagittal plane x = {x_mm:g} mm "
+                           f"(geometry.split_x_mm) leaves every face on one side; the "
+                           f"surface spans x = {mesh.points[:, 0].min():.1f} to "
+                           f"{mesh.points[:, 0].max():.1f} mm")
+    return medial_first(side, [submesh(mesh, np.flatnonzero(left)),
+                               submesh(mesh, np.flatnonzero(~left))])
+
+
+def check_normals(mesh: TriMesh, name: str, *, up: bool) -> None:
+    """`FecheckError` when an articular surface's area-weighted mean normal points the
+    wrong way along z (tibia: up, toward the femur; femur: down, toward the tibia)."""
+    mean = float(np.sum(mesh.face_normals[:, 2] * mesh.face_areas)) / max(mesh.area, 1e-300)
+    if (mean > 0) != up:
+        want, got = ("up (+z)", "down") if up else ("down (-z)", "up")
+        raise FecheckError(f"{name}: its normals point {got} (mean n_z = {mean:+.2f}), but an "
+                           f"articular surface's normals point out of the cartilage, "
+                           f"{want}: reverse the face winding (or check "
+                           "geometry.rotation_deg)")
+
+
+def femoral_surface(scene: Scene) -> TriMesh:
+    """The femoral articular surface (mm, thesis frame): an open sheet with normals
+    pointing down, or a closed surface (an implant component) with outward normals."""
+    mesh = surface(scene, "femur", f"model.kind = {scene['model.kind']!r} (the femoral "
+                   "articular surface)")
+    if not is_closed(mesh):         # a closed component: the contact refuses it inside out
+        check_normals(mesh, required_path(scene, "femur", "").name, up=False)
+    return mesh
+
+
+def bone(scene: Scene, which: str) -> TriMesh:
+    """The femoral or tibial bone surface (``which`` "femur" or "tibia"), mm."""
+    return surface(scene, f"{which}_bone", f"scanned.thickness = 'bone-distance' (the "
+                   f"{which}'s bone, for the cartilage thickness)")
