@@ -130,6 +130,8 @@ def read_surface(path: Path, units: str = "mm", rotation_deg=(0.0, 0.0, 0.0),
     """
     from geometry.io import load_mesh
 
+    if not Path(path).is_file():
+        raise FecheckError(f"{path}: mesh file not found")
     params = {"sha256": file_digest(path), "units": units,
               "rotation_deg": [float(a) for a in rotation_deg],
               "translation_mm": [float(t) for t in translation_mm]}
@@ -184,11 +186,31 @@ def submesh(mesh: TriMesh, faces: np.ndarray) -> TriMesh:
     return TriMesh(mesh.points[used], inverse.reshape(-1, 3))
 
 
-def medial_first(side: str, parts: list[TriMesh]) -> dict[str, TriMesh]:
-    """{medial, lateral} of two compartment meshes by the x of their centroids (a right
-    knee has its medial compartment at -x)."""
-    x = [float(np.average(p.face_centroids[:, 0], weights=p.face_areas)) for p in parts]
-    low, high = (parts[0], parts[1]) if x[0] < x[1] else (parts[1], parts[0])
+def split_faces(mesh: TriMesh, split: str, x_mm: float, side: str, name: str
+                ) -> dict[str, np.ndarray]:
+    """{medial, lateral}: the face indices of each compartment of one tibial surface, its
+    two connected pieces (`split` "components", specks left out) or the two sides of the
+    plane x = `x_mm` ("sagittal"); medial at -x in a right knee (`side`). `FecheckError`
+    (naming the surface `name`) when the surface does not split so."""
+    if split == "components":
+        pair = [p for p in components(mesh) if len(p) >= MIN_COMPONENT_SHARE * mesh.n_faces]
+        if len(pair) != 2:
+            sizes = ", ".join(str(len(p)) for p in pair)
+            raise FecheckError(f"{name}: a split into connected pieces needs the two "
+                               f"compartments as two separate pieces, but the surface has "
+                               f"{len(pair)} ({sizes} faces); split it by a sagittal plane "
+                               "or give one file per compartment")
+    else:
+        left = mesh.face_centroids[:, 0] < x_mm
+        if left.all() or not left.any():
+            raise FecheckError(f"{name}: the sagittal plane x = {x_mm:g} mm leaves every "
+                               f"face on one side; the surface spans x = "
+                               f"{mesh.points[:, 0].min():.1f} to "
+                               f"{mesh.points[:, 0].max():.1f} mm")
+        pair = [np.flatnonzero(left), np.flatnonzero(~left)]
+    area, x = mesh.face_areas, mesh.face_centroids[:, 0]
+    mean_x = [float(np.average(x[p], weights=area[p])) for p in pair]
+    low, high = (pair[0], pair[1]) if mean_x[0] < mean_x[1] else (pair[1], pair[0])
     return {"medial": low, "lateral": high} if side == "right" else {"medial": high,
                                                                       "lateral": low}
 
@@ -220,34 +242,10 @@ def tibial_compartments(scene: Scene) -> dict[str, TriMesh]:
         out = {"medial": medial, "lateral": lateral}
     else:
         mesh = surface(scene, "tibia", why)
-        if scene["geometry.tibia_split"] == "sagittal":
-            out = _sagittal_split(mesh, scene["geometry.split_x_mm"], side, path)
-        else:
-            out = _component_split(mesh, side, path)
+        faces = split_faces(mesh, scene["geometry.tibia_split"], scene["geometry.split_x_mm"],
+                            side, f"{path} (geometry.tibia_split)")
+        out = {c: submesh(mesh, f) for c, f in faces.items()}
     return out
-
-
-def _component_split(mesh: TriMesh, side: str, path: Path) -> dict[str, TriMesh]:
-    parts = [p for p in components(mesh) if len(p) >= MIN_COMPONENT_SHARE * mesh.n_faces]
-    if len(parts) != 2:
-        sizes = ", ".join(str(len(p)) for p in parts)
-        raise FecheckError(f"{path}: geometry.tibia_split = 'components' needs the two "
-                           f"compartments as two separate pieces, but the surface has "
-                           f"{len(parts)} ({sizes} faces); split it by a sagittal plane "
-                           "(geometry.tibia_split = 'sagittal', geometry.split_x_mm) or give "
-                           "one file per compartment (geometry.tibia_lateral)")
-    return medial_first(side, [submesh(mesh, p) for p in parts])
-
-
-def _sagittal_split(mesh: TriMesh, x_mm: float, side: str, path: Path) -> dict[str, TriMesh]:
-    left = mesh.face_centroids[:, 0] < x_mm
-    if left.all() or not left.any():
-        raise FecheckError(f"{path}: the sagittal plane x = {x_mm:g} mm "
-                           f"(geometry.split_x_mm) leaves every face on one side; the "
-                           f"surface spans x = {mesh.points[:, 0].min():.1f} to "
-                           f"{mesh.points[:, 0].max():.1f} mm")
-    return medial_first(side, [submesh(mesh, np.flatnonzero(left)),
-                               submesh(mesh, np.flatnonzero(~left))])
 
 
 def check_normals(mesh: TriMesh, name: str, *, up: bool) -> None:
