@@ -128,3 +128,14 @@ def test_a_second_read_comes_from_the_cache_and_a_changed_file_is_read_again(tmp
     save_mesh(patches["lateral"], path)                      # new content, same name
     changed = surfaces.read_surface(path)
     assert changed.points[:, 0].mean() == pytest.approx(LATERAL_X, abs=0.5)
+
+
+def test_a_femur_tibia_knee_takes_its_side_without_a_custom_preset(tmp_path, recwarn):
+    patches = _patches()
+    save_mesh(_joined([patches["medial"], patches["lateral"]]), tmp_path / "tibia.stl")
+    path = tmp_path / "left.toml"
+    path.write_text('[model]\nkind = "femur-tibia"\n[knee]\nside = "left"\n'
+                    '[geometry]\ntibia = "tibia.stl"\n')
+    comps = surfaces.tibial_compartments(load_scene(path))
+    assert comps["medial"].points[:, 0].mean() == pytest.approx(LATERAL_X, abs=0.5)
+    assert not [w for w in recwarn if "knee.side" in str(w.message)]

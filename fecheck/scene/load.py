@@ -53,8 +53,11 @@ class Scene:
 
     @property
     def side(self) -> str:
-        """"right" or "left": knee.side for a custom knee, else the preset's side."""
-        return self["knee.side"] if self["knee.preset"] == "custom" else self.knee.side
+        """"right" or "left": knee.side for a custom knee or a model that reads no
+        landmark (femur-tibia), else the preset's side."""
+        if self["knee.preset"] == "custom" or not needs_landmarks(self):
+            return self["knee.side"]
+        return self.knee.side
 
     @property
     def free_dofs(self) -> tuple[str, ...]:

@@ -136,6 +136,12 @@ def _preset_knee(scene: SceneValues) -> str | None:
     return None
 
 
+def _side_from_preset(scene: SceneValues) -> str | None:
+    if scene["model.kind"] == "femur-tibia" and scene["ligaments.model"] == "none":
+        return None                    # no landmark read: the side names the compartments
+    return _preset_knee(scene)
+
+
 def _no_springs(scene: SceneValues) -> str | None:
     if scene["ligaments.model"] != "spring":
         return (f"ligaments.model = '{scene['ligaments.model']}' (only spring ligaments have "
@@ -244,7 +250,8 @@ RULES: tuple[tuple[tuple[str, ...], Reason], ...] = (
      _plateau_is_not("inclined", "slope angles")),
     (tuple(f"plateau.{c}_coefficients" for c in COMPARTMENTS),
      _plateau_is_not("polynomial", "coefficients")),
-    (("knee.side", "knee.landmarks"), _preset_knee),
+    (("knee.side",), _side_from_preset),
+    (("knee.landmarks",), _preset_knee),
     (_SPRING_KEYS, _no_springs),
     (("tibia.mass_kg", "tibia.com_mm"), _no_gravity),
     (("scanned.thickness", "scanned.decimate_faces"), _no_scanned_tibia),

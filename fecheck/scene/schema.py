@@ -169,7 +169,8 @@ SCHEMA: dict[str, Key] = {
         "'baseline-right' = the thesis's right knee (Table B.1), 'additional-left' = its "
         "left knee (Table B.3), 'custom' = knee.side and the knee.landmarks table.",
         choices=tuple(PRESETS) + ("custom",)),
-    "knee.side": Key("str", "right", "Side of a custom knee (knee.preset = 'custom'): "
+    "knee.side": Key("str", "right", "Side of a custom knee (knee.preset = 'custom'; and "
+                     "of every femur-tibia knee without the three-ligament model): "
                      "'right' has its medial compartment at -x, 'left' at +x.",
                      choices=("right", "left")),
     "knee.landmarks": Key(
