@@ -46,6 +46,7 @@ from fecheck.fe.recovery import zero_contour_area
 from fecheck.fe.results import ContactMetrics, FEContactResult, SideMetrics
 from fecheck.fe.settings import FESettings
 from fecheck.model.assembly import pose_dict
+from fecheck.model.condyles import scene_knee
 from fecheck.model.equilibrium import axial_force
 from fecheck.model.results import CompartmentResult, RunResult
 from fecheck.reference.closed_forms import (
@@ -279,7 +280,8 @@ def _expected_depth(scene: Scene, run: RunResult) -> float:
         if scene["model.kind"] == "femur-tibia":      # no sphere: the EF run's own depth
             deepest = max(deepest, res.max_depth_mm)
             continue
-        layer = ef_sphere_on_plane(res.force_N, scene.knee.radius_mm(c), E, nu, h).depth_mm
+        radius = scene_knee(scene).radius_mm(c)
+        layer = ef_sphere_on_plane(res.force_N, radius, E, nu, h).depth_mm
         ef = res.max_depth_mm if math.isfinite(res.max_depth_mm) else layer
         deepest = max(deepest, min(ef, layer))
     return deepest

@@ -36,6 +36,7 @@ from fecheck.errors import FecheckError
 from fecheck.laws import layer
 from fecheck.model import sphere_plane
 from fecheck.model.assembly import Compartment, applied_load, law_factory, pose_dict
+from fecheck.model.condyles import fit_note, scene_knee
 from fecheck.model.equilibrium import compartment_results, not_converged_note, solve_equilibrium
 from fecheck.model.notes import layer_depth_notes, mesh_resolution_notes
 from fecheck.model.results import LigamentResult, RunResult
@@ -74,7 +75,7 @@ def _hemisphere(scene: Scene, compartment: str):
     """The condyle sphere cut by a sagittal plane towards the notch, closed by a flat face
     on the cut: slave points beyond the cut are then closest to that face and outside
     (an open cap would count the points past its rim as inside)."""
-    knee = scene.knee
+    knee = scene_knee(scene)
     centre, radius = knee.condyle_center[compartment], knee.radius_mm(compartment)
     notch = np.array([1.0 if centre[0] < 0 else -1.0, 0.0, 0.0])
     cut = centre + scene["scanned.hemisphere_cut_mm"] * notch
@@ -88,7 +89,7 @@ def femoral_masters(scene: Scene) -> dict:
     if kind == "femur-tibia":
         femur = femoral_master(scene)
         return {c: femur for c in COMPARTMENTS}
-    knee = scene.knee
+    knee = scene_knee(scene)
     if scene["scanned.condyle"] == "hemisphere":
         return {c: _hemisphere(scene, c) for c in COMPARTMENTS}
     return {c: Sphere(knee.condyle_center[c], knee.radius_mm(c)) for c in COMPARTMENTS}
@@ -136,7 +137,7 @@ def build_compartments(scene: Scene) -> list[Compartment]:
             "margin_mm": scene["contact.margin_mm"]}
     out = []
     for c in COMPARTMENTS:
-        radius = scene.knee.radius_mm(c) if kind == "sphere-tibia" else math.nan
+        radius = scene_knee(scene).radius_mm(c) if kind == "sphere-tibia" else math.nan
         pair = ContactPair(slaves[c], masters[c], **opts)
         out.append(Compartment(c, pair, _law(scene, slaves[c], radius), True, radius))
     return out
@@ -185,6 +186,8 @@ def run_scanned(scene: Scene, warm_start: np.ndarray | None = None) -> RunResult
     if scene["model.kind"] == "sphere-plane":       # meshed plateau discs: rim and faces
         notes += mesh_resolution_notes(scene, comps, eq.results)
     notes += not_converged_note(sol)
+    if scene["model.kind"] == "sphere-tibia":
+        notes += fit_note(scene, scene_knee(scene))
     contact = eq.contact
     contact_wrench = sum(eq.wrenches)
     extra = {"evaluations": contact.evaluations,

@@ -42,7 +42,11 @@ class Scene:
 
     @property
     def knee(self) -> Knee:
-        """The knee landmarks of this scene."""
+        """The knee landmarks of this scene (not for knee.preset = 'fit', whose spheres
+        are fitted to its femoral surface: `fecheck.model.condyles.scene_knee`)."""
+        if self["knee.preset"] == "fit":
+            raise FecheckError("knee.preset = 'fit' gives condyle spheres only, fitted to the "
+                               "femoral surface by the sphere-tibia model")
         if self["knee.preset"] == "custom":
             if self["knee.landmarks"] is None:
                 raise FecheckError(f"knee.preset = 'custom' needs a [knee.landmarks] table "
@@ -55,7 +59,7 @@ class Scene:
     def side(self) -> str:
         """"right" or "left": knee.side for a custom knee or a model that reads no
         landmark (femur-tibia), else the preset's side."""
-        if self["knee.preset"] == "custom" or not needs_landmarks(self):
+        if self["knee.preset"] in ("custom", "fit") or not needs_landmarks(self):
             return self["knee.side"]
         return self.knee.side
 
@@ -243,7 +247,12 @@ def needs_landmarks(scene: Scene) -> bool:
 
 def _check_consistent(scene: Scene, source: str) -> None:
     """Rules across keys: custom landmarks, polynomial coefficients, load, free DOFs."""
-    if scene["knee.landmarks"] is not None or needs_landmarks(scene):
+    if scene["knee.preset"] == "fit":
+        if scene["model.kind"] != "sphere-tibia" or scene["ligaments.model"] != "none":
+            raise FecheckError(f"{source}: knee.preset = 'fit' fits the condyle spheres of the "
+                               "sphere-tibia model and gives no ligament attachment: use it "
+                               "with model.kind = 'sphere-tibia' and ligaments.model = 'none'")
+    elif scene["knee.landmarks"] is not None or needs_landmarks(scene):
         try:
             _ = scene.knee                       # validates custom landmarks
         except FecheckError as err:

@@ -130,13 +130,17 @@ def _plateau_is_not(kind: str, what: str) -> Reason:
 
 
 def _preset_knee(scene: SceneValues) -> str | None:
+    if scene["knee.preset"] == "fit":
+        return "knee.preset = 'fit' fits the condyle spheres to the femoral surface"
     if scene["knee.preset"] != "custom":
         return (f"knee.preset = '{scene['knee.preset']}' gives the landmarks; side and "
-                f"landmarks are read only for knee.preset = 'custom'")
+                f"landmarks are read only for knee.preset = 'custom' or 'fit'")
     return None
 
 
 def _side_from_preset(scene: SceneValues) -> str | None:
+    if scene["knee.preset"] == "fit":
+        return None
     if scene["model.kind"] == "femur-tibia" and scene["ligaments.model"] == "none":
         return None                    # no landmark read: the side names the compartments
     return _preset_knee(scene)

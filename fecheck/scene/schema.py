@@ -167,9 +167,13 @@ SCHEMA: dict[str, Key] = {
         "str", "baseline-right",
         "Knee landmarks (condyle centres, contact points, ligament attachments): "
         "'baseline-right' = the thesis's right knee (Table B.1), 'additional-left' = its "
-        "left knee (Table B.3), 'custom' = knee.side and the knee.landmarks table.",
-        choices=tuple(PRESETS) + ("custom",)),
-    "knee.side": Key("str", "right", "Side of a custom knee (knee.preset = 'custom'; and "
+        "left knee (Table B.3), 'custom' = knee.side and the knee.landmarks table, 'fit' "
+        "= the condyle spheres fitted to the femoral surface geometry.femur (its "
+        "posterior-distal cartilage; sphere-tibia model without the three-ligament "
+        "model; the fitted spheres are printed with the result).",
+        choices=tuple(PRESETS) + ("custom", "fit")),
+    "knee.side": Key("str", "right", "Side of a custom or fitted knee (knee.preset = "
+                     "'custom' or 'fit'; and "
                      "of every femur-tibia knee without the three-ligament model): "
                      "'right' has its medial compartment at -x, 'left' at +x.",
                      choices=("right", "left")),
