@@ -177,7 +177,7 @@ def _fe_metrics(layer: FELayer, force_N: np.ndarray, active: np.ndarray, gaps0: 
                        total / area if area > 0 else math.nan, area, depth, cop), pressure
 
 
-def _ef_metrics(res: CompartmentResult, rot: np.ndarray, t: np.ndarray) -> SideMetrics:
+def ef_metrics(res: CompartmentResult, rot: np.ndarray, t: np.ndarray) -> SideMetrics:
     """The EF run's metrics of one compartment, its centre of pressure in the tibia frame
     (from its face pressures and in-contact face areas; None for a point contact)."""
     cop = None
@@ -346,7 +346,7 @@ def cross_check(scene: Scene, *, mode: str | None = None, refine: int | None = N
         res = run.compartments[name]
         refs = _flat_references(scene, lay, float(lc.force_N.sum()), settings)
         checks[name] = CompartmentCheck(
-            name, fe, _ef_metrics(res, rot_ef, t_ef), lay, pressure, lc.force_N, lc.active,
+            name, fe, ef_metrics(res, rot_ef, t_ef), lay, pressure, lc.force_N, lc.active,
             _on_ef_faces(lay, pressure), _ef_face_pressure(lay, res, rot_ef, t_ef), worst,
             **refs)
     t4 = time.perf_counter()

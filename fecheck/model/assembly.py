@@ -9,14 +9,17 @@ gravity, each ligament spring — is a function of the pose returning (W (6,), d
 from __future__ import annotations
 
 import math
+import os
 import time
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
+from pathlib import Path
 
 import numpy as np
 
 from fecheck import laws
 from fecheck.errors import FecheckError
+from fecheck.laws import calibrated
 from fecheck.scene import Scene
 from fecheck.scene.constants import COMPARTMENTS, DOF_NAMES, GRAVITY_MPS2, LIGAMENTS
 from fecheck.scene.knee import plane_normal
@@ -185,21 +188,55 @@ def equal_force_constraint(rot: np.ndarray, t: np.ndarray, parts: Sequence[Part]
     return mags[0] - mags[1], -(grads[0] - grads[1]), np.zeros((6, 6))
 
 
-def law_factory(scene: Scene) -> Callable[[float], Callable[[object], laws.LawResult]]:
-    """Validated contact law of a scene, as a function of the condyle radius (mm)."""
+def law_factory(scene: Scene) -> Callable[[float, str], Callable[[object], laws.LawResult]]:
+    """Validated contact law of a scene, as a function of the condyle radius (mm; NaN
+    where there is no sphere) and the compartment's name."""
     e, nu, h = scene["contact.youngs_MPa"], scene["contact.poisson"], scene["contact.thickness_mm"]
     name = scene["contact.law"]
     if name == "ef":
         k = laws.ef_stiffness(e, nu, h)
-        return lambda r: lambda s: laws.elastic_foundation(s, k)
+        return lambda r, c: lambda s: laws.elastic_foundation(s, k)
     if name == "volumetric":
         laws.validate_material(e, nu, h)
         kv = scene["contact.volumetric_stiffness_N_per_mm3"]
-        return lambda r: lambda s: laws.volumetric(s, kv)
+        return lambda r, c: lambda s: laws.volumetric(s, kv)
     if name == "blankevoort":
         pressure = laws.blankevoort_pressure(e, nu, h)
-        return lambda r: lambda s: laws.foundation(s, pressure)
+        return lambda r, c: lambda s: laws.foundation(s, pressure)
+    if name == "ef-calibrated":
+        laws.validate_material(e, nu, h)
+        own = calibration_file(scene)
+
+        def law(r: float, c: str):
+            cal = own[c] if own is not None else _table_calibration(scene, r)
+            pressure = calibrated.calibrated_pressure(cal)
+            return lambda s: laws.foundation(s, pressure)
+
+        return law
     e_star = laws.hertz_modulus(e, nu, scene["contact.indenter_youngs_MPa"],
                                 scene["contact.indenter_poisson"])
-    return lambda r: lambda s: laws.hertz(s, r, e_star)
+    return lambda r, c: lambda s: laws.hertz(s, r, e_star)
+
+
+def calibration_file(scene: Scene) -> dict | None:
+    """{compartment: Calibration} of ``contact.calibration`` (a path relative to the scene
+    file's folder), or None where it is unset."""
+    value = scene["contact.calibration"]
+    if not value:
+        return None
+    path = Path(os.path.expandvars(value)).expanduser()
+    if not path.is_absolute():
+        path = Path(scene.source).expanduser().resolve().parent / path
+    return calibrated.read_calibration(path)
+
+
+def _table_calibration(scene: Scene, radius_mm: float) -> calibrated.Calibration:
+    """The built-in table's law for a sphere of `radius_mm` on the scene's layer."""
+    if not math.isfinite(radius_mm) or scene["scanned.thickness"] == "bone-distance":
+        raise FecheckError("contact.law = 'ef-calibrated' on this scene needs its own "
+                           "calibration (no condyle sphere, or a varying thickness, for the "
+                           "built-in table): run `fecheck calibrate SCENE -o FILE` and set "
+                           "contact.calibration = FILE")
+    return calibrated.table_calibration(scene["contact.youngs_MPa"], scene["contact.poisson"],
+                                        scene["contact.thickness_mm"], radius_mm)
 

@@ -110,16 +110,16 @@ def slave_thickness(scene: Scene, slave) -> np.ndarray:
     return cached_arrays("series-thickness", [slave, femur, femur_bone, tibia_bone], build)[0]
 
 
-def _law(scene: Scene, slave, radius_mm: float):
+def _law(scene: Scene, slave, radius_mm: float, compartment: str):
     if scene["contact.law"] == "hertz" and not math.isfinite(radius_mm):
         raise FecheckError("contact.law = 'hertz' needs a condyle radius, and the femur-tibia "
                            "model has no sphere: use 'ef', 'blankevoort' or 'volumetric'")
-    if scene["scanned.thickness"] == "uniform":
-        return law_factory(scene)(radius_mm)
+    if scene["scanned.thickness"] == "uniform" or scene["contact.law"] == "ef-calibrated":
+        return law_factory(scene)(radius_mm, compartment)
     if scene["contact.law"] != "ef":
         raise FecheckError("scanned.thickness = 'bone-distance' sets a linear EF stiffness "
-                           "per face: use contact.law = 'ef' (or scanned.thickness = "
-                           "'uniform')")
+                           "per face: use contact.law = 'ef' or 'ef-calibrated' (or "
+                           "scanned.thickness = 'uniform')")
     h = slave_thickness(scene, slave)
     k = layer.face_ef_stiffness(h, scene["contact.youngs_MPa"], scene["contact.poisson"])
     return layer.face_elastic_foundation(k)
@@ -139,7 +139,7 @@ def build_compartments(scene: Scene) -> list[Compartment]:
     for c in COMPARTMENTS:
         radius = scene_knee(scene).radius_mm(c) if kind == "sphere-tibia" else math.nan
         pair = ContactPair(slaves[c], masters[c], **opts)
-        out.append(Compartment(c, pair, _law(scene, slaves[c], radius), True, radius))
+        out.append(Compartment(c, pair, _law(scene, slaves[c], radius, c), True, radius))
     return out
 
 

@@ -90,12 +90,12 @@ def build_compartments(scene: Scene) -> list[Compartment]:
             slave = condyle_mesh(scene, knee, c)
             master = plateau_box(scene, knee, c) if meshed else plateau_master(scene, knee, c)
             pair = ContactPair(slave, master, **opts)
-            out.append(Compartment(c, pair, law(r), False, r, note=note))
+            out.append(Compartment(c, pair, law(r, c), False, r, note=note))
         else:
             slave = plateau_mesh(scene, knee, c)
             master = condyle_mesh(scene, knee, c) if meshed else Sphere(centre, r)
             pair = ContactPair(slave, master, **opts)
-            out.append(Compartment(c, pair, law(r), True, r, note=note))
+            out.append(Compartment(c, pair, law(r, c), True, r, note=note))
     return out
 
 

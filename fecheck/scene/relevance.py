@@ -248,6 +248,7 @@ RULES: tuple[tuple[tuple[str, ...], Reason], ...] = (
     (("contact.master",), _master_fixed),
     (("contact.margin_mm",), _no_margin),
     (("contact.volumetric_stiffness_N_per_mm3",), _law_is_not("volumetric", "volumetric")),
+    (("contact.calibration",), _law_is_not("ef-calibrated", "calibrated EF")),
     (_INDENTER_KEYS, _law_is_not("hertz", "Hertz")),
     (("contact.indenter_poisson",), _rigid_indenter),
     (tuple(f"plateau.{c}_angles_deg" for c in COMPARTMENTS),

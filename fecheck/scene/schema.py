@@ -218,7 +218,16 @@ SCHEMA: dict[str, Key] = {
         "contact.youngs_MPa, contact.poisson and contact.thickness_mm), 'hertz' (eq. "
         "4.4-4.8, from the maximum depth), 'volumetric' (eq. 4.9, stiffness "
         "contact.volumetric_stiffness_N_per_mm3), 'blankevoort' = the nonlinear foundation "
-        "of Blankevoort et al. 1991.", choices=("ef", "hertz", "volumetric", "blankevoort")),
+        "of Blankevoort et al. 1991, 'ef-calibrated' = a foundation p = C·d·(d + 0.01 "
+        "mm)^(n−1) fitted to FE: per compartment from contact.calibration, or for condyle "
+        "spheres on a uniform layer from the built-in table of axisymmetric FE.",
+        choices=("ef", "hertz", "volumetric", "blankevoort", "ef-calibrated")),
+    "contact.calibration": Key(
+        "str", "",
+        "Calibration file of contact.law = 'ef-calibrated', written by `fecheck calibrate "
+        "SCENE -o FILE` (the law's C and n per compartment, fitted to the FE of that scene); "
+        "a path relative to the scene file's folder. '' = the built-in table (condyle "
+        "spheres on a uniform layer)."),
     "contact.area": Key(
         "str", "clipped",
         "In-contact area of a mesh face: 'clipped' at its zero-depth line (exact) or "

@@ -1,0 +1,153 @@
+"""An elastic foundation calibrated by finite elements (``contact.law = "ef-calibrated"``).
+
+The linear EF, p = k·d, is the thin-layer limit of a bonded cartilage layer: where the
+contact is as wide as the layer is thick it spreads the load over too large an area
+(measured +25-32 % at h 6 mm, ν 0.3), and as ν → 0.5 its column stiffness diverges
+while a bonded layer bulges. The calibrated law keeps the EF's locality and speed — the
+pressure at a point is a function of its own depth — with a shape fitted to FE:
+
+    p(d) = C · d · (d + d_s)^(n − 1),    d ≥ 0,
+
+C (MPa/mm^n) and n per compartment, d_s = `SOFT_DEPTH_MM` (it keeps the tangent finite
+at the contact edge for n < 1; for d ≫ d_s, p ≈ C·d^n). n = 1 is the linear EF with
+k = C; n → 1/2 the Hertz limit of a contact much narrower than the layer, where
+p_max / p_mean → 3/2.
+
+Why this form: for a sphere of radius R on any local law, the contact area is the
+overlap area 2πRδ and dF/dA = p(δ); a power law F = c·A^m of the FE force against area
+is reproduced exactly by p(d) = c·m·(2πR·d)^(m−1), i.e. n = m − 1, C = c·m·(2πR)^(m−1).
+The built-in table (`ef_calibration_table.json`, from the axisymmetric FE over ν, h and
+R: validation/ef_calibration_table.py) gives m and c for a sphere-plane scene; for any
+other geometry `fecheck calibrate` fits C and n per compartment to the FE of the scene
+itself (`fecheck.studies.calibrate`). Units: mm, N, MPa.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+from collections.abc import Callable, Mapping
+from dataclasses import dataclass
+from functools import lru_cache
+from importlib import resources
+from pathlib import Path
+
+import numpy as np
+
+from fecheck.errors import FecheckError
+
+SOFT_DEPTH_MM = 0.01
+"""d_s of the law: below this depth the law turns linear (finite tangent at d = 0)."""
+EXPONENT_RANGE = (0.3, 1.5)
+"""Allowed n: 1/2 is the Hertz limit, 1 the linear EF."""
+FILE_VERSION = 1
+"""Version of the calibration file layout (`write_calibration`)."""
+TABLE_FILE = "ef_calibration_table.json"
+"""The built-in table, beside this module (validation/ef_calibration_table.py --write)."""
+
+
+@dataclass(frozen=True)
+class Calibration:
+    """Law parameters of one compartment: p(d) = C·d·(d + d_s)^(n − 1)."""
+
+    C: float
+    n: float
+
+    def check(self, where: str) -> None:
+        """`FecheckError` for a non-finite or out-of-range parameter."""
+        lo, hi = EXPONENT_RANGE
+        if not (math.isfinite(self.C) and self.C > 0 and math.isfinite(self.n)
+                and lo <= self.n <= hi):
+            raise FecheckError(f"{where}: calibrated EF needs C > 0 and {lo} <= n <= {hi}, "
+                               f"got C = {self.C!r}, n = {self.n!r}")
+
+
+def calibrated_pressure(cal: Calibration) -> Callable[[np.ndarray], tuple[np.ndarray,
+                                                                           np.ndarray]]:
+    """p(d) and dp/dd of the law (MPa, MPa/mm) for depths d ≥ 0 (mm)."""
+    C, n, ds = float(cal.C), float(cal.n), SOFT_DEPTH_MM
+
+    def pressure(d: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        s = d + ds
+        power = s ** (n - 1.0)
+        return C * d * power, C * power * (n * d + ds) / s
+
+    return pressure
+
+
+@lru_cache(maxsize=1)
+def _table() -> dict:
+    try:
+        text = resources.files("fecheck.laws").joinpath(TABLE_FILE).read_text()
+    except OSError as err:
+        raise FecheckError(f"the built-in calibration table {TABLE_FILE} is missing from the "
+                           f"installation ({err}); reinstall fecheck, or calibrate the scene "
+                           "with `fecheck calibrate`") from None
+    return json.loads(text)
+
+
+def table_calibration(youngs_MPa: float, poisson: float, thickness_mm: float,
+                      radius_mm: float) -> Calibration:
+    """C and n for a sphere of `radius_mm` on a bonded layer, from the built-in table
+    (interpolated linearly in ν, log h, log R; m and log c, then C, n)."""
+    table = _table()
+    axes = table["axes"]
+    point, names = [], ("poisson", "thickness_mm", "radius_mm")
+    for name, value in zip(names, (poisson, thickness_mm, radius_mm), strict=True):
+        grid = np.asarray(axes[name], dtype=float)
+        if not grid[0] <= value <= grid[-1]:
+            raise FecheckError(f"contact.law = 'ef-calibrated': {name} = {value:g} lies outside "
+                               f"the built-in table ({grid[0]:g}-{grid[-1]:g}); calibrate "
+                               "the scene with `fecheck calibrate` and set "
+                               "contact.calibration")
+        scaled = grid if name == "poisson" else np.log(grid)
+        x = value if name == "poisson" else math.log(value)
+        i = int(np.clip(np.searchsorted(scaled, x) - 1, 0, len(grid) - 2))
+        point.append((i, (x - scaled[i]) / (scaled[i + 1] - scaled[i])))
+    m = _trilinear(np.asarray(table["m"], dtype=float), point)
+    log_c = _trilinear(np.asarray(table["log_c"], dtype=float), point)
+    c = youngs_MPa / table["E_reference_MPa"] * math.exp(log_c)
+    return Calibration(C=c * m * (2.0 * math.pi * radius_mm) ** (m - 1.0), n=m - 1.0)
+
+
+def _trilinear(values: np.ndarray, point: list[tuple[int, float]]) -> float:
+    out = 0.0
+    for corner in range(8):
+        weight, index = 1.0, []
+        for axis, (i, t) in enumerate(point):
+            upper = (corner >> axis) & 1
+            weight *= t if upper else 1.0 - t
+            index.append(i + upper)
+        out += weight * values[tuple(index)]
+    return float(out)
+
+
+def read_calibration(path: str | Path) -> dict[str, Calibration]:
+    """{compartment: Calibration} of a file `fecheck calibrate` wrote."""
+    path = Path(path)
+    try:
+        data = json.loads(path.read_text())
+        out = {c: Calibration(float(v["C"]), float(v["n"]))
+               for c, v in data["compartments"].items()}
+    except FileNotFoundError:
+        raise FecheckError(f"contact.calibration: {path} not found; write it with "
+                           "`fecheck calibrate SCENE -o FILE`") from None
+    except (OSError, ValueError, KeyError, TypeError) as err:
+        raise FecheckError(f"contact.calibration: {path} is not a calibration file written "
+                           f"by `fecheck calibrate` ({type(err).__name__}: {err})") from None
+    for c, cal in out.items():
+        cal.check(f"{path} ({c})")
+    return out
+
+
+def write_calibration(path: str | Path, parameters: Mapping[str, Calibration],
+                      info: Mapping) -> Path:
+    """Write `parameters` (and what they were fitted to, `info`) as JSON."""
+    path = Path(path)
+    doc = {"law": "p = C d (d + d_s)^(n - 1)", "version": FILE_VERSION,
+           "soft_depth_mm": SOFT_DEPTH_MM,
+           "compartments": {c: {"C": p.C, "n": p.n} for c, p in parameters.items()},
+           **info}
+    path.parent.mkdir(parents=True, exist_ok=True)
+    path.write_text(json.dumps(doc, indent=2) + "\n")
+    return path
