@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import json
 import math
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -105,7 +106,6 @@ def test_calibrate_recovers_the_law_that_made_its_reference(monkeypatch):
         return runs(truth)
 
     import tempfile
-    from pathlib import Path
 
     with tempfile.TemporaryDirectory() as folder:
         tmp = Path(folder)
@@ -126,3 +126,30 @@ def test_a_written_calibration_reads_back(tmp_path):
     back = calibrated.read_calibration(path)
     assert back["lateral"] == Calibration(2.5, 0.9)
     assert json.loads(path.read_text())["loads_N"] == [1.0]
+
+
+def test_the_table_interpolates_through_its_grid_points():
+    table = json.loads((Path(calibrated.__file__).parent / calibrated.TABLE_FILE).read_text())
+    axes = table["axes"]
+    i, j, k = 0, 4, 2
+    nu, h, r = axes["poisson"][i], axes["thickness_mm"][j], axes["radius_mm"][k]
+    m, c = table["m"][i][j][k], math.exp(table["log_c"][i][j][k])
+    got = calibrated.table_calibration(20.0, nu, h, r)
+    assert got.n == pytest.approx(m - 1.0, rel=1e-12)
+    assert got.C == pytest.approx(20.0 * c * m * (2 * math.pi * r) ** (m - 1), rel=1e-12)
+    with pytest.raises(FecheckError, match="outside the built-in table"):
+        calibrated.table_calibration(20.0, 0.3, 30.0, r)
+
+
+def test_the_table_law_gives_the_axisymmetric_fe_area_on_the_baseline():
+    """No fit to this scene: the table's law reproduces the FE's contact area (it is
+    built to); its p_max runs high, as a local law matching the area must where the
+    contact is as wide as the layer (measured +14 % / +12 %)."""
+    from fecheck.fe.axisym import axisym_sphere_on_layer
+
+    result = run_scene(with_values(load_scene(), contact__law="ef-calibrated"))
+    for c, radius in (("medial", 25.5), ("lateral", 31.8)):
+        ef = result.compartments[c]
+        fe = axisym_sphere_on_layer(ef.force_N, radius, E, NU, H, size_mm=0.1).metrics
+        assert ef.area_mm2 == pytest.approx(fe.area_mm2, rel=0.04)
+        assert 1.05 < ef.max_pressure_MPa / fe.max_pressure_MPa < 1.2

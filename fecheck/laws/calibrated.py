@@ -16,10 +16,14 @@ p_max / p_mean → 3/2.
 Why this form: for a sphere of radius R on any local law, the contact area is the
 overlap area 2πRδ and dF/dA = p(δ); a power law F = c·A^m of the FE force against area
 is reproduced exactly by p(d) = c·m·(2πR·d)^(m−1), i.e. n = m − 1, C = c·m·(2πR)^(m−1).
-The built-in table (`ef_calibration_table.json`, from the axisymmetric FE over ν, h and
-R: validation/ef_calibration_table.py) gives m and c for a sphere-plane scene; for any
-other geometry `fecheck calibrate` fits C and n per compartment to the FE of the scene
-itself (`fecheck.studies.calibrate`). Units: mm, N, MPa.
+The built-in table (`ef_calibration_table.json`, from the axisymmetric FE over ν 0.3-0.49,
+h 1.5-12 mm, R 15-60 mm and F/E 2-100 mm²: validation/ef_calibration_table.py) gives m
+and c for condyle spheres on a uniform layer; it reproduces the FE's area (within ~4-6 %
+over the grid), but a local law that matches the area over-predicts p_max by the gap
+between the force-area slope and the FE's p_max/p_mean (median +9.5 %, up to +26 % where
+the contact is about as wide as the layer, at ν 0.49). `fecheck calibrate` fits C and n
+per compartment to the FE of the scene itself (`fecheck.studies.calibrate`), balancing
+area, p_max and load share (±5 % on the baseline). Units: mm, N, MPa.
 """
 
 from __future__ import annotations

@@ -1,7 +1,8 @@
 """Scene: the TOML problem description, validated once, and the knees it names.
 
 Owns the schema, loading and overrides, knee landmark presets, the knee surfaces and
-ligament bundles read from files, and the shared constants. Imports only `fecheck.errors` and `geometry`.
+ligament bundles read from files, and the shared constants. Imports only
+`fecheck.errors` and `geometry`.
 """
 
 from fecheck.scene.load import (
