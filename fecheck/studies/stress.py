@@ -157,6 +157,14 @@ def cases() -> list[Case]:
             for d in ("bvh", "fcl", "ray-parity")]
     out += [_scene(f"law {law}", f"contact.law={law}", quick=law == "blankevoort")
             for law in ("hertz", "volumetric", "blankevoort")]
+    cal = "contact.law=ef-calibrated"
+    out += [_scene("law ef-calibrated (built-in table)", cal, expect="converged"),
+            _scene("ef-calibrated, nu 0.49", cal, "contact.poisson=0.49", quick=False,
+                   expect="converged"),
+            _scene("ef-calibrated, soft layer E 1", cal, "contact.youngs_MPa=1", quick=False,
+                   expect="converged"),
+            _scene("ef-calibrated, h outside the table", cal, "contact.thickness_mm=30",
+                   quick=False, expect="clear-error")]
     out += [_scene("blankevoort beyond 0.9 h", "contact.law=blankevoort",
                    "contact.youngs_MPa=1", quick=False),
             _scene("ligament rods", "ligaments.model=rod", "dofs.free=[\"x\", \"y\", \"z\", "
