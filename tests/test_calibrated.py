@@ -153,3 +153,9 @@ def test_the_table_law_gives_the_axisymmetric_fe_area_on_the_baseline():
         fe = axisym_sphere_on_layer(ef.force_N, radius, E, NU, H, size_mm=0.1).metrics
         assert ef.area_mm2 == pytest.approx(fe.area_mm2, rel=0.04)
         assert 1.05 < ef.max_pressure_MPa / fe.max_pressure_MPa < 1.2
+
+
+@pytest.mark.parametrize("factors", [(0.0, 1.0), (float("nan"),), ()])
+def test_calibrate_refuses_meaningless_loads_before_any_solve(factors):
+    with pytest.raises(FecheckError, match="load factors must be positive"):
+        cal.calibrate(load_scene(), factors)

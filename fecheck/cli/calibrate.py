@@ -35,9 +35,11 @@ def add_parser(subparsers) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
+    from fecheck.io.outputs import check_output
     from fecheck.scene import load_scene
     from fecheck.studies.calibrate import LOAD_FACTORS, calibrate, report, write
 
+    check_output(args.out)                       # before the FE, not after
     scene = load_scene(args.scene, args.overrides)
     factors = args.loads or LOAD_FACTORS
     fit = calibrate(scene, factors, log=lambda s: print(f"fecheck {s}", file=sys.stderr,

@@ -142,6 +142,9 @@ def calibrate(scene: Scene, load_factors: Sequence[float] = LOAD_FACTORS,
 
     if not scene["load.force_N"] > 0:
         raise FecheckError("calibrate: the scene has no load (load.force_N = 0)")
+    if not load_factors or not all(math.isfinite(f) and f > 0 for f in load_factors):
+        raise FecheckError(f"calibrate: the load factors must be positive numbers (multiples "
+                           f"of load.force_N), got {list(load_factors)}")
     loads = [f * scene["load.force_N"] for f in load_factors]
     t0 = time.perf_counter()
     fe = fe_answers(scene, loads, log)
