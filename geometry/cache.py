@@ -149,22 +149,16 @@ def cached_build(name: str, params: Mapping[str, Any],
     A cache hit returns arrays identical to those stored from the fresh build.
     """
     key = cache_key(name, params, version)
-    folder = _writable_dir() if use_cache else None
-    path = folder / f"{name}-{key[:32]}.npz" if folder is not None else None
+    path = _entry(name, key) if use_cache else None
     if info is not None:
         info.update({"key": key, "path": str(path) if path else None})
-    if path is not None and path.is_file():
-        try:
-            with np.load(path, allow_pickle=False) as data:
-                mesh = _from_arrays({k: data[k] for k in data.files})
-        except (OSError, ValueError, KeyError, FecheckError):
-            path.unlink(missing_ok=True)
-        else:
-            if info is not None:
-                info["source"] = "cache"
-            STATS.hits += 1
-            STATS.last = "cache"
-            return mesh
+    mesh = _load(path, _from_arrays)
+    if mesh is not None:
+        if info is not None:
+            info["source"] = "cache"
+        STATS.hits += 1
+        STATS.last = "cache"
+        return mesh
     mesh = build()
     if info is not None:
         info["source"] = "built"
@@ -173,6 +167,25 @@ def cached_build(name: str, params: Mapping[str, Any],
     if path is not None:
         _store(path, _to_arrays(mesh))
     return mesh
+
+
+def _entry(name: str, key: str) -> Path | None:
+    """The entry file of `key` (None when the cache folder cannot be written)."""
+    folder = _writable_dir()
+    return folder / f"{name}-{key[:32]}.npz" if folder is not None else None
+
+
+def _load(path: Path | None, convert: Callable[[dict[str, np.ndarray]], Any]) -> Any:
+    """`convert` of a stored entry's arrays, or None for no entry (a broken one is
+    removed)."""
+    if path is None or not path.is_file():
+        return None
+    try:
+        with np.load(path, allow_pickle=False) as data:
+            return convert({k: data[k] for k in data.files})
+    except (OSError, ValueError, KeyError, FecheckError):
+        path.unlink(missing_ok=True)
+        return None
 
 
 def _store(path: Path, arrays: Mapping[str, np.ndarray]) -> None:
@@ -204,18 +217,11 @@ def cached_arrays(name: str, inputs: list[TriMesh | np.ndarray],
                   ) -> tuple[np.ndarray, ...]:
     """``build()``, arrays computed from `inputs` alone (meshes, arrays), read from the
     cache when an entry for (name, version, the inputs' content) exists."""
-    key = cache_key(name, {"inputs": content_digest(inputs)}, version)
-    folder = _writable_dir()
-    path = folder / f"{name}-{key[:32]}.npz" if folder is not None else None
-    if path is not None and path.is_file():
-        try:
-            with np.load(path, allow_pickle=False) as data:
-                out = tuple(data[f"value_{i}"] for i in range(len(data.files)))
-        except (OSError, ValueError, KeyError):
-            path.unlink(missing_ok=True)
-        else:
-            STATS.hits += 1
-            return out
+    path = _entry(name, cache_key(name, {"inputs": content_digest(inputs)}, version))
+    out = _load(path, lambda data: tuple(data[f"value_{i}"] for i in range(len(data))))
+    if out is not None:
+        STATS.hits += 1
+        return out
     out = tuple(np.asarray(a) for a in build())
     STATS.builds += 1
     if path is not None:

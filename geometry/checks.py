@@ -59,6 +59,16 @@ def _edge_table(faces: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     return edges, counts, direction_sum
 
 
+def edge_counts(faces: np.ndarray) -> tuple[int, int, int]:
+    """Boundary edges (one face), non-manifold edges (3+ faces) and edges that two of
+    their faces run the same way (opposite windings; every non-manifold edge has such a
+    pair)."""
+    _, counts, direction_sum = _edge_table(faces)
+    opposed = ((counts == 2) & (direction_sum != 0)) | (counts > 2)
+    return (int(np.count_nonzero(counts == 1)), int(np.count_nonzero(counts > 2)),
+            int(np.count_nonzero(opposed)))
+
+
 def _components(n_points: int, faces: np.ndarray, edges: np.ndarray) -> int:
     from scipy.sparse import coo_matrix
     from scipy.sparse.csgraph import connected_components

@@ -4,12 +4,14 @@ tests/test_messages.py)."""
 
 from __future__ import annotations
 
+import subprocess
+import sys
+
 import numpy as np
 import pytest
 
 from fecheck.errors import FecheckError
 from fecheck.scene import load_scene, surfaces
-from geometry import cache
 from geometry.io import save_mesh
 from geometry.mesh import TriMesh
 from geometry.plateau import plane_patch
@@ -121,10 +123,15 @@ def test_a_second_read_comes_from_the_cache_and_a_changed_file_is_read_again(tmp
     path = tmp_path / "m.stl"
     save_mesh(patches["medial"], path)
     first = surfaces.read_surface(path)
-    hits = cache.STATS.hits
-    again = surfaces.read_surface(path)
-    assert cache.STATS.hits == hits + 1
-    np.testing.assert_array_equal(again.points, first.points)
+    assert surfaces.read_surface(path) is first            # kept in this process
+    # a second run (another process, same cache folder) reads the disk cache, not the file
+    code = ("from geometry import cache; from fecheck.scene.surfaces import read_surface; "
+            f"m = read_surface({str(path)!r}); print(cache.STATS.hits, cache.STATS.builds); "
+            "print(repr(m.points.tolist()))")
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
+                         check=True).stdout.splitlines()
+    assert out[0] == "1 0"
+    np.testing.assert_array_equal(np.array(eval(out[1])), first.points)
     save_mesh(patches["lateral"], path)                      # new content, same name
     changed = surfaces.read_surface(path)
     assert changed.points[:, 0].mean() == pytest.approx(LATERAL_X, abs=0.5)

@@ -26,6 +26,7 @@ import numpy as np
 import thesis_values as tv
 from report import knee_script_args
 
+from fecheck.model.condyles import condyle_faces
 from fecheck.scene.constants import COMPARTMENTS as SIDES
 from geometry.fits import fit_plane, fit_polynomial_surface, fit_sphere, fit_spherical_polynomial
 
@@ -41,14 +42,10 @@ def tibial_points(side: str) -> tuple[np.ndarray, np.ndarray]:
 
 def condyle_points(side: str) -> tuple[np.ndarray, np.ndarray]:
     """Posterior-distal femoral cartilage face centroids and areas of one condyle (the
-    selection of fits.json: -10° < atan2(-n_y, -n_z) < 100°, |n_x| < 0.5, y < 15 mm,
-    |x| > 8 mm on the condyle's side)."""
+    selection of fits.json, `fecheck.model.condyles.condyle_faces`; a right knee)."""
     femur = lenhart.mesh("femur_cartilage")
-    n, c = femur.face_normals, femur.face_centroids
-    angle = np.degrees(np.arctan2(-n[:, 1], -n[:, 2]))
-    keep = (angle > -10) & (angle < 100) & (np.abs(n[:, 0]) < 0.5) & (c[:, 1] < 15)
-    keep &= (c[:, 0] < -8) if side == "medial" else (c[:, 0] > 8)
-    return c[keep], femur.face_areas[keep]
+    keep = condyle_faces(femur, side, "right")
+    return femur.face_centroids[keep], femur.face_areas[keep]
 
 
 def table_2_1() -> list[dict]:

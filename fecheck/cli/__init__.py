@@ -19,6 +19,17 @@ import warnings
 from fecheck.errors import FecheckError
 
 
+def add_scene_arguments(parser: argparse.ArgumentParser, set_help: str) -> None:
+    """The scene file (optional positional) and the repeatable ``--set KEY=VALUE`` of a
+    verb that solves a scene; `set_help` says what an override does there."""
+    from pathlib import Path
+
+    parser.add_argument("scene", nargs="?", type=Path,
+                        help="scene TOML file (default: the packaged baseline scene)")
+    parser.add_argument("--set", dest="overrides", action="append", default=[],
+                        metavar="KEY=VALUE", help=set_help)
+
+
 class _Version(argparse.Action):
     """``--version``: print ``fecheck X.Y.Z`` (the installed package's version) and exit."""
 

@@ -11,6 +11,8 @@ import argparse
 import sys
 from pathlib import Path
 
+from fecheck.cli import add_scene_arguments
+
 
 def add_parser(subparsers) -> None:
     p = subparsers.add_parser(
@@ -22,10 +24,7 @@ def add_parser(subparsers) -> None:
                     "area, peak pressure and load share, write C and n to FILE and print the "
                     "fit against the FE beside the linear EF's. Then run the scene with "
                     "contact.law = 'ef-calibrated' and contact.calibration = FILE.")
-    p.add_argument("scene", nargs="?", type=Path,
-                   help="scene TOML file (default: the packaged baseline scene)")
-    p.add_argument("--set", dest="overrides", action="append", default=[], metavar="KEY=VALUE",
-                   help="override a scene key (repeatable)")
+    add_scene_arguments(p, "override a scene key (repeatable)")
     p.add_argument("-o", "--out", type=Path, default=Path("calibration.json"), metavar="FILE",
                    help="calibration file to write (default: calibration.json)")
     p.add_argument("--loads", type=float, nargs="+", metavar="FACTOR",

@@ -19,6 +19,8 @@ import math
 import sys
 from pathlib import Path
 
+from fecheck.cli import add_scene_arguments
+
 STDOUT = "-"
 COLUMNS = (("F", "force_N", 1), ("F_axial", "axial_force_N", 1),
            ("p_max", "max_pressure_MPa", 3), ("p_mean", "mean_pressure_MPa", 3),
@@ -34,10 +36,7 @@ def add_parser(subparsers) -> None:
                     "(magnitude and axial), p_max, p_mean, area, depth and centre of pressure "
                     "of FE and EF, the split and the pose. Scene keys [fe] set the mode, "
                     "mesh and solver. Output paths are checked before the solves.")
-    p.add_argument("scene", nargs="?", type=Path,
-                   help="scene TOML file (default: the packaged baseline scene)")
-    p.add_argument("--set", dest="overrides", action="append", default=[], metavar="KEY=VALUE",
-                   help="override a scene key, e.g. --set fe.layers=3")
+    add_scene_arguments(p, "override a scene key, e.g. --set fe.layers=3")
     p.add_argument("--mode", choices=("joint", "compartment"),
                    help="joint: the FE solves the tibia's equilibrium itself (default, "
                         "fe.mode); compartment: each compartment under its EF force")

@@ -166,6 +166,7 @@ def _read(role: str, path: Path, units: str) -> Surface:
 
     from fecheck.errors import FecheckError
     from fecheck.scene.surfaces import MIN_COMPONENT_SHARE, components, read_surface
+    from geometry.checks import edge_counts
 
     who = _option(role)
     if not path.is_file():
@@ -187,7 +188,7 @@ def _read(role: str, path: Path, units: str) -> Surface:
          f"mm (diagonal {np.linalg.norm(ext):.0f} mm; a knee surface spans 5-1000 mm): ok")
     _say(name, "mesh", f"{mesh.n_points:,} vertices, {mesh.n_faces:,} faces; no NaN, no "
          "degenerate face")
-    boundary, non_manifold, opposed = _edge_counts(mesh)
+    boundary, non_manifold, opposed = edge_counts(mesh.faces)
     closure = ("closed (every edge shared by two faces)" if boundary == non_manifold == 0
                else f"open sheet ({boundary:,} boundary edges)")
     winding = (f"; {opposed:,} edges join faces of opposite winding (normals flip across "
@@ -202,30 +203,7 @@ def _read(role: str, path: Path, units: str) -> Surface:
     return Surface(role, path, mesh, parts, path)
 
 
-def _edge_counts(mesh: TriMesh) -> tuple[int, int, int]:
-    """Boundary edges (one face), non-manifold edges (3+ faces) and edges whose two faces
-    run them the same way (opposite windings)."""
-    import numpy as np
-
-    directed = mesh.faces[:, [0, 1, 1, 2, 2, 0]].reshape(-1, 2)
-    n = mesh.n_points
-    undirected = np.sort(directed, axis=1)
-    _, count = np.unique(undirected[:, 0] * n + undirected[:, 1], return_counts=True)
-    _, same = np.unique(directed[:, 0] * n + directed[:, 1], return_counts=True)
-    return (int(np.count_nonzero(count == 1)), int(np.count_nonzero(count > 2)),
-            int(np.count_nonzero(same > 1)))
-
-
 # ------------------------------------------------------------------------- normals
-def _mean_nz(mesh: TriMesh, faces: np.ndarray | None = None) -> float:
-    """Area-weighted mean z of the unit normals of `faces` (all if None)."""
-    import numpy as np
-
-    faces = np.arange(mesh.n_faces) if faces is None else faces
-    area = mesh.face_areas[faces]
-    return float(np.sum(mesh.face_normals[faces, 2] * area) / max(area.sum(), 1e-300))
-
-
 def _flip(s: Surface, faces: np.ndarray) -> None:
     """Reverse the winding of `faces` of `s` (its normals point the other way)."""
     import numpy as np
@@ -249,7 +227,9 @@ def _femur_normals(s: Surface) -> None:
         ok, found = volume > 0, f"closed, signed volume {volume:+,.0f} mm³"
         want = "outward"
     else:
-        nz = _mean_nz(s.mesh)
+        from fecheck.scene.surfaces import mean_normal_z
+
+        nz = mean_normal_z(s.mesh)
         ok, found = nz < 0, f"area-weighted mean n_z = {nz:+.2f}"
         want = "down, toward the tibia"
     if ok:
@@ -263,7 +243,7 @@ def _tibia_normals(surf: dict[str, Surface], parts: dict) -> dict[str, TriMesh]:
     """Check (and repair) each tibial compartment's normals (up, toward the femur);
     the compartment meshes, mm."""
     from fecheck.errors import FecheckError
-    from fecheck.scene.surfaces import submesh
+    from fecheck.scene.surfaces import mean_normal_z, submesh
     from geometry.mesh import is_closed
 
     out = {}
@@ -273,7 +253,7 @@ def _tibia_normals(surf: dict[str, Surface], parts: dict) -> dict[str, TriMesh]:
             raise FecheckError(f"{_option(role)} {s.source}: the {c} tibial compartment is a "
                                "closed surface; give its articular (top) surface as an open "
                                "sheet, normals up")
-        nz = _mean_nz(s.mesh, faces)
+        nz = mean_normal_z(s.mesh, faces)
         if nz > 0:
             _say(c, "normals", f"up, toward the femur: area-weighted mean n_z = {nz:+.2f}: ok")
         else:

@@ -17,6 +17,8 @@ import argparse
 import sys
 from pathlib import Path
 
+from fecheck.cli import add_scene_arguments
+
 STDOUT = "-"
 PER_FACE = (("plot", "--plot"), ("vtk", "--vtk"), ("faces_csv", "--faces-csv"))
 """Outputs drawn from the per-face results (attribute, option)."""
@@ -29,11 +31,8 @@ def add_parser(subparsers) -> None:
                     "optionally writes JSON, CSV, per-face tables, VTK surfaces and a "
                     "pressure map. Output paths are checked before the solve; '-' writes "
                     "JSON or CSV to standard output (the table then goes to standard error).")
-    p.add_argument("scene", nargs="?", type=Path,
-                   help="scene TOML file (default: the packaged baseline scene)")
-    p.add_argument("--set", dest="overrides", action="append", default=[], metavar="KEY=VALUE",
-                   help="override a scene key, value as a TOML literal "
-                        "(e.g. --set contact.poisson=0.4 --set contact.law=hertz)")
+    add_scene_arguments(p, "override a scene key, value as a TOML literal "
+                           "(e.g. --set contact.poisson=0.4 --set contact.law=hertz)")
     p.add_argument("--json", metavar="PATH", help="write the result as JSON ('-': stdout)")
     p.add_argument("--csv", metavar="PATH", help="write the result as a CSV row ('-': stdout)")
     p.add_argument("--faces-csv", metavar="PATH",

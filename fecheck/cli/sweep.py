@@ -15,6 +15,8 @@ import sys
 from pathlib import Path
 from typing import Any, TextIO
 
+from fecheck.cli import add_scene_arguments
+
 _TABLE_COLUMNS = ("converged", "medial_force_N", "lateral_force_N",
                   "medial_max_pressure_MPa", "lateral_max_pressure_MPa")
 _WIDTH = 24
@@ -30,14 +32,11 @@ def add_parser(subparsers) -> None:
                     "on (exit code 1); Ctrl-C keeps the finished points (exit code 130). "
                     "Example: fecheck sweep --param 'load.point_mm[0]' "
                     "--values=-0.1:15.9:17 (write --values=A:B:N when A is negative)")
-    p.add_argument("scene", nargs="?", type=Path,
-                   help="scene TOML file (default: the packaged baseline scene)")
+    add_scene_arguments(p, "override a scene key for every point (TOML literal)")
     p.add_argument("--param", required=True, metavar="KEY",
                    help="scene key to sweep, e.g. contact.youngs_MPa or load.point_mm[0]")
     p.add_argument("--values", required=True, metavar="A:B:N",
                    help="N values from A to B, or a comma list")
-    p.add_argument("--set", dest="overrides", action="append", default=[], metavar="KEY=VALUE",
-                   help="override a scene key for every point (TOML literal)")
     p.add_argument("--csv", metavar="PATH",
                    help="write one CSV row per finished point, rewritten after each point "
                         "('-': standard output at the end, the table then goes to stderr)")

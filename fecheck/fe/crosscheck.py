@@ -276,12 +276,12 @@ def _expected_depth(scene: Scene, run: RunResult) -> float:
     E, nu, h = (scene["contact.youngs_MPa"], scene["contact.poisson"],
                 scene["contact.thickness_mm"])
     deepest = 0.0
+    knee = None if scene["model.kind"] == "femur-tibia" else scene_knee(scene)
     for c, res in run.compartments.items():
-        if scene["model.kind"] == "femur-tibia":      # no sphere: the EF run's own depth
+        if knee is None:                               # no sphere: the EF run's own depth
             deepest = max(deepest, res.max_depth_mm)
             continue
-        radius = scene_knee(scene).radius_mm(c)
-        layer = ef_sphere_on_plane(res.force_N, radius, E, nu, h).depth_mm
+        layer = ef_sphere_on_plane(res.force_N, knee.radius_mm(c), E, nu, h).depth_mm
         ef = res.max_depth_mm if math.isfinite(res.max_depth_mm) else layer
         deepest = max(deepest, min(ef, layer))
     return deepest

@@ -12,6 +12,8 @@ point of each condyle is the lowest point of its sphere. Units: mm, thesis frame
 
 from __future__ import annotations
 
+from functools import lru_cache
+
 import numpy as np
 
 from fecheck.errors import FecheckError
@@ -41,8 +43,10 @@ def condyle_faces(femur: TriMesh, compartment: str, side: str) -> np.ndarray:
     return np.flatnonzero(keep)
 
 
+@lru_cache(maxsize=8)
 def fitted_knee(femur: TriMesh, side: str, name: str = "the femoral surface") -> Knee:
-    """A knee whose condyle spheres are fitted to `femur` (no ligament attachments)."""
+    """A knee whose condyle spheres are fitted to `femur` (no ligament attachments);
+    fitted once per femur mesh object (a scene's surfaces are read once per process)."""
     centre, contact = {}, {}
     for c in COMPARTMENTS:
         faces = condyle_faces(femur, c, side)

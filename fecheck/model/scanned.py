@@ -135,9 +135,10 @@ def build_compartments(scene: Scene) -> list[Compartment]:
     slaves, masters = tibial_slaves(scene), femoral_masters(scene)
     opts = {"method": scene["contact.detection"], "area": scene["contact.area"],
             "margin_mm": scene["contact.margin_mm"]}
+    knee = scene_knee(scene) if kind == "sphere-tibia" else None
     out = []
     for c in COMPARTMENTS:
-        radius = scene_knee(scene).radius_mm(c) if kind == "sphere-tibia" else math.nan
+        radius = knee.radius_mm(c) if knee is not None else math.nan
         pair = ContactPair(slaves[c], masters[c], **opts)
         out.append(Compartment(c, pair, _law(scene, slaves[c], radius, c), True, radius))
     return out

@@ -120,21 +120,31 @@ def _digest(path: str, mtime_ns: int, size: int) -> str:
     return h.hexdigest()
 
 
-def read_surface(path: Path, units: str = "mm", rotation_deg=(0.0, 0.0, 0.0),
+def read_surface(path: str | Path, units: str = "mm", rotation_deg=(0.0, 0.0, 0.0),
                  translation_mm=(0.0, 0.0, 0.0)) -> TriMesh:
     """A triangle surface from any mesh file meshio reads, converted to mm and moved by
-    the rigid transform; cached on disk by content and options.
+    the rigid transform; cached on disk by content and options, and kept in this
+    process (the same mesh object for the same content and options).
 
     Raises `FecheckError` naming the file when it cannot be read, holds no triangles,
     has degenerate (zero-area) faces, or its extent says the unit is wrong.
     """
+    path = Path(path)
+    if not path.is_file():
+        raise FecheckError(f"{path}: mesh file not found")
+    return _converted(str(path), file_digest(path), units,
+                      tuple(float(a) for a in rotation_deg),
+                      tuple(float(t) for t in translation_mm))
+
+
+@lru_cache(maxsize=32)
+def _converted(path: str, digest: str, units: str, rotation_deg: tuple,
+               translation_mm: tuple) -> TriMesh:
     from geometry.io import load_mesh
 
-    if not Path(path).is_file():
-        raise FecheckError(f"{path}: mesh file not found")
-    params = {"sha256": file_digest(path), "units": units,
-              "rotation_deg": [float(a) for a in rotation_deg],
-              "translation_mm": [float(t) for t in translation_mm]}
+    path = Path(path)
+    params = {"sha256": digest, "units": units, "rotation_deg": list(rotation_deg),
+              "translation_mm": list(translation_mm)}
 
     def build() -> TriMesh:
         mesh = load_mesh(path)
@@ -248,10 +258,17 @@ def tibial_compartments(scene: Scene) -> dict[str, TriMesh]:
     return out
 
 
+def mean_normal_z(mesh: TriMesh, faces: np.ndarray | None = None) -> float:
+    """Area-weighted mean z of the unit normals of `faces` (all if None)."""
+    faces = np.arange(mesh.n_faces) if faces is None else faces
+    area = mesh.face_areas[faces]
+    return float(np.sum(mesh.face_normals[faces, 2] * area) / max(area.sum(), 1e-300))
+
+
 def check_normals(mesh: TriMesh, name: str, *, up: bool) -> None:
     """`FecheckError` when an articular surface's area-weighted mean normal points the
     wrong way along z (tibia: up, toward the femur; femur: down, toward the tibia)."""
-    mean = float(np.sum(mesh.face_normals[:, 2] * mesh.face_areas)) / max(mesh.area, 1e-300)
+    mean = mean_normal_z(mesh)
     if (mean > 0) != up:
         want, got = ("up (+z)", "down") if up else ("down (-z)", "up")
         raise FecheckError(f"{name}: its normals point {got} (mean n_z = {mean:+.2f}), but an "
