@@ -8,26 +8,32 @@ import os
 import sys
 from pathlib import Path
 
-SUITES = ("pareto", "detection")
+SUITES = ("pareto", "detection", "peers")
 
 
 def add_parser(subparsers) -> None:
     p = subparsers.add_parser(
         "bench", help="run a benchmark suite (default pareto: run time against error of "
-                      "every method; detection: thesis Figs. 3.21/3.25)",
+                      "every method; detection: thesis Figs. 3.21/3.25; peers: against Drake "
+                      "and OpenSim)",
         description="Benchmarks measured in one run and reported as ratios. 'pareto' (the "
                     "default): time and error of EF (clipped, whole-face, analytic master), "
                     "the thesis stack, Hertz and FE on the baseline compartments against "
                     "each model's converged reference, and time per contact evaluation "
                     "against faces (fecheck.studies.bench). 'detection': "
                     "contact detection time and area/volume errors against exact values, "
-                    "our engine vs the thesis stack (fcl, ray parity + cKDTree).")
+                    "our engine vs the thesis stack (fcl, ray parity + cKDTree). 'peers': time "
+                    "per contact evaluation of an icosphere on a plane against Drake's "
+                    "hydroelastic contact and OpenSim's elastic foundation, in one process "
+                    "(fecheck.studies.bench_peers; pip install -e '.[peers]').")
     p.add_argument("suite", nargs="?", default="pareto", choices=SUITES,
                    help="benchmark suite (default: pareto)")
-    p.add_argument("--quick", action="store_true", help="small sizes only (≤ 20,480 faces)")
+    p.add_argument("--quick", action="store_true",
+                   help="small sizes only (≤ 20,480 faces; peers: ≤ 5,120)")
     p.add_argument("--json", type=Path, metavar="PATH",
                    help="write rows and ratios as JSON ('-': standard output)")
-    p.add_argument("--plot", type=Path, metavar="DIR", help="write log-log PNGs into DIR")
+    p.add_argument("--plot", type=Path, metavar="DIR",
+                   help="write log-log PNGs into DIR (not for peers)")
     p.set_defaults(run=run)
 
 
@@ -40,6 +46,8 @@ def run(args: argparse.Namespace) -> int:
     os.environ.setdefault("OMP_NUM_THREADS", "1")
     if args.suite == "pareto":
         return _pareto(args)
+    if args.suite == "peers":
+        return _peers(args)
     from fecheck.studies import bench_detection as bench
 
     result = bench.run(quick=args.quick,
@@ -56,6 +64,17 @@ def _pareto(args: argparse.Namespace) -> int:
     result = bench.run_bench(config, log=lambda m: print(f"  {m}", file=sys.stderr, flush=True))
     _report(args, bench.table(result), bench.json_text(result),
             lambda: bench.plot(result, str(args.plot)))
+    return 0
+
+
+def _peers(args: argparse.Namespace) -> int:
+    from fecheck.studies import bench_peers
+
+    if args.plot:
+        print("bench peers draws no plots: --plot ignored", file=sys.stderr)
+    result = bench_peers.run(quick=args.quick,
+                             progress=lambda m: print(f"  {m}", file=sys.stderr, flush=True))
+    _report(args, bench_peers.table(result), json.dumps(result, indent=1) + "\n", list)
     return 0
 
 

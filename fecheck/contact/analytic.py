@@ -27,6 +27,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from fecheck.contact.bvh import BALL, HALF_SPACE
 from fecheck.contact.kernels import sphere_depths
 from fecheck.errors import FecheckError
 from geometry.polynomial import Polynomial2D
@@ -64,6 +65,11 @@ class Plane:
 
     def describe(self) -> str:
         return "analytic plane"
+
+    def region(self, margin_mm: float) -> tuple[int, np.ndarray]:
+        """Where reach > -margin: the half-space n·y < n·point + margin
+        (`fecheck.contact.bvh`)."""
+        return HALF_SPACE, np.append(self.normal, self.normal @ self.point + margin_mm)
 
     def reach(self, y: np.ndarray) -> np.ndarray:
         """Signed distance below the plane, mm (1-Lipschitz)."""
@@ -109,6 +115,10 @@ class Sphere:
 
     def describe(self) -> str:
         return "analytic sphere"
+
+    def region(self, margin_mm: float) -> tuple[int, np.ndarray]:
+        """Where reach > -margin: the ball |y - c| < R + margin (`fecheck.contact.bvh`)."""
+        return BALL, np.append(self.center, self.radius + margin_mm)
 
     def reach(self, y: np.ndarray) -> np.ndarray:
         """Radial signed distance R - |y - c|, mm (1-Lipschitz; ≤ |depth| outside)."""

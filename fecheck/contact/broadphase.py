@@ -6,7 +6,9 @@ positive inside, 1-Lipschitz in the point) above ``-margin``. Between two relati
 at most ``|(R - R0) o + t - t0| + 2 sin(θ/2) ρ`` (``o`` the slave's vertex centroid,
 ``ρ`` its radius about ``o``, θ the angle of ``R R0ᵀ``). While that bound stays below
 ``reuse_fraction · margin``, no face outside the set can have come into contact, so the
-set is reused: an evaluation then touches only candidate vertices and faces.
+set is reused: an evaluation then touches only candidate vertices and faces. A rebuild
+asks a tree over the slave's vertices, built once (`fecheck.contact.bvh`), for those in
+the master's region, so it too costs ∝ the faces near the master, not the mesh.
 """
 
 from __future__ import annotations
@@ -18,6 +20,7 @@ from dataclasses import dataclass
 import numpy as np
 from numba import njit
 
+from fecheck.contact.bvh import BOX, PointTree
 from geometry.mesh import TriMesh
 
 
@@ -26,16 +29,16 @@ class Candidates:
     """Slave faces near the master, with their per-face data in the slave frame (mm).
 
     faces : (m,) slave face indices
-    local_faces : (m, 3) vertex indices into `points`
     vertices : (n,) slave vertex indices of `points`
+    local_faces : (m, 3) vertex indices into `points`
     points : (n, 3) vertex coordinates
     normals : (m, 3) unit outward face normals
     areas : (m,) face areas, mm²
     """
 
     faces: np.ndarray
-    local_faces: np.ndarray
     vertices: np.ndarray
+    local_faces: np.ndarray
     points: np.ndarray
     normals: np.ndarray
     areas: np.ndarray
@@ -99,35 +102,6 @@ def checked_relative_pose(Rs: np.ndarray, ts: np.ndarray, Rm: np.ndarray, tm: np
     return R, t, pose_status(Rs, ts), pose_status(Rm, tm)
 
 
-@njit(cache=True, fastmath=False)
-def _select(near: np.ndarray, faces: np.ndarray):
-    """Faces with a vertex flagged `near`, their vertices (sorted) and the faces' corners
-    as indices into those vertices."""
-    keep = np.empty(faces.shape[0], dtype=np.int64)
-    index = np.full(near.size, -1, dtype=np.int64)
-    m = 0
-    for f in range(faces.shape[0]):
-        a, b, c = faces[f, 0], faces[f, 1], faces[f, 2]
-        if near[a] or near[b] or near[c]:
-            keep[m] = f
-            m += 1
-            index[a] = index[b] = index[c] = 0
-    n = 0
-    for v in range(near.size):                  # slave vertex → candidate point
-        if index[v] == 0:
-            index[v] = n
-            n += 1
-    vertices = np.empty(n, dtype=np.int64)
-    for v in range(near.size):
-        if index[v] >= 0:
-            vertices[index[v]] = v
-    local = np.empty((m, 3), dtype=np.int64)
-    for i in range(m):
-        for j in range(3):
-            local[i, j] = index[faces[keep[i], j]]
-    return keep[:m].copy(), vertices, local
-
-
 class CandidateCache:
     """Candidate faces of one slave against one master, rebuilt only when needed.
 
@@ -137,21 +111,23 @@ class CandidateCache:
     reach : function of (n, 3) master-frame points -> (n,) signed distance, mm
     margin_mm : reach kept around the master, mm
     reuse_fraction : reuse the set while the motion bound is below this × margin
-    prefilter : optional function of (n, 3) master-frame points -> (n,) bool, a cheap
-        test (e.g. a bounding box) run before `reach` on a full rebuild
+    region : optional (kind, params) of `fecheck.contact.bvh`, a master-frame region
+        holding every point with reach > -margin (a half-space or a ball: exactly those;
+        a box: `reach` then decides). A rebuild finds the slave vertices in it through a
+        tree built once (`fecheck.contact.bvh.PointTree`), at a cost ∝ the vertices near
+        the master; without a region every vertex is tested.
     """
 
     def __init__(self, slave: TriMesh, reach: Callable[[np.ndarray], np.ndarray],
                  margin_mm: float, reuse_fraction: float = 0.5,
-                 prefilter: Callable[[np.ndarray], np.ndarray] | None = None) -> None:
+                 region: tuple[int, np.ndarray] | None = None) -> None:
         self.slave = slave
         self.reach = reach
         self.margin_mm = float(margin_mm)
         self.reuse_fraction = float(reuse_fraction)
-        self.prefilter = prefilter
-        self._normals = slave.face_normals          # per-face data, computed once per body
-        self._areas = slave.face_areas
-        _select(np.zeros(0, dtype=bool), np.zeros((0, 3), dtype=np.int64))   # load them now
+        self.region = region
+        # built once per body, in the model's build
+        self.tree = PointTree(slave.points, slave.faces, slave.face_normals, slave.face_areas)
         eye, zero = np.eye(3), np.zeros(3)
         motion_bound(eye, zero, eye, zero, zero, 1.0)
         checked_relative_pose(eye, zero, eye, zero)
@@ -174,19 +150,19 @@ class CandidateCache:
         self.n_rebuilds += 1
         return self._current
 
+    def _near(self, R: np.ndarray, t: np.ndarray) -> np.ndarray:
+        """Slave vertices with reach > -margin at the relative pose (R, t)."""
+        if self.region is None:
+            y = self.slave.points @ R.T + t
+            return np.flatnonzero(self.reach(y) > -self.margin_mm)
+        kind, params = self.region
+        near = self.tree.near(kind, params, R, t)
+        if kind == BOX and near.size:
+            near = near[self.reach(self.slave.points[near] @ R.T + t) > -self.margin_mm]
+        return near
+
     def _build(self, R: np.ndarray, t: np.ndarray) -> Candidates:
-        slave = self.slave
-        y = slave.points @ R.T + t
-        near = np.zeros(slave.n_points, dtype=bool)
-        test = np.arange(slave.n_points)
-        if self.prefilter is not None:
-            test = test[self.prefilter(y)]
-        if test.size:
-            near[test] = self.reach(y[test]) > -self.margin_mm
-        faces, vertices, local_faces = _select(near, slave.faces)
-        return Candidates(faces=faces, local_faces=local_faces, vertices=vertices,
-                          points=slave.points[vertices], normals=self._normals[faces],
-                          areas=self._areas[faces])
+        return Candidates(*self.tree.faces_of(self._near(R, t)))
 
     @property
     def current(self) -> Candidates | None:

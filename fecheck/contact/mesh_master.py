@@ -47,6 +47,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from fecheck.contact.bvh import BOX
 from fecheck.contact.coherent import WalkState, edge_frames, face_rings, local_closest
 from fecheck.contact.kernels import mesh_surface, signed_closest, walked_mesh_surface
 from fecheck.errors import FecheckError
@@ -65,13 +66,12 @@ class MeshMaster:
         a closed mesh with a negative signed volume (inside out) is refused
     sign : "normal" (side of the closest face normal) or "winding" (generalised
         winding number > 1/2; closed meshes)
-    margin_mm : reach of the broad-phase box test around the master's bounding box
     """
 
     uses_slave_normal = False
     normal_body = "slave"
 
-    def __init__(self, mesh: TriMesh, sign: str = "normal", margin_mm: float = 2.0) -> None:
+    def __init__(self, mesh: TriMesh, sign: str = "normal") -> None:
         import igl
 
         if mesh.n_faces == 0:
@@ -99,8 +99,6 @@ class MeshMaster:
         self._ring_width = int(np.diff(self._ring[0]).max())
         self._edges = edge_frames(self._V, self._F)
         self._winding = igl.winding_number
-        lo, hi = mesh.points.min(axis=0), mesh.points.max(axis=0)
-        self._box = (lo - margin_mm, hi + margin_mm)
         self._load_kernels()
 
     def _load_kernels(self) -> None:
@@ -113,10 +111,21 @@ class MeshMaster:
                        True)
         mesh_surface(True, no_faces, no_points, np.zeros(0), no_points, no_points,
                      np.zeros(0), eye, zero, eye)
-        state = WalkState.start(none, no_points, np.zeros(0), self._ring_width)
+        state = self.empty_state()
         walked_mesh_surface(True, no_points, no_faces, no_points, np.zeros(0), eye, zero, eye,
                             zero, eye, self._edges, *self._ring, self._normals, state.face,
                             state.position, state.upper, state.travel, state.ring, MAX_STEPS)
+
+    def empty_state(self) -> WalkState:
+        """The walk state of no points (for loading the kernels)."""
+        return WalkState.start(np.zeros(0, dtype=np.int64), np.zeros((0, 3)), np.zeros(0),
+                               self._ring_width)
+
+    @property
+    def walk_tables(self) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+        """The closest-face walk's master tables (edge frames, face-ring pointers and
+        indices, unit face normals), as `walked_mesh_surface` takes them."""
+        return (self._edges, *self._ring, self._normals)
 
     def describe(self) -> str:
         sign = ("side of the closest face normal" if self.sign == "normal"
@@ -124,10 +133,11 @@ class MeshMaster:
         return (f"mesh master ({self.mesh.n_faces} faces): libigl AABB closest point, "
                 f"inside by {sign}")
 
-    def prefilter(self, y: np.ndarray) -> np.ndarray:
-        """(n,) True for points inside the master's bounding box grown by the margin."""
-        lo, hi = self._box
-        return np.all((y >= lo) & (y <= hi), axis=1)
+    def region(self, margin_mm: float) -> tuple[int, np.ndarray]:
+        """A region holding every point with reach > -margin: the master's bounding box
+        grown by the margin (`fecheck.contact.bvh`)."""
+        lo, hi = self.mesh.points.min(axis=0), self.mesh.points.max(axis=0)
+        return BOX, np.concatenate([lo - margin_mm, hi + margin_mm])
 
     def distance_mm(self, points: np.ndarray) -> np.ndarray:
         """(n,) unsigned distance from each point (master frame, mm) to the surface."""

@@ -15,11 +15,17 @@ from __future__ import annotations
 
 import warnings
 from functools import lru_cache
+from typing import NamedTuple
 
 import numpy as np
 
 from fecheck.contact.analytic import Plane, PolynomialSurface, Sphere
-from fecheck.contact.broadphase import CandidateCache, checked_relative_pose, pose_status
+from fecheck.contact.broadphase import (
+    CandidateCache,
+    Candidates,
+    checked_relative_pose,
+    pose_status,
+)
 from fecheck.contact.kernels import plane_surface, sphere_surface
 from fecheck.contact.surface import ContactSurface, build_surface
 from fecheck.errors import FecheckError
@@ -30,6 +36,19 @@ CLOSED_MASTER_METHODS = {"ray-parity": "counting ray crossings",
                          "fcl": "FCL's penetration query of two solids"}
 """Detection methods that need a closed (watertight) master mesh, and why."""
 AREAS = ("clipped", "whole-face")
+
+
+class Prepared(NamedTuple):
+    """An evaluation's candidate set (None for the thesis's detectors) and poses: the
+    relative pose y = R p + t (slave → master frame) and both bodies' poses."""
+
+    cand: Candidates | None
+    R: np.ndarray
+    t: np.ndarray
+    Rs: np.ndarray
+    ts: np.ndarray
+    Rm: np.ndarray
+    tm: np.ndarray
 
 
 def _pose_arrays(pose, name: str) -> tuple[np.ndarray, np.ndarray]:
@@ -93,12 +112,12 @@ def boundary_vertices(mesh: TriMesh) -> np.ndarray:
 
 
 @lru_cache(maxsize=8)
-def _mesh_master(mesh: TriMesh, sign: str, margin_mm: float):
+def _mesh_master(mesh: TriMesh, sign: str):
     """One `MeshMaster` per master mesh object (the tree, rings and kernels built once:
     both compartments of a femur-tibia scene share the femoral surface)."""
     from fecheck.contact.mesh_master import MeshMaster
 
-    return MeshMaster(mesh, sign=sign, margin_mm=margin_mm)
+    return MeshMaster(mesh, sign=sign)
 
 
 def _resolved_method(slave: TriMesh, master, method: str, area: str, margin_mm: float
@@ -194,7 +213,7 @@ class ContactPair:
         if method == "closed-form":
             self.master = master
         elif method == "bvh":
-            self.master = _mesh_master(master, mesh_sign, self.margin_mm)
+            self.master = _mesh_master(master, mesh_sign)
         else:
             from fecheck.contact.thesis import thesis_detector
             self.master = master
@@ -204,8 +223,9 @@ class ContactPair:
         # faces, depth bounds), the start of the next call while the set is reused
         self._warm: tuple[object, object] = (None, None)
         if self._thesis is None:
+            region = getattr(self.master, "region", None)
             self._cache = CandidateCache(slave, self.master.reach, self.margin_mm,
-                                         prefilter=getattr(self.master, "prefilter", None))
+                                         region=region(self.margin_mm) if region else None)
 
     def describe(self) -> str:
         """One line on how this pair is evaluated (for ``--explain``)."""
@@ -221,12 +241,19 @@ class ContactPair:
                 f"reused while the pose moves < {0.5 * self.margin_mm:g} mm")
 
     @property
+    def analytic_kernel(self) -> tuple[object, tuple]:
+        """The compiled kernel of a plane or sphere master (`fecheck.contact.kernels`) and
+        its master arguments; (None, ()) for other masters."""
+        return self._kernel, self._kernel_args
+
+    @property
     def cache(self) -> CandidateCache:
         """The broad-phase candidate cache (its counters show rebuilds and reuses)."""
         return self._cache
 
-    def evaluate(self, slave_pose, master_pose) -> ContactSurface:
-        """Contact surface in world coordinates for the given body poses.
+    def prepare(self, slave_pose, master_pose) -> Prepared:
+        """The checked poses and the candidate set of an evaluation (for compiled callers
+        that integrate a law themselves, `fecheck.laws.fused`).
 
         Parameters
         ----------
@@ -237,10 +264,25 @@ class ContactPair:
         R, t, slave_status, master_status = checked_relative_pose(Rs, ts, Rm, tm)
         _raise_bad_pose(slave_status, "slave")
         _raise_bad_pose(master_status, "master")
+        cand = self._cache.get(R, t) if self._thesis is None else None
+        return Prepared(cand, R, t, Rs, ts, Rm, tm)
+
+    def warm_state(self, cand: Candidates):
+        """The mesh master's walk state of the candidate points if it belongs to `cand`
+        (the last call's set), else None."""
+        return self._warm[1] if self._warm[0] is cand else None
+
+    def evaluate(self, slave_pose, master_pose) -> ContactSurface:
+        """Contact surface in world coordinates for the given body poses.
+
+        Parameters
+        ----------
+        slave_pose, master_pose : (R (3, 3), t (3,) mm), body frame to world: x = R p + t
+        """
+        cand, R, t, Rs, ts, Rm, tm = self.prepare(slave_pose, master_pose)
         if self._thesis is not None:
             return self._thesis.evaluate(Rs, ts, Rm, tm)
         master = self.master
-        cand = self._cache.get(R, t)
         if cand.faces.size == 0:
             return ContactSurface.empty(self.slave.n_faces, master.normal_body)
         if self._kernel is not None:
@@ -252,9 +294,8 @@ class ContactPair:
             return ContactSurface(cand.faces[hit], normal, depth, *qp, master.normal_body,
                                   self.slave.n_faces)
         if self.resolved_method == "bvh":
-            warm = self._warm[1] if self._warm[0] is cand else None
             state, (hit, normal, depth, *qp) = master.surface(
-                self.area_mode == "clipped", cand, R, t, Rm, tm, Rs, warm)
+                self.area_mode == "clipped", cand, R, t, Rm, tm, Rs, self.warm_state(cand))
             self._warm = (cand, state)
             if hit.size == 0:
                 return ContactSurface.empty(self.slave.n_faces, master.normal_body)

@@ -7,6 +7,7 @@ layer stiffness from thickness maps. Imports `scene`, `reference`, `contact`, `g
 from fecheck.laws.foundation import (
     BLANKEVOORT_LINEAR_FROM,
     blankevoort_foundation,
+    blankevoort_params,
     blankevoort_pressure,
     elastic_foundation,
     foundation,
@@ -17,5 +18,6 @@ from fecheck.laws.materials import ef_stiffness, hertz_modulus, validate_materia
 from fecheck.laws.result import LawResult
 
 __all__ = ["BLANKEVOORT_LINEAR_FROM", "LawResult", "blankevoort_foundation",
-           "blankevoort_pressure", "ef_stiffness", "elastic_foundation", "foundation", "hertz",
-           "hertz_modulus", "hertz_point", "validate_material", "volumetric"]
+           "blankevoort_params", "blankevoort_pressure", "ef_stiffness", "elastic_foundation",
+           "foundation", "hertz", "hertz_modulus", "hertz_point", "validate_material",
+           "volumetric"]

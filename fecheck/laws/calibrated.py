@@ -39,6 +39,7 @@ from pathlib import Path
 import numpy as np
 
 from fecheck.errors import FecheckError
+from fecheck.laws.kernel import CALIBRATED, law_function
 
 SOFT_DEPTH_MM = 0.01
 """d_s of the law: below this depth the law turns linear (finite tangent at d = 0)."""
@@ -69,14 +70,12 @@ class Calibration:
 def calibrated_pressure(cal: Calibration) -> Callable[[np.ndarray], tuple[np.ndarray,
                                                                            np.ndarray]]:
     """p(d) and dp/dd of the law (MPa, MPa/mm) for depths d ≥ 0 (mm)."""
-    C, n, ds = float(cal.C), float(cal.n), SOFT_DEPTH_MM
+    return law_function(CALIBRATED, calibrated_params(cal))
 
-    def pressure(d: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        s = d + ds
-        power = s ** (n - 1.0)
-        return C * d * power, C * power * (n * d + ds) / s
 
-    return pressure
+def calibrated_params(cal: Calibration) -> np.ndarray:
+    """(C, n, d_s) of the law (`fecheck.laws.kernel.law_values`)."""
+    return np.array([float(cal.C), float(cal.n), SOFT_DEPTH_MM])
 
 
 @lru_cache(maxsize=1)

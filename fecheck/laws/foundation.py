@@ -29,7 +29,13 @@ from collections.abc import Callable
 import numpy as np
 
 from fecheck.contact.surface import ContactSurface
-from fecheck.laws.kernel import NO_SLIDE, NO_VALUES, pressure_resultant
+from fecheck.laws.kernel import (
+    BLANKEVOORT,
+    NO_SLIDE,
+    NO_VALUES,
+    law_function,
+    pressure_resultant,
+)
 from fecheck.laws.materials import validate_material
 from fecheck.laws.result import LawResult, no_contact
 
@@ -95,23 +101,20 @@ def volumetric(surface: ContactSurface, k_v_N_per_mm3: float, about=(0.0, 0.0, 0
     return foundation(surface, float(k_v_N_per_mm3), about)
 
 
-def blankevoort_pressure(youngs_MPa: float, poisson: float, thickness_mm: float
-                         ) -> Callable[[np.ndarray], tuple[np.ndarray, np.ndarray]]:
-    """p(d) = −k0·ln(1 − d/h), k0 = (1−ν)E/((1+ν)(1−2ν)) (MPa), linear beyond 0.9·h."""
+def blankevoort_params(youngs_MPa: float, poisson: float, thickness_mm: float) -> np.ndarray:
+    """(k0, h, d_c, p_c, s_c) of the log law (`fecheck.laws.kernel.law_values`):
+    k0 = (1−ν)E/((1+ν)(1−2ν)) MPa, h mm, linear from d_c = 0.9·h with p_c, s_c."""
     validate_material(youngs_MPa, poisson, thickness_mm)
     k0 = (1 - poisson) * youngs_MPa / ((1 + poisson) * (1 - 2 * poisson))
     h = float(thickness_mm)
     dc = BLANKEVOORT_LINEAR_FROM * h
-    pc, sc = -k0 * math.log(1 - dc / h), k0 / (h - dc)
+    return np.array([k0, h, dc, -k0 * math.log(1 - dc / h), k0 / (h - dc)])
 
-    def pressure(d: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        inner = np.minimum(d, dc)
-        p = -k0 * np.log1p(-inner / h)
-        s = k0 / (h - inner)
-        beyond = d > dc
-        return np.where(beyond, pc + sc * (d - dc), p), np.where(beyond, sc, s)
 
-    return pressure
+def blankevoort_pressure(youngs_MPa: float, poisson: float, thickness_mm: float
+                         ) -> Callable[[np.ndarray], tuple[np.ndarray, np.ndarray]]:
+    """p(d) = −k0·ln(1 − d/h), k0 = (1−ν)E/((1+ν)(1−2ν)) (MPa), linear beyond 0.9·h."""
+    return law_function(BLANKEVOORT, blankevoort_params(youngs_MPa, poisson, thickness_mm))
 
 
 def blankevoort_foundation(surface: ContactSurface, youngs_MPa: float, poisson: float,

@@ -9,6 +9,8 @@ relative to the master; each point carries the force s_q·n_q, s_q = w_q·p_q, a
 
 from __future__ import annotations
 
+from collections.abc import Callable
+
 import numpy as np
 from numba import njit
 
@@ -134,6 +136,52 @@ def pressure_resultant(stiffness: float, pressure: np.ndarray, slope: np.ndarray
             tangent[4, k] -= a2 * t0 - a0 * t2
             tangent[5, k] -= a0 * t1 - a1 * t0
     return p_out, force, moment, tangent, area
+
+
+LINEAR, BLANKEVOORT, CALIBRATED = 0, 1, 2
+"""Compiled pressure laws p(d) (`law_values`), each a kind and a parameter vector."""
+
+
+@njit(cache=True, fastmath=False)
+def law_values(kind: int, params: np.ndarray, d: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """p(d) (MPa) and dp/dd (MPa/mm) at depths d (n,) ≥ 0 (mm) of a compiled law:
+
+    * LINEAR, (k,): p = k·d (N/mm³);
+    * BLANKEVOORT, (k0, h, d_c, p_c, s_c): p = −k0·ln(1 − d/h), continued linearly
+      (p_c + s_c·(d − d_c)) beyond d_c (`fecheck.laws.foundation.blankevoort_pressure`);
+    * CALIBRATED, (C, n, d_s): p = C·d·(d + d_s)^(n − 1) (`fecheck.laws.calibrated`).
+    """
+    p = np.empty(d.size)
+    slope = np.empty(d.size)
+    for i in range(d.size):
+        x = d[i]
+        if kind == LINEAR:
+            p[i], slope[i] = params[0] * x, params[0]
+        elif kind == BLANKEVOORT:
+            k0, h, dc = params[0], params[1], params[2]
+            if x > dc:
+                p[i], slope[i] = params[3] + params[4] * (x - dc), params[4]
+            else:
+                p[i], slope[i] = -k0 * np.log1p(-x / h), k0 / (h - x)
+        else:
+            C, n, ds = params[0], params[1], params[2]
+            s = x + ds
+            power = s ** (n - 1.0)
+            p[i], slope[i] = C * x * power, C * power * (n * x + ds) / s
+    return p, slope
+
+
+def law_function(kind: int, params: np.ndarray
+                 ) -> Callable[[np.ndarray], tuple[np.ndarray, np.ndarray]]:
+    """`law_values` of one law as a function of depths of any shape (mm → MPa, MPa/mm)."""
+    params = np.asarray(params, dtype=float)
+
+    def pressure(d: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        x = np.asarray(d, dtype=float)
+        p, slope = law_values(kind, params, np.ascontiguousarray(x.ravel()))
+        return p.reshape(x.shape), slope.reshape(x.shape)
+
+    return pressure
 
 
 NO_VALUES = np.zeros(0)

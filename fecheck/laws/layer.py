@@ -28,6 +28,8 @@ import numpy as np
 
 from fecheck.errors import FecheckError
 from fecheck.laws.foundation import foundation
+from fecheck.laws.fused import compiled_law
+from fecheck.laws.kernel import LINEAR
 from fecheck.laws.materials import ef_stiffness
 from fecheck.laws.result import LawResult
 from geometry.distance import closest_distance, ray_distance
@@ -86,8 +88,9 @@ def face_ef_stiffness(thickness_mm: np.ndarray, youngs_MPa: float, poisson: floa
 def face_elastic_foundation(k_face_N_per_mm3: np.ndarray):
     """Linear EF law p = k_f·d with a stiffness per slave face (N/mm³).
 
-    Returns a law (`ContactSurface` → `LawResult`) whose maximum pressure is the
-    largest k_f times the deepest vertex depth of face f.
+    Returns a law (`ContactSurface` → `LawResult`, and compiled for the hot path,
+    `fecheck.laws.fused`) whose maximum pressure is the largest k_f times the deepest
+    vertex depth of face f.
     """
     k_face = np.asarray(k_face_N_per_mm3, dtype=float)
 
@@ -110,4 +113,4 @@ def face_elastic_foundation(k_face_N_per_mm3: np.ndarray):
         p_max = float((k_contact * np.maximum(surface.vertex_depth.max(axis=1), 0.0)).max())
         return replace(res, max_pressure=p_max)
 
-    return law
+    return compiled_law(LINEAR, np.array([1.0]), law, face_scale=k_face)

@@ -20,6 +20,9 @@ import numpy as np
 from fecheck import laws
 from fecheck.errors import FecheckError
 from fecheck.laws import calibrated
+from fecheck.laws.fused import CompiledLaw, compiled_law, contact_wrench, linear_law
+from fecheck.laws.fused import load as load_hot_path
+from fecheck.laws.kernel import BLANKEVOORT, CALIBRATED
 from fecheck.scene import Scene
 from fecheck.scene.constants import COMPARTMENTS, DOF_NAMES, GRAVITY_MPS2, LIGAMENTS
 from fecheck.scene.knee import plane_normal
@@ -116,26 +119,44 @@ class Compartment:
     radius_mm: float
     note: str = ""
 
+    def __post_init__(self) -> None:
+        load_hot_path(self.pair, self.law)
+
     def describe(self) -> str:
         """How the pair is evaluated, with the law's caveat (for ``--explain``)."""
         return self.pair.describe() + self.note
+
+    def _poses(self, rot: np.ndarray, t: np.ndarray) -> tuple[tuple, tuple]:
+        """(slave pose, master pose) at tibia pose (R, t)."""
+        fixed, tibia = (_EYE, _ZERO), (rot, t)
+        return (tibia, fixed) if self.slave_is_tibia else (fixed, tibia)
+
+    def _on_tibia(self, force: np.ndarray, moment: np.ndarray, tangent: np.ndarray
+                  ) -> tuple[np.ndarray, np.ndarray]:
+        """The contact wrench on the tibia (6,) and dW/dξ (6, 6) for the tibia's twist,
+        from the law's wrench on the slave and its tangent."""
+        if self.slave_is_tibia:
+            return np.concatenate([force, moment]), tangent
+        # the femur is the slave: minus the wrench on it, for the tibia's twist
+        fs = skew(force)
+        dw = tangent.copy()
+        dw[:3, 3:] += fs
+        dw[3:, :3] += fs
+        dw[3:, 3:] += skew(moment)
+        return -np.concatenate([force, moment]), dw
 
     def evaluate(self, rot: np.ndarray, t: np.ndarray
                  ) -> tuple[laws.LawResult, np.ndarray, np.ndarray]:
         """The law's result at tibia pose (R, t) and the contact wrench on the tibia
         (6,) with its tangent dW/dξ (6, 6) for the tibia's twist ξ."""
-        fixed, tibia = (_EYE, _ZERO), (rot, t)
-        if self.slave_is_tibia:
-            res = self.law(self.pair.evaluate(tibia, fixed))
-            return res, np.concatenate([res.force, res.moment]), res.tangent
-        # the femur is the slave: minus the wrench on it, for the tibia's twist
-        res = self.law(self.pair.evaluate(fixed, tibia))
-        fs = skew(res.force)
-        dw = res.tangent.copy()
-        dw[:3, 3:] += fs
-        dw[3:, :3] += fs
-        dw[3:, 3:] += skew(res.moment)
-        return res, -np.concatenate([res.force, res.moment]), dw
+        res = self.law(self.pair.evaluate(*self._poses(rot, t)))
+        return (res, *self._on_tibia(res.force, res.moment, res.tangent))
+
+    def wrench(self, rot: np.ndarray, t: np.ndarray) -> tuple[np.ndarray, np.ndarray, float]:
+        """The contact wrench on the tibia (6,), dW/dξ (6, 6) and the largest depth (mm)
+        at tibia pose (R, t), through the compiled hot path (`fecheck.laws.fused`)."""
+        w = contact_wrench(self.pair, *self._poses(rot, t), self.law)
+        return (*self._on_tibia(w.force, w.moment, w.tangent), w.max_depth)
 
 
 _EYE = np.eye(3)
@@ -166,7 +187,14 @@ class ContactModel:
         return out
 
     def __call__(self, rot: np.ndarray, t: np.ndarray) -> list[Part]:
-        return [(w, dw) for _, w, dw in self.evaluate(rot, t)]
+        """The contact parts (W, dW/dξ) at tibia pose (R, t), for the Newton loop: the
+        hot path, which builds no contact surface."""
+        t0 = time.perf_counter()
+        out = [comp.wrench(rot, t) for comp in self.compartments]
+        self.contact_seconds += time.perf_counter() - t0
+        self.evaluations += 1
+        self.touching = any(depth > 0 for _, _, depth in out)
+        return [(w, dw) for w, dw, _ in out]
 
     def wrenches(self, rot: np.ndarray, t: np.ndarray) -> dict[str, np.ndarray]:
         """{compartment: (6,) contact wrench on the tibia (N, N·mm)} at pose (R, t)."""
@@ -193,26 +221,28 @@ def law_factory(scene: Scene) -> Callable[[float, str], Callable[[object], laws.
     where there is no sphere) and the compartment's name."""
     e, nu, h = scene["contact.youngs_MPa"], scene["contact.poisson"], scene["contact.thickness_mm"]
     name = scene["contact.law"]
-    if name == "ef":
-        k = laws.ef_stiffness(e, nu, h)
-        return lambda r, c: lambda s: laws.elastic_foundation(s, k)
-    if name == "volumetric":
+    if name in ("ef", "volumetric"):
         laws.validate_material(e, nu, h)
-        kv = scene["contact.volumetric_stiffness_N_per_mm3"]
-        return lambda r, c: lambda s: laws.volumetric(s, kv)
+        k = (laws.ef_stiffness(e, nu, h) if name == "ef"
+             else scene["contact.volumetric_stiffness_N_per_mm3"])
+        law = linear_law(k)
+        return lambda r, c: law
     if name == "blankevoort":
+        params = laws.blankevoort_params(e, nu, h)
         pressure = laws.blankevoort_pressure(e, nu, h)
-        return lambda r, c: lambda s: laws.foundation(s, pressure)
+        law = compiled_law(BLANKEVOORT, params, lambda s: laws.foundation(s, pressure))
+        return lambda r, c: law
     if name == "ef-calibrated":
         laws.validate_material(e, nu, h)
         own = calibration_file(scene)
 
-        def law(r: float, c: str):
+        def calibrated_law(r: float, c: str) -> CompiledLaw:
             cal = own[c] if own is not None else _table_calibration(scene, r)
             pressure = calibrated.calibrated_pressure(cal)
-            return lambda s: laws.foundation(s, pressure)
+            return compiled_law(CALIBRATED, calibrated.calibrated_params(cal),
+                                lambda s: laws.foundation(s, pressure))
 
-        return law
+        return calibrated_law
     e_star = laws.hertz_modulus(e, nu, scene["contact.indenter_youngs_MPa"],
                                 scene["contact.indenter_poisson"])
     return lambda r, c: lambda s: laws.hertz(s, r, e_star)

@@ -1,0 +1,258 @@
+"""A bounding-volume hierarchy over a slave's vertices, built once per body, and the
+broad phase's region queries against it.
+
+A from-scratch broad phase used to move every slave vertex into the master frame and
+test it (cost ∝ all vertices). The tree (axis-aligned boxes in the slave's own frame,
+median splits on the longest axis, leaves of at most `LEAF` points) is built once per
+slave mesh; a query descends only into boxes that can meet the master's region, so it
+costs ∝ the vertices near the master plus the depth of the tree. Regions, in the master
+frame (y = R p + t for a slave point p; mm):
+
+* `HALF_SPACE` (plane master): n·y < c, params (n0, n1, n2, c);
+* `BALL` (sphere master): |y − m| < r, params (m0, m1, m2, r);
+* `BOX` (any master with a bounding box): lo ≤ y ≤ hi, params (lo0, lo1, lo2, hi0, hi1, hi2).
+
+`select_faces` then turns the vertices found into the candidate faces (every face with
+such a vertex) through a vertex-to-face table built once, and gathers their data.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from numba import njit
+
+LEAF = 8
+HALF_SPACE, BALL, BOX = 0, 1, 2
+
+
+@njit(cache=True)
+def _build(points: np.ndarray):
+    """Tree arrays: order (n,) point indices grouped by leaf; per node lo (3,), hi (3,),
+    left/right child (-1 at a leaf), first/count of its points in `order`."""
+    n = points.shape[0]
+    cap = max(1, 2 * n)                         # at most n leaves, 2n - 1 nodes
+    lo = np.empty((cap, 3))
+    hi = np.empty((cap, 3))
+    child = np.full((cap, 2), -1, dtype=np.int64)
+    span = np.zeros((cap, 2), dtype=np.int64)
+    order = np.arange(n)
+    stack = np.empty(cap, dtype=np.int64)
+    span[0, 0], span[0, 1] = 0, n
+    nodes, top = 1, 1
+    stack[0] = 0
+    while top > 0:
+        top -= 1
+        node = stack[top]
+        first, count = span[node, 0], span[node, 1]
+        idx = order[first:first + count]
+        for k in range(3):
+            lo[node, k] = points[idx[0], k] if count else 0.0
+            hi[node, k] = lo[node, k]
+            for i in idx:
+                lo[node, k] = min(lo[node, k], points[i, k])
+                hi[node, k] = max(hi[node, k], points[i, k])
+        if count <= LEAF:
+            continue
+        axis = np.argmax(hi[node] - lo[node])
+        order[first:first + count] = idx[np.argsort(points[idx, axis], kind="mergesort")]
+        half = count // 2
+        for side in range(2):
+            child[node, side] = nodes
+            span[nodes, 0] = first + side * half
+            span[nodes, 1] = half if side == 0 else count - half
+            stack[top] = nodes
+            top += 1
+            nodes += 1
+    return order, lo[:nodes].copy(), hi[:nodes].copy(), child[:nodes].copy(), span[:nodes].copy()
+
+
+@njit(cache=True)
+def _box_meets(kind: int, q: np.ndarray, R: np.ndarray, t: np.ndarray, lo: np.ndarray,
+               hi: np.ndarray) -> bool:
+    """Can a slave-frame box [lo, hi] meet the region? (conservative; `q` is the region's
+    params moved into the slave frame for HALF_SPACE and BALL, see `_slave_params`)."""
+    if kind == HALF_SPACE:                     # min over the box of n_s·p < c_s
+        low = 0.0
+        for k in range(3):
+            low += q[k] * (lo[k] if q[k] > 0.0 else hi[k])
+        return low < q[3]
+    if kind == BALL:                           # squared distance from the centre < r²
+        d2 = 0.0
+        for k in range(3):
+            gap = max(lo[k] - q[k], 0.0, q[k] - hi[k])
+            d2 += gap * gap
+        return d2 < q[3] * q[3]
+    for k in range(3):                         # the box's master-frame AABB overlaps
+        c = t[k]
+        e = 0.0
+        for j in range(3):
+            c += R[k, j] * 0.5 * (lo[j] + hi[j])
+            e += abs(R[k, j]) * 0.5 * (hi[j] - lo[j])
+        if c + e < q[k] or c - e > q[3 + k]:
+            return False
+    return True
+
+
+@njit(cache=True)
+def _point_in(kind: int, params: np.ndarray, y0: float, y1: float, y2: float) -> bool:
+    """Is the master-frame point y in the region?"""
+    if kind == HALF_SPACE:
+        return params[0] * y0 + params[1] * y1 + params[2] * y2 < params[3]
+    if kind == BALL:
+        d0, d1, d2 = y0 - params[0], y1 - params[1], y2 - params[2]
+        return d0 * d0 + d1 * d1 + d2 * d2 < params[3] * params[3]
+    return (params[0] <= y0 <= params[3] and params[1] <= y1 <= params[4]
+            and params[2] <= y2 <= params[5])
+
+
+@njit(cache=True)
+def _slave_params(kind: int, params: np.ndarray, R: np.ndarray, t: np.ndarray) -> np.ndarray:
+    """The region in the slave frame (HALF_SPACE: n_s = Rᵀn, c_s = c − n·t; BALL: the
+    centre Rᵀ(m − t)); BOX params stay in the master frame."""
+    q = params.copy()
+    if kind == HALF_SPACE:
+        q[3] = params[3] - (params[0] * t[0] + params[1] * t[1] + params[2] * t[2])
+        for k in range(3):
+            q[k] = R[0, k] * params[0] + R[1, k] * params[1] + R[2, k] * params[2]
+    elif kind == BALL:
+        for k in range(3):
+            q[k] = (R[0, k] * (params[0] - t[0]) + R[1, k] * (params[1] - t[1])
+                    + R[2, k] * (params[2] - t[2]))
+    return q
+
+
+@njit(cache=True)
+def query(kind: int, params: np.ndarray, R: np.ndarray, t: np.ndarray, points: np.ndarray,
+          out: np.ndarray, order: np.ndarray, lo: np.ndarray, hi: np.ndarray,
+          child: np.ndarray, span: np.ndarray) -> np.ndarray:
+    """Indices (unsorted) of the slave points p (slave frame, mm) with R p + t in the
+    region (kind, params) of the master frame; `out` (n_points,) is scratch space (a
+    fresh array of that size per call would cost more than a small query)."""
+    q = _slave_params(kind, params, R, t)
+    stack = np.empty(64, dtype=np.int64)
+    m, top = 0, 1
+    stack[0] = 0
+    while top > 0:
+        top -= 1
+        node = stack[top]
+        if not _box_meets(kind, q, R, t, lo[node], hi[node]):
+            continue
+        if child[node, 0] >= 0:
+            stack[top], stack[top + 1] = child[node, 0], child[node, 1]
+            top += 2
+            continue
+        for i in order[span[node, 0]:span[node, 0] + span[node, 1]]:
+            p0, p1, p2 = points[i, 0], points[i, 1], points[i, 2]
+            y0 = R[0, 0] * p0 + R[0, 1] * p1 + R[0, 2] * p2 + t[0]
+            y1 = R[1, 0] * p0 + R[1, 1] * p1 + R[1, 2] * p2 + t[1]
+            y2 = R[2, 0] * p0 + R[2, 1] * p1 + R[2, 2] * p2 + t[2]
+            if _point_in(kind, params, y0, y1, y2):
+                out[m] = i
+                m += 1
+    return out[:m].copy()
+
+
+@njit(cache=True)
+def vertex_faces(faces: np.ndarray, n_points: int) -> tuple[np.ndarray, np.ndarray]:
+    """CSR table of the faces around each vertex: faces of vertex v are
+    index[ptr[v]:ptr[v + 1]], in increasing order."""
+    ptr = np.zeros(n_points + 1, dtype=np.int64)
+    for f in range(faces.shape[0]):
+        for j in range(3):
+            ptr[faces[f, j] + 1] += 1
+    for v in range(n_points):
+        ptr[v + 1] += ptr[v]
+    fill = ptr[:-1].copy()
+    index = np.empty(ptr[-1], dtype=np.int64)
+    for f in range(faces.shape[0]):
+        for j in range(3):
+            v = faces[f, j]
+            index[fill[v]] = f
+            fill[v] += 1
+    return ptr, index
+
+
+@njit(cache=True)
+def select_faces(near: np.ndarray, faces: np.ndarray, ptr: np.ndarray, index: np.ndarray,
+                 face_mark: np.ndarray, vertex_index: np.ndarray, points: np.ndarray,
+                 normals: np.ndarray, areas: np.ndarray):
+    """The faces with a vertex in `near` (vertex indices), in the order met from `near`,
+    with their data: (faces (m,), vertices (n,), corners (m, 3) as indices into
+    `vertices`, points (n, 3), normals (m, 3), areas (m,)) gathered from the slave's
+    points (n_points, 3), face normals (n_faces, 3) and areas (n_faces,).
+
+    face_mark (n_faces,) False and vertex_index (n_points,) -1 are scratch tables, left
+    as they were found: the cost is ∝ the faces selected, not the mesh.
+    """
+    bound = 0
+    for v in near:
+        bound += ptr[v + 1] - ptr[v]
+    picked = np.empty(bound, dtype=np.int64)
+    m = 0
+    for v in near:
+        for k in range(ptr[v], ptr[v + 1]):
+            f = index[k]
+            if not face_mark[f]:
+                face_mark[f] = True
+                picked[m] = f
+                m += 1
+    vertices = np.empty(3 * m, dtype=np.int64)
+    local = np.empty((m, 3), dtype=np.int64)
+    n = 0
+    for i in range(m):
+        f = picked[i]
+        face_mark[f] = False
+        for j in range(3):
+            v = faces[f, j]
+            if vertex_index[v] < 0:
+                vertex_index[v] = n
+                vertices[n] = v
+                n += 1
+            local[i, j] = vertex_index[v]
+    out_points = np.empty((n, 3))
+    for i in range(n):
+        v = vertices[i]
+        vertex_index[v] = -1
+        for k in range(3):
+            out_points[i, k] = points[v, k]
+    out_normals = np.empty((m, 3))
+    out_areas = np.empty(m)
+    for i in range(m):
+        f = picked[i]
+        out_areas[i] = areas[f]
+        for k in range(3):
+            out_normals[i, k] = normals[f, k]
+    return picked[:m], vertices[:n], local, out_points, out_normals, out_areas
+
+
+class PointTree:
+    """The tree over a slave's points (slave frame, mm) and its vertex-to-face table,
+    built once; `near(kind, params, R, t)` gives the points in a master-frame region.
+
+    normals (n_faces, 3), areas (n_faces,): per-face data that `faces_of` gathers.
+    """
+
+    def __init__(self, points: np.ndarray, faces: np.ndarray, normals: np.ndarray,
+                 areas: np.ndarray) -> None:
+        self.points = np.ascontiguousarray(points, dtype=float)
+        self.faces = np.ascontiguousarray(faces, dtype=np.int64)
+        self.normals = np.ascontiguousarray(normals, dtype=float)
+        self.areas = np.ascontiguousarray(areas, dtype=float)
+        self._tree = _build(self.points)
+        self.ptr, self.index = vertex_faces(self.faces, len(self.points))
+        self.face_mark = np.zeros(len(self.faces), dtype=np.bool_)
+        self.vertex_index = np.full(len(self.points), -1, dtype=np.int64)
+        self._out = np.empty(len(self.points), dtype=np.int64)
+        for kind in (HALF_SPACE, BALL, BOX):      # load the query now, not in a solve
+            self.near(kind, np.zeros(6), np.eye(3), np.zeros(3))
+        self.faces_of(np.zeros(0, dtype=np.int64))
+
+    def near(self, kind: int, params: np.ndarray, R: np.ndarray, t: np.ndarray) -> np.ndarray:
+        """(k,) indices of the points with R p + t in the region, unsorted."""
+        return query(kind, params, R, t, self.points, self._out, *self._tree)
+
+    def faces_of(self, near: np.ndarray):
+        """`select_faces` of the vertices `near`: (faces, vertices, local corners,
+        points, normals, areas)."""
+        return select_faces(near, self.faces, self.ptr, self.index, self.face_mark,
+                            self.vertex_index, self.points, self.normals, self.areas)

@@ -1,0 +1,89 @@
+"""The statics' hot path (`fecheck.laws.fused`) gives the full path's force, moment,
+tangent, area and depth (the law on a `ContactSurface`) to 1e-12, for every compiled
+master and law, from a rebuilt and from a reused candidate set."""
+
+import numpy as np
+import pytest
+
+from fecheck.contact import ContactPair, Plane, Sphere
+from fecheck.laws import blankevoort_params, blankevoort_pressure, foundation
+from fecheck.laws.calibrated import Calibration, calibrated_params, calibrated_pressure
+from fecheck.laws.fused import CompiledLaw, compiled_law, contact_wrench, linear_law
+from fecheck.laws.kernel import BLANKEVOORT, CALIBRATED
+from fecheck.laws.layer import face_elastic_foundation
+from fecheck.statics.frames import rotation
+from geometry.icosphere import icosphere
+from geometry.plateau import plane_patch
+
+CAL = Calibration(5.3, 0.57)
+LAWS = {
+    "linear": lambda n: linear_law(4.487),
+    "blankevoort": lambda n: compiled_law(
+        BLANKEVOORT, blankevoort_params(5.0, 0.45, 3.0),
+        lambda s: foundation(s, blankevoort_pressure(5.0, 0.45, 3.0))),
+    "calibrated": lambda n: compiled_law(
+        CALIBRATED, calibrated_params(CAL), lambda s: foundation(s, calibrated_pressure(CAL))),
+    "per-face": lambda n: face_elastic_foundation(np.linspace(2.0, 6.0, n)),
+}
+
+
+def _same(fast, res):
+    """Equal to 1e-12 of each quantity's scale (moments: |F| times the 50 mm the
+    points are from the origin, as a symmetric contact's moment is round-off)."""
+    scale = np.abs(res.tangent).max()
+    force = np.abs(res.force).max()
+    np.testing.assert_allclose(fast.force, res.force, rtol=1e-12, atol=1e-12 * force)
+    np.testing.assert_allclose(fast.moment, res.moment, rtol=1e-12,
+                               atol=1e-12 * max(np.abs(res.moment).max(), 50.0 * force))
+    np.testing.assert_allclose(fast.tangent, res.tangent, rtol=1e-12, atol=1e-12 * scale)
+    assert fast.area == pytest.approx(res.area, rel=1e-12)
+    assert fast.max_depth == res.max_depth
+
+
+def _check(pair, poses, law, master_pose):
+    for pose in poses:                  # the first rebuilds the set, the others reuse it
+        fast = contact_wrench(pair, pose, master_pose, law)
+        full = law(pair.evaluate(pose, master_pose))
+        assert np.linalg.norm(full.force) > 1.0
+        _same(fast, full)
+
+
+@pytest.mark.parametrize("name", sorted(LAWS))
+@pytest.mark.parametrize("area", ["clipped", "whole-face"])
+def test_plane_master(name, area):
+    mesh = icosphere(25.5, 3)
+    pair = ContactPair(mesh, Plane([0.0, 0.0, 0.0], [0.1, 0.0, 1.0]), area=area)
+    poses = [(rotation(0.02 * i, -0.01, 0.03), np.array([0.1, 0.0, 24.3 + 0.05 * i]))
+             for i in range(3)]
+    _check(pair, poses, LAWS[name](mesh.n_faces), (np.eye(3), np.zeros(3)))
+
+
+@pytest.mark.parametrize("name", sorted(LAWS))
+def test_sphere_master_over_a_plateau(name):
+    plate = plane_patch([0.0, 0.0, 0.0], [0.0, 0.0, 1.0], radius=20.0, size=1.0)
+    pair = ContactPair(plate, Sphere([0.0, 0.0, 30.0], 31.0))
+    poses = [(rotation(0.01 * i, 0.02, 0.0), np.array([0.2, -0.1, 0.05 * i]))
+             for i in range(3)]
+    _check(pair, poses, LAWS[name](plate.n_faces), (np.eye(3), np.zeros(3)))
+
+
+@pytest.mark.parametrize("name", ["linear", "calibrated", "per-face"])
+def test_mesh_master_walked_and_rebuilt(name):
+    slave = icosphere(25.5, 3)
+    master = icosphere(30.0, 4)
+    pair = ContactPair(slave, master)
+    master_pose = (np.eye(3), np.array([0.0, 0.0, -30.0 - 24.5]))
+    poses = [(rotation(0.0, 0.01 * i, 0.0), np.array([0.0, 0.02 * i, 0.0])) for i in range(4)]
+    _check(pair, poses, LAWS[name](slave.n_faces), master_pose)
+
+
+def test_no_contact_and_a_wrong_face_count():
+    mesh = icosphere(25.5, 2)
+    pair = ContactPair(mesh, Plane([0.0, 0.0, 0.0], [0.0, 0.0, 1.0]))
+    far = (np.eye(3), np.array([0.0, 0.0, 40.0]))
+    w = contact_wrench(pair, far, (np.eye(3), np.zeros(3)), linear_law(1.0))
+    assert w.area == 0.0 and w.max_depth == 0.0 and not w.tangent.any()
+    wrong = face_elastic_foundation(np.ones(mesh.n_faces + 1))
+    assert isinstance(wrong, CompiledLaw)
+    with pytest.raises(Exception, match="face stiffnesses"):
+        contact_wrench(pair, far, (np.eye(3), np.zeros(3)), wrong)
