@@ -24,7 +24,9 @@ echo "fecheck setup: installing Python packages into .venv (about 1-2 minutes th
 .venv/bin/python -m pip install -q --upgrade pip
 .venv/bin/python -m pip install -q -e ".[test]"
 # numba compiles the contact and law kernels on first use and caches them on disk: compile
-# them here, by solving the default scene once, so that a user's first run does not wait
+# every one of them here (one small contact of each kind with each law), then solve the
+# default scene once, so that a user's first run compiles nothing
 echo "fecheck setup: compiling the contact kernels (once, under a minute)"
+.venv/bin/python -m fecheck.laws.warm
 .venv/bin/fecheck run > /dev/null
 echo "fecheck setup: done"

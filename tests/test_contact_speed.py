@@ -33,7 +33,6 @@ def test_help_and_mesh_info_do_not_import_numba(tmp_path):
 
 def test_compiled_candidate_selection_matches_numpy_reference():
     # faces with a vertex flagged near, their vertices (np.unique) and local corners
-    # (in the order met: compared as sets, and each face's corners through its vertices)
     mesh = icosphere(10.0, 3)
     tree = PointTree(mesh.points, mesh.faces, mesh.face_normals, mesh.face_areas)
     rng = np.random.default_rng(3)
@@ -42,14 +41,14 @@ def test_compiled_candidate_selection_matches_numpy_reference():
         faces, vertices, local, points, normals, areas = tree.faces_of(
             rng.permutation(np.flatnonzero(near)))
         ref_faces = np.flatnonzero(near[mesh.faces].any(axis=1))
-        np.testing.assert_array_equal(np.sort(faces), ref_faces)
+        np.testing.assert_array_equal(faces, ref_faces)
         np.testing.assert_array_equal(np.sort(vertices), np.unique(mesh.faces[ref_faces]))
         assert len(set(vertices.tolist())) == len(vertices)
         np.testing.assert_array_equal(vertices[local], mesh.faces[faces])
         np.testing.assert_array_equal(points, mesh.points[vertices])
         np.testing.assert_array_equal(normals, mesh.face_normals[faces])
         np.testing.assert_array_equal(areas, mesh.face_areas[faces])
-    assert (tree.vertex_index == -1).all() and not tree.face_mark.any()   # left clean
+    assert (tree.vertex_index == -1).all() and not tree.face_bits.any()   # left clean
 
 
 def test_evaluation_benchmark_measures_every_quantity_and_bounds_the_solve():

@@ -15,7 +15,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Callable
-from dataclasses import dataclass
+from typing import NamedTuple
 
 import numpy as np
 from numba import njit
@@ -24,8 +24,7 @@ from fecheck.contact.bvh import BOX, PointTree
 from geometry.mesh import TriMesh
 
 
-@dataclass(frozen=True, eq=False)
-class Candidates:
+class Candidates(NamedTuple):
     """Slave faces near the master, with their per-face data in the slave frame (mm).
 
     faces : (m,) slave face indices
@@ -150,19 +149,18 @@ class CandidateCache:
         self.n_rebuilds += 1
         return self._current
 
-    def _near(self, R: np.ndarray, t: np.ndarray) -> np.ndarray:
-        """Slave vertices with reach > -margin at the relative pose (R, t)."""
+    def _build(self, R: np.ndarray, t: np.ndarray) -> Candidates:
+        """The faces with a vertex whose reach > -margin at the relative pose (R, t)."""
         if self.region is None:
             y = self.slave.points @ R.T + t
-            return np.flatnonzero(self.reach(y) > -self.margin_mm)
+            return Candidates(*self.tree.faces_of(np.flatnonzero(self.reach(y) > -self.margin_mm)))
         kind, params = self.region
+        if kind != BOX:                       # the region is exactly reach > -margin
+            return Candidates(*self.tree.faces_in(kind, params, R, t))
         near = self.tree.near(kind, params, R, t)
-        if kind == BOX and near.size:
+        if near.size:
             near = near[self.reach(self.slave.points[near] @ R.T + t) > -self.margin_mm]
-        return near
-
-    def _build(self, R: np.ndarray, t: np.ndarray) -> Candidates:
-        return Candidates(*self.tree.faces_of(self._near(R, t)))
+        return Candidates(*self.tree.faces_of(near))
 
     @property
     def current(self) -> Candidates | None:

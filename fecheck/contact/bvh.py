@@ -13,7 +13,8 @@ frame (y = R p + t for a slave point p; mm):
 * `BOX` (any master with a bounding box): lo ≤ y ≤ hi, params (lo0, lo1, lo2, hi0, hi1, hi2).
 
 `select_faces` then turns the vertices found into the candidate faces (every face with
-such a vertex) through a vertex-to-face table built once, and gathers their data.
+such a vertex), in face order, through a vertex-to-face table built once, and gathers
+their data.
 """
 
 from __future__ import annotations
@@ -23,6 +24,9 @@ from numba import njit
 
 LEAF = 8
 HALF_SPACE, BALL, BOX = 0, 1, 2
+_BIT = np.array([0, 1, 28, 2, 29, 14, 24, 3, 30, 22, 20, 15, 25, 17, 4, 8, 31, 27, 13, 23, 21,
+                 19, 16, 7, 26, 12, 18, 6, 11, 5, 10, 9], dtype=np.int64)
+"""The position of a 32-bit word's single set bit b from (b · 0x077CB531) >> 27 (de Bruijn)."""
 
 
 @njit(cache=True)
@@ -173,35 +177,53 @@ def vertex_faces(faces: np.ndarray, n_points: int) -> tuple[np.ndarray, np.ndarr
 
 
 @njit(cache=True)
-def select_faces(near: np.ndarray, faces: np.ndarray, ptr: np.ndarray, index: np.ndarray,
-                 face_mark: np.ndarray, vertex_index: np.ndarray, points: np.ndarray,
-                 normals: np.ndarray, areas: np.ndarray):
-    """The faces with a vertex in `near` (vertex indices), in the order met from `near`,
-    with their data: (faces (m,), vertices (n,), corners (m, 3) as indices into
-    `vertices`, points (n, 3), normals (m, 3), areas (m,)) gathered from the slave's
-    points (n_points, 3), face normals (n_faces, 3) and areas (n_faces,).
-
-    face_mark (n_faces,) False and vertex_index (n_points,) -1 are scratch tables, left
-    as they were found: the cost is ∝ the faces selected, not the mesh.
-    """
-    bound = 0
-    for v in near:
-        bound += ptr[v + 1] - ptr[v]
-    picked = np.empty(bound, dtype=np.int64)
+def _faces_around(near: np.ndarray, ptr: np.ndarray, index: np.ndarray,
+                  face_bits: np.ndarray) -> np.ndarray:
+    """The faces around the vertices `near`, each once, in increasing order (see
+    `select_faces`; face_bits is left zero)."""
+    first, last = face_bits.size, -1
     m = 0
     for v in near:
         for k in range(ptr[v], ptr[v + 1]):
             f = index[k]
-            if not face_mark[f]:
-                face_mark[f] = True
-                picked[m] = f
+            word, bit = f >> 5, np.int64(1) << (f & 31)
+            if not face_bits[word] & bit:
+                face_bits[word] |= bit
+                first, last = min(first, word), max(last, word)
                 m += 1
+    picked = np.empty(m, dtype=np.int64)
+    i = 0
+    for word in range(first, last + 1):         # set bits, lowest first
+        w = face_bits[word]
+        face_bits[word] = 0
+        while w:
+            low = w & -w
+            picked[i] = (word << 5) + _BIT[((low * 0x077CB531) & 0xFFFFFFFF) >> 27]
+            i += 1
+            w ^= low
+    return picked
+
+
+@njit(cache=True)
+def select_faces(near: np.ndarray, faces: np.ndarray, ptr: np.ndarray, index: np.ndarray,
+                 face_bits: np.ndarray, vertex_index: np.ndarray, points: np.ndarray,
+                 normals: np.ndarray, areas: np.ndarray):
+    """The faces with a vertex in `near` (vertex indices), in increasing order, with their
+    data: (faces (m,), vertices (n,), corners (m, 3) as indices into `vertices`, points
+    (n, 3), normals (m, 3), areas (m,)) gathered from the slave's points (n_points, 3),
+    face normals (n_faces, 3) and areas (n_faces,).
+
+    face_bits (n_faces / 32 + 1,) int64 zeros, a bit per face, and vertex_index
+    (n_points,) -1 are scratch tables, left as they were found. The cost is ∝ the faces
+    selected, plus a scan of the words of face_bits between the first and last face.
+    """
+    picked = _faces_around(near, ptr, index, face_bits)
+    m = picked.size
     vertices = np.empty(3 * m, dtype=np.int64)
     local = np.empty((m, 3), dtype=np.int64)
     n = 0
     for i in range(m):
         f = picked[i]
-        face_mark[f] = False
         for j in range(3):
             v = faces[f, j]
             if vertex_index[v] < 0:
@@ -222,7 +244,19 @@ def select_faces(near: np.ndarray, faces: np.ndarray, ptr: np.ndarray, index: np
         out_areas[i] = areas[f]
         for k in range(3):
             out_normals[i, k] = normals[f, k]
-    return picked[:m], vertices[:n], local, out_points, out_normals, out_areas
+    return picked, vertices[:n], local, out_points, out_normals, out_areas
+
+
+@njit(cache=True)
+def query_faces(kind: int, params: np.ndarray, R: np.ndarray, t: np.ndarray,
+                points: np.ndarray, out: np.ndarray, order: np.ndarray, lo: np.ndarray,
+                hi: np.ndarray, child: np.ndarray, span: np.ndarray, faces: np.ndarray,
+                ptr: np.ndarray, index: np.ndarray, face_bits: np.ndarray,
+                vertex_index: np.ndarray, normals: np.ndarray, areas: np.ndarray):
+    """`query` then `select_faces` of the points found, in one call."""
+    near = query(kind, params, R, t, points, out, order, lo, hi, child, span)
+    return select_faces(near, faces, ptr, index, face_bits, vertex_index, points, normals,
+                        areas)
 
 
 class PointTree:
@@ -240,19 +274,26 @@ class PointTree:
         self.areas = np.ascontiguousarray(areas, dtype=float)
         self._tree = _build(self.points)
         self.ptr, self.index = vertex_faces(self.faces, len(self.points))
-        self.face_mark = np.zeros(len(self.faces), dtype=np.bool_)
+        self.face_bits = np.zeros(len(self.faces) // 32 + 1, dtype=np.int64)
         self.vertex_index = np.full(len(self.points), -1, dtype=np.int64)
         self._out = np.empty(len(self.points), dtype=np.int64)
-        for kind in (HALF_SPACE, BALL, BOX):      # load the query now, not in a solve
+        for kind in (HALF_SPACE, BALL, BOX):      # load the queries now, not in a solve
             self.near(kind, np.zeros(6), np.eye(3), np.zeros(3))
+            self.faces_in(kind, np.zeros(6), np.eye(3), np.zeros(3))
         self.faces_of(np.zeros(0, dtype=np.int64))
 
     def near(self, kind: int, params: np.ndarray, R: np.ndarray, t: np.ndarray) -> np.ndarray:
         """(k,) indices of the points with R p + t in the region, unsorted."""
         return query(kind, params, R, t, self.points, self._out, *self._tree)
 
+    def faces_in(self, kind: int, params: np.ndarray, R: np.ndarray, t: np.ndarray):
+        """`faces_of` the points with R p + t in the region, in one compiled call."""
+        return query_faces(kind, params, R, t, self.points, self._out, *self._tree,
+                           self.faces, self.ptr, self.index, self.face_bits,
+                           self.vertex_index, self.normals, self.areas)
+
     def faces_of(self, near: np.ndarray):
         """`select_faces` of the vertices `near`: (faces, vertices, local corners,
         points, normals, areas)."""
-        return select_faces(near, self.faces, self.ptr, self.index, self.face_mark,
+        return select_faces(near, self.faces, self.ptr, self.index, self.face_bits,
                             self.vertex_index, self.points, self.normals, self.areas)
