@@ -26,6 +26,7 @@ def gmsh_session(model_name: str = "fecheck") -> Iterator[Any]:
     owner = not gmsh.isInitialized()
     if owner:
         gmsh.initialize(readConfigFiles=False, interruptible=False)
+        _ignore_broken_pipes()
     gmsh.option.setNumber("General.Terminal", 0)
     gmsh.option.setNumber("General.Verbosity", 0)
     gmsh.model.add(model_name)
@@ -35,6 +36,18 @@ def gmsh_session(model_name: str = "fecheck") -> Iterator[Any]:
         gmsh.model.remove()
         if owner:
             gmsh.finalize()
+
+
+def _ignore_broken_pipes() -> None:
+    """Ignore SIGPIPE again, as Python does: Gmsh's initialisation restores its default
+    action, after which a write to a closed pipe (a sweep worker that has exited, output
+    piped into `head`) kills the process without a word instead of raising
+    BrokenPipeError. Only the main thread may set signal actions."""
+    import signal
+    import threading
+
+    if hasattr(signal, "SIGPIPE") and threading.current_thread() is threading.main_thread():
+        signal.signal(signal.SIGPIPE, signal.SIG_IGN)
 
 
 def surface_triangles(gmsh: Any, dim: int = 2, tag: int = -1) -> tuple[Any, Any]:
