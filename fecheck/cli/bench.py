@@ -8,14 +8,14 @@ import os
 import sys
 from pathlib import Path
 
-SUITES = ("pareto", "detection", "peers")
+SUITES = ("pareto", "detection", "peers", "sweeps")
 
 
 def add_parser(subparsers) -> None:
     p = subparsers.add_parser(
         "bench", help="run a benchmark suite (default pareto: run time against error of "
                       "every method; detection: thesis Figs. 3.21/3.25; peers: against Drake "
-                      "and OpenSim)",
+                      "and OpenSim; sweeps: equilibria per second of load-point sweeps)",
         description="Benchmarks measured in one run and reported as ratios. 'pareto' (the "
                     "default): time and error of EF (clipped, whole-face, analytic master), "
                     "the thesis stack, Hertz and FE on the baseline compartments against "
@@ -25,15 +25,19 @@ def add_parser(subparsers) -> None:
                     "our engine vs the thesis stack (fcl, ray parity + cKDTree). 'peers': time "
                     "per contact evaluation of an icosphere on a plane against Drake's "
                     "hydroelastic contact and OpenSim's elastic foundation, in one process "
-                    "(fecheck.studies.bench_peers; pip install -e '.[peers]').")
+                    "(fecheck.studies.bench_peers; pip install -e '.[peers]'). 'sweeps': "
+                    "equilibria per second of load-point sweeps of the baseline and the "
+                    "scanned femur-tibia scene, serial and on 2 workers "
+                    "(fecheck.studies.bench_sweeps).")
     p.add_argument("suite", nargs="?", default="pareto", choices=SUITES,
                    help="benchmark suite (default: pareto)")
     p.add_argument("--quick", action="store_true",
-                   help="small sizes only (≤ 20,480 faces; peers: ≤ 5,120)")
+                   help="small sizes only (≤ 20,480 faces; peers: ≤ 5,120; sweeps: 100 and 10 "
+                        "points)")
     p.add_argument("--json", type=Path, metavar="PATH",
                    help="write rows and ratios as JSON ('-': standard output)")
     p.add_argument("--plot", type=Path, metavar="DIR",
-                   help="write log-log PNGs into DIR (not for peers)")
+                   help="write log-log PNGs into DIR (not for peers or sweeps)")
     p.set_defaults(run=run)
 
 
@@ -48,6 +52,8 @@ def run(args: argparse.Namespace) -> int:
         return _pareto(args)
     if args.suite == "peers":
         return _peers(args)
+    if args.suite == "sweeps":
+        return _sweeps(args)
     from fecheck.studies import bench_detection as bench
 
     result = bench.run(quick=args.quick,
@@ -75,6 +81,17 @@ def _peers(args: argparse.Namespace) -> int:
     result = bench_peers.run(quick=args.quick,
                              progress=lambda m: print(f"  {m}", file=sys.stderr, flush=True))
     _report(args, bench_peers.table(result), json.dumps(result, indent=1) + "\n", list)
+    return 0
+
+
+def _sweeps(args: argparse.Namespace) -> int:
+    from fecheck.studies import bench_sweeps
+
+    if args.plot:
+        print("bench sweeps draws no plots: --plot ignored", file=sys.stderr)
+    result = bench_sweeps.run(quick=args.quick,
+                              progress=lambda m: print(f"  {m}", file=sys.stderr, flush=True))
+    _report(args, bench_sweeps.table(result), json.dumps(result, indent=1) + "\n", list)
     return 0
 
 
