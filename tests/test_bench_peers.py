@@ -68,6 +68,7 @@ def test_a_missing_or_failing_peer_is_skipped_with_its_reason(monkeypatch):
         raise RuntimeError("no licence")
 
     monkeypatch.setitem(bench_peers.PEER_MODULES, "drake", "no_such_module_for_fecheck")
+    monkeypatch.setitem(bench_peers.PEER_MODULES, "opensim", "numpy")   # "installed"
     monkeypatch.setitem(bench_peers.PEERS, "opensim", broken)
     out = bench_peers.run(quick=True)
     assert "not installed" in out["skipped"]["drake"] and "[peers]" in out["skipped"]["drake"]
