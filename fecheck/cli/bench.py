@@ -50,10 +50,8 @@ def run(args: argparse.Namespace) -> int:
     os.environ.setdefault("OMP_NUM_THREADS", "1")
     if args.suite == "pareto":
         return _pareto(args)
-    if args.suite == "peers":
-        return _peers(args)
-    if args.suite == "sweeps":
-        return _sweeps(args)
+    if args.suite in ("peers", "sweeps"):
+        return _unplotted(args, args.suite)
     from fecheck.studies import bench_detection as bench
 
     result = bench.run(quick=args.quick,
@@ -73,25 +71,16 @@ def _pareto(args: argparse.Namespace) -> int:
     return 0
 
 
-def _peers(args: argparse.Namespace) -> int:
-    from fecheck.studies import bench_peers
+def _unplotted(args: argparse.Namespace, suite: str) -> int:
+    """Run a suite that draws no plots (peers, sweeps): its table and JSON."""
+    import importlib
 
+    module = importlib.import_module(f"fecheck.studies.bench_{suite}")
     if args.plot:
-        print("bench peers draws no plots: --plot ignored", file=sys.stderr)
-    result = bench_peers.run(quick=args.quick,
-                             progress=lambda m: print(f"  {m}", file=sys.stderr, flush=True))
-    _report(args, bench_peers.table(result), json.dumps(result, indent=1) + "\n", list)
-    return 0
-
-
-def _sweeps(args: argparse.Namespace) -> int:
-    from fecheck.studies import bench_sweeps
-
-    if args.plot:
-        print("bench sweeps draws no plots: --plot ignored", file=sys.stderr)
-    result = bench_sweeps.run(quick=args.quick,
-                              progress=lambda m: print(f"  {m}", file=sys.stderr, flush=True))
-    _report(args, bench_sweeps.table(result), json.dumps(result, indent=1) + "\n", list)
+        print(f"bench {suite} draws no plots: --plot ignored", file=sys.stderr)
+    result = module.run(quick=args.quick,
+                        progress=lambda m: print(f"  {m}", file=sys.stderr, flush=True))
+    _report(args, module.table(result), json.dumps(result, indent=1) + "\n", list)
     return 0
 
 
