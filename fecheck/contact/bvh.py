@@ -277,10 +277,8 @@ class PointTree:
         self.face_bits = np.zeros(len(self.faces) // 32 + 1, dtype=np.int64)
         self.vertex_index = np.full(len(self.points), -1, dtype=np.int64)
         self._out = np.empty(len(self.points), dtype=np.int64)
-        for kind in (HALF_SPACE, BALL, BOX):      # load the queries now, not in a solve
-            self.near(kind, np.zeros(6), np.eye(3), np.zeros(3))
-            self.faces_in(kind, np.zeros(6), np.eye(3), np.zeros(3))
-        self.faces_of(np.zeros(0, dtype=np.int64))
+        self.faces_of(self.near(BOX, np.zeros(6), np.eye(3), np.zeros(3)))   # load the
+        self.faces_in(BOX, np.zeros(6), np.eye(3), np.zeros(3))   # kernels now, not in a solve
 
     def near(self, kind: int, params: np.ndarray, R: np.ndarray, t: np.ndarray) -> np.ndarray:
         """(k,) indices of the points with R p + t in the region, unsorted."""

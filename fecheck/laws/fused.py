@@ -26,8 +26,8 @@ from fecheck.contact.kernels import plane_surface, sphere_surface, walked_mesh_s
 from fecheck.contact.mesh_master import MAX_STEPS
 from fecheck.contact.surface import ContactSurface
 from fecheck.errors import FecheckError
-from fecheck.laws.foundation import elastic_foundation
-from fecheck.laws.kernel import LINEAR, law_values, pressure_resultant
+from fecheck.laws.foundation import foundation
+from fecheck.laws.kernel import LINEAR, law_function, law_values, pressure_resultant
 
 ORIGIN = np.zeros(3)
 
@@ -58,17 +58,24 @@ class CompiledLaw:
         return self.full(surface)
 
 
-def compiled_law(kind: int, params: np.ndarray, full, face_scale: np.ndarray | None = None
-                 ) -> CompiledLaw:
-    """A `CompiledLaw` (float arrays; no per-face factor by default)."""
+def compiled_law(kind: int, params: np.ndarray, full=None,
+                 face_scale: np.ndarray | None = None) -> CompiledLaw:
+    """A `CompiledLaw` (float arrays; no per-face factor by default). Without `full`, the
+    full path is `fecheck.laws.foundation.foundation` of the same law (the linear law's
+    own branch for LINEAR)."""
+    params = np.ascontiguousarray(params, dtype=float)
     scale = np.zeros(0) if face_scale is None else np.ascontiguousarray(face_scale, dtype=float)
-    return CompiledLaw(kind, np.ascontiguousarray(params, dtype=float), scale, full)
+    pressure = float(params[0]) if kind == LINEAR else law_function(kind, params)
+
+    def same_law(surface: ContactSurface):
+        return foundation(surface, pressure)
+
+    return CompiledLaw(kind, params, scale, same_law if full is None else full)
 
 
 def linear_law(k_N_per_mm3: float) -> CompiledLaw:
     """The linear EF p = k·d (N/mm³) as a `CompiledLaw`."""
-    k = float(k_N_per_mm3)
-    return compiled_law(LINEAR, np.array([k]), lambda s: elastic_foundation(s, k))
+    return compiled_law(LINEAR, np.array([float(k_N_per_mm3)]))
 
 
 @njit(cache=True, fastmath=False)

@@ -133,10 +133,10 @@ def _fecheck_case(level: int, scratch: bool) -> Case:
 
 def _write_obj(mesh, path: Path, scale: float) -> str:
     """Write `mesh` (points × `scale`) as a Wavefront .obj; its path."""
-    with open(path, "w", encoding="ascii") as f:
-        np.savetxt(f, mesh.points * scale, fmt="v %.17g %.17g %.17g")
-        np.savetxt(f, mesh.faces + 1, fmt="f %d %d %d")
-    return str(path)
+    from geometry.io import save_mesh
+    from geometry.mesh import TriMesh
+
+    return str(save_mesh(TriMesh(mesh.points * scale, mesh.faces), path))
 
 
 @contextmanager
