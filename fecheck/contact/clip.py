@@ -9,7 +9,10 @@ integrands of the linear elastic foundation and its tangent.
 
 The per-face rule `face_rule` is compiled with numba: the contact kernels of
 `fecheck.contact.kernels` call it face by face; `clipped_quadrature` applies it to an
-array of faces.
+array of faces. On a clipped face the rule's points and weights move with the clip
+line as the vertex depths change; `clip_line_motion` gives that motion, which the
+tangent of a nonlinear law needs (for the linear law its contributions cancel: the
+rule is exact for the law's quadratic integrands, which vanish on the clip line).
 """
 
 from __future__ import annotations
@@ -85,6 +88,92 @@ def face_rule(d0: float, d1: float, d2: float, bary: np.ndarray, fraction: np.nd
             fraction[row] = abs(det) / 3.0
             row += 1
     return row
+
+
+@njit(cache=True, fastmath=False, inline="always")
+def clip_line_motion(f: int, c: int, row: int, D: np.ndarray, X: np.ndarray, T: np.ndarray,
+                     scale: float, corner: np.ndarray, slot: np.ndarray, rate: np.ndarray,
+                     cof: np.ndarray, depth_twist: np.ndarray, weight_twist: np.ndarray,
+                     qp_clip: np.ndarray, clip_share: np.ndarray, clip_edge: np.ndarray,
+                     clip_rate: np.ndarray) -> None:
+    """The motion of `face_rule`'s points on face f, cut by the clip line.
+
+    The zero-depth point on a cut edge i → j sits at t = d_i/(d_i − d_j) from X_i, so it
+    moves by (X_j − X_i)·∂t/∂ξ. Writes, as cut face number c: the cut edges' vectors
+    ``clip_edge[c]`` (2, 3) mm and rates ``clip_rate[c]`` (2, 6) ∂t/∂ξ; for the face's
+    points (rows from `row`) ``qp_clip`` = c and ``clip_share`` (their rule weights of
+    each crossing point), so that a point slides in the face by Σ_e share_e·edge_e ⊗ rate_e.
+    Overwrites the points' depth twists with the total derivative (the depth of a
+    point is its rule's combination of the corners' depths, zero on the clip line) and
+    adds the sub-triangle's area rate × `scale` (face area × weight per unit area) to
+    their weight twists. `corner` is the scratch `face_rule` filled for this face;
+    `slot` (3,) int, `rate` (6,) and `cof` (3, 3) are scratch.
+    """
+    _cut_edges(f, c, D, X, T, slot, clip_edge, clip_rate)
+    pattern = pattern_of(D[f, 0], D[f, 1], D[f, 2])
+    q = row
+    for sub in range(2):
+        ids = (_TABLE[pattern, sub, 0], _TABLE[pattern, sub, 1], _TABLE[pattern, sub, 2])
+        if ids[0] < 0:
+            continue
+        sign = _det_rate(ids, corner, slot, clip_rate[c], rate, cof)
+        for r in range(3):
+            qp_clip[q] = c
+            clip_share[q, 0] = clip_share[q, 1] = 0.0
+            for k in range(6):
+                depth_twist[q, k] = 0.0
+                weight_twist[q, k] += scale * sign * rate[k] / 3.0
+            for n in range(3):
+                w = RULE[r, n]
+                if ids[n] < 3:
+                    for k in range(6):
+                        depth_twist[q, k] += w * T[f, ids[n], k]
+                else:
+                    clip_share[q, slot[ids[n] - 3]] += w
+            q += 1
+
+
+@njit(cache=True, fastmath=False, inline="always")
+def _cut_edges(f, c, D, X, T, slot, clip_edge, clip_rate):
+    """Vectors and crossing rates ∂t/∂ξ of face f's cut edges; slot[i] = their order
+    (0, 1) for edge i → i+1, −1 if not cut."""
+    d = (D[f, 0], D[f, 1], D[f, 2])
+    used = 0
+    for i in range(3):
+        j = (i + 1) % 3
+        slot[i] = -1
+        if (d[i] > 0.0) != (d[j] > 0.0):
+            step = d[i] - d[j]
+            ri, rj = -d[j] / (step * step), d[i] / (step * step)
+            for k in range(6):
+                clip_rate[c, used, k] = ri * T[f, i, k] + rj * T[f, j, k]
+            for k in range(3):
+                clip_edge[c, used, k] = X[f, j, k] - X[f, i, k]
+            slot[i] = used
+            used += 1
+
+
+@njit(cache=True, fastmath=False, inline="always")
+def _det_rate(ids, corner, slot, edge_rate, rate, cof):
+    """Rate of the barycentric determinant of the sub-triangle with corners `ids` into
+    `rate` (6,) (`cof` (3, 3) scratch); returns its sign. A corner on cut edge i → j
+    moves by (e_j − e_i)·δt, which changes det = a · (b × e) by (cof_j − cof_i)·δt, cof
+    the corner's cofactor row (b × e, e × a, a × b)."""
+    a0, a1, a2 = corner[ids[0], 0], corner[ids[0], 1], corner[ids[0], 2]
+    b0, b1, b2 = corner[ids[1], 0], corner[ids[1], 1], corner[ids[1], 2]
+    e0, e1, e2 = corner[ids[2], 0], corner[ids[2], 1], corner[ids[2], 2]
+    cof[0, 0], cof[0, 1], cof[0, 2] = b1 * e2 - b2 * e1, b2 * e0 - b0 * e2, b0 * e1 - b1 * e0
+    cof[1, 0], cof[1, 1], cof[1, 2] = e1 * a2 - e2 * a1, e2 * a0 - e0 * a2, e0 * a1 - e1 * a0
+    cof[2, 0], cof[2, 1], cof[2, 2] = a1 * b2 - a2 * b1, a2 * b0 - a0 * b2, a0 * b1 - a1 * b0
+    for k in range(6):
+        rate[k] = 0.0
+    for n in range(3):
+        if ids[n] >= 3:
+            i = ids[n] - 3
+            g = cof[n, (i + 1) % 3] - cof[n, i]
+            for k in range(6):
+                rate[k] += g * edge_rate[slot[i], k]
+    return 1.0 if a0 * cof[0, 0] + a1 * cof[0, 1] + a2 * cof[0, 2] >= 0.0 else -1.0
 
 
 @njit(cache=True, fastmath=False)

@@ -28,21 +28,27 @@ from __future__ import annotations
 import numpy as np
 from numba import njit
 
-from fecheck.contact.clip import N_POINTS, RULE, face_rule, pattern_of
+from fecheck.contact.clip import N_POINTS, RULE, clip_line_motion, face_rule, pattern_of
 from fecheck.contact.coherent import coherent_closest
 
 
 # One fused compiled loop over the faces for speed: its branches are the cases of one
 # evaluation, kept together on purpose (hence above the complexity ceiling).
 @njit(cache=True, fastmath=False)
-def surface_quadrature(clipped: bool, D: np.ndarray, X: np.ndarray, T: np.ndarray,  # noqa: C901
-                       area: np.ndarray, cos_abs: np.ndarray, weight_rate: np.ndarray):
+def surface_quadrature(clipped: bool, moving: bool, D: np.ndarray, X: np.ndarray,  # noqa: C901
+                       T: np.ndarray, area: np.ndarray, cos_abs: np.ndarray,
+                       weight_rate: np.ndarray):
     """Quadrature of m contact faces.
 
     Parameters
     ----------
     clipped : True: the positive part of each face; False: whole faces at the depth (and
         depth twist) of their deepest vertex
+    moving : with `clipped`, the points move with the clip line: the twists are total
+        derivatives and the `clip_*` arrays give the slide. Without it the points keep
+        their barycentric coordinates (enough for the linear law, whose resultant's
+        clip-line terms cancel: the rule is exact for its integrands, which vanish on
+        the clip line) and the `clip_*` arrays are empty.
     D : (m, 3) vertex depths, mm;  X : (m, 3, 3) world vertices, mm
     T : (m, 3, 6) vertex depth twists ∂d/∂ξ, (1, mm)
     area : (m,) face areas, mm²
@@ -52,12 +58,22 @@ def surface_quadrature(clipped: bool, D: np.ndarray, X: np.ndarray, T: np.ndarra
     Returns
     -------
     qp_face (Q,), qp_bary (Q, 3), qp_point (Q, 3), qp_depth (Q,), qp_weight (Q,),
-    qp_depth_twist (Q, 6), qp_weight_twist (Q, 6)
+    qp_depth_twist (Q, 6), qp_weight_twist (Q, 6): total derivatives, with the motion of
+    the points on clipped faces; and that motion (`fecheck.contact.clip.clip_line_motion`):
+    qp_clip (Q,) the cut face of each point (−1: none; empty in whole-face mode),
+    clip_share (Q, 2), clip_face (C,) contact face of each cut face, clip_edge (C, 2, 3),
+    clip_rate (C, 2, 6)
     """
     m = D.shape[0]
-    n_q = 0
+    n_q = n_cut = 0
     for f in range(m):
-        n_q += N_POINTS[pattern_of(D[f, 0], D[f, 1], D[f, 2])] if clipped else 3
+        if clipped:
+            pattern = pattern_of(D[f, 0], D[f, 1], D[f, 2])
+            n_q += N_POINTS[pattern]
+            if moving and pattern != 7:
+                n_cut += 1
+        else:
+            n_q += 3
     face = np.empty(n_q, dtype=np.int64)
     bary = np.empty((n_q, 3))
     frac = np.empty(n_q)
@@ -66,8 +82,16 @@ def surface_quadrature(clipped: bool, D: np.ndarray, X: np.ndarray, T: np.ndarra
     weight = np.empty(n_q)
     depth_twist = np.empty((n_q, 6))
     weight_twist = np.empty((n_q, 6))
+    qp_clip = np.full(n_q if n_cut else 0, -1, dtype=np.int64)
+    clip_share = np.empty((n_q if n_cut else 0, 2))
+    clip_face = np.empty(n_cut, dtype=np.int64)
+    clip_edge = np.empty((n_cut, 2, 3))
+    clip_rate = np.empty((n_cut, 2, 6))
     corner = np.empty((6, 3))
-    row = 0
+    slot = np.empty(3, dtype=np.int64)
+    rate = np.empty(6)
+    cof = np.empty((3, 3))
+    row = cut = 0
     for f in range(m):
         if clipped:
             end = face_rule(D[f, 0], D[f, 1], D[f, 2], bary, frac, row, corner)
@@ -98,8 +122,15 @@ def surface_quadrature(clipped: bool, D: np.ndarray, X: np.ndarray, T: np.ndarra
             weight[q] = a * cos_abs[f]
             for k in range(6):
                 weight_twist[q, k] = a * weight_rate[f, k]
+        if n_cut and pattern_of(D[f, 0], D[f, 1], D[f, 2]) != 7:
+            clip_face[cut] = f
+            clip_line_motion(f, cut, row, D, X, T, area[f] * cos_abs[f], corner, slot, rate,
+                             cof, depth_twist, weight_twist, qp_clip, clip_share, clip_edge,
+                             clip_rate)
+            cut += 1
         row = end
-    return face, bary, point, depth, weight, depth_twist, weight_twist
+    return (face, bary, point, depth, weight, depth_twist, weight_twist, qp_clip, clip_share,
+            clip_face, clip_edge, clip_rate)
 
 
 @njit(cache=True, fastmath=False)
@@ -185,7 +216,7 @@ def sphere_depths(y: np.ndarray, u: np.ndarray, center: np.ndarray, radius: floa
 
 
 @njit(cache=True, fastmath=False)
-def plane_surface(clipped: bool, points: np.ndarray, local_faces: np.ndarray,
+def plane_surface(clipped: bool, moving: bool, points: np.ndarray, local_faces: np.ndarray,
                   normals: np.ndarray, areas: np.ndarray, R: np.ndarray, t: np.ndarray,
                   Rm: np.ndarray, tm: np.ndarray, Rs: np.ndarray, plane_point: np.ndarray,
                   plane_normal: np.ndarray):
@@ -196,8 +227,9 @@ def plane_surface(clipped: bool, points: np.ndarray, local_faces: np.ndarray,
     frame), foundation normal n (fixed in the master), weights projected on the plane:
     area·|cos|, cos = (Rs n_face)·(Rm n).
 
-    Returns (hit (m,) indices into the candidates, normal (m, 3), vertex_depth (m, 3))
-    followed by the arrays of `surface_quadrature`.
+    clipped, moving: as for `surface_quadrature`. Returns (hit (m,) indices into the
+    candidates, normal (m, 3), vertex_depth (m, 3)) followed by the arrays of
+    `surface_quadrature`.
     """
     n0, n1, n2 = plane_normal[0], plane_normal[1], plane_normal[2]
     offset = plane_point[0] * n0 + plane_point[1] * n1 + plane_point[2] * n2
@@ -237,11 +269,11 @@ def plane_surface(clipped: bool, points: np.ndarray, local_faces: np.ndarray,
         rate[i, 3] = sign * (a1 * nw[2] - a2 * nw[1])          # ∂cos/∂ω = n_face × n
         rate[i, 4] = sign * (a2 * nw[0] - a0 * nw[2])
         rate[i, 5] = sign * (a0 * nw[1] - a1 * nw[0])
-    return (hit, N, D) + surface_quadrature(clipped, D, X, T, area, cos_abs, rate)
+    return (hit, N, D) + surface_quadrature(clipped, moving, D, X, T, area, cos_abs, rate)
 
 
 @njit(cache=True, fastmath=False)
-def sphere_surface(clipped: bool, points: np.ndarray, local_faces: np.ndarray,
+def sphere_surface(clipped: bool, moving: bool, points: np.ndarray, local_faces: np.ndarray,
                    normals: np.ndarray, areas: np.ndarray, R: np.ndarray, t: np.ndarray,
                    Rm: np.ndarray, tm: np.ndarray, Rs: np.ndarray, center: np.ndarray,
                    radius: float):
@@ -307,7 +339,7 @@ def sphere_surface(clipped: bool, points: np.ndarray, local_faces: np.ndarray,
             _vertex(T, X, i, j, x, g, (x[0] + d * nw[0], x[1] + d * nw[1], x[2] + d * nw[2]))
         N[i, 0], N[i, 1], N[i, 2] = nw
         area[i] = areas[f]
-    return (hit, N, D) + surface_quadrature(clipped, D, X, T, area, np.ones(m),
+    return (hit, N, D) + surface_quadrature(clipped, moving, D, X, T, area, np.ones(m),
                                             np.zeros((m, 6)))
 
 
@@ -349,9 +381,9 @@ def signed_closest(points: np.ndarray, closest: np.ndarray, sq: np.ndarray,
 
 
 @njit(cache=True, fastmath=False)
-def mesh_surface(clipped: bool, local_faces: np.ndarray, y: np.ndarray, dv: np.ndarray,
-                 grad: np.ndarray, normals: np.ndarray, areas: np.ndarray, Rm: np.ndarray,
-                 tm: np.ndarray, Rs: np.ndarray):
+def mesh_surface(clipped: bool, moving: bool, local_faces: np.ndarray, y: np.ndarray,
+                 dv: np.ndarray, grad: np.ndarray, normals: np.ndarray, areas: np.ndarray,
+                 Rm: np.ndarray, tm: np.ndarray, Rs: np.ndarray):
     """Contact of candidate slave faces with a mesh master from its vertex depths.
 
     y (n, 3) candidate points in the master frame (mm), dv (n,) their signed depths
@@ -381,18 +413,17 @@ def mesh_surface(clipped: bool, local_faces: np.ndarray, y: np.ndarray, dv: np.n
             _vertex(T, X, i, j, x, _mul(Rm, grad[v, 0], grad[v, 1], grad[v, 2]), x)
         N[i, 0], N[i, 1], N[i, 2] = _mul(Rs, -normals[f, 0], -normals[f, 1], -normals[f, 2])
         area[i] = areas[f]
-    return (hit, N, D) + surface_quadrature(clipped, D, X, T, area, np.ones(m),
+    return (hit, N, D) + surface_quadrature(clipped, moving, D, X, T, area, np.ones(m),
                                             np.zeros((m, 6)))
 
 
 @njit(cache=True, fastmath=False)
-def walked_mesh_surface(clipped: bool, points: np.ndarray, local_faces: np.ndarray,
-                        normals: np.ndarray, areas: np.ndarray, R: np.ndarray,
-                        t: np.ndarray, Rm: np.ndarray, tm: np.ndarray, Rs: np.ndarray,
-                        E: np.ndarray, ring_ptr: np.ndarray, ring_index: np.ndarray,
-                        master_normals: np.ndarray, face: np.ndarray, position: np.ndarray,
-                        upper: np.ndarray, travel: np.ndarray, ring: np.ndarray,
-                        max_steps: int):
+def walked_mesh_surface(clipped: bool, moving: bool, points: np.ndarray, local_faces: np.ndarray,
+                        normals: np.ndarray, areas: np.ndarray, R: np.ndarray, t: np.ndarray,
+                        Rm: np.ndarray, tm: np.ndarray, Rs: np.ndarray, E: np.ndarray,
+                        ring_ptr: np.ndarray, ring_index: np.ndarray, master_normals: np.ndarray,
+                        face: np.ndarray, position: np.ndarray, upper: np.ndarray,
+                        travel: np.ndarray, ring: np.ndarray, max_steps: int):
     """`mesh_surface` of a mesh master (inside by the closest face's normal), from the
     last call's state of the candidate points, in one compiled call.
 
@@ -432,12 +463,12 @@ def walked_mesh_surface(clipped: bool, points: np.ndarray, local_faces: np.ndarr
         f, qx, qy, qz, sq, ok = coherent_closest(px, py, pz, face[p], ring[p], travel[p], E,
                                                  ring_ptr, ring_index, max_steps)
         if not ok:
-            return (False,) + mesh_surface(clipped, local_faces[:0], y, dv, grad,
+            return (False,) + mesh_surface(clipped, moving, local_faces[:0], y, dv, grad,
                                            normals[:0], areas[:0], Rm, tm, Rs)
         o0, o1, o2 = px - qx, py - qy, pz - qz
         n0, n1, n2 = master_normals[f, 0], master_normals[f, 1], master_normals[f, 2]
         dv[p], grad[p, 0], grad[p, 1], grad[p, 2] = _signed(
             o0, o1, o2, sq, o0 * n0 + o1 * n1 + o2 * n2 > 0.0, n0, n1, n2)
         face[p], upper[p] = f, dv[p]
-    return (True,) + mesh_surface(clipped, local_faces, y, dv, grad, normals, areas, Rm, tm,
-                                  Rs)
+    return (True,) + mesh_surface(clipped, moving, local_faces, y, dv, grad, normals, areas,
+                                  Rm, tm, Rs)

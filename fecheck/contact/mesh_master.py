@@ -109,11 +109,11 @@ class MeshMaster:
         local_closest(self._edges, *self._ring, no_points, none, MAX_STEPS)
         signed_closest(no_points, no_points, np.zeros(0), no_points, np.zeros(0, dtype=bool),
                        True)
-        mesh_surface(True, no_faces, no_points, np.zeros(0), no_points, no_points,
+        mesh_surface(True, True, no_faces, no_points, np.zeros(0), no_points, no_points,
                      np.zeros(0), eye, zero, eye)
         state = self.empty_state()
-        walked_mesh_surface(True, no_points, no_faces, no_points, np.zeros(0), eye, zero, eye,
-                            zero, eye, self._edges, *self._ring, self._normals, state.face,
+        walked_mesh_surface(True, True, no_points, no_faces, no_points, np.zeros(0), eye, zero,
+                            eye, zero, eye, self._edges, *self._ring, self._normals, state.face,
                             state.position, state.upper, state.travel, state.ring, MAX_STEPS)
 
     def empty_state(self) -> WalkState:
@@ -197,7 +197,7 @@ class MeshMaster:
         """
         if state is not None and self.sign == "normal":
             settled, *out = walked_mesh_surface(
-                clipped, cand.points, cand.local_faces, cand.normals, cand.areas, R, t, Rm,
+                clipped, True, cand.points, cand.local_faces, cand.normals, cand.areas, R, t, Rm,
                 tm, Rs, self._edges, *self._ring, self._normals, state.face, state.position,
                 state.upper, state.travel, state.ring, MAX_STEPS)
             if settled:
@@ -205,7 +205,8 @@ class MeshMaster:
         y = cand.points @ R.T + t
         depth, grad, face = self._query(y, None if state is None else state.face)
         return WalkState.start(face, y, depth, self._ring_width), mesh_surface(
-            clipped, cand.local_faces, y, depth, grad, cand.normals, cand.areas, Rm, tm, Rs)
+            clipped, True, cand.local_faces, y, depth, grad, cand.normals, cand.areas, Rm, tm,
+            Rs)
 
     def depth_gradients(self, y: np.ndarray, u: np.ndarray | None = None):
         """(∂d/∂y, None) at points of any leading shape, see `depth_and_gradients`."""

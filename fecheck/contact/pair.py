@@ -166,7 +166,7 @@ def _analytic_kernel(master) -> tuple[object, tuple]:
     else:
         return None, ()
     eye, zero = np.eye(3), np.zeros(3)
-    kernel(True, np.zeros((0, 3)), np.zeros((0, 3), dtype=np.int64), np.zeros((0, 3)),
+    kernel(True, True, np.zeros((0, 3)), np.zeros((0, 3), dtype=np.int64), np.zeros((0, 3)),
            np.zeros(0), eye, zero, eye, zero, eye, *args)
     return kernel, args
 
@@ -287,7 +287,7 @@ class ContactPair:
             return ContactSurface.empty(self.slave.n_faces, master.normal_body)
         if self._kernel is not None:
             hit, normal, depth, *qp = self._kernel(
-                self.area_mode == "clipped", cand.points, cand.local_faces, cand.normals,
+                self.area_mode == "clipped", True, cand.points, cand.local_faces, cand.normals,
                 cand.areas, R, t, Rm, tm, Rs, *self._kernel_args)
             if hit.size == 0:
                 return ContactSurface.empty(self.slave.n_faces, master.normal_body)

@@ -32,9 +32,11 @@ slave relative to the master, the twist ``ξ = (v, ω)``: a slave point moves by
 ``ω × n`` if the normal is fixed in the slave (``normal_body == "slave"``) and not at
 all if it is fixed in the master (``normal_body == "master"``), except for the
 polynomial master's normals, which slide with the contact (`normal_slide`;
-`normal_twist` gives the total ∂normal/∂ξ in every case). Quadrature points keep
-their barycentric coordinates under the motion: laws whose pressure vanishes at zero
-depth then get exact derivatives (Leibniz's boundary term is zero).
+`normal_twist` gives the total ∂normal/∂ξ in every case). Quadrature points on whole
+faces keep their barycentric coordinates under the motion; those on a face cut by the
+clip line move with it (their depth and weight twists include that motion, and the
+`clip_*` fields give their slide within the face), so that every law's tangent is the
+exact derivative of its discrete resultant.
 """
 
 from __future__ import annotations
@@ -68,7 +70,17 @@ class ContactSurface:
     qp_depth : (Q,) depth, mm (may be ≤ 0 in whole-face mode; laws clamp at 0)
     qp_weight : (Q,) projected area weight, mm²
     qp_depth_twist : (Q, 6) ∂depth/∂ξ, (1, mm) for (v, ω)
-    qp_weight_twist : (Q, 6) ∂weight/∂ξ at fixed barycentric coordinates, (mm, mm²)
+    qp_weight_twist : (Q, 6) ∂weight/∂ξ, (mm, mm²)
+
+    Faces cut by the clip line (C faces; none in whole-face mode): a point on a cut face
+    slides within it, beyond the rigid motion δx = v + ω × x, by
+    ``Σ_e clip_share[q, e] · clip_edge[c, e] ⊗ clip_rate[c, e]`` (c = qp_clip[q]):
+
+    qp_clip : (Q,) int, the cut face of each point (−1: none; empty in whole-face mode)
+    clip_share : (Q, 2) the point's rule weights of the two moving corners
+    clip_face : (C,) int, index into the m contact faces
+    clip_edge : (C, 2, 3) world vectors X_j − X_i of the two cut edges, mm
+    clip_rate : (C, 2, 6) ∂t/∂ξ of their zero-depth points t = d_i/(d_i − d_j), (1/mm, 1)
 
     normal_body : "master" or "slave", which body the normals are fixed in
     n_slave_faces : faces of the whole slave mesh (for reporting per-face fields)
@@ -87,6 +99,11 @@ class ContactSurface:
     qp_weight: np.ndarray
     qp_depth_twist: np.ndarray
     qp_weight_twist: np.ndarray
+    qp_clip: np.ndarray
+    clip_share: np.ndarray
+    clip_face: np.ndarray
+    clip_edge: np.ndarray
+    clip_rate: np.ndarray
     normal_body: Literal["master", "slave"]
     n_slave_faces: int
     normal_slide: np.ndarray | None = None
@@ -143,7 +160,8 @@ class ContactSurface:
         """A contact surface with no contact."""
         z = np.zeros
         return cls(z(0, int), z((0, 3)), z((0, 3)), z(0, int), z((0, 3)), z((0, 3)), z(0),
-                   z(0), z((0, 6)), z((0, 6)), normal_body, n_slave_faces)
+                   z(0), z((0, 6)), z((0, 6)), z(0, int), z((0, 2)), z(0, int), z((0, 2, 3)),
+                   z((0, 2, 6)), normal_body, n_slave_faces)
 
 
 def apply_pose(a: np.ndarray, R: np.ndarray, t: np.ndarray | None = None) -> np.ndarray:
@@ -195,7 +213,7 @@ def build_surface(master, area_mode: str, n_slave_faces: int, cand, hit: np.ndar
             slide = np.concatenate([A, -A @ skew_rows(X.sum(axis=1) / 3.0)], axis=-1)
             dcos += np.einsum("ij,ijk->ik", nf_w, slide)
         cos_abs, rate = np.abs(cos), np.sign(cos)[:, None] * dcos
-    qp = surface_quadrature(area_mode == "clipped", np.ascontiguousarray(D),
+    qp = surface_quadrature(area_mode == "clipped", True, np.ascontiguousarray(D),
                             np.ascontiguousarray(X), np.ascontiguousarray(T),
                             np.ascontiguousarray(cand.areas[hit], dtype=float), cos_abs,
                             np.ascontiguousarray(rate))

@@ -153,7 +153,9 @@ class FclPerFace:
             qp_face=qp_face, qp_bary=bary, qp_point=qp_point, qp_depth=depth[qp_face],
             qp_weight=qfrac * self.slave.face_areas[face][qp_face],
             qp_depth_twist=np.concatenate([g, np.cross(qp_point, g)], axis=1),
-            qp_weight_twist=np.zeros((len(qp_face), 6)), normal_body="master",
+            qp_weight_twist=np.zeros((len(qp_face), 6)), qp_clip=np.zeros(0, dtype=int),
+            clip_share=np.zeros((0, 2)), clip_face=np.zeros(0, dtype=int),
+            clip_edge=np.zeros((0, 2, 3)), clip_rate=np.zeros((0, 2, 6)), normal_body="master",
             n_slave_faces=self.slave.n_faces)
 
 

@@ -68,7 +68,9 @@ def foundation(surface: ContactSurface,
     p, force, moment, tangent, area = pressure_resultant(
         stiffness, values, slopes, surface.qp_depth, w, surface.qp_depth_twist,
         surface.qp_weight_twist, surface.qp_point, surface.normal, f,
-        surface.normal_body == "slave", NO_SLIDE if slide is None else slide, about)
+        surface.normal_body == "slave", NO_SLIDE if slide is None else slide,
+        surface.qp_clip, surface.clip_share, surface.clip_face, surface.clip_edge,
+        surface.clip_rate, about)
     max_depth = surface.max_depth
     if max_depth <= 0:
         p_max = 0.0

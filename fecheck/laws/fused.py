@@ -79,29 +79,29 @@ def linear_law(k_N_per_mm3: float) -> CompiledLaw:
 
 
 @njit(cache=True, fastmath=False)
-def _reduce(hit, normal, vertex_depth, qp_face, qp_point, qp_depth, qp_weight,
-            qp_depth_twist, qp_weight_twist, slave_normals, faces, kind, params, face_scale,
-            about):
-    """Resultant of the law over a surface's quadrature (the arrays of a kernel), as
+def _reduce(surface, slave_normals, faces, kind, params, face_scale, about):
+    """Resultant of the law over `surface`, the arrays a contact kernel returns, as
     `fecheck.laws.foundation.foundation` forms it: (force, moment, tangent, area,
     max_depth)."""
+    (hit, normal, vertex_depth, qp_face, _, qp_point, qp_depth, qp_weight, qp_depth_twist,
+     qp_weight_twist, qp_clip, clip_share, clip_face, clip_edge, clip_rate) = surface
     slide = np.zeros((0, 3, 6))
     if hit.size == 0:
         return np.zeros(3), np.zeros(3), np.zeros((6, 6)), 0.0, 0.0
     if kind == LINEAR and face_scale.size == 0:
-        _, force, moment, tangent, area = pressure_resultant(
-            params[0], np.zeros(0), np.zeros(0), qp_depth, qp_weight, qp_depth_twist,
-            qp_weight_twist, qp_point, normal, qp_face, slave_normals, slide, about)
+        stiffness, p, slope = params[0], np.zeros(0), np.zeros(0)
     else:
+        stiffness = 0.0
         p, slope = law_values(kind, params, np.maximum(qp_depth, 0.0))
         if face_scale.size:
             for q in range(p.size):
                 s = face_scale[faces[hit[qp_face[q]]]]
                 p[q] *= s
                 slope[q] *= s
-        _, force, moment, tangent, area = pressure_resultant(
-            0.0, p, slope, qp_depth, qp_weight, qp_depth_twist, qp_weight_twist, qp_point,
-            normal, qp_face, slave_normals, slide, about)
+    _, force, moment, tangent, area = pressure_resultant(
+        stiffness, p, slope, qp_depth, qp_weight, qp_depth_twist, qp_weight_twist, qp_point,
+        normal, qp_face, slave_normals, slide, qp_clip, clip_share, clip_face, clip_edge,
+        clip_rate, about)
     return force, moment, tangent, area, vertex_depth.max()
 
 
@@ -109,21 +109,18 @@ def _reduce(hit, normal, vertex_depth, qp_face, qp_point, qp_depth, qp_weight,
 def plane_wrench(clipped, points, local_faces, normals, areas, faces, R, t, Rm, tm, Rs,
                  plane_point, plane_normal, kind, params, face_scale, about):
     """`fecheck.contact.kernels.plane_surface` and the law's resultant in one call."""
-    hit, n, d, face, _, point, depth, weight, dt, wt = plane_surface(
-        clipped, points, local_faces, normals, areas, R, t, Rm, tm, Rs, plane_point,
-        plane_normal)
-    return _reduce(hit, n, d, face, point, depth, weight, dt, wt, False, faces, kind, params,
-                   face_scale, about)
+    surface = plane_surface(clipped, kind != LINEAR, points, local_faces, normals, areas, R,
+                            t, Rm, tm, Rs, plane_point, plane_normal)
+    return _reduce(surface, False, faces, kind, params, face_scale, about)
 
 
 @njit(cache=True, fastmath=False)
 def sphere_wrench(clipped, points, local_faces, normals, areas, faces, R, t, Rm, tm, Rs,
                   center, radius, kind, params, face_scale, about):
     """`fecheck.contact.kernels.sphere_surface` and the law's resultant in one call."""
-    hit, n, d, face, _, point, depth, weight, dt, wt = sphere_surface(
-        clipped, points, local_faces, normals, areas, R, t, Rm, tm, Rs, center, radius)
-    return _reduce(hit, n, d, face, point, depth, weight, dt, wt, True, faces, kind, params,
-                   face_scale, about)
+    surface = sphere_surface(clipped, kind != LINEAR, points, local_faces, normals, areas, R,
+                             t, Rm, tm, Rs, center, radius)
+    return _reduce(surface, True, faces, kind, params, face_scale, about)
 
 
 @njit(cache=True, fastmath=False)
@@ -132,11 +129,10 @@ def walked_mesh_wrench(clipped, points, local_faces, normals, areas, faces, R, t
                        travel, ring, max_steps, kind, params, face_scale, about):
     """`fecheck.contact.kernels.walked_mesh_surface` and the law's resultant in one call;
     (settled, force, moment, tangent, area, max_depth)."""
-    settled, hit, n, d, qface, _, point, depth, weight, dt, wt = walked_mesh_surface(
-        clipped, points, local_faces, normals, areas, R, t, Rm, tm, Rs, E, ring_ptr,
-        ring_index, master_normals, face, position, upper, travel, ring, max_steps)
-    return (settled,) + _reduce(hit, n, d, qface, point, depth, weight, dt, wt, True, faces,
-                                kind, params, face_scale, about)
+    out = walked_mesh_surface(clipped, kind != LINEAR, points, local_faces, normals, areas, R,
+                              t, Rm, tm, Rs, E, ring_ptr, ring_index, master_normals, face,
+                              position, upper, travel, ring, max_steps)
+    return (out[0],) + _reduce(out[1:], True, faces, kind, params, face_scale, about)
 
 
 _ANALYTIC = {plane_surface: plane_wrench, sphere_surface: sphere_wrench}

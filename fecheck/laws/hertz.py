@@ -16,7 +16,7 @@ import numpy as np
 from fecheck.contact.convex import PointContact
 from fecheck.contact.surface import ContactSurface
 from fecheck.errors import FecheckError
-from fecheck.laws.kernel import NO_SLIDE, pressure_resultant
+from fecheck.laws.kernel import NO_CLIP, NO_SLIDE, pressure_resultant
 from fecheck.laws.result import LawResult, no_contact
 
 
@@ -62,7 +62,7 @@ def hertz(surface: ContactSurface, radius_mm: float, e_star_MPa: float,
         0.0, np.array([load]), np.array([1.5 * load / d]), np.array([d]), np.ones(1),
         np.array([dd]), np.zeros((1, 6)), np.array([x]), np.array([n]),
         np.zeros(1, dtype=np.int64), surface.normal_body == "slave",
-        NO_SLIDE if slide is None else slide[face:face + 1], about)
+        NO_SLIDE if slide is None else slide[face:face + 1], *NO_CLIP, about)
     centroids = surface.face_sum(surface.qp_point) / np.bincount(
         surface.qp_face, minlength=surface.n_faces)[:, None]
 

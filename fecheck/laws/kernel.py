@@ -22,7 +22,8 @@ def pressure_resultant(stiffness: float, pressure: np.ndarray, slope: np.ndarray
                        depth: np.ndarray, weight: np.ndarray, depth_twist: np.ndarray,
                        weight_twist: np.ndarray, point: np.ndarray, normal: np.ndarray,
                        face: np.ndarray, slave_normals: bool, normal_slide: np.ndarray,
-                       about: np.ndarray):
+                       qp_clip: np.ndarray, clip_share: np.ndarray, clip_face: np.ndarray,
+                       clip_edge: np.ndarray, clip_rate: np.ndarray, about: np.ndarray):
     """Wrench and tangent of the pressures at Q points; points with depth ≤ 0 carry none.
 
     Parameters
@@ -34,6 +35,8 @@ def pressure_resultant(stiffness: float, pressure: np.ndarray, slope: np.ndarray
     normal : (m, 3) unit normal of each face (direction of the pressure on the slave)
     slave_normals : the normals turn with the slave (∂n/∂ω = -[n]×)
     normal_slide : (m, 3, 6) extra ∂n/∂ξ of sliding master normals, or empty (0, 3, 6)
+    qp_clip, clip_share, clip_face, clip_edge, clip_rate : the slide of the points on
+        faces cut by the clip line (`fecheck.contact.surface.ContactSurface`), or empty
     about : (3,) moment reference point, mm
 
     Returns
@@ -97,6 +100,26 @@ def pressure_resultant(stiffness: float, pressure: np.ndarray, slope: np.ndarray
                 tangent[4, k] += s * (x2 * c0 - x0 * c2)
                 tangent[5, k] += s * (x0 * c1 - x1 * c0)
     tangent += np.dot(arm.T, gq)                  # Σ arm_q gq_qᵀ
+    # points sliding with a clip line: Σ_q s_q δx_q × n = Σ_c,e σ_ce (edge_ce × n) rate_ceᵀ
+    sigma = np.zeros((clip_face.shape[0], 2))
+    for q in range(qp_clip.shape[0]):
+        c = qp_clip[q]
+        if c >= 0:
+            s = weight[q] * p_out[q]
+            sigma[c, 0] += s * clip_share[q, 0]
+            sigma[c, 1] += s * clip_share[q, 1]
+    for c in range(clip_face.shape[0]):
+        f = clip_face[c]
+        n0, n1, n2 = normal[f, 0], normal[f, 1], normal[f, 2]
+        for e in range(2):
+            g0, g1, g2 = clip_edge[c, e, 0], clip_edge[c, e, 1], clip_edge[c, e, 2]
+            t0 = sigma[c, e] * (g1 * n2 - g2 * n1)
+            t1 = sigma[c, e] * (g2 * n0 - g0 * n2)
+            t2 = sigma[c, e] * (g0 * n1 - g1 * n0)
+            for k in range(6):
+                tangent[3, k] += t0 * clip_rate[c, e, k]
+                tangent[4, k] += t1 * clip_rate[c, e, k]
+                tangent[5, k] += t2 * clip_rate[c, e, k]
     xf = np.array([[xf00, xf01, xf02], [xf10, xf11, xf12], [xf20, xf21, xf22]])
     trace = xf00 + xf11 + xf22
     if slave_normals:
@@ -186,6 +209,9 @@ def law_function(kind: int, params: np.ndarray
 
 NO_VALUES = np.zeros(0)
 NO_SLIDE = np.zeros((0, 3, 6))
+NO_ROWS = np.zeros(0, dtype=np.int64)
+NO_CLIP = (NO_ROWS, np.zeros((0, 2)), NO_ROWS, np.zeros((0, 2, 3)), np.zeros((0, 2, 6)))
+"""Empty `qp_clip, clip_share, clip_face, clip_edge, clip_rate`: no cut faces."""
 
 
 def warm_up() -> None:
@@ -193,4 +219,4 @@ def warm_up() -> None:
     fresh process), so that the first contact evaluation does not pay for it."""
     pressure_resultant(0.0, NO_VALUES, NO_VALUES, NO_VALUES, NO_VALUES, np.zeros((0, 6)),
                        np.zeros((0, 6)), np.zeros((0, 3)), np.zeros((0, 3)),
-                       np.zeros(0, dtype=np.int64), False, NO_SLIDE, np.zeros(3))
+                       NO_ROWS, False, NO_SLIDE, *NO_CLIP, np.zeros(3))
