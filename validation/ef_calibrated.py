@@ -193,7 +193,7 @@ def plot(rows: list[dict], path: Path) -> None:
                        default=np.nan) for case in cases]
             ax.barh(y + i * width, 100 * np.asarray(err), width, label=law)
         ax.axvline(100 * TARGET["rel"], color="k", ls="--", lw=1)
-        ax.set_xlabel(f"worst |EF/FE - 1| of {title}, % (held-out load)")
+        ax.set_xlabel(f"worst |EF/FE - 1| of {title}, % (held out)")
     for i, law in enumerate(laws):
         share = [next((abs(r["share_diff_pp"]) for r in rows
                        if r["case"] == case and r["law"] == law), np.nan) for case in cases]
@@ -205,8 +205,8 @@ def plot(rows: list[dict], path: Path) -> None:
     axes[0].legend(loc="lower right")
     for ax in axes:
         ax.grid(alpha=0.3, axis="x")
-    fig.suptitle("EF laws against the FE of the same scene, at a load no calibration saw "
-                 "(dashed: targets)")
+    fig.suptitle("EF laws against the FE of the same scene, at a load and a load point no "
+                 "calibration saw (dashed: targets)")
     save_figure(fig, path)
 
 
