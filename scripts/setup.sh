@@ -25,8 +25,11 @@ echo "fecheck setup: installing Python packages into .venv (about 1-2 minutes th
 .venv/bin/python -m pip install -q -e ".[test]"
 # numba compiles the contact and law kernels on first use and caches them on disk: compile
 # every one of them here (one small contact of each kind with each law), then solve the
-# default scene once, so that a user's first run compiles nothing
+# default scene once, so that a user's first run compiles nothing. numba's cache checks
+# only a kernel's own file, not the files of the kernels it calls, so after an update a
+# cached kernel could run a callee's old code: the setup drops the cache and rebuilds it
 echo "fecheck setup: compiling the contact kernels (once, under a minute)"
+find fecheck geometry -path '*/__pycache__/*' \( -name '*.nbi' -o -name '*.nbc' \) -delete
 .venv/bin/python -m fecheck.laws.warm
 .venv/bin/fecheck run > /dev/null
 echo "fecheck setup: done"
