@@ -105,6 +105,7 @@ def surface_quadrature(clipped: bool, moving: bool, D: np.ndarray, X: np.ndarray
         for j in range(1, 3):
             if D[f, j] > D[f, deepest]:
                 deepest = j
+        moves = n_cut > 0 and pattern_of(D[f, 0], D[f, 1], D[f, 2]) != 7
         for q in range(row, end):
             b0, b1, b2 = bary[q, 0], bary[q, 1], bary[q, 2]
             face[q] = f
@@ -112,8 +113,10 @@ def surface_quadrature(clipped: bool, moving: bool, D: np.ndarray, X: np.ndarray
                 point[q, k] = b0 * X[f, 0, k] + b1 * X[f, 1, k] + b2 * X[f, 2, k]
             if clipped:
                 depth[q] = b0 * D[f, 0] + b1 * D[f, 1] + b2 * D[f, 2]
-                for k in range(6):
-                    depth_twist[q, k] = b0 * T[f, 0, k] + b1 * T[f, 1, k] + b2 * T[f, 2, k]
+                if not moves:                   # else clip_line_motion writes it
+                    for k in range(6):
+                        depth_twist[q, k] = (b0 * T[f, 0, k] + b1 * T[f, 1, k]
+                                             + b2 * T[f, 2, k])
             else:
                 depth[q] = D[f, deepest]
                 for k in range(6):
@@ -122,7 +125,7 @@ def surface_quadrature(clipped: bool, moving: bool, D: np.ndarray, X: np.ndarray
             weight[q] = a * cos_abs[f]
             for k in range(6):
                 weight_twist[q, k] = a * weight_rate[f, k]
-        if n_cut and pattern_of(D[f, 0], D[f, 1], D[f, 2]) != 7:
+        if moves:
             clip_face[cut] = f
             clip_line_motion(f, cut, row, D, X, T, area[f] * cos_abs[f], corner, slot, rate,
                              cof, depth_twist, weight_twist, qp_clip, clip_share, clip_edge,
