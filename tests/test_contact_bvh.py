@@ -8,6 +8,7 @@ from fecheck.contact import ContactPair, Plane, Sphere
 from fecheck.contact.bvh import BALL, BOX, HALF_SPACE, PointTree
 from fecheck.statics.frames import rotation
 from geometry.icosphere import icosphere
+from geometry.plateau import plane_patch
 
 _NO_FACES = (np.zeros((0, 3), dtype=np.int64), np.zeros((0, 3)), np.zeros(0))
 
@@ -47,14 +48,63 @@ def test_empty_and_single_point_trees():
 
 @pytest.mark.parametrize("master", [Plane([0.0, 0.0, 0.0], [0.0, 0.0, 1.0]),
                                     Sphere([0.0, 0.0, -30.0], 29.0)])
-def test_rebuilt_candidates_equal_the_all_vertex_reach_test(master):
-    """The tree's candidates are those of testing every vertex's reach (the old rebuild)."""
-    mesh = icosphere(25.5, 4)
+@pytest.mark.parametrize("level", [3, 5])
+def test_rebuilt_candidates_hold_every_face_within_the_margin(master, level):
+    """The tree's candidates hold those of testing every vertex's reach against the
+    margin (the old rebuild), each face once, and no face whose corners are all farther
+    than the margin plus the longest edge."""
+    mesh = icosphere(25.5, level)
     pair = ContactPair(mesh, master)
     R, t = rotation(0.1, -0.05, 0.2), np.array([0.3, -0.2, 24.5])
     cand = pair.cache.get(R, t)
-    near = master.reach(mesh.points @ R.T + t) > -pair.margin_mm
-    ref_faces = np.flatnonzero(near[mesh.faces].any(axis=1))
-    np.testing.assert_array_equal(cand.faces, ref_faces)
-    np.testing.assert_array_equal(np.sort(cand.vertices), np.unique(mesh.faces[ref_faces]))
+    reach = master.reach(mesh.points @ R.T + t)
+    within = np.flatnonzero((reach > -pair.margin_mm)[mesh.faces].any(axis=1))
+    corners = mesh.points[mesh.faces]
+    edge = np.linalg.norm(corners - corners[:, [1, 2, 0]], axis=2).max()
+    beyond = np.flatnonzero((reach <= -pair.margin_mm - edge)[mesh.faces].all(axis=1))
+    assert len(set(cand.faces.tolist())) == cand.faces.size
+    assert set(within.tolist()) <= set(cand.faces.tolist())
+    assert not set(beyond.tolist()) & set(cand.faces.tolist())
+    np.testing.assert_array_equal(np.sort(cand.vertices), np.unique(mesh.faces[cand.faces]))
     assert 0 < cand.faces.size < mesh.n_faces / 4
+
+
+@pytest.mark.parametrize("kind, params", [
+    (HALF_SPACE, np.array([0.0, 0.0, 1.0, -21.0])),
+    (HALF_SPACE, np.array([0.6, 0.0, 0.8, 3.0])),
+    (BALL, np.array([0.0, 0.0, -30.0, 12.0])),
+    (BALL, np.array([5.0, 0.0, 0.0, 40.0])),
+    (BALL, np.array([0.0, 0.0, 0.0, 0.5])),
+])
+@pytest.mark.parametrize("mesh", [icosphere(25.5, 3), icosphere(25.5, 5),
+                                  plane_patch([0.0, 0.0, 0.0], [0.0, 0.0, 1.0], radius=30.0,
+                                              size=2.5)], ids=["ico3", "ico5", "plate"])
+def test_faces_in_a_region_are_those_whose_owner_is_within_its_extent(kind, params, mesh):
+    """`PointTree.faces_in` (whole subtrees as ranges of owned faces) against brute force
+    (a face's owner: its corner first in the tree's order; the owner's extent: its
+    farthest corner over the faces it owns), at random poses: every face with a corner in
+    the region, each once; the gathered data consistent."""
+    tree = PointTree(mesh.points, mesh.faces, mesh.face_normals, mesh.face_areas)
+    owner = mesh.faces[np.arange(mesh.n_faces), np.argmin(tree.pos[mesh.faces], axis=1)]
+    far = np.linalg.norm(mesh.points[mesh.faces] - mesh.points[owner][:, None], axis=2)
+    extent = np.zeros(mesh.n_points)
+    np.maximum.at(extent, owner, far.max(axis=1))
+    grown = params.copy()
+    rng = np.random.default_rng(11)
+    for _ in range(6):
+        R = rotation(*rng.normal(size=3) * 0.5)
+        t = rng.normal(size=3) * 3.0
+        faces, vertices, local, points, normals, areas = tree.faces_in(kind, params, R, t)
+        y = mesh.points @ R.T + t
+        inside = np.array([_brute(kind, np.append(grown[:3], grown[3] + e), y[[v]])[0]
+                           for v, e in enumerate(extent)])
+        np.testing.assert_array_equal(faces, tree.ranked[0][np.isin(tree.ranked[0],
+                                                                     np.flatnonzero(inside[owner]))])
+        touching = np.flatnonzero(_brute(kind, params, y)[mesh.faces].any(axis=1))
+        assert set(touching.tolist()) <= set(faces.tolist())
+        np.testing.assert_array_equal(vertices[local], mesh.faces[faces])
+        assert len(set(vertices.tolist())) == len(vertices)
+        np.testing.assert_array_equal(points, mesh.points[vertices])
+        np.testing.assert_array_equal(normals, mesh.face_normals[faces])
+        np.testing.assert_array_equal(areas, mesh.face_areas[faces])
+    assert (tree.vertex_index == -1).all()                              # left clean

@@ -1,16 +1,20 @@
 """Broad phase: the slave faces within reach of the master, reused while the pose moves little.
 
 A face is a candidate when one of its vertices has a master ``reach`` (a signed distance,
-positive inside, 1-Lipschitz in the point) above ``-margin``. Between two relative poses
-(slave in master frame) ``y = R p + t`` and ``y0 = R0 p + t0`` every slave vertex moves by
-at most ``|(R - R0) o + t - t0| + 2 sin(θ/2) ρ`` (``o`` the slave's vertex centroid,
-``ρ`` its radius about ``o``, θ the angle of ``R R0ᵀ``). While that bound stays below
+positive inside, 1-Lipschitz in the point) above ``-margin`` (the set may hold more, see
+`CandidateCache`). Between two relative poses (slave in master frame) ``y = R p + t``
+and ``y0 = R0 p + t0`` every slave vertex moves by at most
+``|(R - R0) o + t - t0| + 2 sin(θ/2) ρ`` (``o`` the slave's vertex centroid, ``ρ`` its
+radius about ``o``, θ the angle of ``R R0ᵀ``). While that bound stays below
 ``reuse_fraction · margin``, no face outside the set can have come into contact, so the
 set is reused: an evaluation then touches only candidate vertices and faces. A rebuild
-asks a tree over the slave's vertices, built once (`fecheck.contact.bvh`), for those in
-the master's region, so it too costs ∝ the faces near the master, not the mesh.
-"""
+asks a tree over the slave's vertices, built once (`fecheck.contact.bvh`), for the
+master's region, so it too costs ∝ the faces near the master, not the mesh.
 
+The cache's state (tree tables, reference pose, counters and the set) lives in one
+compiled object, `BroadPhaseState`, so that compiled code (`fecheck.laws.fused`) checks,
+reuses or rebuilds the set within the same call as the contact kernel.
+"""
 from __future__ import annotations
 
 import math
@@ -19,8 +23,10 @@ from typing import NamedTuple
 
 import numpy as np
 from numba import njit
+from numba.core import types
+from numba.experimental import structref
 
-from fecheck.contact.bvh import BOX, PointTree
+from fecheck.contact.bvh import BALL, HALF_SPACE, PointTree, query_faces
 from geometry.mesh import TriMesh
 
 
@@ -101,6 +107,100 @@ def checked_relative_pose(Rs: np.ndarray, ts: np.ndarray, Rm: np.ndarray, tm: np
     return R, t, pose_status(Rs, ts), pose_status(Rm, tm)
 
 
+_STATE_FIELDS = ("points", "order", "lo", "hi", "child", "span", "owner_ptr", "extent",
+                 "node_extent", "out",
+                 "face_order", "corners", "normals", "areas", "vertex_index", "region_kind",
+                 "region_params", "centroid", "radius", "limit", "ref_R", "ref_t", "counts",
+                 "cand_faces", "cand_vertices", "cand_local", "cand_points", "cand_normals",
+                 "cand_areas")
+
+
+@structref.register
+class BroadPhaseType(types.StructRef):
+    """numba type of a `BroadPhaseState`."""
+
+    def preprocess_fields(self, fields):
+        return tuple((name, types.unliteral(typ)) for name, typ in fields)
+
+
+class BroadPhaseState(structref.StructRefProxy):
+    """A broad phase's compiled state, one object so that compiled code takes it in one
+    argument: the slave's tree and tables (`fecheck.contact.bvh.PointTree`), the master's
+    region (kind -1: none that the tree can answer alone), the motion bound's centroid,
+    radius and reuse limit (mm), the reference pose and counters of the current candidate
+    set (``counts``: has a set, rebuilds, reuses), and that set (`Candidates`' arrays)."""
+
+
+structref.define_proxy(BroadPhaseState, BroadPhaseType, _STATE_FIELDS)
+
+
+@njit(cache=True)
+def _new_state(points, order, lo, hi, child, span, owner_ptr, extent, node_extent, out,
+               face_order, corners, normals, areas, vertex_index, region_kind, region_params,
+               centroid, radius, limit, ref_R, ref_t, counts):
+    return BroadPhaseState(points, order, lo, hi, child, span, owner_ptr, extent,
+                           node_extent, out, face_order, corners, normals, areas,
+                           vertex_index, region_kind, region_params, centroid, radius, limit,
+                           ref_R, ref_t, counts,
+                           np.zeros(0, dtype=np.int64), np.zeros(0, dtype=np.int64),
+                           np.zeros((0, 3), dtype=np.int64), np.zeros((0, 3)),
+                           np.zeros((0, 3)), np.zeros(0))
+
+
+@njit(cache=True, fastmath=False)
+def reused_set(state, R: np.ndarray, t: np.ndarray) -> int:
+    """The rebuild count of the current set if it can serve the relative pose (R, t)
+    (counted as a reuse), else -1."""
+    counts = state.counts
+    if counts[0] and motion_bound(R, t, state.ref_R, state.ref_t, state.centroid,
+                                  state.radius) <= state.limit:
+        counts[2] += 1
+        return counts[1]
+    return -1
+
+
+@njit(cache=True, fastmath=False)
+def store_set(state, R: np.ndarray, t: np.ndarray, faces: np.ndarray, vertices: np.ndarray,
+              local: np.ndarray, points: np.ndarray, normals: np.ndarray,
+              areas: np.ndarray) -> int:
+    """Make (faces, …, areas) the current set, built at the relative pose (R, t); the new
+    rebuild count."""
+    state.ref_R[:, :] = R
+    state.ref_t[:] = t
+    state.cand_faces = faces
+    state.cand_vertices = vertices
+    state.cand_local = local
+    state.cand_points = points
+    state.cand_normals = normals
+    state.cand_areas = areas
+    counts = state.counts
+    counts[0] = 1
+    counts[1] += 1
+    return counts[1]
+
+
+@njit(cache=True, fastmath=False)
+def region_set(state, R: np.ndarray, t: np.ndarray) -> int:
+    """Make the current set serve the relative pose (R, t) for a master whose region is
+    exactly reach > -margin (a half-space or a ball): reused, or rebuilt by the tree's
+    region query; the rebuild count."""
+    n = reused_set(state, R, t)
+    if n >= 0:
+        return n
+    return store_set(state, R, t, *query_faces(
+        state.region_kind, state.region_params, R, t, state.points, state.order, state.lo,
+        state.hi, state.child, state.span, state.owner_ptr, state.extent, state.node_extent,
+        state.out, state.face_order,
+        state.corners, state.normals, state.areas, state.vertex_index))
+
+
+@njit(cache=True)
+def current_set(state):
+    """The current set's arrays, in `Candidates`' order."""
+    return (state.cand_faces, state.cand_vertices, state.cand_local, state.cand_points,
+            state.cand_normals, state.cand_areas)
+
+
 class CandidateCache:
     """Candidate faces of one slave against one master, rebuilt only when needed.
 
@@ -112,9 +212,17 @@ class CandidateCache:
     reuse_fraction : reuse the set while the motion bound is below this × margin
     region : optional (kind, params) of `fecheck.contact.bvh`, a master-frame region
         holding every point with reach > -margin (a half-space or a ball: exactly those;
-        a box: `reach` then decides). A rebuild finds the slave vertices in it through a
-        tree built once (`fecheck.contact.bvh.PointTree`), at a cost ∝ the vertices near
-        the master; without a region every vertex is tested.
+        a box: `reach` then decides). A rebuild asks a tree built once
+        (`fecheck.contact.bvh.PointTree`), at a cost ∝ the faces near the master;
+        without a region every vertex is tested.
+
+    With a box (or no region) the set is the faces with a vertex whose reach > -margin.
+    With a half-space or a ball it also holds some faces near those: the faces owned
+    by a vertex whose reach > -(margin + its extent) (`fecheck.contact.bvh.owned_faces`),
+    which the tree finds as whole ranges of faces, without testing any face's corners.
+
+    The state lives in a `BroadPhaseState` (``state``), which compiled callers update
+    themselves (`region_set`); `get` reads what they left.
     """
 
     def __init__(self, slave: TriMesh, reach: Callable[[np.ndarray], np.ndarray],
@@ -123,51 +231,80 @@ class CandidateCache:
         self.slave = slave
         self.reach = reach
         self.margin_mm = float(margin_mm)
-        self.reuse_fraction = float(reuse_fraction)
-        self.region = region
         # built once per body, in the model's build
         self.tree = PointTree(slave.points, slave.faces, slave.face_normals, slave.face_areas)
         eye, zero = np.eye(3), np.zeros(3)
-        motion_bound(eye, zero, eye, zero, zero, 1.0)
         checked_relative_pose(eye, zero, eye, zero)
-        self.centroid = slave.points.mean(axis=0)
-        self.radius = float(np.linalg.norm(slave.points - self.centroid, axis=1).max())
-        self.n_rebuilds = 0
-        self.n_reuses = 0
-        self._ref: tuple[np.ndarray, np.ndarray] | None = None
+        centroid = slave.points.mean(axis=0)
+        radius = float(np.linalg.norm(slave.points - centroid, axis=1).max())
+        self.region = region
+        kind, params = region if region is not None else (-1, np.zeros(0))
+        self.exact = kind in (HALF_SPACE, BALL)
+        self._counts = np.zeros(3, dtype=np.int64)
+        tree = self.tree
+        self.state = _new_state(
+            *tree.owned_tables, kind, np.ascontiguousarray(params, dtype=float), centroid,
+            radius, float(reuse_fraction) * self.margin_mm, np.eye(3), np.zeros(3),
+            self._counts)
+        self._seen = 0
         self._current: Candidates | None = None
+        self._load_kernels()
+
+    def _load_kernels(self) -> None:
+        """Run the compiled state updates once (load them now, in the model's build, not
+        in a solve), then start from an empty state."""
+        eye, zero = np.eye(3), np.zeros(3)
+        if self.exact:
+            region_set(self.state, eye, zero)
+        else:
+            store_set(self.state, eye, zero, *current_set(self.state))
+        reused_set(self.state, eye, zero)
+        self._counts[:] = 0
+
+    @property
+    def n_rebuilds(self) -> int:
+        """Candidate sets built so far."""
+        return int(self._counts[1])
+
+    @property
+    def n_reuses(self) -> int:
+        """Calls that reused the current set."""
+        return int(self._counts[2])
 
     def get(self, R: np.ndarray, t: np.ndarray) -> Candidates:
         """Candidates for the relative pose (slave → master frame) ``y = R p + t``."""
-        if self._ref is not None:
-            bound = motion_bound(R, t, *self._ref, self.centroid, self.radius)
-            if bound <= self.reuse_fraction * self.margin_mm:
-                self.n_reuses += 1
-                return self._current
-        self._current = self._build(R, t)
-        self._ref = (R.copy(), t.copy())
-        self.n_rebuilds += 1
+        if self.exact:
+            n = region_set(self.state, R, t)
+        else:
+            n = reused_set(self.state, R, t)
+            if n < 0:
+                n = store_set(self.state, R, t, *self._build(R, t))
+        return self._read(n)
+
+    def _read(self, n: int) -> Candidates:
+        """The current set as `Candidates`, read from the state when rebuild `n` is new."""
+        if n != self._seen:
+            self._current = Candidates(*current_set(self.state))
+            self._seen = n
         return self._current
 
-    def _build(self, R: np.ndarray, t: np.ndarray) -> Candidates:
-        """The faces with a vertex whose reach > -margin at the relative pose (R, t)."""
+    def _build(self, R: np.ndarray, t: np.ndarray):
+        """The faces with a vertex whose reach > -margin at the relative pose (R, t), when
+        the region alone cannot tell (a box, or no region)."""
         if self.region is None:
             y = self.slave.points @ R.T + t
-            return Candidates(*self.tree.faces_of(np.flatnonzero(self.reach(y) > -self.margin_mm)))
+            return self.tree.faces_of(np.flatnonzero(self.reach(y) > -self.margin_mm))
         kind, params = self.region
-        if kind != BOX:                       # the region is exactly reach > -margin
-            return Candidates(*self.tree.faces_in(kind, params, R, t))
         near = self.tree.near(kind, params, R, t)
         if near.size:
             near = near[self.reach(self.slave.points[near] @ R.T + t) > -self.margin_mm]
-        return Candidates(*self.tree.faces_of(near))
+        return self.tree.faces_of(near)
 
     @property
     def current(self) -> Candidates | None:
-        """The candidate set of the last call (None before the first)."""
-        return self._current
+        """The candidate set of the last call (None before the first, or after `reset`)."""
+        return self._read(int(self._counts[1])) if self._counts[0] else None
 
     def reset(self) -> None:
         """Forget the cached set (the next call rebuilds it)."""
-        self._ref = None
-        self._current = None
+        self._counts[0] = 0

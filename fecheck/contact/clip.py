@@ -40,13 +40,13 @@ _TABLE = np.array([
 N_POINTS = np.array([0, 3, 3, 6, 3, 6, 6, 3])
 
 
-@njit(cache=True, fastmath=False)
+@njit(cache=True, fastmath=False, inline="always")
 def pattern_of(d0: float, d1: float, d2: float) -> int:
     """Sign pattern of a face: bit i set when vertex i has a positive depth."""
     return (d0 > 0.0) + 2 * (d1 > 0.0) + 4 * (d2 > 0.0)
 
 
-@njit(cache=True, fastmath=False)
+@njit(cache=True, fastmath=False, inline="always")
 def face_rule(d0: float, d1: float, d2: float, bary: np.ndarray, fraction: np.ndarray,
               start: int, corner: np.ndarray) -> int:
     """Degree-2 rule on the positive part of one face with vertex depths d0, d1, d2 (mm).

@@ -136,7 +136,7 @@ def surface_quadrature(clipped: bool, moving: bool, D: np.ndarray, X: np.ndarray
             clip_face, clip_edge, clip_rate)
 
 
-@njit(cache=True, fastmath=False)
+@njit(cache=True, fastmath=False, inline="always")
 def _mul(A: np.ndarray, v0: float, v1: float, v2: float) -> tuple[float, float, float]:
     """A v for a (3, 3) matrix A."""
     return (A[0, 0] * v0 + A[0, 1] * v1 + A[0, 2] * v2,
@@ -144,7 +144,7 @@ def _mul(A: np.ndarray, v0: float, v1: float, v2: float) -> tuple[float, float, 
             A[2, 0] * v0 + A[2, 1] * v1 + A[2, 2] * v2)
 
 
-@njit(cache=True, fastmath=False)
+@njit(cache=True, fastmath=False, inline="always")
 def _vertex(T: np.ndarray, X: np.ndarray, i: int, j: int, x: tuple, g: tuple,
             arm: tuple) -> None:
     """Store world vertex x in X[i, j] and its depth twist (g, arm × g) in T[i, j]."""
@@ -177,7 +177,7 @@ def _contact_faces(D: np.ndarray) -> np.ndarray:
     return keep[:m]
 
 
-@njit(cache=True, fastmath=False)
+@njit(cache=True, fastmath=False, inline="always")
 def sphere_ray_depth(y0: float, y1: float, y2: float, u0: float, u1: float, u2: float,
                      center: np.ndarray, radius: float):
     """Depth (mm) of point y along unit u to the sphere: the larger root ``s`` with

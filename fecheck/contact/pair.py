@@ -65,7 +65,8 @@ def _pose_arrays(pose, name: str) -> tuple[np.ndarray, np.ndarray]:
     return R, t
 
 
-def _raise_bad_pose(status: int, name: str) -> None:
+def raise_bad_pose(status: int, name: str) -> None:
+    """FecheckError for a `fecheck.contact.broadphase.pose_status` other than 0."""
     if status == 1:
         raise FecheckError(f"{name} pose translation contains NaN or infinite values")
     if status == 2:
@@ -73,11 +74,17 @@ def _raise_bad_pose(status: int, name: str) -> None:
                            "NaN); build it with fecheck.statics.frames.rotation")
 
 
+def checked_poses(slave_pose, master_pose) -> tuple[np.ndarray, ...]:
+    """(Rs, ts, Rm, tm) as contiguous float arrays; FecheckError unless each pose is a pair
+    of shapes (3, 3) and (3,) (the values are checked in compiled code)."""
+    return _pose_arrays(slave_pose, "slave") + _pose_arrays(master_pose, "master")
+
+
 def validate_pose(pose, name: str) -> tuple[np.ndarray, np.ndarray]:
     """(R, t) as float arrays; FecheckError unless R is a proper rotation (orthonormal
     within 1e-6, det +1) and t is finite (`fecheck.contact.broadphase.pose_status`)."""
     R, t = _pose_arrays(pose, name)
-    _raise_bad_pose(pose_status(R, t), name)
+    raise_bad_pose(pose_status(R, t), name)
     return R, t
 
 
@@ -156,19 +163,23 @@ def _resolved_method(slave: TriMesh, master, method: str, area: str, margin_mm: 
     return method
 
 
-def _analytic_kernel(master) -> tuple[object, tuple]:
-    """The compiled surface kernel of a plane or sphere master and its arguments, loaded
-    now (compiled, or read from numba's cache); (None, ()) for other masters."""
+def _analytic_kernel(master) -> tuple[object, tuple, tuple | None]:
+    """The compiled surface kernel of a plane or sphere master, its arguments, and the
+    master as `fecheck.laws.fused.closed_form_wrench` takes it ((is a sphere, (point,
+    normal) or (centre, radius) in one array)), loaded now (compiled, or read from
+    numba's cache); (None, (), None) for other masters."""
     if isinstance(master, Plane):
         kernel, args = plane_surface, (master.point, master.normal)
+        packed = (False, np.concatenate([master.point, master.normal]))
     elif isinstance(master, Sphere):
         kernel, args = sphere_surface, (master.center, master.radius)
+        packed = (True, np.append(master.center, master.radius))
     else:
-        return None, ()
+        return None, (), None
     eye, zero = np.eye(3), np.zeros(3)
     kernel(True, True, np.zeros((0, 3)), np.zeros((0, 3), dtype=np.int64), np.zeros((0, 3)),
            np.zeros(0), eye, zero, eye, zero, eye, *args)
-    return kernel, args
+    return kernel, args, packed
 
 
 class ContactPair:
@@ -218,7 +229,7 @@ class ContactPair:
             from fecheck.contact.thesis import thesis_detector
             self.master = master
             self._thesis = thesis_detector(method, slave, master, area)
-        self._kernel, self._kernel_args = _analytic_kernel(self.master)
+        self._kernel, self._kernel_args, self._closed_form = _analytic_kernel(self.master)
         # the candidate set of the last call and its points' WalkState (closest master
         # faces, depth bounds), the start of the next call while the set is reused
         self._warm: tuple[object, object] = (None, None)
@@ -247,6 +258,12 @@ class ContactPair:
         return self._kernel, self._kernel_args
 
     @property
+    def closed_form_master(self) -> tuple[bool, np.ndarray] | None:
+        """A plane or sphere master as `fecheck.laws.fused.closed_form_wrench` takes it:
+        (is a sphere, (point, normal) or (centre, radius) in one array, mm); else None."""
+        return self._closed_form
+
+    @property
     def cache(self) -> CandidateCache:
         """The broad-phase candidate cache (its counters show rebuilds and reuses)."""
         return self._cache
@@ -259,11 +276,10 @@ class ContactPair:
         ----------
         slave_pose, master_pose : (R (3, 3), t (3,) mm), body frame to world: x = R p + t
         """
-        Rs, ts = _pose_arrays(slave_pose, "slave")
-        Rm, tm = _pose_arrays(master_pose, "master")
+        Rs, ts, Rm, tm = checked_poses(slave_pose, master_pose)
         R, t, slave_status, master_status = checked_relative_pose(Rs, ts, Rm, tm)
-        _raise_bad_pose(slave_status, "slave")
-        _raise_bad_pose(master_status, "master")
+        raise_bad_pose(slave_status, "slave")
+        raise_bad_pose(master_status, "master")
         cand = self._cache.get(R, t) if self._thesis is None else None
         return Prepared(cand, R, t, Rs, ts, Rm, tm)
 

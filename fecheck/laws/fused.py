@@ -5,8 +5,10 @@ Newton needs, per compartment and iteration, the force, the moment, the 6x6 tang
 whether anything touches. The full path (`ContactPair.evaluate` → `ContactSurface` → law
 → `LawResult`) also builds the per-point arrays and Python objects that a result or a
 plot reads; here the master's contact kernel, the quadrature and the law's resultant run
-in one compiled function that returns only the reduction. The arithmetic is that of the
-full path, in the same order (tested equal to 1e-12). Masters without a compiled kernel
+in one compiled function that returns only the reduction. For a plane or sphere master
+that function also checks the poses and reuses or rebuilds the candidate set
+(`closed_form_wrench`), so an evaluation is one compiled call. The arithmetic is that of
+the full path, in the same order (tested equal to 1e-12). Masters without a compiled kernel
 (polynomial, the thesis's detectors) and a mesh master whose candidate set is new, or
 whose closest-point walk does not settle, go through the full path.
 
@@ -22,8 +24,10 @@ from typing import NamedTuple
 import numpy as np
 from numba import njit
 
+from fecheck.contact.broadphase import checked_relative_pose, region_set
 from fecheck.contact.kernels import plane_surface, sphere_surface, walked_mesh_surface
 from fecheck.contact.mesh_master import MAX_STEPS
+from fecheck.contact.pair import checked_poses, raise_bad_pose
 from fecheck.contact.surface import ContactSurface
 from fecheck.errors import FecheckError
 from fecheck.laws.foundation import foundation
@@ -105,22 +109,39 @@ def _reduce(surface, slave_normals, faces, kind, params, face_scale, about):
     return force, moment, tangent, area, vertex_depth.max()
 
 
-@njit(cache=True, fastmath=False)
-def plane_wrench(clipped, points, local_faces, normals, areas, faces, R, t, Rm, tm, Rs,
-                 plane_point, plane_normal, kind, params, face_scale, about):
-    """`fecheck.contact.kernels.plane_surface` and the law's resultant in one call."""
-    surface = plane_surface(clipped, kind != LINEAR, points, local_faces, normals, areas, R,
-                            t, Rm, tm, Rs, plane_point, plane_normal)
-    return _reduce(surface, False, faces, kind, params, face_scale, about)
+@njit(cache=True, inline="always")
+def _no_contact():
+    return np.zeros(3), np.zeros(3), np.zeros((6, 6)), 0.0, 0.0
 
 
 @njit(cache=True, fastmath=False)
-def sphere_wrench(clipped, points, local_faces, normals, areas, faces, R, t, Rm, tm, Rs,
-                  center, radius, kind, params, face_scale, about):
-    """`fecheck.contact.kernels.sphere_surface` and the law's resultant in one call."""
-    surface = sphere_surface(clipped, kind != LINEAR, points, local_faces, normals, areas, R,
-                             t, Rm, tm, Rs, center, radius)
-    return _reduce(surface, True, faces, kind, params, face_scale, about)
+def closed_form_wrench(state, Rs, ts, Rm, tm, sphere, master, clipped, kind, params,
+                       face_scale, about):
+    """One evaluation against a plane or sphere master in one compiled call: the poses
+    checked, the candidate set reused or rebuilt (`fecheck.contact.broadphase.region_set`
+    on the pair's `BroadPhaseState`), the master's contact kernel
+    (`fecheck.contact.kernels.plane_surface` for master = (point, normal), or
+    `sphere_surface` for master = (centre, radius)) and the law's resultant.
+
+    Returns (slave pose status, master pose status (`pose_status`), (force, moment,
+    tangent, area, max_depth)); no contact when a status is not 0.
+    """
+    R, t, slave_status, master_status = checked_relative_pose(Rs, ts, Rm, tm)
+    if slave_status or master_status:
+        return slave_status, master_status, _no_contact()
+    region_set(state, R, t)
+    if state.cand_faces.size == 0:
+        return 0, 0, _no_contact()
+    moving = kind != LINEAR
+    if sphere:
+        surface = sphere_surface(clipped, moving, state.cand_points, state.cand_local,
+                                 state.cand_normals, state.cand_areas, R, t, Rm, tm, Rs,
+                                 master[:3], master[3])
+    else:
+        surface = plane_surface(clipped, moving, state.cand_points, state.cand_local,
+                                state.cand_normals, state.cand_areas, R, t, Rm, tm, Rs,
+                                master[:3], master[3:])
+    return 0, 0, _reduce(surface, sphere, state.cand_faces, kind, params, face_scale, about)
 
 
 @njit(cache=True, fastmath=False)
@@ -135,7 +156,6 @@ def walked_mesh_wrench(clipped, points, local_faces, normals, areas, faces, R, t
     return (out[0],) + _reduce(out[1:], True, faces, kind, params, face_scale, about)
 
 
-_ANALYTIC = {plane_surface: plane_wrench, sphere_surface: sphere_wrench}
 _NO_CONTACT = (np.zeros(3), np.zeros(3), np.zeros((6, 6)), 0.0, 0.0)
 
 
@@ -155,15 +175,20 @@ def contact_wrench(pair, slave_pose, master_pose, law) -> Wrench:
     if law.face_scale.size and law.face_scale.size != pair.slave.n_faces:
         raise FecheckError(f"{law.face_scale.size} face stiffnesses for a slave mesh of "
                            f"{pair.slave.n_faces} faces")
+    clipped = pair.area_mode == "clipped"
+    closed_form = pair.closed_form_master
+    if closed_form is not None:
+        Rs, ts, Rm, tm = checked_poses(slave_pose, master_pose)
+        slave_status, master_status, out = closed_form_wrench(
+            pair.cache.state, Rs, ts, Rm, tm, *closed_form, clipped, law.kind, law.params,
+            law.face_scale, ORIGIN)
+        if slave_status or master_status:
+            raise_bad_pose(slave_status, "slave")
+            raise_bad_pose(master_status, "master")
+        return Wrench(*out)
     cand, R, t, Rs, _, Rm, tm = pair.prepare(slave_pose, master_pose)
     if cand.faces.size == 0:
         return Wrench(*_NO_CONTACT)
-    clipped = pair.area_mode == "clipped"
-    kernel, args = pair.analytic_kernel
-    if kernel is not None:
-        return Wrench(*_ANALYTIC[kernel](
-            clipped, cand.points, cand.local_faces, cand.normals, cand.areas, cand.faces, R,
-            t, Rm, tm, Rs, *args, law.kind, law.params, law.face_scale, ORIGIN))
     state = pair.warm_state(cand)
     master = pair.master
     if pair.resolved_method == "closed-form" or state is None or master.sign != "normal":
@@ -187,13 +212,15 @@ def load(pair, law) -> None:
     numba's on-disk cache, now (a model's build) rather than in the first solve."""
     if not isinstance(law, CompiledLaw) or pair.resolved_method not in ("closed-form", "bvh"):
         return
-    kernel, args = pair.analytic_kernel
-    eye, zero, no_points = np.eye(3), np.zeros(3), np.zeros((0, 3))
-    no_faces, none = np.zeros((0, 3), dtype=np.int64), np.zeros(0, dtype=np.int64)
-    empty = (True, no_points, no_faces, no_points, np.zeros(0), none, eye, zero, eye, zero, eye)
-    if kernel is not None:
-        _ANALYTIC[kernel](*empty, *args, law.kind, law.params, law.face_scale, ORIGIN)
+    eye, zero = np.eye(3), np.zeros(3)
+    closed_form = pair.closed_form_master
+    if closed_form is not None:                 # a NaN pose returns before any work
+        closed_form_wrench(pair.cache.state, eye, np.full(3, np.nan), eye, zero,
+                           *closed_form, True, law.kind, law.params, law.face_scale, ORIGIN)
     elif pair.resolved_method == "bvh" and pair.master.sign == "normal":
+        no_points, none = np.zeros((0, 3)), np.zeros(0, dtype=np.int64)
+        empty = (True, no_points, np.zeros((0, 3), dtype=np.int64), no_points, np.zeros(0),
+                 none, eye, zero, eye, zero, eye)
         state = pair.master.empty_state()
         walked_mesh_wrench(*empty, *pair.master.walk_tables, state.face, state.position,
                            state.upper, state.travel, state.ring, MAX_STEPS, law.kind,
