@@ -256,33 +256,8 @@ def select_faces(near: np.ndarray, faces: np.ndarray, ptr: np.ndarray, index: np
     selected, plus a scan of the words of face_bits between the first and last face.
     """
     picked = _faces_around(near, ptr, index, face_bits)
-    m = picked.size
-    vertices = np.empty(3 * m, dtype=np.int64)
-    local = np.empty((m, 3), dtype=np.int64)
-    n = 0
-    for i in range(m):
-        f = picked[i]
-        for j in range(3):
-            v = faces[f, j]
-            if vertex_index[v] < 0:
-                vertex_index[v] = n
-                vertices[n] = v
-                n += 1
-            local[i, j] = vertex_index[v]
-    out_points = np.empty((n, 3))
-    for i in range(n):
-        v = vertices[i]
-        vertex_index[v] = -1
-        for k in range(3):
-            out_points[i, k] = points[v, k]
-    out_normals = np.empty((m, 3))
-    out_areas = np.empty(m)
-    for i in range(m):
-        f = picked[i]
-        out_areas[i] = areas[f]
-        for k in range(3):
-            out_normals[i, k] = normals[f, k]
-    return picked, vertices[:n], local, out_points, out_normals, out_areas
+    return gather_faces(picked, np.zeros(0, dtype=np.int64), faces, normals, areas, points,
+                        vertex_index)
 
 
 @njit(cache=True)
@@ -381,7 +356,8 @@ def gather_faces(ranks: np.ndarray, face_order: np.ndarray, corners: np.ndarray,
                  vertex_index: np.ndarray):
     """The faces of `ranks` with their data, as `select_faces` gives them (in rank order),
     from the tables in rank order: corners (n_faces, 3), normals (n_faces, 3), areas
-    (n_faces,). vertex_index (n_points,) -1 is scratch, left as it was found."""
+    (n_faces,); face_order maps a rank to its face index (empty: ranks are face
+    indices). vertex_index (n_points,) -1 is scratch, left as it was found."""
     m = ranks.size
     picked = np.empty(m, dtype=np.int64)
     vertices = np.empty(3 * m, dtype=np.int64)
@@ -391,7 +367,7 @@ def gather_faces(ranks: np.ndarray, face_order: np.ndarray, corners: np.ndarray,
     n = 0
     for i in range(m):
         j = ranks[i]
-        picked[i] = face_order[j]
+        picked[i] = face_order[j] if face_order.size else j
         out_areas[i] = areas[j]
         for c in range(3):
             out_normals[i, c] = normals[j, c]
