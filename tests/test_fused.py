@@ -8,7 +8,7 @@ import pytest
 from fecheck.contact import ContactPair, Plane, Sphere
 from fecheck.laws import blankevoort_params, blankevoort_pressure, foundation
 from fecheck.laws.calibrated import Calibration, calibrated_params, calibrated_pressure
-from fecheck.laws.fused import CompiledLaw, compiled_law, contact_wrench, linear_law
+from fecheck.laws.fused import CompiledLaw, HotPath, compiled_law, contact_wrench, linear_law
 from fecheck.laws.kernel import BLANKEVOORT, CALIBRATED
 from fecheck.laws.layer import face_elastic_foundation
 from fecheck.statics.frames import rotation
@@ -87,3 +87,21 @@ def test_no_contact_and_a_wrong_face_count():
     assert isinstance(wrong, CompiledLaw)
     with pytest.raises(Exception, match="face stiffnesses"):
         contact_wrench(pair, far, (np.eye(3), np.zeros(3)), wrong)
+
+
+def test_a_bound_hot_path_takes_poses_of_any_array_kind():
+    """The bound path calls the compiled function without numba's per-call typing, so the
+    poses must reach it converted to contiguous float arrays: lists, integer, read-only,
+    Fortran-ordered and strided poses give the float poses' wrench, bit for bit."""
+    pair = ContactPair(icosphere(25.5, 3), Plane([0.0, 0.0, 0.0], [0.0, 0.0, 1.0]))
+    hot = HotPath(pair, linear_law(1.12))
+    R, t, master = np.eye(3), np.array([0.0, 0.0, 24.5]), (np.eye(3), np.zeros(3))
+    ref = hot.evaluate((R, t), master)
+    assert ref.force[2] > 50.0
+    frozen_R, frozen_t = R.copy(), t.copy()
+    frozen_R.flags.writeable = frozen_t.flags.writeable = False
+    kinds = [(R.tolist(), t.tolist()), (np.eye(3, dtype=int), t), (frozen_R, frozen_t),
+             (np.asfortranarray(R), t), (np.eye(6)[::2, ::2], np.repeat(t, 2)[::2])]
+    for pose in kinds:
+        pair.cache.reset()
+        assert np.array_equal(hot.evaluate(pose, master).packed, ref.packed)

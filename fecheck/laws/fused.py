@@ -5,12 +5,14 @@ Newton needs, per compartment and iteration, the force, the moment, the 6x6 tang
 whether anything touches. The full path (`ContactPair.evaluate` → `ContactSurface` → law
 → `LawResult`) also builds the per-point arrays and Python objects that a result or a
 plot reads; here the master's contact kernel, the quadrature and the law's resultant run
-in one compiled function that returns only the reduction. For a plane or sphere master
-that function also checks the poses and reuses or rebuilds the candidate set
-(`closed_form_wrench`), so an evaluation is one compiled call. The arithmetic is that of
-the full path, in the same order (tested equal to 1e-12). Masters without a compiled kernel
-(polynomial, the thesis's detectors) and a mesh master whose candidate set is new, or
-whose closest-point walk does not settle, go through the full path.
+in one compiled function that writes only the reduction, into one array (`Wrench`). For a
+plane or sphere master that function also checks the poses and reuses or rebuilds the
+candidate set (`closed_form_wrench`), so an evaluation is one compiled call; a
+`HotPath` binds a pair and a law once, so that the call is made without per-call
+lookups. The arithmetic is that of the full path, in the same order (tested equal to
+1e-12). Masters without a compiled kernel (polynomial, the thesis's detectors) and a mesh
+master whose candidate set is new, or whose closest-point walk does not settle, go
+through the full path.
 
 Units: mm, N, MPa; forces on the slave, moments about the world origin, tangent
 d[F, M]/dξ for the slave's twist ξ = (v, ω) relative to the master.
@@ -19,7 +21,6 @@ d[F, M]/dξ for the slave's twist ξ = (v, ω) relative to the master.
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import NamedTuple
 
 import numpy as np
 from numba import njit
@@ -36,15 +37,52 @@ from fecheck.laws.kernel import LINEAR, law_function, law_values, pressure_resul
 ORIGIN = np.zeros(3)
 
 
-class Wrench(NamedTuple):
-    """Force (3,) N and moment (3,) N·mm on the slave, tangent (6, 6), contact area mm²
-    and the largest vertex depth mm (0 without contact)."""
+PACKED = 44
+"""Length of a `Wrench`'s packed array."""
 
-    force: np.ndarray
-    moment: np.ndarray
-    tangent: np.ndarray
-    area: float
-    max_depth: float
+
+class Wrench:
+    """The contact's resultant on the slave, held in one array ``packed`` (44,) that the
+    compiled path fills in place: force (3,) N, moment (3,) N·mm, tangent (6, 6) row by
+    row, contact area mm² and the largest vertex depth mm (0 without contact). The
+    properties are views of it."""
+
+    __slots__ = ("packed",)
+
+    def __init__(self, packed: np.ndarray) -> None:
+        self.packed = packed
+
+    @classmethod
+    def of(cls, force: np.ndarray, moment: np.ndarray, tangent: np.ndarray, area: float,
+           max_depth: float) -> Wrench:
+        """A `Wrench` of the given parts."""
+        return cls(np.concatenate([force, moment, np.ravel(tangent), [area, max_depth]]))
+
+    @property
+    def wrench(self) -> np.ndarray:
+        """[force, moment] (6,), N and N·mm."""
+        return self.packed[:6]
+
+    @property
+    def force(self) -> np.ndarray:
+        return self.packed[:3]
+
+    @property
+    def moment(self) -> np.ndarray:
+        return self.packed[3:6]
+
+    @property
+    def tangent(self) -> np.ndarray:
+        """d[F, M]/dξ (6, 6)."""
+        return self.packed[6:42].reshape(6, 6)
+
+    @property
+    def area(self) -> float:
+        return float(self.packed[42])
+
+    @property
+    def max_depth(self) -> float:
+        return float(self.packed[43])
 
 
 @dataclass(frozen=True, eq=False)
@@ -83,15 +121,16 @@ def linear_law(k_N_per_mm3: float) -> CompiledLaw:
 
 
 @njit(cache=True, fastmath=False)
-def _reduce(surface, slave_normals, faces, kind, params, face_scale, about):
+def _reduce(surface, slave_normals, faces, kind, params, face_scale, about, out):
     """Resultant of the law over `surface`, the arrays a contact kernel returns, as
-    `fecheck.laws.foundation.foundation` forms it: (force, moment, tangent, area,
-    max_depth)."""
+    `fecheck.laws.foundation.foundation` forms it, written into `out` (a `Wrench`'s
+    packed array)."""
     (hit, normal, vertex_depth, qp_face, _, qp_point, qp_depth, qp_weight, qp_depth_twist,
      qp_weight_twist, qp_clip, clip_share, clip_face, clip_edge, clip_rate) = surface
     slide = np.zeros((0, 3, 6))
     if hit.size == 0:
-        return np.zeros(3), np.zeros(3), np.zeros((6, 6)), 0.0, 0.0
+        out[:] = 0.0
+        return
     if kind == LINEAR and face_scale.size == 0:
         stiffness, p, slope = params[0], np.zeros(0), np.zeros(0)
     else:
@@ -106,32 +145,35 @@ def _reduce(surface, slave_normals, faces, kind, params, face_scale, about):
         stiffness, p, slope, qp_depth, qp_weight, qp_depth_twist, qp_weight_twist, qp_point,
         normal, qp_face, slave_normals, slide, qp_clip, clip_share, clip_face, clip_edge,
         clip_rate, about)
-    return force, moment, tangent, area, vertex_depth.max()
-
-
-@njit(cache=True, inline="always")
-def _no_contact():
-    return np.zeros(3), np.zeros(3), np.zeros((6, 6)), 0.0, 0.0
+    out[:3] = force
+    out[3:6] = moment
+    for i in range(6):
+        for k in range(6):
+            out[6 + 6 * i + k] = tangent[i, k]
+    out[42] = area
+    out[43] = vertex_depth.max()
 
 
 @njit(cache=True, fastmath=False)
 def closed_form_wrench(state, Rs, ts, Rm, tm, sphere, master, clipped, kind, params,
-                       face_scale, about):
+                       face_scale, about, out):
     """One evaluation against a plane or sphere master in one compiled call: the poses
     checked, the candidate set reused or rebuilt (`fecheck.contact.broadphase.region_set`
     on the pair's `BroadPhaseState`), the master's contact kernel
     (`fecheck.contact.kernels.plane_surface` for master = (point, normal), or
-    `sphere_surface` for master = (centre, radius)) and the law's resultant.
+    `sphere_surface` for master = (centre, radius)) and the law's resultant, written into
+    `out` (a `Wrench`'s packed array).
 
-    Returns (slave pose status, master pose status (`pose_status`), (force, moment,
-    tangent, area, max_depth)); no contact when a status is not 0.
+    Returns the slave's and the master's pose status (`pose_status`); `out` holds no
+    contact when one is not 0.
     """
+    out[:] = 0.0
     R, t, slave_status, master_status = checked_relative_pose(Rs, ts, Rm, tm)
     if slave_status or master_status:
-        return slave_status, master_status, _no_contact()
+        return slave_status, master_status
     region_set(state, R, t)
     if state.cand_faces.size == 0:
-        return 0, 0, _no_contact()
+        return 0, 0
     moving = kind != LINEAR
     if sphere:
         surface = sphere_surface(clipped, moving, state.cand_points, state.cand_local,
@@ -141,26 +183,120 @@ def closed_form_wrench(state, Rs, ts, Rm, tm, sphere, master, clipped, kind, par
         surface = plane_surface(clipped, moving, state.cand_points, state.cand_local,
                                 state.cand_normals, state.cand_areas, R, t, Rm, tm, Rs,
                                 master[:3], master[3:])
-    return 0, 0, _reduce(surface, sphere, state.cand_faces, kind, params, face_scale, about)
+    _reduce(surface, sphere, state.cand_faces, kind, params, face_scale, about, out)
+    return 0, 0
 
 
 @njit(cache=True, fastmath=False)
 def walked_mesh_wrench(clipped, points, local_faces, normals, areas, faces, R, t, Rm, tm, Rs,
                        E, ring_ptr, ring_index, master_normals, face, position, upper,
-                       travel, ring, max_steps, kind, params, face_scale, about):
-    """`fecheck.contact.kernels.walked_mesh_surface` and the law's resultant in one call;
-    (settled, force, moment, tangent, area, max_depth)."""
-    out = walked_mesh_surface(clipped, kind != LINEAR, points, local_faces, normals, areas, R,
-                              t, Rm, tm, Rs, E, ring_ptr, ring_index, master_normals, face,
-                              position, upper, travel, ring, max_steps)
-    return (out[0],) + _reduce(out[1:], True, faces, kind, params, face_scale, about)
+                       travel, ring, max_steps, kind, params, face_scale, about, out):
+    """`fecheck.contact.kernels.walked_mesh_surface` and the law's resultant (into `out`,
+    a `Wrench`'s packed array) in one call; whether the walk settled."""
+    surface = walked_mesh_surface(clipped, kind != LINEAR, points, local_faces, normals,
+                                  areas, R, t, Rm, tm, Rs, E, ring_ptr, ring_index,
+                                  master_normals, face, position, upper, travel, ring,
+                                  max_steps)
+    _reduce(surface[1:], True, faces, kind, params, face_scale, about, out)
+    return surface[0]
 
 
-_NO_CONTACT = (np.zeros(3), np.zeros(3), np.zeros((6, 6)), 0.0, 0.0)
+def _entry_point(dispatcher, args: tuple):
+    """The compiled function that numba's `dispatcher` runs for `args` (compiled or loaded
+    from the on-disk cache now), to be called with arguments of exactly `args`' types.
+
+    A dispatcher types every argument on every call; for the broad-phase state object
+    that goes through Python (~0.6 µs) and the whole typing costs ~1 µs of a ~12 µs
+    evaluation. Where numba does not expose the compiled function, the dispatcher."""
+    dispatcher(*args)
+    try:
+        return dispatcher.overloads[tuple(dispatcher.typeof_pyval(a) for a in args)].entry_point
+    except (AttributeError, KeyError, TypeError):
+        return dispatcher
+
+
+class HotPath:
+    """`contact_wrench` of one pair with one law, bound once (a compartment's, for every
+    Newton iteration): which path applies, the master's and the law's arguments and the
+    compiled function are looked up here, so that an evaluation is the pose checks and
+    one compiled call. Binding compiles the kernel, or loads it from numba's on-disk
+    cache (a model's build, not its first solve).
+
+    ``evaluate(slave_pose, master_pose)`` → `Wrench` (see `contact_wrench`).
+    """
+
+    def __init__(self, pair, law) -> None:
+        self.pair, self.law = pair, law
+        if not isinstance(law, CompiledLaw) or pair.resolved_method not in ("closed-form",
+                                                                             "bvh"):
+            self.evaluate = self._full
+            return
+        if law.face_scale.size and law.face_scale.size != pair.slave.n_faces:
+            raise FecheckError(f"{law.face_scale.size} face stiffnesses for a slave mesh of "
+                               f"{pair.slave.n_faces} faces")
+        self._clipped = pair.area_mode == "clipped"
+        closed_form = pair.closed_form_master
+        eye, zero = np.eye(3), np.zeros(3)
+        if closed_form is not None:
+            self._state = pair.cache.state
+            self._args = (*closed_form, self._clipped, law.kind, law.params, law.face_scale,
+                          ORIGIN)
+            # a NaN pose returns before any work
+            self._kernel = _entry_point(closed_form_wrench, (
+                self._state, eye, np.full(3, np.nan), eye, zero, *self._args,
+                np.empty(PACKED)))
+            self.evaluate = self._closed_form
+            return
+        self.evaluate = self._walked
+        if pair.resolved_method == "bvh" and pair.master.sign == "normal":
+            no_points, none = np.zeros((0, 3)), np.zeros(0, dtype=np.int64)
+            state = pair.master.empty_state()
+            walked_mesh_wrench(True, no_points, np.zeros((0, 3), dtype=np.int64), no_points,
+                               np.zeros(0), none, eye, zero, eye, zero, eye,
+                               *pair.master.walk_tables, state.face, state.position,
+                               state.upper, state.travel, state.ring, MAX_STEPS, law.kind,
+                               law.params, law.face_scale, ORIGIN, np.empty(PACKED))
+
+    def _closed_form(self, slave_pose, master_pose) -> Wrench:
+        """A plane or sphere master: `closed_form_wrench`."""
+        Rs, ts, Rm, tm = checked_poses(slave_pose, master_pose)  # the kernel's exact types
+        out = np.empty(PACKED)
+        slave_status, master_status = self._kernel(self._state, Rs, ts, Rm, tm, *self._args,
+                                                   out)
+        if slave_status or master_status:
+            raise_bad_pose(slave_status, "slave")
+            raise_bad_pose(master_status, "master")
+        return Wrench(out)
+
+    def _walked(self, slave_pose, master_pose) -> Wrench:
+        """A mesh master: `walked_mesh_wrench` from the warm closest-point state, or the
+        full path where the set is new or the walk does not settle."""
+        pair, law = self.pair, self.law
+        cand, R, t, Rs, _, Rm, tm = pair.prepare(slave_pose, master_pose)
+        if cand.faces.size == 0:
+            return Wrench(np.zeros(PACKED))
+        state = pair.warm_state(cand)
+        master = pair.master
+        if pair.resolved_method == "closed-form" or state is None or master.sign != "normal":
+            return self._full(slave_pose, master_pose)
+        out = np.empty(PACKED)
+        if walked_mesh_wrench(
+                self._clipped, cand.points, cand.local_faces, cand.normals, cand.areas,
+                cand.faces, R, t, Rm, tm, Rs, *master.walk_tables, state.face, state.position,
+                state.upper, state.travel, state.ring, MAX_STEPS, law.kind, law.params,
+                law.face_scale, ORIGIN, out):
+            return Wrench(out)
+        return self._full(slave_pose, master_pose)
+
+    def _full(self, slave_pose, master_pose) -> Wrench:
+        """The law on the full `ContactSurface`."""
+        res = self.law(self.pair.evaluate(slave_pose, master_pose))
+        return Wrench.of(res.force, res.moment, res.tangent, res.area, res.max_depth)
 
 
 def contact_wrench(pair, slave_pose, master_pose, law) -> Wrench:
-    """The wrench of `law` over the contact of `pair` at the given poses (see the module).
+    """The wrench of `law` over the contact of `pair` at the given poses (see the module;
+    for repeated evaluations bind a `HotPath` once).
 
     Parameters
     ----------
@@ -170,58 +306,4 @@ def contact_wrench(pair, slave_pose, master_pose, law) -> Wrench:
 
     Moments are about the world origin, as the laws give them.
     """
-    if not isinstance(law, CompiledLaw) or pair.resolved_method not in ("closed-form", "bvh"):
-        return _full(pair, slave_pose, master_pose, law)
-    if law.face_scale.size and law.face_scale.size != pair.slave.n_faces:
-        raise FecheckError(f"{law.face_scale.size} face stiffnesses for a slave mesh of "
-                           f"{pair.slave.n_faces} faces")
-    clipped = pair.area_mode == "clipped"
-    closed_form = pair.closed_form_master
-    if closed_form is not None:
-        Rs, ts, Rm, tm = checked_poses(slave_pose, master_pose)
-        slave_status, master_status, out = closed_form_wrench(
-            pair.cache.state, Rs, ts, Rm, tm, *closed_form, clipped, law.kind, law.params,
-            law.face_scale, ORIGIN)
-        if slave_status or master_status:
-            raise_bad_pose(slave_status, "slave")
-            raise_bad_pose(master_status, "master")
-        return Wrench(*out)
-    cand, R, t, Rs, _, Rm, tm = pair.prepare(slave_pose, master_pose)
-    if cand.faces.size == 0:
-        return Wrench(*_NO_CONTACT)
-    state = pair.warm_state(cand)
-    master = pair.master
-    if pair.resolved_method == "closed-form" or state is None or master.sign != "normal":
-        return _full(pair, slave_pose, master_pose, law)
-    settled, *out = walked_mesh_wrench(
-        clipped, cand.points, cand.local_faces, cand.normals, cand.areas, cand.faces, R, t,
-        Rm, tm, Rs, *master.walk_tables, state.face, state.position, state.upper,
-        state.travel, state.ring, MAX_STEPS, law.kind, law.params, law.face_scale, ORIGIN)
-    if settled:
-        return Wrench(*out)
-    return _full(pair, slave_pose, master_pose, law)
-
-
-def _full(pair, slave_pose, master_pose, law) -> Wrench:
-    res = law(pair.evaluate(slave_pose, master_pose))
-    return Wrench(res.force, res.moment, res.tangent, res.area, res.max_depth)
-
-
-def load(pair, law) -> None:
-    """Compile the hot-path kernel that `pair` with `law` will use, or load it from
-    numba's on-disk cache, now (a model's build) rather than in the first solve."""
-    if not isinstance(law, CompiledLaw) or pair.resolved_method not in ("closed-form", "bvh"):
-        return
-    eye, zero = np.eye(3), np.zeros(3)
-    closed_form = pair.closed_form_master
-    if closed_form is not None:                 # a NaN pose returns before any work
-        closed_form_wrench(pair.cache.state, eye, np.full(3, np.nan), eye, zero,
-                           *closed_form, True, law.kind, law.params, law.face_scale, ORIGIN)
-    elif pair.resolved_method == "bvh" and pair.master.sign == "normal":
-        no_points, none = np.zeros((0, 3)), np.zeros(0, dtype=np.int64)
-        empty = (True, no_points, np.zeros((0, 3), dtype=np.int64), no_points, np.zeros(0),
-                 none, eye, zero, eye, zero, eye)
-        state = pair.master.empty_state()
-        walked_mesh_wrench(*empty, *pair.master.walk_tables, state.face, state.position,
-                           state.upper, state.travel, state.ring, MAX_STEPS, law.kind,
-                           law.params, law.face_scale, ORIGIN)
+    return HotPath(pair, law).evaluate(slave_pose, master_pose)

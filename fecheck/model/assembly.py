@@ -20,8 +20,7 @@ import numpy as np
 from fecheck import laws
 from fecheck.errors import FecheckError
 from fecheck.laws import calibrated
-from fecheck.laws.fused import CompiledLaw, compiled_law, contact_wrench, linear_law
-from fecheck.laws.fused import load as load_hot_path
+from fecheck.laws.fused import CompiledLaw, HotPath, compiled_law, linear_law
 from fecheck.laws.kernel import BLANKEVOORT, CALIBRATED
 from fecheck.scene import Scene
 from fecheck.scene.constants import COMPARTMENTS, DOF_NAMES, GRAVITY_MPS2, LIGAMENTS
@@ -120,7 +119,7 @@ class Compartment:
     note: str = ""
 
     def __post_init__(self) -> None:
-        load_hot_path(self.pair, self.law)
+        self._hot = HotPath(self.pair, self.law)
 
     def describe(self) -> str:
         """How the pair is evaluated, with the law's caveat (for ``--explain``)."""
@@ -131,32 +130,32 @@ class Compartment:
         fixed, tibia = (_EYE, _ZERO), (rot, t)
         return (tibia, fixed) if self.slave_is_tibia else (fixed, tibia)
 
-    def _on_tibia(self, force: np.ndarray, moment: np.ndarray, tangent: np.ndarray
+    def _on_tibia(self, wrench: np.ndarray, tangent: np.ndarray
                   ) -> tuple[np.ndarray, np.ndarray]:
         """The contact wrench on the tibia (6,) and dW/dξ (6, 6) for the tibia's twist,
-        from the law's wrench on the slave and its tangent."""
+        from the law's wrench [F, M] (6,) on the slave and its tangent."""
         if self.slave_is_tibia:
-            return np.concatenate([force, moment]), tangent
+            return wrench, tangent
         # the femur is the slave: minus the wrench on it, for the tibia's twist
-        fs = skew(force)
+        fs = skew(wrench[:3])
         dw = tangent.copy()
         dw[:3, 3:] += fs
         dw[3:, :3] += fs
-        dw[3:, 3:] += skew(moment)
-        return -np.concatenate([force, moment]), dw
+        dw[3:, 3:] += skew(wrench[3:])
+        return -wrench, dw
 
     def evaluate(self, rot: np.ndarray, t: np.ndarray
                  ) -> tuple[laws.LawResult, np.ndarray, np.ndarray]:
         """The law's result at tibia pose (R, t) and the contact wrench on the tibia
         (6,) with its tangent dW/dξ (6, 6) for the tibia's twist ξ."""
         res = self.law(self.pair.evaluate(*self._poses(rot, t)))
-        return (res, *self._on_tibia(res.force, res.moment, res.tangent))
+        return (res, *self._on_tibia(np.concatenate([res.force, res.moment]), res.tangent))
 
     def wrench(self, rot: np.ndarray, t: np.ndarray) -> tuple[np.ndarray, np.ndarray, float]:
         """The contact wrench on the tibia (6,), dW/dξ (6, 6) and the largest depth (mm)
         at tibia pose (R, t), through the compiled hot path (`fecheck.laws.fused`)."""
-        w = contact_wrench(self.pair, *self._poses(rot, t), self.law)
-        return (*self._on_tibia(w.force, w.moment, w.tangent), w.max_depth)
+        w = self._hot.evaluate(*self._poses(rot, t))
+        return (*self._on_tibia(w.wrench, w.tangent), w.max_depth)
 
 
 _EYE = np.eye(3)

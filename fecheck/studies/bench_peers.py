@@ -97,27 +97,26 @@ def _alternating(evaluate: Callable, poses: list) -> Callable[[], object]:
 
 
 def fecheck_evaluator(level: int, scratch: bool = False
-                      ) -> Callable[[tuple], tuple[np.ndarray, np.ndarray, np.ndarray]]:
+                      ) -> Callable[[tuple], tuple[np.ndarray, np.ndarray]]:
     """fecheck's evaluation of the icosphere (level `level`, R 25.5 mm) on the plane z = 0,
-    as the statics loop makes it (`fecheck.laws.fused.contact_wrench`).
+    as the statics loop makes it (a compartment's `fecheck.laws.fused.HotPath`).
 
-    The callable takes the slave pose (R (3, 3), t (3,) mm) and returns the force (3,) N,
-    moment (3,) N·mm and tangent (6, 6) of the EF law; `scratch` rebuilds the broad
-    phase before every evaluation.
+    The callable takes the slave pose (R (3, 3), t (3,) mm) and returns the wrench
+    [force N, moment N·mm] (6,) and tangent (6, 6) of the EF law; `scratch` rebuilds the
+    broad phase before every evaluation.
     """
     from fecheck.contact import ContactPair, Plane
-    from fecheck.laws.fused import contact_wrench, linear_law, load
+    from fecheck.laws.fused import HotPath, linear_law
     from geometry.icosphere import icosphere
 
     pair = ContactPair(icosphere(RADIUS_MM, level), Plane([0.0, 0.0, 0.0], [0.0, 0.0, 1.0]))
-    law, master = linear_law(stiffness()), (np.eye(3), np.zeros(3))
-    load(pair, law)
+    hot, master = HotPath(pair, linear_law(stiffness())), (np.eye(3), np.zeros(3))
 
-    def evaluate(slave_pose: tuple) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    def evaluate(slave_pose: tuple) -> tuple[np.ndarray, np.ndarray]:
         if scratch:
             pair.cache.reset()
-        w = contact_wrench(pair, slave_pose, master, law)
-        return w.force, w.moment, w.tangent
+        w = hot.evaluate(slave_pose, master)
+        return w.wrench, w.tangent
 
     return evaluate
 
