@@ -17,6 +17,7 @@ import pytest
 from fecheck.cli import main
 from fecheck.errors import FecheckError
 from fecheck.scene import load_scene
+from fecheck.studies import sweep
 from fecheck.studies.sweep import (
     SweepInterrupted,
     override_for,
@@ -71,6 +72,21 @@ def test_serial_warm_started_and_parallel_sweeps_agree():
         for c in ("medial", "lateral"):
             assert a.result.compartments[c].force_N == pytest.approx(
                 b.result.compartments[c].force_N, abs=1e-4)
+
+
+def test_a_worker_starts_from_the_last_point_it_solved_in_the_same_sweep():
+    # a worker's next point is near its last one: started there, Newton needs fewer
+    # iterations than from the scene's start, and reaches the same equilibrium
+    scene = load_scene(overrides=["mesh.plateau_refine_mm=1.5"])
+    first, near = (override_for(scene, "load.point_mm[0]", x) for x in (4.0, 5.0))
+    sweep._solve_on_worker(scene, first, 4.0, "x = 4", "sweep A")
+    warm = sweep._solve_on_worker(scene, near, 5.0, "x = 5", "sweep A").result
+    cold = sweep._solve_on_worker(scene, near, 5.0, "x = 5", "sweep B").result
+    assert warm.converged and cold.converged
+    assert warm.iterations < cold.iterations
+    for c in ("medial", "lateral"):
+        assert warm.compartments[c].force_N == pytest.approx(cold.compartments[c].force_N,
+                                                             abs=1e-4)
 
 
 def test_sweep_cli_writes_one_csv_row_per_value(tmp_path, capsys):

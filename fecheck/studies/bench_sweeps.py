@@ -12,8 +12,9 @@ evenly spaced around the scene's own load point, as the thesis's load-point swee
 
 Each case runs `fecheck.studies.sweep.run_sweep` twice: ``serial`` (in this process,
 each point warm-started from the previous equilibrium) and ``2 workers`` (a local pool,
-each point cold-started). The wall time runs from the call to its return, so for the
-pool it includes starting the workers (forked), sending the scene and stopping them.
+each point warm-started from the last one its worker solved). The wall time runs from
+the call to its return, so for the pool it includes starting the workers (forked),
+sending the scene and stopping them.
 Equilibria per second = points / wall time. The median time per equilibrium is the
 median over the points of ``RunResult.timing_s["solve"]`` (the Newton solve with its
 contact evaluations, no mesh build); beside it the same field of ONE cold-started

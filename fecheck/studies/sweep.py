@@ -1,8 +1,9 @@
 """Parameter sweeps: one scene solved for a list of values of one key.
 
 Serial sweeps warm-start each point from its neighbour's equilibrium; parallel sweeps
-send independent points to a `concurrent.futures` executor — a local process pool, or
-a Dask distributed cluster's executor (``fecheck[dask]``) through the same code path.
+send the points, in value order, to a `concurrent.futures` executor — a local process
+pool, or a Dask distributed cluster's executor (``fecheck[dask]``) through the same code
+path — and each worker warm-starts a point from the last one it solved.
 The thesis's load-point sweeps (Figs. 5.2/5.6/5.8: ``load.point_mm[0]`` from −8 to +8
 mm around the reference) and material sweeps (Tables 5.4, 5.5) are sweeps of scenes.
 
@@ -25,6 +26,7 @@ import os
 import re
 import socket
 import sys
+import uuid
 from collections.abc import Callable, Iterator, Sequence
 from concurrent.futures import FIRST_COMPLETED, Executor, Future, wait
 from contextlib import contextmanager
@@ -189,10 +191,24 @@ def _solve_here(scene: Scene, override: str, value: float, warm_start=None) -> S
     return SweepPoint(value, result)
 
 
-def _solve_on_worker(scene: Scene, override: str, value: float, label: str) -> SweepPoint:
-    """Solve one point on a pool or Dask worker; an error names the point and worker."""
-    point = _solve_here(scene, override, value)
+_LAST_SOLVED: dict[str, list[float]] = {}
+"""The equilibrium q (5,) of the last point this process solved for a worker, by sweep id
+(one entry: the sweep it works for now)."""
+
+
+def _solve_on_worker(scene: Scene, override: str, value: float, label: str,
+                     sweep_id: str) -> SweepPoint:
+    """Solve one point on a pool or Dask worker; an error names the point and worker.
+
+    The point starts from the equilibrium of the last point this worker solved in the
+    same sweep: the points are handed out in value order, so a worker's points are near
+    each other, as the serial sweep's are (a start that stalls is retried from the
+    scene's start, and the equilibrium does not depend on the start).
+    """
+    point = _solve_here(scene, override, value, _LAST_SOLVED.get(sweep_id))
     if not point.failed:
+        _LAST_SOLVED.clear()
+        _LAST_SOLVED[sweep_id] = point.result.extra.get("q")
         return point
     where = f"worker {socket.gethostname()} pid {os.getpid()}"
     return SweepPoint(value, None, f"{label} failed on {where}: {point.error}")
@@ -278,12 +294,14 @@ def _run_on(executor: Executor, scene: Scene, param: str, values: Sequence[float
     On any early exit, the futures not yet started are cancelled.
     """
     labels = [_label(param, v) for v in values]
+    sweep_id = uuid.uuid4().hex
     futures: dict[Future, int] = {}
     complete = False
     try:
         with interrupts_held():
             for i, (value, override) in enumerate(zip(values, overrides, strict=True)):
-                future = executor.submit(_solve_on_worker, scene, override, value, labels[i])
+                future = executor.submit(_solve_on_worker, scene, override, value, labels[i],
+                                         sweep_id)
                 futures[future] = i
         for future in _completed(list(futures)):
             i = futures[future]
@@ -344,9 +362,9 @@ def run_sweep(scene: Scene, param: str, values: Sequence[float], *, workers: int
         The scene, the swept key (``key`` or ``key[i]``) and its values (key's units).
     workers
         1 and no `executor`: serial, each point warm-started from the previous one.
-        More: the points run independently on a new local pool of `workers` processes.
+        More: the points run on a new local pool of `workers` processes.
     executor
-        Run the points independently on this executor (threads, Dask); the caller
+        Run the points on this executor (threads, Dask); the caller
         owns it.
     progress
         Draw a text bar on stderr.
