@@ -40,6 +40,7 @@ from fecheck.model.condyles import fit_note, scene_knee
 from fecheck.model.equilibrium import compartment_results, not_converged_note, solve_equilibrium
 from fecheck.model.notes import layer_depth_notes, mesh_resolution_notes
 from fecheck.model.results import LigamentResult, RunResult
+from fecheck.model.reuse import reusable
 from fecheck.scene import Scene, surfaces
 from fecheck.scene.bundles import read_bundles
 from fecheck.scene.constants import COMPARTMENTS
@@ -125,6 +126,7 @@ def _law(scene: Scene, slave, radius_mm: float, compartment: str):
     return layer.face_elastic_foundation(k)
 
 
+@reusable
 def build_compartments(scene: Scene) -> list[Compartment]:
     """Contact pairs and laws of a sphere-tibia or femur-tibia scene (tibia slaves)."""
     kind = scene["model.kind"]

@@ -42,6 +42,7 @@ from fecheck.model.notes import (
     mesh_resolution_notes,
 )
 from fecheck.model.results import CompartmentResult, LigamentResult, RunResult
+from fecheck.model.reuse import reusable
 from fecheck.reference.closed_forms import ef_sphere_plane
 from fecheck.scene import Scene
 from fecheck.scene.constants import COMPARTMENTS
@@ -66,6 +67,7 @@ def _hertz_point_compartments(scene: Scene) -> list[Compartment]:
     return out
 
 
+@reusable
 def build_compartments(scene: Scene) -> list[Compartment]:
     """Contact pairs of the sphere-plane model (meshes built or read from the cache)."""
     if hertz_point_contact(scene):

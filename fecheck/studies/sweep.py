@@ -3,7 +3,9 @@
 Serial sweeps warm-start each point from its neighbour's equilibrium; parallel sweeps
 send the points, in value order, to a `concurrent.futures` executor — a local process
 pool, or a Dask distributed cluster's executor (``fecheck[dask]``) through the same code
-path — and each worker warm-starts a point from the last one it solved.
+path — and each worker warm-starts a point from the last one it solved. Serial or not,
+the model parts a point's value does not change are built once per sweep (per worker):
+`fecheck.model.reuse`.
 The thesis's load-point sweeps (Figs. 5.2/5.6/5.8: ``load.point_mm[0]`` from −8 to +8
 mm around the reference) and material sweeps (Tables 5.4, 5.5) are sweeps of scenes.
 
@@ -26,6 +28,7 @@ import os
 import re
 import socket
 import sys
+import threading
 import uuid
 from collections.abc import Callable, Iterator, Sequence
 from concurrent.futures import FIRST_COMPLETED, Executor, Future, wait
@@ -39,6 +42,7 @@ import numpy as np
 from fecheck.errors import FecheckError
 from fecheck.io.outputs import write_text
 from fecheck.model.results import RunResult
+from fecheck.model.reuse import reusing_builds
 from fecheck.scene import SCHEMA, Scene, apply_overrides, with_values
 from fecheck.scene.load import warn_inert
 from fecheck.scene.relevance import SCANNED_KINDS
@@ -191,9 +195,9 @@ def _solve_here(scene: Scene, override: str, value: float, warm_start=None) -> S
     return SweepPoint(value, result)
 
 
-_LAST_SOLVED: dict[str, list[float]] = {}
-"""The equilibrium q (5,) of the last point this process solved for a worker, by sweep id
-(one entry: the sweep it works for now)."""
+_worker = threading.local()
+"""A worker thread's sweep (``sweep_id``), its built parts (``memo``, `reusing_builds`)
+and the equilibrium q (5,) of the last point it solved (``q``)."""
 
 
 def _solve_on_worker(scene: Scene, override: str, value: float, label: str,
@@ -203,12 +207,15 @@ def _solve_on_worker(scene: Scene, override: str, value: float, label: str,
     The point starts from the equilibrium of the last point this worker solved in the
     same sweep: the points are handed out in value order, so a worker's points are near
     each other, as the serial sweep's are (a start that stalls is retried from the
-    scene's start, and the equilibrium does not depend on the start).
+    scene's start, and the equilibrium does not depend on the start). The model parts it
+    built for them are reused where the point's value does not change them.
     """
-    point = _solve_here(scene, override, value, _LAST_SOLVED.get(sweep_id))
+    if getattr(_worker, "sweep_id", None) != sweep_id:
+        _worker.sweep_id, _worker.memo, _worker.q = sweep_id, {}, None
+    with reusing_builds(_worker.memo):
+        point = _solve_here(scene, override, value, _worker.q)
     if not point.failed:
-        _LAST_SOLVED.clear()
-        _LAST_SOLVED[sweep_id] = point.result.extra.get("q")
+        _worker.q = point.result.extra.get("q")
         return point
     where = f"worker {socket.gethostname()} pid {os.getpid()}"
     return SweepPoint(value, None, f"{label} failed on {where}: {point.error}")
@@ -258,10 +265,13 @@ class _Finished:
 
 def _run_serial(scene: Scene, values: Sequence[float], overrides: Sequence[str],
                 finished: _Finished, fail_fast: bool) -> None:
-    """Solve the points in order, each warm-started from the previous equilibrium."""
+    """Solve the points in order, each warm-started from the previous equilibrium, the
+    model parts that the swept value does not change built once (`reusing_builds`)."""
     warm = None
+    memo: dict = {}
     for i, (value, override) in enumerate(zip(values, overrides, strict=True)):
-        point = _solve_here(scene, override, value, warm)
+        with reusing_builds(memo):
+            point = _solve_here(scene, override, value, warm)
         rearm_handlers()
         raise_pending_interrupt()
         warm = None if point.failed else point.result.extra.get("q")

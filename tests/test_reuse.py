@@ -1,0 +1,106 @@
+"""Built model parts reused across a sweep's runs (`fecheck.model.reuse`): only while every
+scene key the build read is unchanged, only within the context and its thread; a sweep
+of a key the build reads gives the fresh runs' numbers, one of a key it does not read
+builds once."""
+
+from __future__ import annotations
+
+import threading
+
+import pytest
+
+from fecheck.model import reuse
+from fecheck.model.reuse import reusable, reusing_builds
+from fecheck.model.run import run_scene
+from fecheck.scene import apply_overrides, load_scene
+from fecheck.studies.sweep import override_for, run_sweep
+
+BUILDS: list[str] = []
+
+
+@reusable
+def _inner(scene):
+    BUILDS.append("inner")
+    return ("inner", scene["contact.youngs_MPa"])
+
+
+@reusable
+def _outer(scene):
+    BUILDS.append("outer")
+    return ("outer", scene["contact.poisson"], _inner(scene))
+
+
+def _scene(**values):
+    return load_scene(overrides=[f"{k.replace('__', '.')}={v}" for k, v in values.items()])
+
+
+def test_parts_are_reused_while_the_keys_read_are_unchanged():
+    BUILDS.clear()
+    with reusing_builds():
+        first = _outer(_scene())
+        assert _outer(_scene(load__force_N=900.0)) is first      # a key not read
+        assert BUILDS == ["outer", "inner"]
+        again = _outer(_scene(contact__poisson=0.42))              # read by the outer only
+        assert again is not first and again[2] is first[2]
+        assert BUILDS == ["outer", "inner", "outer"]
+        # read by the inner build only: the outer one, which called it, rebuilds too
+        changed = _outer(_scene(contact__poisson=0.42, contact__youngs_MPa=7.0))
+        assert changed[2] == ("inner", 7.0)
+        assert BUILDS == ["outer", "inner", "outer", "outer", "inner"]
+
+
+def test_nothing_is_kept_outside_the_context_or_across_threads():
+    BUILDS.clear()
+    _outer(_scene())
+    _outer(_scene())
+    assert BUILDS == ["outer", "inner"] * 2
+    with reusing_builds():
+        mine = _outer(_scene())
+        theirs = []
+        thread = threading.Thread(target=lambda: theirs.append(_outer(_scene())))
+        thread.start()
+        thread.join()
+        assert theirs[0] is not mine and theirs[0] == mine
+        assert _outer(_scene()) is mine
+    assert getattr(reuse._active, "memo", None) is None
+
+
+@pytest.mark.parametrize("param, values", [("contact.youngs_MPa", [4.0, 8.0, 16.0]),
+                                           ("mesh.plateau_refine_mm", [1.5, 1.0])])
+def test_a_sweep_of_a_key_the_build_reads_equals_fresh_runs(param, values):
+    scene = load_scene()
+    swept = run_sweep(scene, param, values, progress=False)
+    for value, point in zip(values, swept, strict=True):
+        fresh = run_scene(apply_overrides(scene, [override_for(scene, param, value)]))
+        assert point.result.converged and fresh.converged
+        for c, comp in fresh.compartments.items():
+            assert point.result.compartments[c].force_N == pytest.approx(comp.force_N,
+                                                                         rel=1e-9)
+            assert point.result.compartments[c].area_mm2 == pytest.approx(comp.area_mm2,
+                                                                          rel=1e-9)
+
+
+def test_a_load_point_sweep_builds_the_model_once():
+    scene = load_scene()
+    points = run_sweep(scene, "load.point_mm[0]", [4.0, 5.0, 6.0], progress=False)
+    builds = [p.result.timing_s["build"] for p in points]
+    assert all(b < 0.1 * builds[0] for b in builds[1:])
+
+
+def test_a_mesh_master_sweep_reusing_its_walk_equals_fresh_runs(tmp_path):
+    """The femur-tibia model (a mesh master, whose closest-point walk and candidate sets
+    carry over from one point to the next) on the synthetic knee of `test_own_knee`."""
+    from test_own_knee import write_scene
+
+    scene = load_scene(write_scene(tmp_path, "stl", "mm", "sagittal"))
+    values = [600.0, 700.0, 900.0]
+    swept = run_sweep(scene, "load.force_N", values, progress=False)
+    for i, (value, point) in enumerate(zip(values, swept, strict=True)):
+        fresh = run_scene(apply_overrides(scene, [f"load.force_N={value}"]))
+        assert point.result.converged and fresh.converged
+        if i:                                   # built once, at the first point
+            assert point.result.timing_s["build"] < 0.5 * fresh.timing_s["build"]
+        for c, comp in fresh.compartments.items():
+            assert comp.force_N > 0
+            assert point.result.compartments[c].force_N == pytest.approx(comp.force_N,
+                                                                         rel=1e-9)
