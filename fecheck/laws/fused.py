@@ -35,8 +35,6 @@ from fecheck.laws.foundation import foundation
 from fecheck.laws.kernel import LINEAR, law_function, law_values, pressure_resultant
 
 ORIGIN = np.zeros(3)
-
-
 PACKED = 44
 """Length of a `Wrench`'s packed array."""
 
@@ -65,10 +63,12 @@ class Wrench:
 
     @property
     def force(self) -> np.ndarray:
+        """Force (3,) on the slave, N."""
         return self.packed[:3]
 
     @property
     def moment(self) -> np.ndarray:
+        """Moment (3,) about the world origin, N·mm."""
         return self.packed[3:6]
 
     @property
@@ -78,10 +78,12 @@ class Wrench:
 
     @property
     def area(self) -> float:
+        """Contact area, mm²."""
         return float(self.packed[42])
 
     @property
     def max_depth(self) -> float:
+        """Largest vertex depth, mm (0 without contact)."""
         return float(self.packed[43])
 
 
