@@ -104,3 +104,14 @@ def test_a_mesh_master_sweep_reusing_its_walk_equals_fresh_runs(tmp_path):
             assert comp.force_N > 0
             assert point.result.compartments[c].force_N == pytest.approx(comp.force_N,
                                                                          rel=1e-9)
+
+
+def test_a_failed_point_drops_the_parts_built_so_far():
+    from fecheck.studies.sweep import _solve_reusing
+
+    scene = load_scene()
+    memo: dict = {}
+    ok = _solve_reusing(memo, scene, "contact.youngs_MPa=20.0", 20.0)
+    assert not ok.failed and memo
+    crushed = _solve_reusing(memo, scene, "contact.youngs_MPa=0.1", 0.1)   # layer crushed
+    assert crushed.failed and memo == {}

@@ -195,6 +195,18 @@ def _solve_here(scene: Scene, override: str, value: float, warm_start=None) -> S
     return SweepPoint(value, result)
 
 
+def _solve_reusing(memo: dict, scene: Scene, override: str, value: float,
+                   warm_start=None) -> SweepPoint:
+    """`_solve_here` reusing the model parts built for earlier points (`memo`, see
+    `reusing_builds`); after a failed point they are dropped, so that the next point
+    starts from fresh parts."""
+    with reusing_builds(memo):
+        point = _solve_here(scene, override, value, warm_start)
+    if point.failed:
+        memo.clear()
+    return point
+
+
 _worker = threading.local()
 """A worker thread's sweep (``sweep_id``), its built parts (``memo``, `reusing_builds`)
 and the equilibrium q (5,) of the last point it solved (``q``)."""
@@ -212,8 +224,7 @@ def _solve_on_worker(scene: Scene, override: str, value: float, label: str,
     """
     if getattr(_worker, "sweep_id", None) != sweep_id:
         _worker.sweep_id, _worker.memo, _worker.q = sweep_id, {}, None
-    with reusing_builds(_worker.memo):
-        point = _solve_here(scene, override, value, _worker.q)
+    point = _solve_reusing(_worker.memo, scene, override, value, _worker.q)
     if not point.failed:
         _worker.q = point.result.extra.get("q")
         return point
@@ -270,8 +281,7 @@ def _run_serial(scene: Scene, values: Sequence[float], overrides: Sequence[str],
     warm = None
     memo: dict = {}
     for i, (value, override) in enumerate(zip(values, overrides, strict=True)):
-        with reusing_builds(memo):
-            point = _solve_here(scene, override, value, warm)
+        point = _solve_reusing(memo, scene, override, value, warm)
         rearm_handlers()
         raise_pending_interrupt()
         warm = None if point.failed else point.result.extra.get("q")
