@@ -15,7 +15,7 @@ SMALL = bench.BenchConfig(levels=(2, 3, 4), thesis_levels=(4,), hertz_levels=(3,
                           axisym_sizes_mm=(0.5, 0.2), fe_reference_size_mm=0.1,
                           compartments=("medial",), fe_compartments=("medial",), repeats=1,
                           slow_s=1.0, scaling_levels=(3, 4, 5), scaling_copies=(1, 4, 16),
-                          scaling_evaluations=5)
+                          scaling_evaluations=30)
 
 
 @pytest.fixture(scope="module")
@@ -73,15 +73,17 @@ def test_references_are_the_closed_forms_and_converged_fe(result):
 
 def test_evaluation_time_follows_the_faces_near_the_contact(result):
     """Adding 15 far copies of the sphere (16x the faces, same faces near the contact)
-    must not make an evaluation much slower: log-log slope well below refining (loose,
-    timings are noisy on shared cores)."""
+    must not make an evaluation much slower: log-log slope near 0, well below refining.
+    The bench times best-of-30 in interleaved rounds: measured padded -0.02 ± 0.01 and
+    refined 0.35 ± 0.01 over repeats, also with three busy processes on two cores; one
+    matrix-vector product over all points per evaluation raises padded to 0.26."""
     sc = result["scaling"]
     padded = sc["padded_icosphere"]
     # the same candidates near the contact (those up to an edge beyond the margin
     # depend on the tree's order, so within 5 %)
     counts = [s["candidate_faces"] for s in padded]
     assert max(counts) < 1.05 * min(counts)
-    assert sc["padded_icosphere_slope_vs_faces"] < 0.4
+    assert sc["padded_icosphere_slope_vs_faces"] < 0.15
     assert sc["padded_icosphere_slope_vs_faces"] < sc["refined_icosphere_slope_vs_faces"]
 
 

@@ -33,7 +33,9 @@ Errors are relative: ``error`` = max(|Δp_max|/p_max, |ΔA|/A).
 Scaling: time per contact evaluation (candidates reused, at the solved pose) against
 the faces of the slave, (a) refining the icosphere (faces near the contact grow with
 all faces) and (b) padding a level-4 icosphere with far copies of itself (faces near
-the contact fixed): the time must follow the near faces, not all faces.
+the contact fixed): the time must follow the near faces, not all faces. Each time is
+the best of its evaluations, all meshes timed in the same interleaved rounds, so a busy
+spell on a shared machine cannot tilt one slope.
 """
 
 from __future__ import annotations
@@ -466,7 +468,18 @@ def _padded(mesh, copies: int):
     return TriMesh(pts, faces)
 
 
-def _per_evaluation(slave, radius_mm: float, force_N: float, evaluations: int) -> dict:
+@dataclass
+class _Timed:
+    """One slave mesh pressed to the medial equilibrium depth on the plane, ready to time."""
+
+    evaluate: Callable[[int], object]
+    faces: int
+    candidate_faces: int
+    contact_faces: int
+    first_evaluation_s: float
+
+
+def _pressed(slave, radius_mm: float, force_N: float) -> _Timed:
     from fecheck.contact import ContactPair, Plane
     from fecheck.laws import elastic_foundation
 
@@ -476,22 +489,34 @@ def _per_evaluation(slave, radius_mm: float, force_N: float, evaluations: int) -
     _, delta, _ = load_controlled(pair, lambda s: elastic_foundation(s, k), down, force_N,
                                   ef_start_depth(radius_mm, force_N))
     eye = np.eye(3)
-    pose_slave, pose_master = (eye, delta * down), (eye, np.zeros(3))
+    pose_master = (eye, np.zeros(3))
     fresh = ContactPair(slave, Plane([0.0, 0.0, 0.0], [0.0, 0.0, 1.0]))
     t = time.perf_counter()
-    fresh.evaluate(pose_slave, pose_master)
+    fresh.evaluate((eye, delta * down), pose_master)
     rebuild = time.perf_counter() - t
-    times = []
-    for i in range(evaluations):
+
+    def evaluate(i: int):
         wobble = (eye, (delta + 1e-4 * (i % 2)) * down)   # moves, stays within the margin
-        t = time.perf_counter()
         surface = pair.evaluate(wobble, pose_master)
         elastic_foundation(surface, k)
-        times.append(time.perf_counter() - t)
+        return surface
+
+    surface = evaluate(0)
     cand = pair.cache.get(eye, delta * down)
-    return {"faces": slave.n_faces, "candidate_faces": int(cand.faces.size),
-            "contact_faces": int(surface.n_faces), "time_per_evaluation_s":
-            statistics.median(times), "first_evaluation_s": rebuild}
+    return _Timed(evaluate, slave.n_faces, int(cand.faces.size), int(surface.n_faces),
+                  rebuild)
+
+
+def _best_times(cases: list[_Timed], evaluations: int) -> list[float]:
+    """Best time of one evaluation per case, the cases timed in interleaved rounds so a
+    busy spell on a shared machine slows all of them alike (s)."""
+    best = [math.inf] * len(cases)
+    for i in range(evaluations):
+        for j, case in enumerate(cases):
+            t = time.perf_counter()
+            case.evaluate(i + 1)
+            best[j] = min(best[j], time.perf_counter() - t)
+    return best
 
 
 def _slope(xs: list[float], ys: list[float]) -> float:
@@ -499,22 +524,28 @@ def _slope(xs: list[float], ys: list[float]) -> float:
 
 
 def scaling(config: BenchConfig, log: Callable[[str], None] = lambda s: None) -> dict:
-    """Time per contact evaluation against slave faces (medial compartment)."""
+    """Time per contact evaluation against slave faces (medial compartment): the best of
+    `config.scaling_evaluations` evaluations per mesh, all meshes timed in the same rounds."""
     radius, force = BASELINE_COMPARTMENTS["medial"]
-    refined = [_per_evaluation(_icosphere(radius, n), radius, force,
-                               config.scaling_evaluations) for n in config.scaling_levels]
     base = _icosphere(radius, THESIS_LEVEL)
-    padded = [_per_evaluation(_padded(base, k), radius, force, config.scaling_evaluations)
-              for k in config.scaling_copies]
-    out = {"refined_icosphere": refined, "padded_icosphere": padded}
-    for name, series in (("refined_icosphere", refined), ("padded_icosphere", padded)):
-        faces = [s["faces"] for s in series]
-        t = [s["time_per_evaluation_s"] for s in series]
-        out[f"{name}_slope_vs_faces"] = _slope(faces, t)
+    meshes = {"refined_icosphere": [_icosphere(radius, n) for n in config.scaling_levels],
+              "padded_icosphere": [_padded(base, k) for k in config.scaling_copies]}
+    cases = [(name, _pressed(m, radius, force)) for name, ms in meshes.items() for m in ms]
+    best = _best_times([c for _, c in cases], config.scaling_evaluations)
+    out: dict = {name: [] for name in meshes}
+    for (name, c), t in zip(cases, best, strict=True):
+        out[name].append({"faces": c.faces, "candidate_faces": c.candidate_faces,
+                          "contact_faces": c.contact_faces, "time_per_evaluation_s": t,
+                          "first_evaluation_s": c.first_evaluation_s})
+    for name in meshes:
+        series = out[name]
+        out[f"{name}_slope_vs_faces"] = _slope([s["faces"] for s in series],
+                                               [s["time_per_evaluation_s"] for s in series])
         for s in series:
             log(f"scaling {name:18s} faces {s['faces']:7d}  near {s['candidate_faces']:6d}  "
                 f"per evaluation {1e3 * s['time_per_evaluation_s']:8.3f} ms  first "
                 f"{1e3 * s['first_evaluation_s']:8.3f} ms")
+    refined = out["refined_icosphere"]
     out["refined_icosphere_slope_vs_candidate_faces"] = _slope(
         [s["candidate_faces"] for s in refined], [s["time_per_evaluation_s"] for s in refined])
     return out
