@@ -133,13 +133,19 @@ def test_winding_checks_tell_flipped_from_mixed(patch):
         pl.check_winding(TriMesh(patch.points, faces), "sheet")
 
 
-def test_folds_are_found_where_they_are(patch):
-    assert not pl.fold_faces(patch).any()
+def _folded(patch):
+    """The patch's points with x > 6 mm folded back over the sheet, 10° up; the flap."""
     p = patch.points.copy()
-    flap = p[:, 0] > 6.0                       # fold x > 6 mm back over the sheet, 10° up
+    flap = p[:, 0] > 6.0
     u = p[flap, 0] - 6.0
     p[flap, 0] = 6.0 - u * np.cos(np.radians(10.0))
     p[flap, 2] = u * np.sin(np.radians(10.0)) + 0.2
+    return p, flap
+
+
+def test_folds_are_found_where_they_are(patch):
+    assert not pl.fold_faces(patch).any()
+    p, flap = _folded(patch)
     folded = pl.fold_faces(TriMesh(p, patch.faces))
     in_flap = flap[patch.faces].all(axis=1)
     assert in_flap.sum() > 50 and folded[in_flap].all()      # the flap faces down
@@ -147,6 +153,26 @@ def test_folds_are_found_where_they_are(patch):
     assert np.all(reach > 6.0 - 2.0)                         # nothing away from the crease
     with pytest.warns(pl.ImplausibleInput, match=r"folds back over itself: \d+ of"):
         pl.check_folds(TriMesh(p, patch.faces), "sheet")
+
+
+def test_a_sheet_is_analysed_once_and_still_warns_and_raises_every_time(patch):
+    """A sweep checks the same sheet at every point: its edges, folds and extent are
+    computed once per mesh, but every check still gives its warning or error."""
+    folded = TriMesh(_folded(patch)[0], patch.faces)
+    flipped = TriMesh(patch.points, patch.faces[:, ::-1])
+    for _ in range(3):
+        with pytest.warns(pl.ImplausibleInput, match="folds back over itself"):
+            pl.check_sheet(folded, "sheet")
+        with pytest.raises(FecheckError, match="normals point down"):
+            pl.check_sheet(flipped, "sheet")
+    for mesh in (folded, flipped):
+        assert pl.edge_neighbours(mesh) is pl.edge_neighbours(mesh)
+        assert pl.area_mean_normal(mesh) is pl.area_mean_normal(mesh)
+    assert pl.extent_mm(folded) is pl.extent_mm(folded)
+    with pytest.raises(ValueError, match="read-only"):
+        pl.fold_faces(folded)[0] = False
+    other = TriMesh(patch.points, patch.faces)                   # the same arrays, new mesh
+    assert not pl.fold_faces(other).any() and pl.fold_faces(folded).any()
 
 
 def test_scanned_tibial_sheets_pass_every_mesh_check():

@@ -14,8 +14,11 @@ from __future__ import annotations
 
 import math
 import warnings
-from collections.abc import Sequence
+import weakref
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass
+from functools import wraps
+from typing import TypeVar
 
 import numpy as np
 
@@ -60,6 +63,8 @@ face's average (`fecheck.model.notes` notes contacts under 60 faces as coarse)."
 P_MAX_MPA = 1000.0
 """No knee tissue or bearing carries this: cortical bone fails at ~200 MPa, UHMWPE yields
 at ~20-30 MPa, cartilage at ~25 MPa. A larger p_max is a unit mistake, never a result."""
+
+T = TypeVar("T")
 
 FORCE_RTOL = 1e-9
 """A compartment force below this times the load scale (N) counts as no force."""
@@ -122,6 +127,26 @@ def input_warnings(scene: Scene) -> list[str]:
 
 
 # ----------------------------------------------------------------------------- meshes
+def once_per_mesh(fn: Callable[[TriMesh], T]) -> Callable[[TriMesh], T]:
+    """`fn(mesh)` computed once per `TriMesh` (frozen: its arrays never change) and kept
+    while the mesh lives: a sweep checks the same sheets at every point. Arrays come back
+    read-only, shared by every caller."""
+    memo: weakref.WeakKeyDictionary = weakref.WeakKeyDictionary()
+
+    @wraps(fn)
+    def cached(mesh: TriMesh) -> T:
+        if mesh not in memo:
+            memo[mesh] = fn(mesh)
+        return memo[mesh]
+    return cached
+
+
+def _read_only(*arrays: np.ndarray) -> None:
+    for a in arrays:
+        a.setflags(write=False)
+
+
+@once_per_mesh
 def extent_mm(mesh: TriMesh) -> float:
     """Largest bounding-box side of the mesh's used vertices, mm."""
     used = np.zeros(mesh.n_points, dtype=bool)
@@ -164,6 +189,7 @@ class EdgeNeighbours:
         return bool(self.consistent.all()) and self.non_manifold == 0
 
 
+@once_per_mesh
 def edge_neighbours(mesh: TriMesh) -> EdgeNeighbours:
     """Face pairs across the shared edges of `mesh` (one sort of the 3·n_faces
     half-edges; `geometry.checks.mesh_report` answers the same winding question with
@@ -175,8 +201,10 @@ def edge_neighbours(mesh: TriMesh) -> EdgeNeighbours:
     equal = key[order][1:] == key[order][:-1]
     same = np.flatnonzero(equal)
     a, b = order[same], order[same + 1]
-    return EdgeNeighbours(a // 3, b // 3, directed[a, 0] == directed[b, 1], directed[a],
-                          int(np.count_nonzero(equal[1:] & equal[:-1])))
+    out = EdgeNeighbours(a // 3, b // 3, directed[a, 0] == directed[b, 1], directed[a],
+                         int(np.count_nonzero(equal[1:] & equal[:-1])))
+    _read_only(out.a, out.b, out.consistent, out.edge)
+    return out
 
 
 def _where(points_xy: np.ndarray) -> str:
@@ -184,14 +212,23 @@ def _where(points_xy: np.ndarray) -> str:
     return f"around (x, y) = ({x:.1f}, {y:.1f}) mm"
 
 
-def check_winding(mesh: TriMesh, what: str, edges: EdgeNeighbours | None = None) -> None:
+@once_per_mesh
+def area_mean_normal(mesh: TriMesh) -> np.ndarray:
+    """(3,) the faces' normals averaged by area: |·| 1 for a flat sheet, less as it
+    curves; its z says which way the sheet faces."""
+    cross = mesh.face_cross
+    out = cross.sum(axis=0) / max(float(np.linalg.norm(cross, axis=1).sum()), 1e-300)
+    _read_only(out)
+    return out
+
+
+def check_winding(mesh: TriMesh, what: str) -> None:
     """`FecheckError` for a tibial sheet with mixed winding (edges traversed the same
     way by both faces) or wound upside down (its area-weighted mean normal points down,
     -z, where contact expects it up, towards the femur)."""
-    edges = edge_neighbours(mesh) if edges is None else edges
-    cross = mesh.face_cross
-    down = cross[:, 2] < 0
+    edges = edge_neighbours(mesh)
     if not edges.winding_consistent:
+        down = mesh.face_cross[:, 2] < 0
         bad = int(np.count_nonzero(~edges.consistent)) + edges.non_manifold
         minority = down if np.count_nonzero(down) <= mesh.n_faces / 2 else ~down
         where = (_where(mesh.face_centroids[minority][:, :2]) if minority.any() else
@@ -201,7 +238,7 @@ def check_winding(mesh: TriMesh, what: str, edges: EdgeNeighbours | None = None)
                            f"{mesh.n_faces} faces face down (-z), {where}; orient every "
                            "face counter-clockwise seen from above (normals up, towards "
                            "the femur), e.g. trimesh.repair.fix_normals or MeshLab")
-    mean = cross.sum(axis=0) / max(float(np.linalg.norm(cross, axis=1).sum()), 1e-300)
+    mean = area_mean_normal(mesh)
     if mean[2] < 0:
         raise FecheckError(f"the {what}'s normals point down (area-weighted mean normal "
                            f"n_z = {mean[2]:.2f}), where contact expects them up, towards the "
@@ -209,28 +246,30 @@ def check_winding(mesh: TriMesh, what: str, edges: EdgeNeighbours | None = None)
                            "every face (flip the normals) in the mesh file")
 
 
-def fold_faces(mesh: TriMesh, edges: EdgeNeighbours | None = None) -> np.ndarray:
+@once_per_mesh
+def fold_faces(mesh: TriMesh) -> np.ndarray:
     """(n_faces,) True for faces of a consistently wound sheet that fold back: across an
     edge their normal turns more than 120° from the neighbour's, or they face more than
     120° away from the sheet's mean normal (under a fold)."""
-    edges = edge_neighbours(mesh) if edges is None else edges
+    edges = edge_neighbours(mesh)
     n = mesh.face_normals
     a, b = edges.a, edges.b
     sharp = edges.consistent & (np.einsum("ij,ij->i", n[a], n[b]) < FOLD_COS)
     out = np.zeros(mesh.n_faces, dtype=bool)
     out[a[sharp]] = True
     out[b[sharp]] = True
-    mean = mesh.face_cross.sum(axis=0)
+    mean = area_mean_normal(mesh)
     norm = float(np.linalg.norm(mean))
     if norm > 0:
         out |= n @ (mean / norm) < FOLD_COS
+    _read_only(out)
     return out
 
 
-def check_folds(mesh: TriMesh, what: str, edges: EdgeNeighbours | None = None) -> None:
+def check_folds(mesh: TriMesh, what: str) -> None:
     """Warn when the sheet folds back over itself: the contact would meet the fold's
     upper layer (wrong depth, area and pressure)."""
-    folded = fold_faces(mesh, edges)
+    folded = fold_faces(mesh)
     if folded.any():
         _warn(f"the {what} folds back over itself: {int(folded.sum())} of {mesh.n_faces} "
               f"faces turn more than 120° against their neighbours or the sheet, "
@@ -240,9 +279,8 @@ def check_folds(mesh: TriMesh, what: str, edges: EdgeNeighbours | None = None) -
 
 def check_sheet(mesh: TriMesh, what: str) -> None:
     """A tibial contact sheet's winding (errors) and folds (a warning)."""
-    edges = edge_neighbours(mesh)
-    check_winding(mesh, what, edges)
-    check_folds(mesh, what, edges)
+    check_winding(mesh, what)
+    check_folds(mesh, what)
 
 
 def check_pose(scene: Scene) -> tuple[np.ndarray, np.ndarray]:
