@@ -8,8 +8,9 @@ from pathlib import Path
 import pytest
 
 from fecheck.errors import FecheckError
-from fecheck.scene import SCHEMA, load_scene, packaged_scene_path, parse_override
+from fecheck.scene import SCHEMA, apply_overrides, load_scene, packaged_scene_path, parse_override
 from fecheck.scene.knee import ADDITIONAL_LEFT, BASELINE_RIGHT, plane_normal
+from fecheck.scene.load import _nest, validate
 
 REPO = Path(__file__).resolve().parents[1]
 SCENES = sorted((REPO / "validation" / "scenes").glob("*.toml"))
@@ -50,6 +51,22 @@ def test_overrides_are_toml_literals_or_bare_words():
                                   "dofs.free=['z']"])
     assert (scene["contact.poisson"], scene["solver.max_iterations"]) == (0.4, 30)
     assert scene.free_dofs == ("z",)
+
+
+@pytest.mark.parametrize("path", [None, *SCENES], ids=lambda p: getattr(p, "stem", "packaged"))
+def test_an_override_gives_the_scene_a_full_validation_gives(path):
+    """Overrides re-check only the keys they set (then the rules across keys): the scene
+    must equal the one validated from scratch with the same values."""
+    scene = load_scene(path)
+    overrides = ["contact.poisson=0.4", "load.point_mm=[3, 12.8, -380]", "dofs.free=['z']",
+                 "mesh.sphere_subdivisions=3", "contact.law=hertz"]
+    fast = apply_overrides(scene, overrides)
+    values = dict(scene.values)
+    for text in overrides:
+        key, value = parse_override(text)
+        values[key] = value
+    full = validate(_nest(values), scene.source)
+    assert fast.values == full.values and fast.source == full.source
 
 
 @pytest.mark.parametrize("override, words", [

@@ -327,7 +327,10 @@ def apply_overrides(scene: Scene, overrides: Sequence[str]) -> Scene:
 
 
 def _overridden(scene: Scene, overrides: Sequence[str]) -> tuple[Scene, list[str]]:
-    """`scene` with ``KEY=VALUE`` overrides applied and validated, and the keys set."""
+    """`scene` with ``KEY=VALUE`` overrides applied and validated, and the keys set.
+
+    Only the keys set are checked again (the others were checked when `scene` was made),
+    then the rules across keys: a sweep applies one override per point."""
     if not overrides:
         return scene, []
     values = dict(scene.values)
@@ -338,7 +341,9 @@ def _overridden(scene: Scene, overrides: Sequence[str]) -> tuple[Scene, list[str
             raise _unknown(key, "--set")
         values[key] = _check(key, value, "--set")
         keys.append(key)
-    return validate(_nest(values), scene.source, f"--set on {scene.source}"), keys
+    out = Scene(values, scene.source)
+    _check_consistent(out, f"--set on {scene.source}")
+    return out, keys
 
 
 def with_values(scene: Scene, **dotted: Any) -> Scene:
