@@ -217,6 +217,30 @@ def test_the_csv_is_rewritten_after_each_point_in_value_order(tmp_path):
     assert seen[-1] == [30.0, 9.0, 15.0]
 
 
+def test_the_cli_keeps_the_csv_up_to_date_at_a_pace_that_stays_cheap(tmp_path, monkeypatch):
+    """`fecheck sweep --csv` rewrites the file after the first point at once, then once
+    `CHECKPOINT_S` has passed (or ten times the last write's duration, if longer)."""
+    from fecheck.cli import sweep as cli_sweep
+
+    scene = load_scene(SCENES / "rigid.toml")
+    points = run_sweep(scene, "contact.youngs_MPa", [5.0, 10.0, 20.0], progress=False)
+    clock = iter([100.0, 100.0,          # first point: written at once, taking 0 s
+                  100.5,                 # 0.5 s later: not yet
+                  101.0, 103.0,          # 1 s later: written, taking 2 s
+                  110.0,                 # 7 s after that write: not yet (10 x 2 s)
+                  123.0, 123.0])         # 20 s after: written
+    monkeypatch.setattr(cli_sweep.time, "monotonic", lambda: next(clock))
+    out = tmp_path / "s.csv"
+    save = cli_sweep._Checkpoint(str(out), "contact.youngs_MPa")
+    written = []
+    for k in (1, 2, 2, 3, 3):
+        save(points[:k])
+        written.append(len(_csv(out)))
+    assert written == [1, 1, 2, 2, 3]
+    cli_sweep._Checkpoint("-", "contact.youngs_MPa")(points)       # stdout: at the end only
+    cli_sweep._Checkpoint(None, "contact.youngs_MPa")(points)
+
+
 @pytest.mark.parametrize("workers", [1, 2])
 def test_an_interrupt_keeps_the_finished_points_and_stops_the_workers(workers):
     scene = load_scene(SCENES / "rigid.toml")
