@@ -169,3 +169,7 @@ def test_an_interrupt_swallowed_inside_a_kernel_is_raised_at_the_next_point():
         with pytest.raises(KeyboardInterrupt):
             raise_pending_interrupt()
     assert signal.getsignal(signal.SIGTERM) is signal.SIG_DFL
+    try:
+        raise_pending_interrupt()
+    except KeyboardInterrupt:
+        pytest.fail("an interrupt caught in the block outlived it")

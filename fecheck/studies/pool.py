@@ -283,6 +283,7 @@ def interrupts_raised() -> Iterator[None]:
     try:
         yield
     finally:
+        _CAUGHT.clear()                      # they belonged to the block
         for sig, handler in previous.items():
             signal.signal(sig, signal.SIG_DFL if handler is None else handler)
 
