@@ -17,7 +17,7 @@ from fecheck.studies import bench_sweeps
 
 SIZES = {"baseline": 20, "femur_tibia": 5}
 CASE_KEYS = {"scene", "points", "mode", "values_mm", "converged", "wall_s",
-             "equilibria_per_s", "median_point_ms", "single_solve_ms"}
+             "equilibria_per_s", "median_point_ms", "single_solve_ms", "start_s"}
 MODES = ["serial", "2 workers"]
 
 
@@ -57,7 +57,9 @@ def test_equilibria_per_second_is_points_over_wall_time(timed):
                                                          rel=1e-12)
         for key in ("median_point_ms", "single_solve_ms"):
             assert math.isfinite(case[key]) and case[key] > 0
-    assert 0 < sum(c["wall_s"] for c in result["cases"]) < elapsed
+        assert (case["start_s"] is None) == (case["mode"] == "serial")
+        assert case["mode"] == "serial" or case["start_s"] > 0
+    assert 0 < sum(c["wall_s"] + (c["start_s"] or 0) for c in result["cases"]) < elapsed
     for scene, speedup in result["speedup"].items():
         wall = {c["mode"]: c["wall_s"] for c in result["cases"] if c["scene"] == scene}
         assert speedup == pytest.approx(wall["serial"] / wall["2 workers"])

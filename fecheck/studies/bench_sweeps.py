@@ -14,7 +14,10 @@ Each case runs `fecheck.studies.sweep.run_sweep` twice: ``serial`` (in this proc
 each point warm-started from the previous equilibrium) and ``2 workers`` (a local pool,
 each point warm-started from the last one its worker solved). The wall time runs from
 the call to its return, so for the pool it includes starting the workers (forked),
-sending the scene and stopping them.
+sending the scene and stopping them. That fixed cost is measured on its own before the
+pooled sweep: ``start_s``, the wall time of a pooled sweep of one point per worker (each
+worker loads the compiled kernels and builds the model once, whatever the sweep's
+length).
 Equilibria per second = points / wall time. The median time per equilibrium is the
 median over the points of ``RunResult.timing_s["solve"]`` (the Newton solve with its
 contact evaluations, no mesh build); beside it the same field of ONE cold-started
@@ -105,10 +108,16 @@ def mode(workers: int) -> str:
 
 def sweep_row(case: Case, workers: int, single_ms: float) -> dict:
     """Time one sweep of `case` on `workers` processes (1: serial, in this process): its
-    row, wall time in s, solve times in ms (`single_ms`, the single solve's, as given)."""
+    row, wall time in s, solve times in ms (`single_ms`, the single solve's, as given);
+    for a pool, first its fixed cost ``start_s`` (a sweep of one point per worker), s."""
     from fecheck.studies.sweep import run_sweep
 
     values = case.values_mm()
+    start_s = None
+    if workers > 1:
+        start = time.perf_counter()
+        run_sweep(case.scene, PARAM, values[:workers], workers=workers, progress=False)
+        start_s = time.perf_counter() - start
     start = time.perf_counter()
     points = run_sweep(case.scene, PARAM, values, workers=workers, progress=False)
     wall_s = time.perf_counter() - start
@@ -116,7 +125,7 @@ def sweep_row(case: Case, workers: int, single_ms: float) -> dict:
     return {"scene": case.label, "points": len(values), "mode": mode(workers),
             "values_mm": [values[0], values[-1]],
             "converged": sum(p.converged for p in points), "wall_s": wall_s,
-            "equilibria_per_s": len(values) / wall_s,
+            "equilibria_per_s": len(values) / wall_s, "start_s": start_s,
             "median_point_ms": statistics.median(solve_ms) if solve_ms else None,
             "single_solve_ms": single_ms}
 
@@ -190,6 +199,9 @@ def table(result: dict) -> str:
                      f"{median:>16s}{r['single_solve_ms']:16.2f}")
     lines.append(f"speed-up of {mode(WORKERS)} over serial (wall time): " + (", ".join(
         f"{scene} {s:.2f}x" for scene, s in result["speedup"].items()) or "-"))
+    lines += [f"  of which starting the pool ({r['scene']}: one point per worker, each "
+              f"loading the compiled kernels and building the model): {r['start_s']:.2f} s"
+              for r in result["cases"] if r["start_s"] is not None]
     lines.append("median solve per equilibrium in the sweep vs one cold-started solve:")
     lines += [f"  {r['scene']} {r['mode']}: {_verdict(r)}" for r in result["cases"]]
     unconverged = [f"{r['scene']} {r['mode']} ({r['points'] - r['converged']})"
