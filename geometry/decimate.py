@@ -48,11 +48,15 @@ True
 
 from __future__ import annotations
 
+from typing import TYPE_CHECKING
+
 import numpy as np
-import scipy.sparse as sp
 
 from geometry.errors import FecheckError
 from geometry.mesh import TriMesh
+
+if TYPE_CHECKING:
+    import scipy.sparse as sp
 
 #: Smallest target: a closed surface cannot have fewer than 4 faces.
 MIN_FACES = 4
@@ -164,6 +168,8 @@ def _neighbour_mean(points: np.ndarray, faces: np.ndarray, border: np.ndarray,
                     moved: np.ndarray) -> np.ndarray:
     """(k, 3) mean of the neighbours of the vertices `moved`, mm: of those along the border
     (edges `border`) for a border vertex, of those along any face edge for the others."""
+    import scipy.sparse as sp
+
     n = len(points)
     on_border = np.zeros(n)
     on_border[border.ravel()] = 1.0
@@ -175,6 +181,8 @@ def _neighbour_mean(points: np.ndarray, faces: np.ndarray, border: np.ndarray,
 
 def _adjacency(n: int, edges: np.ndarray) -> sp.csr_matrix:
     """(n, n) symmetric 0/1 vertex adjacency of the (e, 2) `edges`."""
+    import scipy.sparse as sp
+
     a = sp.coo_matrix((np.ones(len(edges)), (edges[:, 0], edges[:, 1])), shape=(n, n))
     return ((a + a.T) > 0).astype(float).tocsr()
 
