@@ -64,8 +64,6 @@ P_MAX_MPA = 1000.0
 """No knee tissue or bearing carries this: cortical bone fails at ~200 MPa, UHMWPE yields
 at ~20-30 MPa, cartilage at ~25 MPa. A larger p_max is a unit mistake, never a result."""
 
-T = TypeVar("T")
-
 FORCE_RTOL = 1e-9
 """A compartment force below this times the load scale (N) counts as no force."""
 
@@ -127,6 +125,9 @@ def input_warnings(scene: Scene) -> list[str]:
 
 
 # ----------------------------------------------------------------------------- meshes
+T = TypeVar("T")
+
+
 def once_per_mesh(fn: Callable[[TriMesh], T]) -> Callable[[TriMesh], T]:
     """`fn(mesh)` computed once per `TriMesh` (frozen: its arrays never change) and kept
     while the mesh lives: a sweep checks the same sheets at every point. Arrays come back
