@@ -107,7 +107,9 @@ def test_a_patch_at_plus_x_and_plus_y_is_drawn_right_and_up():
     h, w = coloured.shape
     assert len(cols) > 2000
     assert cols.min() > w / 2, "the +x patch must be on the right (seen from above)"
-    assert rows.max() < h / 2, "the +y (anterior) half must be at the top"
+    lateral_zero_rows = np.nonzero(zero[:, w // 2:])[0]
+    assert np.median(rows) < np.median(lateral_zero_rows) and rows.min() < h / 4, \
+        "the +y (anterior) half must be above the posterior half, near the top"
     assert np.count_nonzero(zero[:, : w // 2]) > 2000, "the medial plate sits on the left"
 
 

@@ -16,6 +16,9 @@ from report import CANNOT, DEVIATES, Line, Row, guarded, knee_scene, main_for, t
 from row_rigid import run, scene
 
 SHIFTS_MM = (-8.0, 0.0, 8.0)
+P_MAX_FORMAT = "%.2f"
+"""How the panels print p_max (MPa) and how the colour bar labels its ticks: the bar's
+top tick reads as the largest printed p_max."""
 
 
 def _solve(name: str | None, shifts: tuple[float, ...]) -> list:
@@ -23,14 +26,14 @@ def _solve(name: str | None, shifts: tuple[float, ...]) -> list:
     return [run(name, f"load.point_mm=[{x0 + s}, {y0}, {z0}]") for s in shifts]
 
 
-def pressure_png(results: list, shifts: tuple[float, ...], title: str, path: Path) -> Path:
-    """One viewport per load shift, both compartments' slave surfaces coloured by the face
-    pressure (MPa, one colour scale), seen from the side the pressure acts on."""
+def pressure_figure(results: list, shifts: tuple[float, ...], title: str):
+    """The pyvista plotter (off-screen, not shown) of `pressure_png`."""
     os.environ.setdefault("VTK_DEFAULT_OPENGL_WINDOW", "vtkEGLRenderWindow")
     import pyvista as pv
 
-    pmax = max(float(np.nanmax(c.face_pressure_MPa)) for r in results
-               for c in r.compartments.values())
+    from fecheck.io.plots import printed_max_pressure
+
+    pmax = max(printed_max_pressure(r)[0] for r in results)
     plotter = pv.Plotter(off_screen=True, shape=(1, len(results)),
                          window_size=(max(900, 520 * len(results)), 600), border=False)
     for k, (res, shift) in enumerate(zip(results, shifts, strict=True)):
@@ -42,10 +45,11 @@ def pressure_png(results: list, shifts: tuple[float, ...], title: str, path: Pat
             mesh = pv.PolyData(np.asarray(comp.slave_points, dtype=float), cells)
             mesh.cell_data["pressure, MPa"] = comp.face_pressure_MPa
             plotter.add_mesh(mesh, scalars="pressure, MPa", cmap="viridis", clim=(0.0, pmax),
-                             show_scalar_bar=(k == len(results) - 1),
+                             lighting=False, show_scalar_bar=(k == len(results) - 1),
                              scalar_bar_args={"title": "pressure, MPa", "vertical": True,
                                               "position_x": 0.78, "position_y": 0.15,
-                                              "height": 0.7, "width": 0.08, "fmt": "%.1f"})
+                                              "height": 0.7, "width": 0.08,
+                                              "fmt": P_MAX_FORMAT})
             hot = np.flatnonzero(comp.face_pressure_MPa > 0)
             if hot.size:
                 tri = np.asarray(comp.slave_points, dtype=float)[faces[hot]]
@@ -63,13 +67,22 @@ def pressure_png(results: list, shifts: tuple[float, ...], title: str, path: Pat
             plotter.camera.up = (0.0, 1.0, 0.0)
         m, lat = res.compartments["medial"], res.compartments["lateral"]
         plotter.add_text(f"load shift {shift:+g} mm along x\nmedial {m.force_N:.0f} N, "
-                         f"p_max {m.max_pressure_MPa:.2f} MPa\nlateral {lat.force_N:.0f} N, "
-                         f"p_max {lat.max_pressure_MPa:.2f} MPa", position="lower_edge",
-                         font_size=9)
+                         f"p_max {P_MAX_FORMAT % m.max_pressure_MPa} MPa\nlateral "
+                         f"{lat.force_N:.0f} N, p_max {P_MAX_FORMAT % lat.max_pressure_MPa} MPa",
+                         position="lower_edge", font_size=9)
         if k == 0:
-            plotter.add_text(title + "\nseen from the contact side; x right, y anterior, mm",
+            plotter.add_text(title + "\nseen from the contact side; x right, y anterior, mm; "
+                             "face means, colour bar up to the largest printed p_max",
                              position="upper_left", font_size=10)
         plotter.add_axes(xlabel="x", ylabel="y", zlabel="z")
+    return plotter
+
+
+def pressure_png(results: list, shifts: tuple[float, ...], title: str, path: Path) -> Path:
+    """One viewport per load shift, both compartments' slave surfaces coloured by the face
+    pressure (MPa, unlit, one colour scale from 0 to the largest p_max the panels print),
+    seen from the side the pressure acts on."""
+    plotter = pressure_figure(results, shifts, title)
     path.parent.mkdir(parents=True, exist_ok=True)
     plotter.screenshot(str(path))
     plotter.close()

@@ -72,9 +72,12 @@ def balance(scene, result) -> float:
 
 
 def pressure_png(result, scene, path: Path) -> Path:
-    """Top view of the tibial cartilage pressure (MPa) on the grey tibia bone."""
+    """Top view of the tibial cartilage pressure (MPa, face means; the colour bar up to
+    the larger printed p_max) on the grey tibia bone."""
     os.environ.setdefault("VTK_DEFAULT_OPENGL_WINDOW", "vtkEGLRenderWindow")
     import pyvista as pv
+
+    from fecheck.io.plots import printed_max_pressure
 
     def poly(points, faces):
         return pv.PolyData(points, np.hstack([np.full((len(faces), 1), 3), faces]).ravel())
@@ -83,13 +86,13 @@ def pressure_png(result, scene, path: Path) -> Path:
     bone = surfaces.bone(scene, "tibia")
     plotter = pv.Plotter(off_screen=True, window_size=(1000, 800))
     plotter.add_mesh(poly(bone.points @ rot.T + t, bone.faces), color="lightgrey")
-    top = max(float(c.face_pressure_MPa.max()) for c in result.compartments.values())
+    top = printed_max_pressure(result)[0]
     for name, comp in result.compartments.items():
         sheet = poly(comp.slave_points + 0.05 * np.array([0.0, 0.0, 1.0]), comp.slave_faces)
         sheet.cell_data["face pressure (MPa)"] = comp.face_pressure_MPa
         plotter.add_mesh(sheet, scalars="face pressure (MPa)", cmap="viridis", clim=(0.0, top),
                          scalar_bar_args={"title": "face pressure (MPa)", "position_x": 0.25,
-                                          "position_y": 0.02, "width": 0.5},
+                                          "position_y": 0.02, "width": 0.5, "fmt": "%.2f"},
                          show_scalar_bar=name == "medial")
     plotter.view_xy()
     plotter.camera.zoom(1.25)

@@ -27,6 +27,54 @@ MARGIN_MM = 6.0
 """Margin around the cartilage in the section panels, mm."""
 COLOURS = {"femur": "tab:blue", "tibia": "tab:red", "bone": "0.6"}
 AXIS_NAMES = ("x", "y", "z")
+TITLE_ROOM = 0.96
+"""Share of the figure's width a title line may take."""
+
+
+def middle_ellipsis(text: str, keep: int) -> str:
+    """`text` cut to `keep` characters by an ellipsis in its middle (its start and end
+    kept); unchanged if it is no longer.
+
+    >>> middle_ellipsis("subject_0042_femoral_cartilage.stl", 15)
+    'subject…age.stl'
+    """
+    if len(text) <= keep:
+        return text
+    head = keep // 2
+    tail = keep - 1 - head
+    return text[:head] + "…" + (text[len(text) - tail:] if tail > 0 else "")
+
+
+def _halves(title: str) -> list[str]:
+    """`title` split in two lines at the space nearest its middle (one line if none)."""
+    spaces = [i for i, c in enumerate(title) if c == " "]
+    if not spaces:
+        return [title]
+    cut = min(spaces, key=lambda i: abs(2 * i - len(title)))
+    return [title[:cut], title[cut + 1:]]
+
+
+def fit_title(fig, title: str, fontsize: float = 11):
+    """Set `title` as `fig`'s suptitle within `TITLE_ROOM` of its width: on one line, or
+    on two split at a space, each line too wide for the figure shortened in its middle
+    (`middle_ellipsis`). Returns the title's Text."""
+    text = fig.suptitle(title, fontsize=fontsize)
+    renderer = fig.canvas.get_renderer()
+    room = TITLE_ROOM * fig.bbox.width
+
+    def width(line: str) -> float:
+        text.set_text(line)
+        return text.get_window_extent(renderer).width
+
+    if width(title) <= room:
+        return text
+    lines = []
+    for line in _halves(title):
+        while (w := width(line)) > room and len(line) > 3:
+            line = middle_ellipsis(line, min(len(line) - 1, int(len(line) * room / w)))
+        lines.append(line)
+    text.set_text("\n".join(lines))
+    return text
 
 
 def plane_section(mesh: TriMesh, axis: int, value: float) -> np.ndarray:
@@ -154,7 +202,7 @@ def write_knee_preview(path: str | Path, femur: TriMesh, tibia: Mapping[str, Tri
         _section_panel(ax, f"sagittal section x = {centre[0]:.1f} mm ({name}; viewed from +x)", 0,
                        float(centre[0]), femur, {name: tibia[name]}, bones)
     if title:
-        fig.suptitle(title, fontsize=11)
+        fit_title(fig, title)
     path = Path(path)
     fig.savefig(path, dpi=110)
     plt.close(fig)

@@ -9,7 +9,9 @@ Every map follows the same conventions (`fecheck run --plot`, `fecheck fe --plot
   patch, with the contact outline drawn as a line;
 * unlit colours: a face's colour is exactly the colour bar's colour for its value;
 * the colour bar sits in its own panel with its title above it (never over its ticks);
-* orientation axes (x, y, z) and a scale bar in mm drawn in world coordinates;
+* a strip of its own under each map, so that they hide no mesh: orientation axes
+  (x, y, z) at its left, a scale bar in mm drawn at the map's scale (mm per pixel) under
+  the right end of the contact frame;
 * the camera frames every contact patch with a margin (the whole mesh of a compartment
   without contact), whatever the size of the meshes.
 
@@ -37,8 +39,9 @@ BACKGROUND = "white"
 INK = "black"
 MARGIN_FRACTION = 0.3      # margin around a contact patch, as a fraction of its size
 MARGIN_MIN_MM = 3.0        # and at least this many mm
-STRIP_BELOW = 0.12         # strip below the contact frame for the scale bar, fraction of its height
-STRIP_ABOVE = 0.06         # strip above it for the labels
+STRIP_ABOVE = 0.06         # strip above the contact frame for the labels, fraction of its height
+SCALE_PX = 80              # strip under each map (axes, scale bar), px
+AXES_WIDTH = 0.09          # width of the orientation axes in that strip, fraction
 HEADING_LINE_PX = 20       # height of one heading line, px
 HEADING_CHAR_PX = 10.5     # width of one heading character, px (estimate, for wrapping)
 TITLE_PX = 44              # panel title row height, px
@@ -102,10 +105,12 @@ class Panel:
 @dataclass(eq=False)
 class Figure:
     """A drawn figure: the pyvista plotter (close it after use), the map renderers, the
-    colour bars and every text drawn (heading, titles, labels), for checks."""
+    scale-bar renderers (one under each map), the colour bars and every text drawn
+    (heading, titles, labels), for checks."""
 
     plotter: object
     maps: list = field(default_factory=list)
+    scales: list = field(default_factory=list)
     bars: list = field(default_factory=list)
     texts: list[str] = field(default_factory=list)
 
@@ -237,34 +242,39 @@ def _add_labels(plotter, patches: Sequence[Patch], frame: Bounds, top_z: float,
     texts.extend(labels)
 
 
-def _add_scale_bar(plotter, pv, frame: Bounds, top_z: float, texts: list[str]) -> float:
-    """A round-length bar (mm) in world coordinates on a white plate in the strip below
-    the contact frame (`camera_frame`), its length written above it; returns the length,
-    mm."""
-    x0, x1, y0, y1 = frame
+def _add_scale_bar(plotter, pv, frame: Bounds, mm_per_px: float, texts: list[str]) -> float:
+    """The orientation axes and a round-length bar (mm) in the active (strip) renderer,
+    the bar under the right end of the map's contact frame: the strip's camera has the
+    map's centre x, view and scale (`mm_per_px`), so the bar is as long as that many mm
+    of the map. Its length is written above it; returns the length, mm."""
+    x0, x1, _, _ = frame
     length = scale_bar_length(x1 - x0)
-    pad = 0.15 * length
-    right, y = x1 - pad, y0 - STRIP_BELOW * (y1 - y0) + 0.25 * pad
-    z = top_z - 0.5 * LIFT_MM
-    plate = pv.Rectangle([(right - length - pad, y - 0.6 * pad, z),
-                          (right + pad, y - 0.6 * pad, z), (right + pad, y + 1.8 * pad, z)])
-    plotter.add_mesh(plate, color="white", lighting=False)
-    plotter.add_mesh(pv.Line((right - length, y, top_z), (right, y, top_z)), color=INK,
+    _, v0, _, v1 = plotter.renderer.GetViewport()
+    half = 0.5 * (v1 - v0) * plotter.window_size[1] * mm_per_px   # half the row, mm
+    right, y = x1 - 0.15 * length, -0.45 * half
+    plotter.add_mesh(pv.Line((right - length, y, 0.0), (right, y, 0.0)), color=INK,
                      line_width=5, lighting=False)
     label = f"{length:g} mm"
-    plotter.add_point_labels(np.array([[right - 0.65 * length, y + 0.3 * pad, top_z]]),
+    plotter.add_point_labels(np.array([[right - 0.65 * length, y + 0.12 * half, 0.0]]),
                              [label], font_size=LABEL_FONT, text_color=INK, shape=None,
                              show_points=False, always_visible=True)
     texts.append(label)
+    plotter.add_axes(xlabel="x", ylabel="y", zlabel="z", color=INK, line_width=3,
+                     viewport=(0.0, 0.0, AXES_WIDTH, 1.0))
+    cam = plotter.camera
+    cam.focal_point = (0.5 * (x0 + x1), 0.0, 0.0)
+    cam.position = (0.5 * (x0 + x1), 0.0, 1000.0)
+    cam.up = (0.0, 1.0, 0.0)
+    plotter.enable_parallel_projection()
+    cam.parallel_scale = half
+    plotter.renderer.ResetCameraClippingRange()
     return length
 
 
 def camera_frame(frame: Bounds) -> Bounds:
-    """The contact frame with a strip below for the scale bar and one above for the
-    labels, mm."""
+    """The contact frame with a strip above for the labels, mm."""
     x0, x1, y0, y1 = frame
-    h = y1 - y0
-    return x0, x1, y0 - STRIP_BELOW * h, y1 + STRIP_ABOVE * h
+    return x0, x1, y0, y1 + STRIP_ABOVE * (y1 - y0)
 
 
 def _aspect(plotter) -> float:
@@ -290,15 +300,12 @@ def frame_camera(plotter, frame: Bounds, top_z: float) -> None:
 
 
 def _draw_map(plotter, pv, panel: Panel, frame: Bounds, texts: list[str]):
-    """Patches, orientation axes, camera, labels and scale bar in the active renderer;
-    returns the first patch's mapper (its lookup table is the panel's colour bar)."""
+    """Patches, camera and labels in the active renderer; returns the
+    first patch's mapper (its lookup table is the panel's colour bar)."""
     actors = [_add_patch(plotter, pv, p, panel.scale) for p in panel.patches]
     top_z = max(float(p.points[:, 2].max()) for p in panel.patches) + LIFT_MM
-    plotter.add_axes(xlabel="x", ylabel="y", zlabel="z", color=INK, line_width=3,
-                     viewport=(0.0, 0.0, 0.14, 0.2))
     frame_camera(plotter, camera_frame(frame), top_z)
     _add_labels(plotter, panel.patches, frame, top_z + LIFT_MM, texts)
-    _add_scale_bar(plotter, pv, frame, top_z + LIFT_MM, texts)
     return actors[0].mapper
 
 
@@ -336,15 +343,15 @@ def _window(panels: Sequence[Panel], frame: Bounds, width: int, heading_px: floa
     x0, x1, y0, y1 = camera_frame(frame)
     map_w = width * MAP_WEIGHT / (MAP_WEIGHT + BAR_WEIGHT)
     map_h = float(np.clip(map_w * (y1 - y0) / max(x1 - x0, 1e-9) * 1.08, 320, 1000))
-    return width, int(heading_px + len(panels) * (TITLE_PX + map_h))
+    return width, int(heading_px + len(panels) * (TITLE_PX + map_h + SCALE_PX))
 
 
 def _layout(pv, panels: Sequence[Panel], window: tuple[int, int], heading_px: float):
-    """Plotter with a heading row, then a title row and a map row per panel; the maps in
-    the wide left column, the colour bars in the narrow right one."""
-    map_h = (window[1] - heading_px) / len(panels) - TITLE_PX
-    rows = [heading_px] + [TITLE_PX, map_h] * len(panels)
-    groups = [(0, np.s_[:])] + [(np.s_[2 + 2 * a:3 + 2 * b], 1)
+    """Plotter with a heading row, then a title row, a map row and a scale-bar row per
+    panel; the maps in the wide left column, the colour bars in the narrow right one."""
+    map_h = (window[1] - heading_px) / len(panels) - TITLE_PX - SCALE_PX
+    rows = [heading_px] + [TITLE_PX, map_h, SCALE_PX] * len(panels)
+    groups = [(0, np.s_[:])] + [(np.s_[2 + 3 * a:3 + 3 * b], 1)
                                 for a, b in _bar_groups(panels) if b > a]
     plotter = pv.Plotter(shape=(len(rows), 2), row_weights=rows,
                          col_weights=[MAP_WEIGHT, BAR_WEIGHT], groups=groups,
@@ -363,15 +370,19 @@ def draw_maps(panels: Sequence[Panel], heading: str, width: int = 1400) -> Figur
     heading_px = HEADING_LINE_PX * (heading.count("\n") + 1.6)
     plotter = _layout(pv, panels, _window(panels, frame, width, heading_px), heading_px)
     fig = Figure(plotter)
-    bar_rows = {b: 2 + 2 * a for a, b in _bar_groups(panels)}
+    bar_rows = {b: 2 + 3 * a for a, b in _bar_groups(panels)}
     for i, panel in enumerate(panels):
-        plotter.subplot(1 + 2 * i, 0)
+        plotter.subplot(1 + 3 * i, 0)
         plotter.add_text(panel.title, position=(0.005, 0.2), viewport=True, font_size=12,
                          color=INK)
         fig.texts.append(panel.title)
-        plotter.subplot(2 + 2 * i, 0)
+        plotter.subplot(2 + 3 * i, 0)
         mapper = _draw_map(plotter, pv, panel, frame, fig.texts)
         fig.maps.append(plotter.renderer)
+        mm_per_px = _mm_per_pixel(plotter)
+        plotter.subplot(3 + 3 * i, 0)
+        _add_scale_bar(plotter, pv, frame, mm_per_px, fig.texts)
+        fig.scales.append(plotter.renderer)
         if i in bar_rows:
             plotter.subplot(bar_rows[i], 1)
             fig.bars.append(_add_bar(plotter, mapper, panel.scale, fig.texts))

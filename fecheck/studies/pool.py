@@ -2,15 +2,19 @@
 that lets one Ctrl-C (or SIGTERM) stop a long study within a second, leaving no child.
 
 Each worker has its own pipe (a worker killed half-way through sending reads as
-end-of-file), ignores SIGINT (only the parent decides to stop) and dies on SIGTERM; the
-thread handing out tasks is a daemon the interpreter does not wait for at exit.
+end-of-file), ignores SIGINT (only the parent decides to stop), dies on SIGTERM and dies
+with its parent (even one killed with SIGKILL, which can clean nothing up); the thread
+handing out tasks is a daemon the interpreter does not wait for at exit.
 """
 
 from __future__ import annotations
 
+import ctypes
 import multiprocessing
 import multiprocessing.connection
+import os
 import signal
+import sys
 import threading
 import time
 from collections import deque
@@ -24,6 +28,10 @@ INTERRUPTS = (signal.SIGINT, signal.SIGTERM)
 """The signals that stop a study."""
 KILL_WAIT_S = 1.0
 """How long terminated workers get to exit before they are killed, s."""
+PARENT_POLL_S = 0.25
+"""How often a worker without a parent-death signal checks that its parent lives, s."""
+PR_SET_PDEATHSIG = 1
+"""Linux prctl option: the signal this process gets when the thread that forked it ends."""
 
 
 @contextmanager
@@ -77,20 +85,65 @@ def rearm_handlers() -> None:
             signal.signal(sig, handler)
 
 
-def _init_worker() -> None:
-    """Pool worker start: ignore SIGINT (the parent decides), die on SIGTERM."""
+def _set_parent_death_signal() -> bool:
+    """Ask Linux to SIGKILL this process when its parent ends; False where it cannot."""
+    if not sys.platform.startswith("linux"):
+        return False
+    try:
+        libc = ctypes.CDLL(None, use_errno=True)
+        return libc.prctl(PR_SET_PDEATHSIG, int(signal.SIGKILL), 0, 0, 0) == 0
+    except (OSError, AttributeError):
+        return False
+
+
+def _watch_parent(parent: int) -> None:
+    """Watchdog loop: end this process as soon as its parent is no longer `parent`."""
+    while os.getppid() == parent:
+        time.sleep(PARENT_POLL_S)
+    os._exit(1)
+
+
+def _start_watchdog(parent: int) -> None:
+    """Run `_watch_parent` in a daemon thread (a worker busy in a solve reads no pipe)."""
+    threading.Thread(target=_watch_parent, args=(parent,), name="fecheck-parent-watch",
+                     daemon=True).start()
+
+
+def die_with_parent(parent: int) -> None:
+    """Make this process end when its parent, pid `parent`, does (even by SIGKILL).
+
+    On Linux the kernel sends it SIGKILL when the parent ends (the parent-death signal,
+    strictly: when the parent's thread that started it ends; a pool lives no longer than
+    the call that made it); elsewhere a daemon thread checks the parent's pid every
+    `PARENT_POLL_S`. If the parent ended before the signal was set, this process already
+    has another parent: it exits at once.
+    """
+    if not _set_parent_death_signal():
+        _start_watchdog(parent)
+    if os.getppid() != parent:
+        os._exit(1)
+
+
+def _init_worker(parent: int) -> None:
+    """Pool worker start: die with `parent`, ignore SIGINT (the parent decides), die on
+    SIGTERM."""
+    die_with_parent(parent)
     signal.signal(signal.SIGINT, signal.SIG_IGN)
     signal.signal(signal.SIGTERM, signal.SIG_DFL)
     if hasattr(signal, "pthread_sigmask"):
         signal.pthread_sigmask(signal.SIG_UNBLOCK, INTERRUPTS)
 
 
-def _worker_main(conn: Connection) -> None:
+def _worker_main(conn: Connection, parent: int, inherited: list[Connection]) -> None:
     """A pool worker: run ``(fn, args)`` tasks from `conn`, send back ``(ok, value)``.
 
-    Stops at ``None`` or when the parent's end of `conn` is gone.
+    Stops at ``None``, when the parent's end of `conn` is gone, or when the parent `parent`
+    ends. `inherited`: the parent's pipe ends a forked worker holds copies of, closed at
+    the start (while the worker holds the parent's end of `conn`, that end is never gone).
     """
-    _init_worker()
+    _init_worker(parent)
+    for other in inherited:
+        other.close()
     while True:
         try:
             task = conn.recv()
@@ -116,7 +169,8 @@ class ProcessPool(Executor):
     Each worker has its own pipe, so a worker killed half-way through sending its result
     reads as end-of-file (a shared queue would be left half-written and block its reader
     for good), and the thread handing out tasks is a daemon the interpreter does not wait
-    for at exit. Workers ignore SIGINT: only the parent decides to stop.
+    for at exit. Workers ignore SIGINT: only the parent decides to stop; they die with
+    the parent (`die_with_parent`), so that a parent killed with SIGKILL leaves none.
     """
 
     def __init__(self, workers: int):
@@ -125,11 +179,15 @@ class ProcessPool(Executor):
         self._closing = False
         self._wake_r, self._wake_w = multiprocessing.Pipe(duplex=False)
         self._workers: dict[Connection, multiprocessing.Process] = {}
+        forked = multiprocessing.get_start_method() == "fork"
         with interrupts_held():
             for i in range(workers):
                 mine, theirs = multiprocessing.Pipe()
-                process = multiprocessing.Process(target=_worker_main, args=(theirs,),
-                                                  name=f"fecheck-sweep-{i}", daemon=True)
+                inherited = ([self._wake_r, self._wake_w, *self._workers, mine] if forked
+                             else [])
+                process = multiprocessing.Process(
+                    target=_worker_main, args=(theirs, os.getpid(), inherited),
+                    name=f"fecheck-sweep-{i}", daemon=True)
                 process.start()
                 theirs.close()
                 self._workers[mine] = process
