@@ -118,9 +118,10 @@ def has_ligaments(scene: Scene) -> bool:
 
 def load_hint(scene: Scene) -> str:
     """Why no equilibrium can exist when the load does not lift the tibia's weight
-    (kN typed as N?) and no ligament holds the tibia; "" when it does or nothing weighs."""
+    (kN typed as N?) and neither a ligament nor a driven z holds the tibia; "" when it
+    does or nothing weighs."""
     weight, up = tibia_weight_N(scene), upward_load_N(scene)
-    if weight <= 0 or up >= weight or has_ligaments(scene):
+    if weight <= 0 or up >= weight or has_ligaments(scene) or "z" not in scene.free_dofs:
         return ""
     return (f"the load presses the tibia up with {up:.4g} N, less than the tibia's weight "
             f"{weight:.4g} N (tibia.mass_kg · g): nothing holds the tibia on the femur "
