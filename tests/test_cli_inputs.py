@@ -137,3 +137,13 @@ def test_a_validation_folder_without_row_scripts_is_one_line(tmp_path, capsys, e
 def test_mesh_info_on_a_folder_says_it_is_a_folder(tmp_path, capsys):
     assert main(["mesh", "info", str(tmp_path)]) == 2
     assert f"{tmp_path} is a folder, not a mesh file" in _one_error_line(capsys)
+
+
+def test_a_side_against_the_presets_knee_names_the_conflict():
+    from fecheck.scene import load_scene
+    from fecheck.scene.relevance import InertKeyWarning
+
+    with pytest.warns(InertKeyWarning, match=r"knee.side has no effect: knee.preset = "
+                                             r"'baseline-right' is a right knee .*for a left "
+                                             r"knee: knee.preset = 'custom'"):
+        load_scene(overrides=["knee.side=left"])
