@@ -41,8 +41,8 @@ CARTILAGE_E_MPA = (0.1, 100.0)
 
 IMPLANT_E_MPA = 5000.0
 """Stiffest plausible bearing material without an implant key in the scene, MPa: UHMWPE
-is ~460-1000 MPa, PEEK ~3600 MPa. Above it (cartilage's 2e7 Pa typed as 2e7 MPa) the
-modulus is no knee material: a warning, "Pa typed as MPa?"."""
+is ~460-1000 MPa, PEEK ~3600 MPa. Above it the modulus is no knee material: a warning,
+"kPa typed as MPa?" (an error from `ABSURD_E_MPA`: cartilage's 2e7 Pa typed as MPa)."""
 
 ABSURD_E_MPA = (1e-4, 1e6)
 """Young's moduli no unit slip of a knee material explains, MPa: below 1e-4 MPa (100 Pa)
