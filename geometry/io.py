@@ -127,6 +127,9 @@ def load_mesh(path: str | Path) -> TriMesh | TetMesh:
         tetrahedra.
     """
     path = Path(path)
+    if path.is_dir():
+        raise FecheckError(f"{path} is a folder, not a mesh file; give the mesh files in it "
+                           "(STL, OBJ, PLY, VTK/VTU, MSH)")
     if not path.is_file():
         raise FecheckError(f"{path}: mesh file not found")
     check_format(path)

@@ -25,6 +25,13 @@ def _write(name: str, text: str):
     return make
 
 
+_RIGHT_LANDMARKS = ("{condyle_center = {medial = [-20.4, 12.8, 16.8], lateral = [28.3, 12.8, "
+                    "25.8]}, contact_point = {medial = [-20.4, 12.8, -8.7], lateral = [28.3, "
+                    "12.8, -6.0]}, femur_attachment = {ACL = [17.0, 31.4, 20.4], PCL = [-7.9, "
+                    "21.3, 8.8], MCL = [-38.0, 13.8, 11.2]}, tibia_attachment = {ACL = [0, 0, "
+                    "0], PCL = [18.3, 35.5, -21.3], MCL = [-3.0, -1.0, -64.6]}}")
+"""The baseline right knee (thesis Table B.1) as a knee.landmarks table."""
+
 CASES = {
     "binary file": (_binary, ["x.toml", "not a text file", "UTF-8"]),
     "directory": (lambda tmp_path: [str(tmp_path)], ["is a directory", "scene TOML file"]),
@@ -45,6 +52,15 @@ CASES = {
     "string landmark": (_write("k.toml", '[knee]\npreset = "custom"\n'
                                '[knee.landmarks.condyle_center]\nmedial = "abc"\n'),
                         ["knee.landmarks.condyle_center.medial", "3 numbers"]),
+    "empty file": (_write("e.toml", ""), ["scene", "e.toml is empty: it sets no key",
+                                          "no scene file to run the baseline"]),
+    "comments only": (_write("c.toml", "# all commented out\n# name = 'x'\n"),
+                      ["c.toml is empty but for comments"]),
+    "landmarks of the other side": (
+        lambda tmp_path: ["--set", "knee.preset=custom", "--set", "knee.side=left",
+                          "--set", f"knee.landmarks={_RIGHT_LANDMARKS}"],
+        ["knee.side = 'left' puts the medial compartment at +x", "medial condyle centre at "
+         "x = -20.4 mm and the lateral at +28.3 mm, as in a right knee"]),
     "empty polynomial rows": (_write("p.toml", '[plateau]\nkind = "polynomial"\n'
                                      'medial_coefficients = [[]]\n'
                                      'lateral_coefficients = [[]]\n'),
@@ -74,3 +90,60 @@ def test_an_unknown_keys_prefix_names_the_sections(capsys):
     err = capsys.readouterr().err.strip()
     assert "\n" not in err and "no scene key starts with 'no_such_section'" in err
     assert "contact" in err
+
+
+def _one_error_line(capsys) -> str:
+    captured = capsys.readouterr()
+    assert "Traceback" not in captured.err and captured.out == ""     # nothing ran first
+    lines = captured.err.strip().splitlines()
+    assert len(lines) == 1 and lines[0].startswith("fecheck: error: "), captured.err
+    return lines[0]
+
+
+def test_a_stress_selection_matching_no_case_is_an_error_before_any_case(capsys, monkeypatch):
+    import fecheck.studies.stress as stress
+
+    def run_case(case, timeout_s, runner=None):
+        raise AssertionError("a case ran")
+    monkeypatch.setattr(stress, "run_case", run_case)
+    assert main(["stress", "--only", "zzzz"]) == 2
+    line = _one_error_line(capsys)
+    assert "no stress case matches 'zzzz'" in line and "case names begin with: baseline" in line
+    assert main(["stress", "--only", "Mesh: NaN"]) == 2               # names are case-sensitive
+    assert "did you mean 'mesh: nan vertex'?" in _one_error_line(capsys)
+    assert main(["stress", "--quick", "--only", "poisson 0.2"]) == 2  # a full-matrix case
+    assert "drop --quick" in _one_error_line(capsys)
+
+
+@pytest.mark.parametrize("value", ["0", "-1", "nan", "inf", "abc"])
+def test_a_stress_timeout_must_be_a_positive_number_of_seconds(capsys, value):
+    with pytest.raises(SystemExit) as stop:
+        main(["stress", f"--timeout={value}", "--only", "E nan"])
+    assert stop.value.code == 2
+    err = capsys.readouterr().err
+    assert f"argument --timeout: must be a positive number of seconds, got '{value}'" in err
+
+
+@pytest.mark.parametrize("extra", [[], ["--list"], ["--only", "rigid"]],
+                         ids=["run", "list", "only"])
+def test_a_validation_folder_without_row_scripts_is_one_line(tmp_path, capsys, extra):
+    assert main(["validate", "--dir", str(tmp_path), "--out", str(tmp_path / "out"),
+                 *extra]) == 2
+    line = _one_error_line(capsys)
+    assert f"{tmp_path} holds no validation row scripts (row_*.py)" in line
+    assert "choose from" not in line and not (tmp_path / "out").exists()
+
+
+def test_mesh_info_on_a_folder_says_it_is_a_folder(tmp_path, capsys):
+    assert main(["mesh", "info", str(tmp_path)]) == 2
+    assert f"{tmp_path} is a folder, not a mesh file" in _one_error_line(capsys)
+
+
+def test_a_side_against_the_presets_knee_names_the_conflict():
+    from fecheck.scene import load_scene
+    from fecheck.scene.relevance import InertKeyWarning
+
+    with pytest.warns(InertKeyWarning, match=r"knee.side has no effect: knee.preset = "
+                                             r"'baseline-right' is a right knee .*for a left "
+                                             r"knee: knee.preset = 'custom'"):
+        load_scene(overrides=["knee.side=left"])

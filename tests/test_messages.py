@@ -46,13 +46,28 @@ def _error_line(err: str) -> str:
 
 
 # ----------------------------------------------------------------------- units
-def test_pascals_typed_as_megapascals_is_an_error_not_a_table(capsys):
+def test_pascals_typed_as_megapascals_is_an_error_before_the_solve(capsys):
     code, out, err = _run(capsys, "run", "--set", "contact.youngs_MPa=20e6")
     assert code == 2
     assert "max pressure MPa" not in out                 # no table of 4,263 MPa
     line = _error_line(err)
-    assert "Pa typed as MPa" in line and "max pressure" in line
-    assert "fecheck: warning:" in err and "Pa typed as MPa" in err
+    assert "contact.youngs_MPa = 2e+07 MPa" in line and "Pa typed as MPa" in line
+    assert "max pressure" not in line                    # refused before, not after, the solve
+
+
+def test_a_load_in_kilonewtons_typed_as_newtons_warns_with_gravity_off(capsys):
+    code, out, err = _run(capsys, "run", "--set", "load.force_N=0.8", "--set", "gravity=false")
+    assert code == 0 and "converged: True" in out        # a valid, if odd, problem: solved
+    warning = [w for w in err.splitlines() if w.startswith("fecheck: warning:")]
+    assert warning == ["fecheck: warning: load.force_N = 0.8 N is below any knee load "
+                       "(10 N-10 kN): kN typed as N? (0.8 kN = 800 N)"]
+
+
+def test_a_zero_load_without_gravity_says_no_contact_not_no_equilibrium(capsys):
+    code, _, err = _run(capsys, "run", "--set", "load.force_N=0", "--set", "gravity=false")
+    line = _error_line(err)
+    assert code == 2 and "the equilibrium is no contact" in line
+    assert "within 1 m" not in line
 
 
 def test_load_below_the_tibia_weight_says_so_in_the_no_equilibrium_error(capsys):
@@ -143,6 +158,45 @@ def test_mesh_defects_are_named_before_the_solve(tmp_path, capsys, change, words
     assert all(w in line for w in words), line
     for misleading in ("no equilibrium", "max_iterations", "load direction"):
         assert misleading not in line
+
+
+def test_compartment_files_swapped_for_the_knee_side_are_named(tmp_path, capsys):
+    folder = _knee_folder(tmp_path / "knee")
+    code, out, err = _run(capsys, "run", "--set", "model.kind='sphere-tibia'",
+                          "--set", f"geometry.dir='{folder}'",
+                          "--set", f"geometry.tibia='{SHEET.format('lateral')}'",
+                          "--set", f"geometry.tibia_lateral='{SHEET.format('medial')}'",
+                          "--set", "scanned.thickness='uniform'")
+    assert code == 2 and "converged" not in out
+    line = _error_line(err)
+    # the discs are centred under the baseline condyles: medial x = -20.4, lateral +28.3 mm
+    assert ("knee.side = 'right' puts the medial compartment at -x, but the medial tibial "
+            "sheet is centred at x = +28.3 mm and the lateral at -20.4 mm, as in a left knee"
+            in line), line
+    assert "swap the files geometry.tibia and geometry.tibia_lateral" in line
+
+
+def _femur_tibia_scene(folder: Path, side: str) -> Path:
+    """A femur-tibia scene (no landmark: knee.side names the compartments) of the
+    synthetic folder: one tibial sheet per file, a flat femoral sheet above them."""
+    femur = plane_patch((4.0, 12.8, -7.0), (0.0, 0.0, 1.0), radius=40.0, size=4.0)
+    save_mesh(TriMesh(femur.points, femur.faces[:, ::-1]), folder / "femur.stl")
+    path = folder / f"{side}.toml"
+    path.write_text(f'[model]\nkind = "femur-tibia"\n[knee]\npreset = "custom"\n'
+                    f'side = "{side}"\n[scanned]\nthickness = "uniform"\n[geometry]\n'
+                    f'femur = "femur.stl"\ntibia = "{SHEET.format("medial")}"\n'
+                    f'tibia_lateral = "{SHEET.format("lateral")}"\n')
+    return path
+
+
+def test_a_left_side_in_a_right_knees_scene_is_an_error_not_ignored(tmp_path, capsys):
+    folder = _knee_folder(tmp_path / "knee")
+    code, _, err = _run(capsys, "run", str(_femur_tibia_scene(folder, "left")))
+    line = _error_line(err)
+    assert code == 2 and "knee.side = 'left' puts the medial compartment at +x" in line
+    assert "as in a right knee: set knee.side = 'right'" in line
+    code, out, _ = _run(capsys, "run", str(_femur_tibia_scene(folder, "right")))
+    assert code == 0 and "converged: True" in out       # the same knee, its own side
 
 
 def test_mesh_100_mm_away_says_the_distance(tmp_path, capsys):

@@ -52,11 +52,137 @@ def test_modulus_outside_knee_materials_names_the_unit_mistake(e, words):
 
 
 def test_load_below_the_weight_is_warned_and_hinted(baseline):
-    scene = load_scene(overrides=["load.force_N=0.8"])
+    # 15 N is a knee load but does not lift the 2 kg tibia (2 · 9.81 = 19.62 N)
+    scene = load_scene(overrides=["load.force_N=15"])
     hints = pl.input_warnings(scene)
     assert len(hints) == 1 and "kN typed as N" in hints[0] and "19.62 N" in hints[0]
     assert pl.load_hint(baseline[0]) == ""
     assert pl.load_hint(load_scene(overrides=["load.force_N=0.8", "gravity=false"])) == ""
+    held = load_scene(SCENES / "springs.toml", ["load.force_N=15"])     # ligaments hold it
+    assert pl.load_hint(held) == ""
+
+
+@pytest.mark.parametrize("force, words", [
+    (0.8, ["0.8 N is below any knee load (10 N-10 kN)", "kN typed as N? (0.8 kN = 800 N)"]),
+    (9.99, ["9.99 N is below", "(9.99 kN = 9990 N)"]),
+    (1e-6, ["1e-06 N is below", "even read as kN"]),
+    (50000.0, ["50000 N is above any knee load (10 N-10 kN)",
+               "mN typed as N? (50000 mN = 50 N)"]),
+    (10001.0, ["10001 N is above", "(10001 mN = 10.001 N)"]),
+    (1e9, ["1e+09 N is above", "even read as mN"]),
+    (10.0, []), (800.0, []), (10000.0, []),
+])
+@pytest.mark.parametrize("gravity", [False, True])
+def test_a_load_outside_knee_loads_names_the_unit_with_or_without_gravity(force, words,
+                                                                          gravity):
+    scene = load_scene(overrides=[f"load.force_N={force}", f"gravity={str(gravity).lower()}"])
+    found = pl.input_warnings(scene)
+    if words:                            # one warning: the weight hint would say it again
+        assert len(found) == 1 and all(w in found[0] for w in words), found
+    else:                                # 10 N under the 19.62 N weight: only that hint
+        assert not [w for w in found if "any knee load" in w]
+        assert (found != []) == (gravity and force < 19.62), found
+
+
+def _never_solved(monkeypatch):
+    """Make any Newton solve fail the test: the refusals below come before it."""
+    import fecheck.model.equilibrium
+
+    def solve(problem):
+        raise AssertionError("the solve ran")
+    monkeypatch.setattr(fecheck.model.equilibrium, "solve", solve)
+
+
+@pytest.mark.parametrize("overrides, words", [
+    (["gravity=false"], ["load.force_N = 0 and no weight", "the equilibrium is no contact",
+                         "load.force_N = 800"]),
+    ([], ["load.force_N = 0: nothing holds the tibia", "weight (19.62 N"]),
+], ids=["no-gravity", "gravity"])
+def test_a_zero_load_is_its_own_error_before_the_solve(monkeypatch, overrides, words):
+    _never_solved(monkeypatch)
+    scene = load_scene(overrides=["load.force_N=0", *overrides])
+    with pytest.raises(FecheckError) as err:
+        run_scene(scene)
+    assert all(w in str(err.value) for w in words), str(err.value)
+    assert "within 1 m" not in str(err.value)
+
+
+@pytest.mark.parametrize("path, overrides", [
+    (SCENES / "springs.toml", []),                            # ligament springs hold it
+    (SCENES / "baseline.toml", ["dofs.free=['abduction']", "dofs.z_mm=0.5"]),   # driven z
+    (SCENES / "rigid.toml", ["gravity=false"]),               # forces of the given pose
+], ids=["springs", "driven-z", "rigid"])
+def test_a_zero_load_something_else_holds_is_no_input_error(path, overrides):
+    scene = load_scene(path, ["load.force_N=0", *overrides])
+    assert pl.input_errors(scene) == [] and pl.input_warnings(scene) == []
+
+
+def test_a_ligament_scene_without_load_that_finds_no_contact_says_why():
+    scene = load_scene(SCENES / "springs.toml", ["load.force_N=0"])
+    assert "only the ligaments and the tibia's weight act" in pl.no_equilibrium_hint(scene)
+    assert pl.no_equilibrium_hint(load_scene(SCENES / "springs.toml")) == ""
+
+
+@pytest.mark.parametrize("overrides, words", [
+    (["contact.youngs_MPa=1e-6"], ["contact.youngs_MPa = 1e-06 MPa (1 Pa)", "even read as GPa"]),
+    (["contact.youngs_MPa=9e-5"], ["9e-05 MPa (90 Pa)"]),
+    (["contact.youngs_MPa=2e7"], ["contact.youngs_MPa = 2e+07 MPa", "Pa typed as MPa"]),
+    (["contact.youngs_MPa=1e6"], ["contact.youngs_MPa = 1e+06 MPa", "Pa typed as MPa"]),
+    (["contact.law=hertz", "contact.indenter_youngs_MPa=2.1e11"],
+     ["contact.indenter_youngs_MPa = 2.1e+11 MPa", "implant metal", "Pa typed as MPa"]),
+    (["contact.law=volumetric", "contact.volumetric_stiffness_N_per_mm3=1e7"],
+     ["contact.volumetric_stiffness_N_per_mm3 = 1e+07", "N/m³ typed as N/mm³? (1e+07 N/m³ = "
+      "0.01 N/mm³"]),
+], ids=["1e-6", "9e-5", "2e7", "1e6", "indenter-2.1e11", "volumetric-1e7"])
+def test_an_absurd_material_is_an_error_naming_key_and_unit_before_the_solve(
+        monkeypatch, overrides, words):
+    _never_solved(monkeypatch)
+    with pytest.raises(FecheckError) as err:
+        run_scene(load_scene(overrides=overrides))
+    assert all(w in str(err.value) for w in words), str(err.value)
+
+
+@pytest.mark.parametrize("overrides, words", [
+    (["contact.youngs_MPa=1e-4"], ["GPa typed as MPa"]),             # 0.1 GPa = 100 MPa
+    (["contact.youngs_MPa=2e4"], ["kPa typed as MPa? (20000 kPa = 20 MPa)"]),
+    (["contact.youngs_MPa=2e5"], ["Pa or kPa typed as MPa? (200000 Pa = 0.2 MPa)"]),
+    (["contact.youngs_MPa=999999"], ["kPa typed as MPa"]),
+    (["contact.law=hertz", "contact.indenter_youngs_MPa=2.1e5"], []),      # CoCr, 210 GPa
+    (["contact.indenter_youngs_MPa=2.1e11"], []),             # inert: not the Hertz law
+    (["contact.volumetric_stiffness_N_per_mm3=1e7"], []),     # inert: not the volumetric law
+    (["contact.law=volumetric", "contact.volumetric_stiffness_N_per_mm3=0.01"], []),
+    (["model.kind=rigid", "contact.youngs_MPa=1e-6"], []),    # rigid: no material
+])
+def test_a_modulus_a_unit_slip_explains_only_warns(overrides, words):
+    scene = load_scene(overrides=overrides)
+    assert pl.input_errors(scene) == []
+    found = pl.input_warnings(scene)
+    assert len(found) == int(bool(words)) and all(w in "".join(found) for w in words), found
+
+
+def _sheet_comps(medial_x: float, lateral_x: float) -> list:
+    """Stand-in compartments: a flat tibial sheet (disc, radius 14 mm) centred at each x."""
+    from types import SimpleNamespace
+
+    from fecheck.contact import ContactPair, Plane
+
+    def comp(name, x):
+        sheet = plane_patch((x, 0.0, 0.0), (0.0, 0.0, 1.0), radius=14.0, size=2.0)
+        return SimpleNamespace(name=name, slave_is_tibia=True,
+                               pair=ContactPair(sheet, Plane([0.0, 0.0, 1.0], [0, 0, -1.0])))
+    return [comp("medial", medial_x), comp("lateral", lateral_x)]
+
+
+def test_tibial_sheets_on_the_wrong_sides_for_knee_side_are_an_error():
+    right = load_scene()                             # baseline-right: medial at -x
+    pl.check_sides(right, _sheet_comps(-20.0, 25.0))
+    with pytest.raises(FecheckError) as err:
+        pl.check_sides(right, _sheet_comps(25.0, -20.0))
+    text = str(err.value)
+    assert "knee.side = 'right' puts the medial compartment at -x" in text
+    assert "as in a left knee" in text and "geometry.tibia_lateral" in text
+    # a disc's area-weighted centre is its centre (symmetric triangulation: to a tenth)
+    assert "at x = +25.0 mm and the lateral at -20.0 mm" in text
 
 
 @pytest.mark.parametrize("name", SHIPPED)

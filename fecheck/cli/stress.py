@@ -6,9 +6,21 @@ Only the standard library is imported here; the matrix is imported inside `run`.
 from __future__ import annotations
 
 import argparse
+import math
 import os
 import sys
 from pathlib import Path
+
+
+def _seconds(text: str) -> float:
+    """A positive, finite number of seconds (argparse type)."""
+    try:
+        value = float(text)
+    except ValueError:
+        value = math.nan
+    if not (math.isfinite(value) and value > 0):
+        raise argparse.ArgumentTypeError(f"must be a positive number of seconds, got {text!r}")
+    return value
 
 
 def add_parser(subparsers) -> None:
@@ -25,7 +37,7 @@ def add_parser(subparsers) -> None:
     p.add_argument("--json", type=Path, metavar="PATH",
                    help='write {"cases": [...], "summary": {...}} as JSON '
                         "('-': standard output; the table then goes to standard error)")
-    p.add_argument("--timeout", type=float, default=120.0, metavar="S",
+    p.add_argument("--timeout", type=_seconds, default=120.0, metavar="S",
                    help="seconds before a case is killed and reported as a timeout "
                         "(default 120)")
     p.add_argument("--only", metavar="TEXT", help="run only the cases whose name contains TEXT")
@@ -41,6 +53,7 @@ def run(args: argparse.Namespace) -> int:
     from fecheck.studies import stress
     from fecheck.studies.pool import interrupts_raised
 
+    stress.choose(args.quick, args.only)       # a selection that matches no case: error
     table = sys.stderr if args.json is not None and str(args.json) == STDOUT else sys.stdout
     print(stress.HEADER, file=table, flush=True)
     interrupted = None

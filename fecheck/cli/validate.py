@@ -32,11 +32,12 @@ def run(args: argparse.Namespace) -> int:
     from fecheck.io.outputs import check_output
     from fecheck.studies.validate import discover, find_validation_dir, run_validation
 
+    vdir = find_validation_dir(args.dir)        # a folder without row scripts: an error
     if args.list:
-        for name, path in discover(find_validation_dir(args.dir)).items():
+        for name, path in discover(vdir).items():
             print(f"{name:20s} {path}")
         return 0
     check_output(args.out, directory=True)      # before the rows run, not after
-    _, rows = run_validation(args.out, quick=args.quick, only=args.only, vdir=args.dir)
+    _, rows = run_validation(args.out, quick=args.quick, only=args.only, vdir=vdir)
     failed = [r.name for r in rows if r.status.startswith("failed")]
     return 1 if failed else 0

@@ -21,7 +21,7 @@ from fecheck.model.assembly import (
     start_pose,
     wrench_parts,
 )
-from fecheck.model.plausibility import before_solve, load_hint
+from fecheck.model.plausibility import before_solve, no_equilibrium_hint
 from fecheck.model.results import CompartmentResult
 from fecheck.scene import Scene
 from fecheck.statics.newton import (
@@ -86,7 +86,7 @@ def _solve(scene: Scene, problem: Problem) -> Solution:
     try:
         return solve(problem)
     except NoEquilibrium as err:
-        hint = load_hint(scene)
+        hint = no_equilibrium_hint(scene)
         if not hint:
             raise
         raise NoEquilibrium(f"{err}; {hint}") from None

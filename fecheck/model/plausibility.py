@@ -2,11 +2,13 @@
 
 A run is checked once before its solve (`before_solve`) and once after it (`after_solve`).
 A value outside the range of a knee (cartilage E ~0.1-100 MPa, meshes tens of mm across,
-loads of hundreds of N) is most often a unit typed wrong; it gets a warning
-(`ImplausibleInput`) naming the likely mistake. Inputs that make the solve meaningless
-(a contact surface under a millimetre across, a tibial sheet wound upside down or with
-mixed winding, meshes far from their landmarks) and results that cannot be physical
-(NaN, a force without a contact patch, p_max above `P_MAX_MPA`) are `FecheckError`s.
+loads of 10 N-10 kN, with or without gravity) is most often a unit typed wrong; it gets a
+warning (`ImplausibleInput`) naming the likely mistake. Inputs that make the solve
+meaningless (a modulus no unit slip explains, a zero load that nothing balances, a contact
+surface under a millimetre across, a tibial sheet wound upside down or with mixed winding,
+meshes far from their landmarks, medial and lateral sheets on the wrong sides for
+knee.side) and results that cannot be physical (NaN, a force without a contact patch,
+p_max above `P_MAX_MPA`) are `FecheckError`s.
 Units mm, N, MPa.
 """
 
@@ -29,6 +31,7 @@ from fecheck.model.assembly import Compartment, free_indices, start_pose
 from fecheck.model.results import RunResult
 from fecheck.scene import Scene
 from fecheck.scene.constants import GRAVITY_MPS2
+from fecheck.scene.knee import check_side
 from fecheck.statics.newton import pose
 from geometry.mesh import TriMesh
 
@@ -38,8 +41,26 @@ CARTILAGE_E_MPA = (0.1, 100.0)
 
 IMPLANT_E_MPA = 5000.0
 """Stiffest plausible bearing material without an implant key in the scene, MPa: UHMWPE
-is ~460-1000 MPa, PEEK ~3600 MPa. Above it (cartilage's 2e7 Pa typed as 2e7 MPa) the
-modulus is no knee material: a warning, "Pa typed as MPa?"."""
+is ~460-1000 MPa, PEEK ~3600 MPa. Above it the modulus is no knee material: a warning,
+"kPa typed as MPa?" (an error from `ABSURD_E_MPA`: cartilage's 2e7 Pa typed as MPa)."""
+
+ABSURD_E_MPA = (1e-4, 1e6)
+"""Young's moduli no unit slip of a knee material explains, MPa: below 1e-4 MPa (100 Pa)
+even cartilage's 0.1 MPa read as GPa, at or above 1e6 MPa (1 TPa, stiffer than diamond)
+cartilage's 2e7 Pa typed as MPa. Outside this the solve means nothing: an error."""
+
+INDENTER_E_MPA = 5e5
+"""Stiffest plausible indenting condyle (the Hertz law's contact.indenter_youngs_MPa),
+MPa: CoCr ~210 GPa, alumina and zirconia ceramics ~200-400 GPa."""
+
+KNEE_LOAD_N = (10.0, 10000.0)
+"""External knee loads, N: a limb's own weight (tens of N) to the tibiofemoral peaks of
+running and landing (~4-8 body weights, under ~7 kN). Below the range: kN typed as N;
+above it: mN typed as N (a warning, whatever the gravity)."""
+
+ABSURD_VOLUMETRIC_N_PER_MM3 = 1e5
+"""A volumetric stiffness (N/mm³) at or above this presses 1e5 MPa at 1 mm depth: the
+thesis's 1e7 N/m³ typed as N/mm³ (it is 1e-2 N/mm³). An error."""
 
 MESH_EXTENT_MM = (1.0, 1000.0)
 """A knee contact surface is tens of mm across: under 1 mm it is in metres (an error: the
@@ -89,11 +110,18 @@ def upward_load_N(scene: Scene) -> float:
     return scene["load.force_N"] * d[2] / norm if norm > 0 else 0.0
 
 
+def has_ligaments(scene: Scene) -> bool:
+    """Whether ligaments (the three rods or springs, or the scanned knee's bundles) can
+    hold the tibia on the femur without an external load."""
+    return scene["ligaments.model"] != "none" or scene["scanned.ligaments"] != "none"
+
+
 def load_hint(scene: Scene) -> str:
     """Why no equilibrium can exist when the load does not lift the tibia's weight
-    (kN typed as N?); "" when it does or nothing weighs."""
+    (kN typed as N?) and neither a ligament nor a driven z holds the tibia; "" when it
+    does or nothing weighs."""
     weight, up = tibia_weight_N(scene), upward_load_N(scene)
-    if weight <= 0 or up >= weight:
+    if weight <= 0 or up >= weight or has_ligaments(scene) or "z" not in scene.free_dofs:
         return ""
     return (f"the load presses the tibia up with {up:.4g} N, less than the tibia's weight "
             f"{weight:.4g} N (tibia.mass_kg · g): nothing holds the tibia on the femur "
@@ -101,26 +129,132 @@ def load_hint(scene: Scene) -> str:
             "hundreds of N)")
 
 
-def modulus_warning(e: float) -> str:
-    """The warning on a contact.youngs_MPa `e` (MPa) outside the range of knee materials,
-    or ""."""
-    low, high = CARTILAGE_E_MPA
-    if e < low:
-        return (f"contact.youngs_MPa = {e:g} MPa is softer than any cartilage "
-                f"({low:g}-{high:g} MPa): GPa typed as MPa? (20 MPa = 0.02 GPa)")
-    if e > IMPLANT_E_MPA:
-        return (f"contact.youngs_MPa = {e:g} MPa is stiffer than cartilage ({low:g}-{high:g} "
-                f"MPa) and than any bearing implant (UHMWPE ~460-1000 MPa): Pa typed as "
-                f"MPa? (20 MPa = 2e7 Pa)")
+def no_equilibrium_hint(scene: Scene) -> str:
+    """What the load says about a solve that found no equilibrium in contact: `load_hint`,
+    or for a scene without load held by ligaments that they may hold the tibia apart."""
+    hint = load_hint(scene)
+    if hint or scene["load.force_N"] != 0 or not has_ligaments(scene):
+        return hint
+    weight = " and the tibia's weight" if tibia_weight_N(scene) > 0 else ""
+    return (f"with load.force_N = 0 only the ligaments{weight} act on the tibia: they may "
+            "hold it apart from the femur, where no contact equilibrium exists; give the "
+            "knee load in N (hundreds of N)")
+
+
+def load_warning(force_N: float) -> str:
+    """The warning on a load.force_N `force_N` (N, > 0) outside `KNEE_LOAD_N`, naming the
+    unit that would put it inside (kN below, mN above), or ""."""
+    low, high = KNEE_LOAD_N
+    span = f"({low:g} N-{high / 1000:g} kN)"
+    if force_N < low:
+        as_kn = force_N * 1000.0
+        likely = (f"kN typed as N? ({force_N:g} kN = {as_kn:g} N)" if as_kn >= low else
+                  "even read as kN; give the load in N (knee loads are hundreds of N)")
+        return f"load.force_N = {force_N:g} N is below any knee load {span}: {likely}"
+    if force_N > high:
+        as_n = force_N / 1000.0
+        likely = (f"mN typed as N? ({force_N:g} mN = {as_n:g} N)" if as_n <= high else
+                  "even read as mN; give the load in N (knee loads are hundreds of N)")
+        return f"load.force_N = {force_N:g} N is above any knee load {span}: {likely}"
     return ""
 
 
-def input_warnings(scene: Scene) -> list[str]:
-    """Warnings on the scene's material and load (none for values a knee can have)."""
+def zero_load_error(scene: Scene) -> str:
+    """Why a scene without external load cannot be solved, or "": the tibia is free along
+    z and neither a load nor a ligament holds it on the femur, so it either falls away
+    under its weight or has no contact at all (every pose out of contact balances). A
+    ligament-only scene, a driven z and the rigid model (forces of the given pose) are
+    solvable without load."""
+    if (scene["load.force_N"] != 0 or has_ligaments(scene) or "z" not in scene.free_dofs
+            or scene["model.kind"] == "rigid"):
+        return ""
+    weight = tibia_weight_N(scene)
+    fix = "give the knee load in N (hundreds of N, e.g. load.force_N = 800)"
+    if weight > 0:
+        return (f"load.force_N = 0: nothing holds the tibia on the femur against its weight "
+                f"({weight:.4g} N, tibia.mass_kg · g), so no equilibrium exists; {fix}")
+    return ("load.force_N = 0 and no weight (gravity = false): nothing presses the tibia on "
+            "the femur, so the equilibrium is no contact (zero forces, any pose apart) and "
+            f"there is nothing to solve; {fix}")
+
+
+def _out_of(e: float, low: float, high: float) -> str:
+    return (f"softer than any cartilage ({low:g}-{high:g} MPa)" if e < low else
+            f"stiffer than cartilage ({low:g}-{high:g} MPa)")
+
+
+def modulus_warning(e: float, key: str = "contact.youngs_MPa",
+                    stiffest_MPa: float = IMPLANT_E_MPA) -> str:
+    """The message on a Young's modulus `e` (MPa) of scene key `key` outside the range of
+    knee materials (`CARTILAGE_E_MPA` up to `stiffest_MPa`), naming the likely unit, or
+    "". Beyond `ABSURD_E_MPA` no unit slip of cartilage explains it (`modulus_error`)."""
+    low, high = CARTILAGE_E_MPA
+    if e < ABSURD_E_MPA[0]:
+        return (f"{key} = {e:g} MPa ({e * 1e6:.3g} Pa) is {_out_of(e, low, high)} even read "
+                "as GPa: a value converted the wrong way? (fecheck takes MPa: cartilage "
+                "~20 MPa = 0.02 GPa = 2e7 Pa)")
+    if e < low:
+        return (f"{key} = {e:g} MPa is {_out_of(e, low, high)}: GPa typed as MPa? "
+                "(20 MPa = 0.02 GPa)")
+    if e <= stiffest_MPa:
+        return ""
+    what = (f"{_out_of(e, low, high)} and than any bearing implant (UHMWPE ~460-1000 MPa)"
+            if stiffest_MPa <= IMPLANT_E_MPA else
+            f"{_out_of(e, low, high)} and than any implant metal or ceramic (up to "
+            f"{stiffest_MPa:g} MPa)")
+    if e >= ABSURD_E_MPA[1]:
+        likely = "Pa typed as MPa? (20 MPa = 2e7 Pa)"
+    elif e < 1e5:                          # in kPa: 5-100 MPa; in Pa: under 0.1 MPa
+        likely = f"kPa typed as MPa? ({e:g} kPa = {e / 1000:g} MPa)"
+    else:
+        likely = f"Pa or kPa typed as MPa? ({e:g} Pa = {e * 1e-6:g} MPa)"
+    return f"{key} = {e:g} MPa is {what}: {likely}"
+
+
+def modulus_error(e: float) -> bool:
+    """Whether a modulus `e` (MPa) is absurd (outside `ABSURD_E_MPA`): an error."""
+    return not ABSURD_E_MPA[0] <= e < ABSURD_E_MPA[1]
+
+
+def _moduli(scene: Scene) -> list[tuple[str, float, float]]:
+    """(key, E MPa, stiffest plausible MPa) of each modulus the scene's solve reads."""
     out = []
     if scene["model.kind"] != "rigid":
-        out.append(modulus_warning(scene["contact.youngs_MPa"]))
-    out.append(load_hint(scene))
+        out.append(("contact.youngs_MPa", scene["contact.youngs_MPa"], IMPLANT_E_MPA))
+        indenter = scene["contact.indenter_youngs_MPa"]
+        if scene["contact.law"] == "hertz" and math.isfinite(indenter):
+            out.append(("contact.indenter_youngs_MPa", indenter, INDENTER_E_MPA))
+    return out
+
+
+def volumetric_error(scene: Scene) -> str:
+    """The error on a volumetric stiffness typed in N/m³ (the thesis's unit), or ""."""
+    key = "contact.volumetric_stiffness_N_per_mm3"
+    k = scene[key]
+    if (scene["model.kind"] == "rigid" or scene["contact.law"] != "volumetric"
+            or k < ABSURD_VOLUMETRIC_N_PER_MM3):
+        return ""
+    return (f"{key} = {k:g} N/mm³ would press {k:g} MPa at 1 mm depth, no knee's contact: "
+            f"N/m³ typed as N/mm³? ({k:g} N/m³ = {k * 1e-9:g} N/mm³; the thesis gives k_V "
+            "in N/m³)")
+
+
+def input_errors(scene: Scene) -> list[str]:
+    """Errors on inputs no unit slip of a knee explains (a zero load nothing balances, an
+    absurd modulus or volumetric stiffness): the solve would mean nothing."""
+    out = [zero_load_error(scene), volumetric_error(scene)]
+    out += [modulus_warning(e, key, top) for key, e, top in _moduli(scene) if modulus_error(e)]
+    return [m for m in out if m]
+
+
+def input_warnings(scene: Scene) -> list[str]:
+    """Warnings on the scene's material and load (none for values a knee can have): a
+    load outside `KNEE_LOAD_N` whatever the gravity, and one that does not lift the
+    tibia's weight (`load_hint`) where that says more."""
+    out = [modulus_warning(e, key, top) for key, e, top in _moduli(scene)]
+    force = scene["load.force_N"]
+    load = load_warning(force) if force > 0 else ""
+    out.append(load or load_hint(scene))
     return [w for w in out if w]
 
 
@@ -332,9 +466,28 @@ def check_landmarks(scene: Scene, comp: Compartment) -> None:
                        "share one frame and unit (mm)")
 
 
+@once_per_mesh
+def mean_x_mm(mesh: TriMesh) -> float:
+    """Area-weighted mean x of the mesh's faces, mm (0 for a mesh without area)."""
+    area = mesh.face_areas
+    return float(area @ mesh.face_centroids[:, 0]) / max(float(area.sum()), 1e-300)
+
+
+def check_sides(scene: Scene, comps: Sequence[Compartment]) -> None:
+    """`FecheckError` when the medial and lateral tibial sheets lie on the sides opposite
+    to knee.side's (one file per compartment: the side names no piece, so a wrong side
+    would pass silently)."""
+    x = {comp.name: mean_x_mm(comp.pair.slave) for comp in comps
+         if comp.slave_is_tibia and isinstance(comp.pair, ContactPair)}
+    if set(x) == {"medial", "lateral"}:
+        check_side(scene.side, x["medial"], x["lateral"], "the medial tibial sheet is "
+                   "centred", "swap the files geometry.tibia and geometry.tibia_lateral")
+
+
 def check_meshes(scene: Scene, comps: Sequence[Compartment]) -> None:
-    """Checks of every meshed contact pair before the solve: extents, the tibial sheets'
-    winding and folds, and the femoral surface's distance to them."""
+    """Checks of every meshed contact pair before the solve: the tibial sheets' sides,
+    extents, winding and folds, and the femoral surface's distance to them."""
+    check_sides(scene, comps)
     seen: set[int] = set()                          # a shared femoral master: once
     for comp in comps:
         pair = comp.pair
@@ -355,6 +508,9 @@ def check_meshes(scene: Scene, comps: Sequence[Compartment]) -> None:
 def before_solve(scene: Scene, comps: Sequence[Compartment] = ()) -> None:
     """Warn on implausible inputs; raise `FecheckError` on meshes that make the solve
     meaningless (see the module docstring)."""
+    errors = input_errors(scene)
+    if errors:
+        raise FecheckError(errors[0])
     for message in input_warnings(scene):
         _warn(message)
     check_meshes(scene, comps)
@@ -362,10 +518,8 @@ def before_solve(scene: Scene, comps: Sequence[Compartment] = ()) -> None:
 
 # ---------------------------------------------------------------------------- results
 def _unit_cause(scene: Scene) -> str:
-    warning = modulus_warning(scene["contact.youngs_MPa"])
-    if warning:
-        return f"; {warning}"
-    return ""
+    found = [modulus_warning(e, key, top) for key, e, top in _moduli(scene)]
+    return "".join(f"; {w}" for w in found if w)
 
 
 def check_compartment(scene: Scene, name: str, comp, force_floor_N: float) -> None:

@@ -107,7 +107,24 @@ def knee_from_landmarks(side: str, landmarks: Mapping[str, Mapping[str, object]]
         if knee.radius_mm(c) <= 0.0:
             raise FecheckError(f"knee.landmarks: the {c} condyle centre coincides with its "
                                f"contact point (zero radius)")
+    check_side(side, knee.condyle_center["medial"][0], knee.condyle_center["lateral"][0],
+               "knee.landmarks has the medial condyle centre", "swap the medial and "
+               "lateral landmarks")
     return knee
+
+
+def check_side(side: str, medial_x: float, lateral_x: float, what: str, other_fix: str
+               ) -> None:
+    """`FecheckError` when the medial compartment at x = `medial_x` and the lateral at
+    `lateral_x` (mm) are on the sides opposite to a `side` knee's (right: medial at -x);
+    `what` names the medial's source ("... at x = ..."), `other_fix` the other cure."""
+    if medial_x == lateral_x or (medial_x < lateral_x) == (side == "right"):
+        return
+    medial_at, actual = ("-x", "left") if side == "right" else ("+x", "right")
+    raise FecheckError(f"knee.side = {side!r} puts the medial compartment at {medial_at}, but "
+                       f"{what} at x = {medial_x:+.1f} mm and the lateral at "
+                       f"{lateral_x:+.1f} mm, as in a {actual} knee: set knee.side = "
+                       f"{actual!r} (or {other_fix})")
 
 
 def plane_normal(angles_deg: tuple[float, float] | list[float]) -> np.ndarray:

@@ -291,9 +291,15 @@ def _read_scene_file(path: Path) -> dict[str, Any]:
                            f"{err.start} is not UTF-8); a scene is a TOML text file, e.g. "
                            f"the output of `fecheck keys --format toml`") from None
     try:
-        return tomllib.loads(text)
+        data = tomllib.loads(text)
     except tomllib.TOMLDecodeError as err:
         raise FecheckError(f"{path}: not valid TOML: {err}") from None
+    if not data:
+        what = "" if not text.strip() else " but for comments"
+        raise FecheckError(f"scene {path} is empty{what}: it sets no key; give the keys "
+                           f"that differ from the baseline (`fecheck keys --format toml` "
+                           f"writes them all), or no scene file to run the baseline")
+    return data
 
 
 def load_scene(path: str | Path | None = None, overrides: Sequence[str] = ()) -> Scene:

@@ -19,6 +19,7 @@ from collections.abc import Callable, Iterable
 from typing import Any, Protocol
 
 from fecheck.scene.constants import COMPARTMENTS, LIGAMENTS
+from fecheck.scene.knee import PRESETS
 
 MESH_DETECTION = ("bvh", "ray-parity", "fcl")
 """Detection methods that need a mesh master: the analytic surface is meshed instead."""
@@ -143,6 +144,11 @@ def _side_from_preset(scene: SceneValues) -> str | None:
         return None
     if scene["model.kind"] == "femur-tibia" and scene["ligaments.model"] == "none":
         return None                    # no landmark read: the side names the compartments
+    preset = PRESETS.get(scene["knee.preset"])
+    if preset is not None and preset.side != scene["knee.side"]:
+        return (f"knee.preset = '{scene['knee.preset']}' is a {preset.side} knee and gives "
+                f"its own landmarks (for a {scene['knee.side']} knee: knee.preset = 'custom' "
+                "with knee.landmarks)")
     return _preset_knee(scene)
 
 

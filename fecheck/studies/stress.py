@@ -23,6 +23,7 @@ through `fecheck.contact.ContactPair` and the EF law, solved under load control)
 
 from __future__ import annotations
 
+import difflib
 import math
 import multiprocessing as mp
 import time
@@ -150,6 +151,8 @@ def cases() -> list[Case]:
             _scene("grazing: 1e-6 N, plateau master", "load.force_N=1e-6", no_g, plateau,
                    quick=False, expect="converged"),
             _scene("zero load without gravity", "load.force_N=0", no_g, quick=False,
+                   expect="clear-error"),
+            _scene("zero load with the tibia's weight", "load.force_N=0", quick=False,
                    expect="clear-error")]
     out += [_scene(f"detection {d}, plateau master", plateau, f"contact.detection={d}",
                    *(["contact.area=whole-face"] if d != "bvh" else []), quick=d == "bvh",
@@ -176,6 +179,10 @@ def cases() -> list[Case]:
             _scene("load point nan", "load.point_mm=[nan, 0.0, 0.0]", expect="clear-error"),
             _scene("mass inf", "tibia.mass_kg=inf", quick=False, expect="clear-error"),
             _scene("E -20", "contact.youngs_MPa=-20", quick=False, expect="clear-error"),
+            _scene("E 1e-6 MPa (no unit slip)", "contact.youngs_MPa=1e-6", quick=False,
+                   expect="clear-error"),
+            _scene("E 2e7 MPa (Pa typed as MPa)", "contact.youngs_MPa=2e7", quick=False,
+                   expect="clear-error"),
             _scene("h 0", "contact.thickness_mm=0", quick=False, expect="clear-error"),
             _scene("load direction zero", "load.direction=[0.0, 0.0, 0.0]", quick=False,
                    expect="clear-error")]
@@ -551,12 +558,34 @@ def stop_servers() -> None:
             stop()
 
 
+def choose(quick: bool = False, select: str | None = None) -> list[Case]:
+    """The cases of the (quick) matrix whose name contains `select` (all for None);
+    `FecheckError` naming the cases when none does."""
+    every = cases()
+    chosen = [c for c in every if (c.quick or not quick)
+              and (select is None or select in c.name)]
+    if chosen:
+        return chosen
+    names = [c.name for c in every]
+    full = [n for n in names if select in n]
+    if full:
+        raise FecheckError(f"no quick stress case matches {select!r}, but the full matrix "
+                           f"has {len(full)} (e.g. {full[0]!r}): drop --quick")
+    close = ([n for n in names if select.lower() in n.lower()]
+             or difflib.get_close_matches(select, names, n=3, cutoff=0.6))
+    hint = f"did you mean {close[0]!r}? " if close else ""
+    starts = ", ".join(dict.fromkeys(n.split()[0].rstrip(":,") for n in names))
+    raise FecheckError(f"no stress case matches {select!r} (--only TEXT runs the cases whose "
+                       f"name contains TEXT, case-sensitive); {hint}case names begin with: "
+                       f"{starts}")
+
+
 def run_matrix(quick: bool = False, timeout_s: float = 120.0, select: str | None = None,
                log=lambda r: None) -> list[CaseResult]:
-    """Run the (quick) matrix, or the cases whose name contains `select`. An interrupt
-    kills the running case and raises `StressInterrupted` with the finished ones."""
-    chosen = [c for c in cases() if (c.quick or not quick)
-              and (select is None or select in c.name)]
+    """Run the (quick) matrix, or the cases whose name contains `select` (`choose`). An
+    interrupt kills the running case and raises `StressInterrupted` with the finished
+    ones."""
+    chosen = choose(quick, select)
     results = []
     try:
         for case in chosen:

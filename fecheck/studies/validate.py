@@ -62,6 +62,10 @@ def find_validation_dir(explicit: str | Path | None = None) -> Path:
     if not path.is_dir():
         raise FecheckError(f"validation folder not found at {path}; run from a source "
                            "checkout of fecheck or pass --dir PATH/validation")
+    if not discover(path):
+        raise FecheckError(f"{path} holds no validation row scripts ({SCRIPT_PREFIX}*.py): "
+                           "--dir takes the validation/ folder of a fecheck source checkout "
+                           "(row_rigid.py, report.py, scenes/ ...)")
     return path
 
 
@@ -107,8 +111,6 @@ def run_validation(out: Path, quick: bool = False, only: Sequence[str] | None = 
     log = sys.stderr if log is None else log
     vdir = find_validation_dir(vdir)
     scripts = select(discover(vdir), only)
-    if not scripts:
-        raise FecheckError(f"no row scripts (row_*.py) found in {vdir}")
     out = Path(out)
     try:
         out.mkdir(parents=True, exist_ok=True)
