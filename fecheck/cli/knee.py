@@ -41,6 +41,15 @@ ANKLE_Z_MM = -300.0
 """z of the default load point (on the joint axis, about an ankle below the knee), mm."""
 THICKNESS_MM = 6.0
 """Uniform cartilage thickness when the bones are not both given (the thesis's), mm."""
+CONDYLE_NEAR_MM = 3.0
+"""Faces within this of the closest femur-tibia approach are over a condyle's contact, mm."""
+SLIVER_DEG = 5.0
+"""A face with an angle under this is a sliver: its tetrahedra make the FE ill-conditioned."""
+SHORT_EDGE_SHARE = 0.1
+"""A face with an edge under this share of the sheet's median edge is a sliver too."""
+MISPLIT_SHARE = 0.1
+"""A sagittal plane that puts more than this share of the tibial area under the femoral
+condyles on the other side than its condyle cuts a plateau: an error."""
 
 
 def _option(role: str) -> str:
@@ -149,6 +158,7 @@ def run(args: argparse.Namespace) -> int:
                                is_closed(surf["femur"].mesh)))
     _say("scene", "written", f"{out}  (run it: fecheck run {out})")
     _reload(out, tibia)
+    _fe_checks(out, {c: surf[role].source for c, (role, _) in parts.items()})
     names = " + ".join(surf[r].source.name for r in ("tibia", "tibia_lateral") if r in surf)
     png = write_knee_preview(
         out.with_name(f"{out.stem}_preview.png"), surf["femur"].mesh, tibia, gaps,
@@ -292,8 +302,11 @@ def _split(surf: dict[str, Surface], split: str, split_x: float, side: str) -> d
         parts, how = _split_files(surf), {"medial": "--tibia file",
                                           "lateral": "--tibia-lateral file"}
     else:
-        parts, label = _split_one(surf["tibia"], split, split_x, side)
+        over = _condyles(surf["femur"].mesh, surf["tibia"].mesh)
+        parts, label = _split_one(surf["tibia"], split, split_x, side, over)
         how = dict.fromkeys(parts, label)
+        if split == "sagittal" and over is not None:
+            _check_plane(surf["tibia"], split_x, over)
     centre = {c: _centroid(surf[role].mesh, faces) for c, (role, faces) in parts.items()}
     medial_at = "-" if side == "right" else "+"
     if split == "files" and (centre["medial"][0] > centre["lateral"][0]) == (side == "right"):
@@ -310,9 +323,16 @@ def _split(surf: dict[str, Surface], split: str, split_x: float, side: str) -> d
 
 
 def _split_files(surf: dict[str, Surface]) -> dict:
-    """One compartment per file (specks left out); `FecheckError` if a file has more."""
+    """One compartment per file (specks left out); `FecheckError` if a file has more, or
+    if both name the same surface."""
     from fecheck.errors import FecheckError
+    from fecheck.scene.surfaces import file_digest
 
+    a, b = surf["tibia"].source, surf["tibia_lateral"].source
+    if file_digest(a) == file_digest(b):
+        raise FecheckError(f"--tibia {a} and --tibia-lateral {b} are the same surface: give "
+                           "the lateral compartment's own file in --tibia-lateral, or leave "
+                           "it out and split --tibia into its compartments (--split)")
     for role in ("tibia", "tibia_lateral"):
         s = surf[role]
         if len(s.parts) > 1:
@@ -325,15 +345,74 @@ def _split_files(surf: dict[str, Surface]) -> dict:
             "lateral": ("tibia_lateral", surf["tibia_lateral"].parts[0])}
 
 
-def _split_one(s: Surface, split: str, split_x: float, side: str) -> tuple[dict, str]:
+def _split_one(s: Surface, split: str, split_x: float, side: str,
+               over: Condyles | None) -> tuple[dict, str]:
     """One tibia file split into its two pieces or by the plane x = `split_x`, as the
     scene splits it (`fecheck.scene.surfaces.split_faces`); the parts and how they were
     found."""
     from fecheck.scene.surfaces import split_faces
 
-    faces = split_faces(s.mesh, split, split_x, side, f"--tibia {s.source}")
+    plane = "" if over is None else f" {over.gap_x:.1f}"
+    fix = (f"give --split sagittal --split-x{plane} (the plane between the femoral "
+           "condyles) or one file per compartment (--tibia-lateral)")
+    faces = split_faces(s.mesh, split, split_x, side, f"--tibia {s.source}", fix)
     label = "connected piece" if split == "components" else f"x vs {split_x:g} mm"
     return {c: ("tibia", f) for c, f in faces.items()}, label
+
+
+@dataclass(frozen=True)
+class Condyles:
+    """The tibia under the two femoral condyles: the x of the gap between the condyles'
+    contact regions (mm), their centres' x (mm), and per tibial face whether it lies under
+    a condyle (within `CONDYLE_NEAR_MM` of the closest approach) and under which (True:
+    the condyle at larger x)."""
+
+    gap_x: float
+    centres_x: tuple[float, float]
+    near: np.ndarray
+    high: np.ndarray
+
+
+def _condyles(femur: TriMesh, tibia: TriMesh) -> Condyles | None:
+    """The femoral faces over the tibia split into two condyles by the least-squares
+    two-cluster split of their x (area-weighted), and the tibial faces under each; None
+    when fewer than two femoral faces are over the tibia."""
+    import numpy as np
+    from scipy.spatial import cKDTree
+
+    centroids = femur.face_centroids
+    dist = cKDTree(tibia.points).query(centroids)[0]
+    over = dist <= dist.min() + CONDYLE_NEAR_MM
+    if np.count_nonzero(over) < 2:
+        return None
+    x, w = centroids[over, 0], femur.face_areas[over]
+    order = np.argsort(x)
+    x, w = x[order], w[order]
+    s0, s1, s2 = np.cumsum(w), np.cumsum(w * x), np.cumsum(w * x * x)
+    l0, l1, l2 = s0[:-1], s1[:-1], s2[:-1]
+    r0, r1, r2 = s0[-1] - l0, s1[-1] - l1, s2[-1] - l2
+    k = int(np.argmin(l2 - l1 ** 2 / l0 + r2 - r1 ** 2 / r0))
+    gap = 0.5 * float(x[k] + x[k + 1])
+    reach, which = cKDTree(centroids[over]).query(tibia.face_centroids)
+    return Condyles(gap, (float(l1[k] / l0[k]), float(r1[k] / r0[k])),
+                    reach <= reach.min() + CONDYLE_NEAR_MM, centroids[over, 0][which] > gap)
+
+
+def _check_plane(s: Surface, split_x: float, over: Condyles) -> None:
+    """`FecheckError` when the sagittal plane x = `split_x` puts more than `MISPLIT_SHARE`
+    of the tibial area under the femoral condyles on the other side than its condyle."""
+    from fecheck.errors import FecheckError
+
+    area = s.mesh.face_areas
+    wrong = over.near & ((s.mesh.face_centroids[:, 0] >= split_x) != over.high)
+    share = float(area[wrong].sum() / area[over.near].sum())
+    if share > MISPLIT_SHARE:
+        a, b = over.centres_x
+        raise FecheckError(
+            f"--tibia {s.source}: the plane x = {split_x:g} mm puts {share:.0%} of the tibial "
+            f"area under the femoral condyles (at x = {a:+.1f} and {b:+.1f} mm) on the far "
+            f"side from its condyle: it cuts a plateau; give --split-x {over.gap_x:.1f} (the "
+            "gap between the condyles) or one file per compartment (--tibia-lateral)")
 
 
 def _centroid(mesh: TriMesh, faces) -> np.ndarray:
@@ -377,6 +456,107 @@ def _rest_gaps(femur: TriMesh, tibia: dict[str, TriMesh]) -> dict[str, np.ndarra
                 "different frames or units; export femur and tibia in one frame at the "
                 "rest pose (check --units)")
     return gaps
+
+
+# ------------------------------------------------------------------------- FE
+def _fe_checks(out: Path, files: dict[str, Path]) -> None:
+    """What `fecheck fe` and `fecheck calibrate` meet in the written scene: per tibial
+    compartment the layer's extrusion (`geometry.extrude.extrusion_directions`, as the FE
+    calls it, with the scene's thickness and levels), rim curl (faces facing down) and
+    slivers; a check line when all is well, else one warning line per finding naming the
+    file, the place (mm) and the key to change."""
+    import warnings
+
+    import numpy as np
+
+    from fecheck.fe.bodies import scene_bodies
+    from fecheck.fe.settings import FESettings
+    from fecheck.scene import load_scene
+
+    scene = load_scene(out)
+    settings = FESettings.from_scene(scene)
+    levels = settings.levels(scene["contact.poisson"])
+    for body in scene_bodies(scene):
+        c, mesh, h = body.name, body.surface, body.thickness_mm
+        where = f"the {c} tibial sheet ({files[c].name})"
+        found = [_inversion(mesh, h, levels, settings.grading, scene), _curl(mesh),
+                 _slivers(mesh)]
+        for text in filter(None, found):
+            warnings.warn(f"{where}: {text}", stacklevel=2)
+        if not any(found):
+            _say(c, "FE layer", f"{np.median(h):.2f} mm layer (median) extrudes with no "
+                 f"inverted prism; no face down, no sliver: ok")
+
+
+def _inversion(mesh: TriMesh, h: np.ndarray, levels: int, grading: float,
+               scene) -> str:
+    """Why the FE cannot extrude the layer under `mesh` (and the thickness that it can),
+    or ""."""
+    import numpy as np
+
+    from fecheck.errors import FecheckError
+    from fecheck.scene.surfaces import around
+    from geometry.extrude import extrusion_directions, extrusion_offsets
+
+    def inverts(thickness) -> bool:
+        try:
+            extrusion_directions(mesh, thickness, layers=levels, ratio=grading)
+        except FecheckError:
+            return True
+        return False
+
+    if not inverts(h):
+        return ""
+    bottom = mesh.points - extrusion_offsets(mesh, h)
+    t = bottom[mesh.faces]
+    crossed = np.einsum("ij,ij->i", np.cross(t[:, 1] - t[:, 0], t[:, 2] - t[:, 0]),
+                        mesh.face_cross) <= 0
+    place = (f" {around(mesh.face_centroids[crossed])}" if crossed.any() else "")
+    thinner = [f * float(np.median(h)) for f in (0.75, 0.5, 0.25)]
+    works = next((t for t in thinner if not inverts(t)), None)
+    key = ("contact.thickness_mm" if scene["scanned.thickness"] == "uniform" else
+           "scanned.thickness = 'uniform' with contact.thickness_mm")
+    fix = (f"set {key} = {works:g} (that layer extrudes)" if works is not None else
+           f"smooth the sheet (even a {thinner[-1]:g} mm layer inverts)")
+    return (f"its {np.median(h):.2f} mm layer (median) has prisms that invert under the "
+            f"FE's extrusion{place}: `fecheck fe` and `fecheck calibrate` will fail; {fix}")
+
+
+def _curl(mesh: TriMesh) -> str:
+    """The tibial faces that face down (a rim curled over), or ""."""
+    from fecheck.scene.surfaces import around
+
+    down = mesh.face_normals[:, 2] < 0
+    if not down.any():
+        return ""
+    return (f"{int(down.sum()):,} of {mesh.n_faces:,} faces face down (a rim curled over, "
+            f"{around(mesh.face_centroids[down])}): the FE's layer inverts there and the "
+            "contact meets them from below; trim them from the sheet")
+
+
+def _slivers(mesh: TriMesh) -> str:
+    """The sliver faces of `mesh` (an angle under `SLIVER_DEG` or an edge under
+    `SHORT_EDGE_SHARE` of the median edge), or ""."""
+    import numpy as np
+
+    from fecheck.scene.surfaces import around
+
+    t = mesh.points[mesh.faces]
+    e = np.stack([t[:, 1] - t[:, 0], t[:, 2] - t[:, 1], t[:, 0] - t[:, 2]], axis=1)
+    length = np.linalg.norm(e, axis=2)
+    cos = -np.einsum("fij,fij->fi", e, np.roll(e, 1, axis=1)) / (
+        length * np.roll(length, 1, axis=1))
+    angle = np.degrees(np.arccos(np.clip(cos, -1.0, 1.0)))
+    median = float(np.median(length))
+    bad = (angle.min(axis=1) < SLIVER_DEG) | (length.min(axis=1) < SHORT_EDGE_SHARE * median)
+    if not bad.any():
+        return ""
+    return (f"{int(bad.sum()):,} sliver faces (an angle under {SLIVER_DEG:g}° or an edge under "
+            f"{SHORT_EDGE_SHARE * median:.2g} mm, {SHORT_EDGE_SHARE:g} of the median edge; "
+            f"smallest angle {angle.min():.2g}°, shortest edge {length.min():.2g} mm) "
+            f"{around(mesh.face_centroids[bad])}: their tetrahedra make the FE "
+            "ill-conditioned; set scanned.decimate_faces (decimation collapses short edges) "
+            "or remesh the sheet")
 
 
 # ------------------------------------------------------------------------- scene
