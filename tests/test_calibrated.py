@@ -264,3 +264,5 @@ def test_the_fingerprint_follows_the_surfaces_not_their_paths(tmp_path):
     assert scene_fingerprint(with_values(scenes[0], scanned__decimate_faces=2000)) != a
     plane = with_values(scenes[0], geometry__tibia_split="sagittal", geometry__split_x_mm=-15.0)
     assert scene_fingerprint(plane) != a                      # other compartments
+    lifted = with_values(scenes[0], geometry__translation_mm=[0.0, 0.0, 0.05])
+    assert scene_fingerprint(lifted) != a                     # same faces, points moved
