@@ -197,14 +197,13 @@ def _read(role: str, path: Path, units: str) -> Surface:
     _say(name, "units", f"read in {units}: extent {ext[0]:.1f} x {ext[1]:.1f} x {ext[2]:.1f} "
          f"mm (diagonal {np.linalg.norm(ext):.0f} mm; a knee surface spans 5-1000 mm): ok")
     _say(name, "mesh", f"{mesh.n_points:,} vertices, {mesh.n_faces:,} faces; no NaN, no "
-         "degenerate face")
-    boundary, non_manifold, opposed = edge_counts(mesh.faces)
-    closure = ("closed (every edge shared by two faces)" if boundary == non_manifold == 0
+         "degenerate or duplicate face, no edge shared by 3+ faces")
+    boundary, _, opposed = edge_counts(mesh.faces)   # no non-manifold edge: read_surface
+    closure = ("closed (every edge shared by two faces)" if boundary == 0
                else f"open sheet ({boundary:,} boundary edges)")
     winding = (f"; {opposed:,} edges join faces of opposite winding (normals flip across "
                "them)" if opposed else "; winding consistent")
-    extra = f", {non_manifold:,} edges shared by 3+ faces" if non_manifold else ""
-    _say(name, "closure", closure + extra + winding)
+    _say(name, "closure", closure + winding)
     pieces = components(mesh)
     parts = [p for p in pieces if len(p) >= MIN_COMPONENT_SHARE * mesh.n_faces]
     specks = len(pieces) - len(parts)
