@@ -178,19 +178,21 @@ def check_topology(mesh: TriMesh, path: str | Path) -> None:
     (counted twice by one part of a run and once by another) and for edges shared by three
     or more faces (no sheet: its normals and sides are undefined there)."""
     tri = np.sort(mesh.faces, axis=1)
-    _, first = np.unique(tri, axis=0, return_index=True)
-    if len(first) < mesh.n_faces:
-        copies = np.setdiff1d(np.arange(mesh.n_faces), first)
+    order = np.lexsort(tri.T[::-1])
+    repeat = np.flatnonzero((tri[order[1:]] == tri[order[:-1]]).all(axis=1))
+    if len(repeat):
+        copies = order[repeat + 1]
         raise FecheckError(f"{path}: {len(copies)} of {mesh.n_faces} faces repeat the three "
                            f"vertices of another face (duplicate faces, "
                            f"{around(mesh.face_centroids[copies])}); remove the duplicates "
                            "(e.g. MeshLab: Remove Duplicate Faces) and export it again")
-    edges = np.sort(mesh.faces[:, [0, 1, 1, 2, 2, 0]].reshape(-1, 2), axis=1)
-    unique, counts = np.unique(edges, axis=0, return_counts=True)
-    shared = unique[counts > 2]
+    edges = tri[:, [0, 1, 1, 2, 0, 2]].reshape(-1, 2).astype(np.int64)
+    key = np.sort(edges[:, 0] * mesh.n_points + edges[:, 1])
+    shared = np.unique(key[2:][key[2:] == key[:-2]])         # on three faces or more
     if len(shared):
+        ends = np.column_stack(np.divmod(shared, mesh.n_points))
         raise FecheckError(f"{path}: {len(shared)} edges are shared by three or more faces "
-                           f"(non-manifold, {around(mesh.points[shared])}), where a surface "
+                           f"(non-manifold, {around(mesh.points[ends])}), where a surface "
                            "is one sheet; remove the extra faces there (e.g. MeshLab: Select "
                            "Non Manifold Edges, then delete) and export it again")
 
