@@ -266,3 +266,11 @@ def test_the_fingerprint_follows_the_surfaces_not_their_paths(tmp_path):
     assert scene_fingerprint(plane) != a                      # other compartments
     lifted = with_values(scenes[0], geometry__translation_mm=[0.0, 0.0, 0.05])
     assert scene_fingerprint(lifted) != a                     # same faces, points moved
+    # a file rewritten with other points: a new fingerprint (not the one kept for the keys)
+    from knee_synthetic import tibia_mesh, write_mesh
+
+    from geometry.mesh import TriMesh
+
+    moved = tibia_mesh()
+    write_mesh(TriMesh(moved.points + [0.0, 0.0, 0.05], moved.faces), tmp_path / "a" / "tibia.stl")
+    assert scene_fingerprint(load_scene(tmp_path / "a.toml")) != a

@@ -5,7 +5,9 @@ layer and material; it carries to another scene only with the same ones. Its fin
 is the sha256 of: the material and layer keys (`MATERIAL_KEYS`), the keys that shape the
 analytic surfaces (``plateau.*``, ``knee.*``, ``mesh.*``), and for the scanned kinds the
 arrays of the surfaces the run reads (the tibial compartments as split and decimated, the
-femoral surface, the bones of a bone-distance thickness: points in mm, faces).
+femoral surface, the bones of a bone-distance thickness: points in mm, faces). It is kept
+per process for the same keys and file contents (a decimated knee takes ~1.5 s to build,
+and `fecheck calibrate` reads its file at every EF equilibrium).
 """
 
 from __future__ import annotations
@@ -24,6 +26,8 @@ MATERIAL_KEYS = ("model.kind", "contact.youngs_MPa", "contact.poisson", "contact
 """Keys of the material and layer a calibration is fitted to."""
 SHAPE_SECTIONS = ("plateau.", "knee.", "mesh.")
 """Key prefixes of the surfaces a scene builds from numbers."""
+_MEMO: dict[str, str] = {}
+"""Fingerprints by what they are made of: keys, folder and file contents."""
 
 
 def _surfaces(scene: Scene) -> list:
@@ -40,8 +44,24 @@ def _surfaces(scene: Scene) -> list:
     return out
 
 
+def _memo_key(scene: Scene) -> str:
+    """Everything a scene's fingerprint depends on: its geometry, layer, shape and material
+    keys, the folder its files resolve in and the files' contents."""
+    from fecheck.scene import surfaces
+
+    keys = [k for k in SCHEMA if k in MATERIAL_KEYS
+            or k.startswith((*SHAPE_SECTIONS, "geometry.", "scanned."))]
+    paths = [surfaces.file_path(scene, k) for k in surfaces.FILE_KEYS]
+    digests = [surfaces.file_digest(p) if p.is_file() else str(p) for p in paths if p]
+    return json.dumps([{k: scene[k] for k in keys}, str(surfaces.base_dir(scene)), digests],
+                      sort_keys=True, default=str)
+
+
 def scene_fingerprint(scene: Scene) -> str:
     """sha256 (hex) of the scene's contact surfaces and material (module docstring)."""
+    memo = _memo_key(scene)
+    if memo in _MEMO:
+        return _MEMO[memo]
     h = hashlib.sha256()
     keys = [*MATERIAL_KEYS, *(k for k in SCHEMA if k.startswith(SHAPE_SECTIONS))]
     h.update(json.dumps({k: scene[k] for k in keys}, sort_keys=True, default=str).encode())
@@ -49,4 +69,7 @@ def scene_fingerprint(scene: Scene) -> str:
         for mesh in _surfaces(scene):
             h.update(np.ascontiguousarray(mesh.points, dtype=np.float64).tobytes())
             h.update(np.ascontiguousarray(mesh.faces, dtype=np.int64).tobytes())
-    return h.hexdigest()
+    if len(_MEMO) >= 64:
+        _MEMO.clear()
+    _MEMO[memo] = h.hexdigest()
+    return _MEMO[memo]
