@@ -203,6 +203,24 @@ def test_calibrate_warns_when_its_fit_sits_on_a_bound(monkeypatch):
         with pytest.warns(UserWarning, match=r"the lateral exponent n = 1\.5 sits on its bound"):
             fit = cal.calibrate(scene, (0.6, 1.4))
     assert fit.parameters["lateral"].n == pytest.approx(1.5, abs=cal.BOUND_TOLERANCE)
+    from fecheck.model.fingerprint import scene_fingerprint
+
+    assert fit.fingerprint == scene_fingerprint(scene) and len(fit.fingerprint) == 64
+
+
+def test_the_written_file_carries_the_fingerprint_and_its_scene_reads_it_silently(tmp_path):
+    import dataclasses
+    import warnings
+
+    from fecheck.model.fingerprint import scene_fingerprint
+
+    scene = load_scene()
+    fit = dataclasses.replace(_fit(0.8, 0.0), fingerprint=scene_fingerprint(scene))
+    path = cal.write(fit, scene, tmp_path / "c.json")
+    assert json.loads(path.read_text())["fingerprint"] == fit.fingerprint
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        assert run_scene(_calibrated_scene(path)).converged
 
 
 def _calibrated_scene(path: Path, **values):
