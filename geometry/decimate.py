@@ -69,7 +69,8 @@ def decimate(mesh: TriMesh, target_faces: int) -> TriMesh:
 
     Parameters
     ----------
-    mesh : edge-manifold triangle mesh, closed or open (mm); its regions are not kept
+    mesh : edge-manifold triangle mesh, closed or open (mm); its regions are not kept;
+        pinched vertices are split first (`split_pinched`)
     target_faces : wanted face count, at least `MIN_FACES`; the result has that many or a
         few fewer (a collapse removes two faces, one on a border; `unfold` may drop an ear)
 
@@ -84,20 +85,41 @@ def decimate(mesh: TriMesh, target_faces: int) -> TriMesh:
     FecheckError
         for an empty mesh, non-finite points, a target that is not an integer of at least
         `MIN_FACES`, a mesh with an edge shared by more than two faces, or when the target
-        cannot be reached (e.g. several closed components of 4 faces each).
+        cannot be reached (e.g. several closed components of 4 faces each) or qslim
+        returns no faces.
     """
     import igl
 
     _check(mesh, target_faces)
     if mesh.n_faces <= target_faces:
         return mesh
-    points, faces, birth, _ = igl.qslim(mesh.points, mesh.faces, int(target_faces))
+    source = split_pinched(mesh)
+    points, faces, birth, _ = igl.qslim(source.points, source.faces, int(target_faces))
+    if len(faces) == 0:
+        raise FecheckError(f"decimation of a mesh of {mesh.n_faces} faces to {target_faces} "
+                           "returned no faces (libigl qslim failed); give "
+                           "scanned.decimate_faces = 0 (the full mesh) or clean the mesh")
     if len(faces) > target_faces:
         raise FecheckError(f"decimation stopped at {len(faces)} faces, above the target "
                            f"{target_faces}: ask for more faces")
-    points, faces = unfold(mesh, points, faces, mesh.face_cross[birth])
+    points, faces = unfold(source, points, faces, source.face_cross[birth])
     used, remap = np.unique(faces, return_inverse=True)
     return TriMesh(points[used], remap.reshape(faces.shape))
+
+
+def split_pinched(mesh: TriMesh) -> TriMesh:
+    """`mesh` with each pinched vertex (where faces meet only at that vertex, as on a
+    voxel-stair sheet's corners: not vertex-manifold) split into one copy per fan of faces
+    around it; `mesh` itself when it has none. ``igl.qslim`` returns no faces at all for a
+    mesh with a pinched vertex."""
+    import igl
+
+    used = np.zeros(mesh.n_points, dtype=bool)
+    used[mesh.faces.ravel()] = True
+    if igl.is_vertex_manifold(mesh.faces)[used].all():
+        return mesh
+    faces, source = igl.split_nonmanifold(mesh.faces)
+    return TriMesh(mesh.points[source], faces)
 
 
 def _check(mesh: TriMesh, target_faces: int) -> None:

@@ -159,3 +159,136 @@ def test_the_table_law_gives_the_axisymmetric_fe_area_on_the_baseline():
 def test_calibrate_refuses_meaningless_loads_before_any_solve(factors):
     with pytest.raises(FecheckError, match="load factors must be positive"):
         cal.calibrate(load_scene(), factors)
+
+
+# ------------------------------------------------------------ warnings (issue 26 item 5)
+def _answer(area: float, p_max: float, force: float = 400.0) -> cal.Answer:
+    return cal.Answer({c: {"force_N": force, "area_mm2": area, "max_pressure_MPa": p_max}
+                       for c in ("medial", "lateral")})
+
+
+def _fit(n_lateral: float, area_error: float) -> cal.CalibrationFit:
+    """A fit whose calibrated EF misses the FE's area by `area_error` (relative) at the
+    second of two loads; p_max and shares exact."""
+    fe = [_answer(200.0, 3.0), _answer(300.0, 4.0)]
+    fitted = [_answer(200.0, 3.0), _answer(300.0 * (1 + area_error), 4.0)]
+    return cal.CalibrationFit({"medial": Calibration(5.0, 0.8),
+                               "lateral": Calibration(5.0, n_lateral)},
+                              [480.0, 800.0], fe, fe, fitted, {"fe": 1.0, "fit": 1.0})
+
+
+def test_a_bound_exponent_and_a_poor_fit_are_warned_about():
+    lines = cal.fit_warnings(_fit(1.5, -0.25), "knee.toml")
+    assert len(lines) == 2 and all("\n" not in w for w in lines)
+    bound, poor = lines
+    assert bound.startswith("calibrate knee.toml: the lateral exponent n = 1.5 sits on its "
+                            "bound (0.3 <= n <= 1.5)") and "fecheck fe" in bound
+    # |300·0.75 / 300 - 1| = 25 %, medial and lateral alike: the first compartment named
+    assert "misses the FE by up to 25.0 % (" in poor and "area at 800 N" in poor
+    assert "--loads" in poor
+    assert cal.fit_warnings(_fit(1.499 - cal.BOUND_TOLERANCE, 0.099), "k") == []
+    assert len(cal.fit_warnings(_fit(0.3, 0.0), "k")) == 1           # the lower bound too
+
+
+def test_calibrate_warns_when_its_fit_sits_on_a_bound(monkeypatch):
+    """The FE replaced by the calibrated EF with n = 1.5 (the upper bound) on the lateral
+    side: the fit finds it and warns."""
+    import tempfile
+
+    truth = {"medial": Calibration(5.3, 0.57), "lateral": Calibration(1.2, 1.5)}
+    scene = load_scene()
+    with tempfile.TemporaryDirectory() as folder:
+        monkeypatch.setattr(cal, "fe_answers",
+                            lambda s, loads, log: cal._EFRuns(s, loads, Path(folder))(truth))
+        with pytest.warns(UserWarning, match=r"the lateral exponent n = 1\.5 sits on its bound"):
+            fit = cal.calibrate(scene, (0.6, 1.4))
+    assert fit.parameters["lateral"].n == pytest.approx(1.5, abs=cal.BOUND_TOLERANCE)
+    from fecheck.model.fingerprint import scene_fingerprint
+
+    assert fit.fingerprint == scene_fingerprint(scene) and len(fit.fingerprint) == 64
+
+
+def test_the_written_file_carries_the_fingerprint_and_its_scene_reads_it_silently(tmp_path):
+    import dataclasses
+    import warnings
+
+    from fecheck.model.fingerprint import scene_fingerprint
+
+    scene = load_scene()
+    fit = dataclasses.replace(_fit(0.8, 0.0), fingerprint=scene_fingerprint(scene))
+    path = cal.write(fit, scene, tmp_path / "c.json")
+    assert json.loads(path.read_text())["fingerprint"] == fit.fingerprint
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        assert run_scene(_calibrated_scene(path)).converged
+
+
+def _calibrated_scene(path: Path, **values):
+    return with_values(load_scene(), contact__law="ef-calibrated",
+                       contact__calibration=str(path), **values)
+
+
+def test_a_calibration_made_for_another_scene_is_warned_about(tmp_path):
+    import warnings
+
+    from fecheck.model.fingerprint import scene_fingerprint
+
+    k = ef_stiffness(E, NU, H)
+    path = tmp_path / "own.json"
+    scene = _calibrated_scene(path)
+    calibrated.write_calibration(path, {"medial": Calibration(k, 1.0),
+                                        "lateral": Calibration(k, 1.0)},
+                                 {"fingerprint": scene_fingerprint(scene)})
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        assert run_scene(scene).converged                          # its own scene: silent
+        run_scene(with_values(scene, load__force_N=600.0))         # a load is no geometry
+    for change in ({"contact__youngs_MPa": 10.0}, {"contact__thickness_mm": 3.0},
+                   {"plateau__kind": "inclined"}):
+        with pytest.warns(UserWarning, match=rf"contact.calibration: {path} was fitted to "
+                                             r"other surfaces.*run `fecheck calibrate"):
+            run_scene(_calibrated_scene(path, **change))
+
+
+def test_an_old_calibration_file_is_warned_about_once(tmp_path):
+    import warnings
+
+    path = tmp_path / "old.json"
+    _write(path, Calibration(5.0, 0.8), Calibration(5.0, 0.8))       # no fingerprint
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        run_scene(_calibrated_scene(path))
+        run_scene(_calibrated_scene(path, load__force_N=600.0))
+    said = [str(w.message) for w in caught if "fingerprint" in str(w.message)]
+    assert len(said) == 1 and str(path) in said[0] and "cannot be checked" in said[0]
+    assert "fecheck calibrate SCENE -o old.json" in said[0]
+
+
+def test_the_fingerprint_follows_the_surfaces_not_their_paths(tmp_path):
+    from knee_synthetic import write_knee
+
+    from fecheck.model.fingerprint import scene_fingerprint
+    from fecheck.scene.document import toml_value
+
+    scenes = []
+    for name in ("a", "b"):
+        keys = write_knee(tmp_path / name)
+        text = f"[model]\nkind = 'femur-tibia'\n[geometry]\ndir = '{name}'\n" + "".join(
+            f"{k} = {toml_value(v)}\n" for k, v in keys.items())
+        (tmp_path / f"{name}.toml").write_text(text)
+        scenes.append(load_scene(tmp_path / f"{name}.toml"))
+    a, b = (scene_fingerprint(s) for s in scenes)
+    assert a == b                                             # same arrays, other folder
+    assert scene_fingerprint(with_values(scenes[0], scanned__decimate_faces=2000)) != a
+    plane = with_values(scenes[0], geometry__tibia_split="sagittal", geometry__split_x_mm=-15.0)
+    assert scene_fingerprint(plane) != a                      # other compartments
+    lifted = with_values(scenes[0], geometry__translation_mm=[0.0, 0.0, 0.05])
+    assert scene_fingerprint(lifted) != a                     # same faces, points moved
+    # a file rewritten with other points: a new fingerprint (not the one kept for the keys)
+    from knee_synthetic import tibia_mesh, write_mesh
+
+    from geometry.mesh import TriMesh
+
+    moved = tibia_mesh()
+    write_mesh(TriMesh(moved.points + [0.0, 0.0, 0.05], moved.faces), tmp_path / "a" / "tibia.stl")
+    assert scene_fingerprint(load_scene(tmp_path / "a.toml")) != a

@@ -179,3 +179,41 @@ def test_empty_nan_and_non_manifold_meshes_are_rejected():
                    np.array([[0, 1, 2], [1, 0, 3], [0, 1, 4], [2, 1, 4], [3, 0, 4]]))
     with pytest.raises(FecheckError, match="edge-manifold"):
         decimate(fins, 4)
+
+
+def voxel_stair_sheet(step_mm: float = 0.5, n: int = 41) -> TriMesh:
+    """A dish sampled as voxel stairs (heights rounded to `step_mm`) with the cells along
+    the diagonal left out, so that the cells beside it meet only at their corners: pinched
+    vertices, as a sheet cut from a voxel segmentation has them. Normals up, mm."""
+    u = np.linspace(-15.0, 15.0, n)
+    x, y = (a.ravel() for a in np.meshgrid(u, u, indexing="ij"))
+    i, j = (a.ravel() for a in np.meshgrid(np.arange(n - 1), np.arange(n - 1), indexing="ij"))
+    keep = ~((i == j) & (i > 5))
+    p = (i * n + j)[keep]
+    faces = np.concatenate([np.stack([p, p + n, p + n + 1], 1), np.stack([p, p + n + 1, p + 1], 1)])
+    z = np.round((x ** 2 + y ** 2) / 100.0 / step_mm) * step_mm
+    used, remap = np.unique(faces, return_inverse=True)
+    return TriMesh(np.column_stack([x, y, z])[used], remap.reshape(-1, 3))
+
+
+def test_voxel_stair_sheet_with_pinched_vertices_decimates():
+    sheet = voxel_stair_sheet()
+    pinched = ~igl.is_vertex_manifold(sheet.faces)
+    assert np.count_nonzero(pinched) == 33              # corners (k, k), k = 7..39
+    out = decimate(sheet, 1000)
+    assert 990 <= out.n_faces <= 1000
+    assert (out.face_cross[:, 2] > 0).all()             # every face still faces up
+    # the decimated vertices lie on the old surface, within the stairs' height (0.5 mm)
+    assert closest_distance(out.points, sheet)[0].max() < 0.5
+    assert out.area == pytest.approx(sheet.area, rel=0.02)
+
+
+def test_a_failed_qslim_is_an_error_not_an_index_error(monkeypatch):
+    import igl as igl_module
+
+    monkeypatch.setattr(igl_module, "qslim", lambda v, f, m: (np.zeros((0, 3)),
+                                                              np.zeros((0, 3), dtype=int),
+                                                              np.zeros(0, dtype=int),
+                                                              np.zeros(0, dtype=int)))
+    with pytest.raises(FecheckError, match="returned no faces.*scanned.decimate_faces = 0"):
+        decimate(voxel_stair_sheet(), 1000)

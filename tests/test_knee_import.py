@@ -197,3 +197,141 @@ def test_shipped_knee_reproduces_the_validation_scene(tmp_path, capsys):
         for metric in ("force_N", "axial_force_N", "area_mm2", "max_pressure_MPa"):
             assert getattr(b.compartments[c], metric) == pytest.approx(
                 getattr(a.compartments[c], metric), rel=1e-6), (c, metric)
+
+
+# ------------------------------------------------------------------ defects (issue 26)
+def _err(capsys) -> str:
+    err = capsys.readouterr().err.strip()
+    assert err.startswith("fecheck: error:") and "\n" not in err, err
+    return err
+
+
+def test_the_same_file_for_both_compartments_is_refused(knee, tmp_path, capsys):
+    copy = write(tmp_path, "copy.stl", tibia_patch("medial"))      # same surface, other path
+    for lateral in (knee["medial"], copy):
+        out = tmp_path / "same.toml"
+        assert _import(knee["femur"], knee["medial"], out, "--tibia-lateral", lateral) == 2
+        err = _err(capsys)
+        assert "same surface" in err and knee["medial"] in err and lateral in err
+        assert "--tibia-lateral" in err and "--split" in err and not out.exists()
+
+
+def test_a_scene_naming_one_file_for_both_compartments_is_refused(knee, tmp_path):
+    from fecheck.errors import FecheckError
+    from fecheck.scene import surfaces
+
+    out = tmp_path / "files.toml"
+    assert _import(knee["femur"], knee["medial"], out, "--tibia-lateral", knee["lateral"]) == 0
+    scene = load_scene(out, [f"geometry.tibia_lateral={toml_value(knee['medial'])}"])
+    with pytest.raises(FecheckError, match="geometry.tibia and geometry.tibia_lateral name "
+                                           "the same surface .medial.stl, medial.stl.; give"):
+        surfaces.tibial_compartments(scene)
+
+
+@pytest.mark.parametrize("x_mm", [30.0, 15.0])
+def test_a_sagittal_plane_through_a_plateau_is_refused(knee, tmp_path, capsys, x_mm):
+    # the lateral plateau and its condyle span x = 9..31 mm: at 30 mm 21/22 of the plateau
+    # falls on the medial side, at 15 mm 6/22 (27 % of the lateral, 14 % of both)
+    out = tmp_path / "plane.toml"
+    assert _import(knee["femur"], knee["tibia"], out, "--split-x", str(x_mm)) == 2
+    err = _err(capsys)
+    assert f"--tibia {knee['tibia']}: the plane x = {x_mm:g} mm" in err and "cuts a plateau" in err
+    share = float(err.split(" puts ")[1].split("%")[0]) / 100
+    expected = (21 if x_mm == 30 else 6) / 22 / 2         # of the tibial area of both plateaus
+    assert share == pytest.approx(expected, abs=0.04)
+    gap = float(err.split("--split-x ")[1].split(" ")[0])
+    assert -9.0 < gap < 9.0                               # between the plateaus (|x| > 9 mm)
+    assert _import(knee["femur"], knee["tibia"], out, "--split-x", f"{gap:g}") == 0
+
+
+def test_a_one_piece_tibia_names_the_sagittal_split(knee, tmp_path, capsys):
+    # one sheet under both condyles: two dishes (lowest at x = ±20 mm) joined at x = 0
+    sheet = _grid(0.0, 0.5, lambda dx, dy: ((3.0 * np.abs(dx) - 20.0) ** 2 + dy ** 2)
+                  / (2 * DISH_R_MM))
+    wide = TriMesh(sheet.points * [3.0, 1.0, 1.0], sheet.faces)   # x from -33 to 33 mm
+    tibia = write(tmp_path, "one_piece.stl", wide)
+    out = tmp_path / "one.toml"
+    assert _import(knee["femur"], tibia, out) == 2
+    err = _err(capsys)
+    assert tibia in err and "1 (" in err and "--split sagittal --split-x " in err
+    gap = float(err.split("--split-x ")[1].split(" ")[0])
+    assert abs(gap) < 9.0
+
+
+@pytest.mark.parametrize("defect, words", [
+    ("duplicate", ("50 of 1986 faces repeat the three vertices", "Remove Duplicate Faces")),
+    ("non-manifold", ("1 edges are shared by three or more faces", "around (-", "Non Manifold")),
+])
+def test_duplicate_faces_and_non_manifold_edges_are_refused(knee, tmp_path, capsys, defect,
+                                                            words):
+    whole = _merge([tibia_patch(c) for c in CENTRES])
+    if defect == "duplicate":
+        bad = TriMesh(whole.points, np.concatenate([whole.faces, whole.faces[:50]]))
+    else:                                  # a fin standing on an inner edge of the medial patch
+        edge = whole.faces[300, :2]
+        points = np.vstack([whole.points, whole.points[edge].mean(axis=0) + [0.0, 0.3, 0.8]])
+        bad = TriMesh(points, np.vstack([whole.faces, [*edge, len(points) - 1]]))
+    tibia = write(tmp_path, f"{defect}.stl", bad)
+    out = tmp_path / "bad.toml"
+    assert _import(knee["femur"], tibia, out) == 2
+    err = _err(capsys)
+    assert f"--tibia: {tibia}:" in err and "nan" not in err and "export it again" in err
+    for word in words:
+        assert word in err, (word, err)
+    # the run reads the file the same way: the same error, not a warning or a wrong force
+    good = tmp_path / "good.toml"
+    assert _import(knee["femur"], knee["tibia"], good) == 0
+    capsys.readouterr()
+    assert main(["run", str(good), "--set", f"geometry.tibia={toml_value(tibia)}"]) == 2
+    assert words[0] in _err(capsys)
+
+
+def _curled(c: str, curl_mm: float = 1.0) -> TriMesh:
+    """The tibial dish of compartment `c` whose rim at +x (dx > 8 mm) curls down over a
+    cylinder of radius `curl_mm`, turning up to 3 rad: the faces past π/2 face down."""
+    patch = tibia_patch(c)
+    dx = patch.points[:, 0] - CENTRES[c][0]
+    out = dx > 8.0
+    theta = (dx[out] - 8.0) / curl_mm
+    p = patch.points.copy()
+    edge_z = 64.0 / (2 * DISH_R_MM) + (p[out, 1] - CENTRES[c][1]) ** 2 / (2 * DISH_R_MM)
+    p[out, 0] = CENTRES[c][0] + 8.0 + curl_mm * np.sin(theta)
+    p[out, 2] = edge_z - curl_mm * (1.0 - np.cos(theta))
+    return TriMesh(p, patch.faces)
+
+
+def test_fe_checks_warn_of_curl_inversion_and_slivers(knee, tmp_path, capsys):
+    sliver = tibia_patch("medial")
+    p = sliver.points.copy()
+    i = int(np.argmin(np.linalg.norm(p[:, :2] - [-25.0, 3.0], axis=1)))     # inner vertex
+    j = int(np.argmin(np.linalg.norm(p[:, :2] - [-24.0, 3.0], axis=1)))     # its neighbour
+    p[i] += 0.96 * (p[j] - p[i]) + [0.0, 0.02, 0.0]    # 0.04 mm from it, faces not flat
+    medial = write(tmp_path, "sliver.stl", TriMesh(p, sliver.faces))
+    lateral = write(tmp_path, "curled.stl", _curled("lateral"))
+    out = tmp_path / "fe.toml"
+    assert _import(knee["femur"], medial, out, "--tibia-lateral", lateral) == 0
+    captured = capsys.readouterr()
+    lines = [w for w in captured.err.splitlines() if w.startswith("fecheck: warning:")]
+    curl = [w for w in lines if "curled.stl" in w]
+    slivers = [w for w in lines if "sliver.stl" in w]
+    assert len(curl) == 2 and len(slivers) == 1, lines
+    invert, down = curl
+    assert "the lateral tibial sheet (curled.stl)" in invert and "invert" in invert
+    assert "fecheck fe" in invert and ("contact.thickness_mm = " in invert
+                                       or "smooth the sheet" in invert)
+    # the faces past π/2 of the curl: x = 20 + 8 + sin(θ) mm, θ from π/2 to 3 rad
+    assert "faces face down" in down and "trim them" in down
+    x_down = float(down.split("around (")[1].split(",")[0])
+    assert 28.0 < x_down < 29.1
+    assert "the medial tibial sheet (sliver.stl)" in slivers[0]
+    assert "sliver faces" in slivers[0] and "scanned.decimate_faces" in slivers[0]
+    x, y = (float(v) for v in slivers[0].split("around (")[1].split(",")[:2])
+    assert (x, y) == pytest.approx((-24.0, 3.0), abs=1.0)
+    assert "FE layer" not in captured.out
+
+
+def test_a_clean_knee_passes_the_fe_checks(knee, tmp_path, capsys):
+    assert _import(knee["femur"], knee["tibia"], tmp_path / "ok.toml") == 0
+    captured = capsys.readouterr()
+    assert captured.out.count("FE layer    6.00 mm layer (median) extrudes") == 2
+    assert "warning" not in captured.err

@@ -310,3 +310,18 @@ def test_scanned_tibial_sheets_pass_every_mesh_check():
         pl.check_extent(sheet, c)
         pl.check_winding(sheet, c)
         assert not pl.fold_faces(sheet).any()
+
+
+def test_a_non_manifold_sheet_is_an_error_with_its_place(patch):
+    # a fin: a new vertex above an inner edge, joined to it (three faces on that edge)
+    i = int(np.argmin(np.linalg.norm(patch.face_centroids[:, :2] - [3.0, -2.0], axis=1)))
+    edge = patch.faces[i, :2]
+    points = np.vstack([patch.points, patch.points[edge].mean(axis=0) + [0.0, 0.0, 1.0]])
+    fin = TriMesh(points, np.vstack([patch.faces, [*edge, len(points) - 1]]))
+    x, y = patch.points[edge, :2].mean(axis=0)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")                     # no numpy warning on the way
+        with pytest.raises(FecheckError, match=rf"1 edges shared by three or more faces "
+                                               rf"\(non-manifold\), around \(x, y\) = "
+                                               rf"\({x:.1f}, {y:.1f}\) mm"):
+            pl.check_winding(fin, "sheet")

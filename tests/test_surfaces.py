@@ -106,7 +106,8 @@ def test_several_pieces_where_one_compartment_is_expected_are_refused(tmp_path):
 def test_a_component_split_needs_two_pieces(tmp_path):
     save_mesh(_patches()["medial"], tmp_path / "t.stl")
     scene = _scene(tmp_path, {"tibia": "t.stl"})
-    with pytest.raises(FecheckError, match="needs the two compartments as two separate"):
+    with pytest.raises(FecheckError, match="needs the two compartments as two separate.*"
+                                           "set geometry.tibia_split = 'sagittal'"):
         surfaces.tibial_compartments(scene)
 
 

@@ -30,6 +30,7 @@ from __future__ import annotations
 
 import json
 import math
+import warnings
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass
 from functools import lru_cache
@@ -49,6 +50,8 @@ FILE_VERSION = 1
 """Version of the calibration file layout (`write_calibration`)."""
 TABLE_FILE = "ef_calibration_table.json"
 """The built-in table, beside this module (validation/ef_calibration_table.py --write)."""
+_CHECKED: set[tuple[str, str | None, str]] = set()
+"""(file, its fingerprint, the scene's) already warned about in this process."""
 
 
 @dataclass(frozen=True)
@@ -141,6 +144,32 @@ def read_calibration(path: str | Path) -> dict[str, Calibration]:
     for c, cal in out.items():
         cal.check(f"{path} ({c})")
     return out
+
+
+def check_fingerprint(path: str | Path, fingerprint: str) -> None:
+    """Warn (once per file and scene in a process) when the calibration file `path` was
+    fitted to other surfaces or material than those of `fingerprint`
+    (`fecheck.model.fingerprint.scene_fingerprint`), or holds no fingerprint to check."""
+    path = Path(path)
+    try:
+        stored = json.loads(path.read_text()).get("fingerprint")
+    except (OSError, ValueError, AttributeError):
+        stored = None
+    key = (str(path.resolve()), stored, fingerprint)
+    if key in _CHECKED or stored == fingerprint:
+        return
+    _CHECKED.add(key)
+    if stored is None:
+        warnings.warn(f"contact.calibration: {path} holds no fingerprint of the scene it was "
+                      "fitted to (written by an older fecheck): whether it fits this scene's "
+                      "surfaces and material cannot be checked; rerun `fecheck calibrate "
+                      f"SCENE -o {path.name}` to refit and stamp it", stacklevel=2)
+    else:
+        warnings.warn(f"contact.calibration: {path} was fitted to other surfaces or another "
+                      "material (its fingerprint differs from this scene's: geometry files, "
+                      "split, decimation, contact.youngs_MPa, contact.poisson, thickness): "
+                      "its C and n do not carry over; run `fecheck calibrate SCENE -o FILE` "
+                      "for this scene", stacklevel=2)
 
 
 def write_calibration(path: str | Path, parameters: Mapping[str, Calibration],

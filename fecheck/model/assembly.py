@@ -254,7 +254,11 @@ def calibration_file(scene: Scene) -> dict | None:
     path = Path(os.path.expandvars(value)).expanduser()
     if not path.is_absolute():
         path = Path(scene.source).expanduser().resolve().parent / path
-    return calibrated.read_calibration(path)
+    from fecheck.model.fingerprint import scene_fingerprint
+
+    out = calibrated.read_calibration(path)
+    calibrated.check_fingerprint(path, scene_fingerprint(scene))
+    return out
 
 
 def _table_calibration(scene: Scene, radius_mm: float) -> calibrated.Calibration:

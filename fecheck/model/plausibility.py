@@ -308,7 +308,8 @@ class EdgeNeighbours:
 
     a, b : (k,) faces sharing an edge; consistent : (k,) the edge is traversed in
     opposite directions by a and b (their winding agrees); edge : (k, 2) its vertices;
-    non_manifold : edges shared by more than two faces
+    non_manifold : edges shared by more than two faces; crowded : (m, 2) their vertices,
+    once per extra face
     """
 
     a: np.ndarray
@@ -316,6 +317,7 @@ class EdgeNeighbours:
     consistent: np.ndarray
     edge: np.ndarray
     non_manifold: int
+    crowded: np.ndarray
 
     @property
     def winding_consistent(self) -> bool:
@@ -336,9 +338,10 @@ def edge_neighbours(mesh: TriMesh) -> EdgeNeighbours:
     equal = key[order][1:] == key[order][:-1]
     same = np.flatnonzero(equal)
     a, b = order[same], order[same + 1]
+    third = np.flatnonzero(equal[1:] & equal[:-1])
     out = EdgeNeighbours(a // 3, b // 3, directed[a, 0] == directed[b, 1], directed[a],
-                         int(np.count_nonzero(equal[1:] & equal[:-1])))
-    _read_only(out.a, out.b, out.consistent, out.edge)
+                         int(np.count_nonzero(equal[1:] & equal[:-1])), directed[order[third]])
+    _read_only(out.a, out.b, out.consistent, out.edge, out.crowded)
     return out
 
 
@@ -362,6 +365,12 @@ def check_winding(mesh: TriMesh, what: str) -> None:
     way by both faces) or wound upside down (its area-weighted mean normal points down,
     -z, where contact expects it up, towards the femur)."""
     edges = edge_neighbours(mesh)
+    if edges.non_manifold:
+        count = len(np.unique(np.sort(edges.crowded, axis=1), axis=0))
+        raise FecheckError(f"the {what} has {count} edges shared by three or more faces "
+                           f"(non-manifold), "
+                           f"{_where(mesh.points[edges.crowded.ravel()][:, :2])}, where a "
+                           "contact sheet is one layer of faces: remove the extra faces there")
     if not edges.winding_consistent:
         down = mesh.face_cross[:, 2] < 0
         bad = int(np.count_nonzero(~edges.consistent)) + edges.non_manifold

@@ -163,7 +163,38 @@ def _converted(path: str, digest: str, units: str, rotation_deg: tuple,
         raise FecheckError(f"{path}: {bad} of {mesh.n_faces} faces have zero area "
                            "(degenerate triangles); clean the mesh (merge duplicate "
                            "vertices, remove collapsed faces) and export it again")
+    check_topology(mesh, path)
     return mesh
+
+
+def around(points: np.ndarray) -> str:
+    """Where `points` (k, 3) are, for a message: "around (x, y, z) mm" of their mean."""
+    x, y, z = points.reshape(-1, 3).mean(axis=0)
+    return f"around ({x:+.1f}, {y:+.1f}, {z:+.1f}) mm"
+
+
+def check_topology(mesh: TriMesh, path: str | Path) -> None:
+    """`FecheckError` naming the file for faces that repeat another face's three vertices
+    (counted twice by one part of a run and once by another) and for edges shared by three
+    or more faces (no sheet: its normals and sides are undefined there)."""
+    tri = np.sort(mesh.faces, axis=1)
+    order = np.lexsort(tri.T[::-1])
+    repeat = np.flatnonzero((tri[order[1:]] == tri[order[:-1]]).all(axis=1))
+    if len(repeat):
+        copies = order[repeat + 1]
+        raise FecheckError(f"{path}: {len(copies)} of {mesh.n_faces} faces repeat the three "
+                           f"vertices of another face (duplicate faces, "
+                           f"{around(mesh.face_centroids[copies])}); remove the duplicates "
+                           "(e.g. MeshLab: Remove Duplicate Faces) and export it again")
+    edges = tri[:, [0, 1, 1, 2, 0, 2]].reshape(-1, 2).astype(np.int64)
+    key = np.sort(edges[:, 0] * mesh.n_points + edges[:, 1])
+    shared = np.unique(key[2:][key[2:] == key[:-2]])         # on three faces or more
+    if len(shared):
+        ends = np.column_stack(np.divmod(shared, mesh.n_points))
+        raise FecheckError(f"{path}: {len(shared)} edges are shared by three or more faces "
+                           f"(non-manifold, {around(mesh.points[ends])}), where a surface "
+                           "is one sheet; remove the extra faces there (e.g. MeshLab: Select "
+                           "Non Manifold Edges, then delete) and export it again")
 
 
 def surface(scene: Scene, key: str, why: str) -> TriMesh:
@@ -196,20 +227,26 @@ def submesh(mesh: TriMesh, faces: np.ndarray) -> TriMesh:
     return TriMesh(mesh.points[used], inverse.reshape(-1, 3))
 
 
-def split_faces(mesh: TriMesh, split: str, x_mm: float, side: str, name: str
-                ) -> dict[str, np.ndarray]:
+SCENE_SPLIT_FIX = ("set geometry.tibia_split = 'sagittal' (with geometry.split_x_mm, the x "
+                   "between the plateaus) or give one file per compartment "
+                   "(geometry.tibia_lateral)")
+"""What to change when a scene's tibia does not split into its two connected pieces."""
+
+
+def split_faces(mesh: TriMesh, split: str, x_mm: float, side: str, name: str,
+                fix: str = SCENE_SPLIT_FIX) -> dict[str, np.ndarray]:
     """{medial, lateral}: the face indices of each compartment of one tibial surface, its
     two connected pieces (`split` "components", specks left out) or the two sides of the
     plane x = `x_mm` ("sagittal"); medial at -x in a right knee (`side`). `FecheckError`
-    (naming the surface `name`) when the surface does not split so."""
+    (naming the surface `name`, and `fix` when it is not in two pieces) when the surface
+    does not split so."""
     if split == "components":
         pair = [p for p in components(mesh) if len(p) >= MIN_COMPONENT_SHARE * mesh.n_faces]
         if len(pair) != 2:
             sizes = ", ".join(str(len(p)) for p in pair)
             raise FecheckError(f"{name}: a split into connected pieces needs the two "
                                f"compartments as two separate pieces, but the surface has "
-                               f"{len(pair)} ({sizes} faces); split it by a sagittal plane "
-                               "or give one file per compartment")
+                               f"{len(pair)} ({sizes} faces); {fix}")
     else:
         left = mesh.face_centroids[:, 0] < x_mm
         if left.all() or not left.any():
@@ -246,8 +283,14 @@ def tibial_compartments(scene: Scene) -> dict[str, TriMesh]:
     path = required_path(scene, "tibia", why)
     side = scene.side
     if file_path(scene, "tibia_lateral") is not None:
-        medial = _one_piece(surface(scene, "tibia", why), path)
         lateral_path = required_path(scene, "tibia_lateral", why)
+        if file_digest(lateral_path) == file_digest(path):
+            raise FecheckError(f"{scene.source}: geometry.tibia and geometry.tibia_lateral name "
+                               f"the same surface ({path.name}, {lateral_path.name}); give "
+                               "the lateral compartment's own file in geometry.tibia_lateral, "
+                               "or leave it unset to split geometry.tibia "
+                               "(geometry.tibia_split)")
+        medial = _one_piece(surface(scene, "tibia", why), path)
         lateral = _one_piece(surface(scene, "tibia_lateral", why), lateral_path)
         out = {"medial": medial, "lateral": lateral}
     else:

@@ -6,7 +6,10 @@ few loads; then the calibrated law's C and n of each compartment
 equilibrium of the scene with that law reproduces the FE's contact area and peak
 pressure of each compartment and its share of the load at every one of those loads
 (each EF equilibrium warm-started from the last). The fit quality is reported per load
-against the FE, beside the linear EF's. Units: mm, N, MPa.
+against the FE, beside the linear EF's; a fit worse than `FIT_TOLERANCE` or an exponent
+on its bound is warned about. The file records the fingerprint of the scene's surfaces
+and material (`fecheck.model.fingerprint`), so that a scene it was not made for is warned
+about when it reads the file. Units: mm, N, MPa.
 """
 
 from __future__ import annotations
@@ -14,6 +17,7 @@ from __future__ import annotations
 import math
 import tempfile
 import time
+import warnings
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from pathlib import Path
@@ -33,6 +37,11 @@ SPLIT_WEIGHT = 5.0
 """Weight of a compartment's load-share residual beside the log residuals of its area and
 peak pressure (a 1 % share error counts as a 5 % area error)."""
 QUANTITIES = ("area_mm2", "max_pressure_MPa")
+FIT_TOLERANCE = 0.10
+"""Largest error of the calibrated EF against the FE (area and p_max relative, the load
+share absolute: 0.10 = 10 points) before `calibrate` warns."""
+BOUND_TOLERANCE = 1e-3
+"""An exponent within this of an end of `calibrated.EXPONENT_RANGE` sits on its bound."""
 
 
 @dataclass(frozen=True)
@@ -57,6 +66,7 @@ class CalibrationFit:
     linear: list[Answer]
     fitted: list[Answer]
     seconds: dict[str, float]
+    fingerprint: str = ""
 
     def errors(self, which: str) -> list[dict[str, float]]:
         """Relative errors against the FE per load: area, p_max per compartment, and the
@@ -97,15 +107,17 @@ class _EFRuns:
     """EF equilibria of the scene at the calibration loads for given law parameters
     (through a calibration file in a temporary folder), warm-started."""
 
-    def __init__(self, scene: Scene, loads_N: Sequence[float], folder: Path):
+    def __init__(self, scene: Scene, loads_N: Sequence[float], folder: Path,
+                 fingerprint: str = ""):
         self.scene, self.loads, self.path = scene, list(loads_N), folder / "calibration.json"
         self.start: list[np.ndarray | None] = [None] * len(self.loads)
         self.count = 0
+        self.info = {"fingerprint": fingerprint} if fingerprint else {}
 
     def __call__(self, parameters: dict[str, Calibration]) -> list[Answer]:
         from fecheck.model.run import run_scene
 
-        calibrated.write_calibration(self.path, parameters, {})
+        calibrated.write_calibration(self.path, parameters, self.info)
         out = []
         for i, load in enumerate(self.loads):
             s = with_values(self.scene, contact__law="ef-calibrated",
@@ -138,6 +150,7 @@ def calibrate(scene: Scene, load_factors: Sequence[float] = LOAD_FACTORS,
     """Fit the calibrated EF of `scene` to its FE at `load_factors` × load.force_N."""
     from scipy.optimize import least_squares
 
+    from fecheck.model.fingerprint import scene_fingerprint
     from fecheck.model.run import run_scene
 
     if not scene["load.force_N"] > 0:
@@ -157,8 +170,9 @@ def calibrate(scene: Scene, load_factors: Sequence[float] = LOAD_FACTORS,
     x0 = np.array([math.log(k), 1.0] * len(COMPARTMENTS))
     lo, hi = calibrated.EXPONENT_RANGE
     bounds = ([-np.inf, lo] * len(COMPARTMENTS), [np.inf, hi] * len(COMPARTMENTS))
+    fingerprint = scene_fingerprint(scene)
     with tempfile.TemporaryDirectory() as folder:
-        runs = _EFRuns(scene, loads, Path(folder))
+        runs = _EFRuns(scene, loads, Path(folder), fingerprint)
 
         def residuals(x: np.ndarray) -> np.ndarray:
             return _residuals(runs(_unpack(x)), fe)
@@ -170,14 +184,43 @@ def calibrate(scene: Scene, load_factors: Sequence[float] = LOAD_FACTORS,
         fitted = runs(parameters)
         log(f"calibrate: {runs.count} EF equilibria")
     t2 = time.perf_counter()
-    return CalibrationFit(parameters, loads, fe, linear, fitted,
-                          {"fe": t1 - t0, "fit": t2 - t1})
+    out = CalibrationFit(parameters, loads, fe, linear, fitted,
+                         {"fe": t1 - t0, "fit": t2 - t1}, fingerprint)
+    for message in fit_warnings(out, str(scene.source)):
+        warnings.warn(message, stacklevel=2)
+    return out
+
+
+def fit_warnings(fit: CalibrationFit, scene_name: str) -> list[str]:
+    """One line per compartment whose exponent sits on its bound, and one for the worst
+    error of the calibrated EF against the FE when it exceeds `FIT_TOLERANCE`."""
+    out = []
+    lo, hi = calibrated.EXPONENT_RANGE
+    for c, p in fit.parameters.items():
+        if min(abs(p.n - lo), abs(p.n - hi)) <= BOUND_TOLERANCE:
+            out.append(f"calibrate {scene_name}: the {c} exponent n = {p.n:.4g} sits on its "
+                       f"bound ({lo:g} <= n <= {hi:g}): the law p = C·d·(d + d_s)^(n−1) "
+                       "cannot follow this FE; check the FE (fecheck fe SCENE --plot DIR) "
+                       "and keep the linear EF (contact.law = 'ef') if it holds")
+    worst, load, name = max((abs(v), load, name) for load, row in
+                            zip(fit.loads_N, fit.errors("fitted"), strict=True)
+                            for name, v in row.items())
+    if worst > FIT_TOLERANCE:
+        c, _, what = name.partition("_")
+        unit = " points of the load share" if what == "share" else " %"
+        what = {"area_mm2": "area", "max_pressure_MPa": "p_max", "share": "load share"}[what]
+        out.append(f"calibrate {scene_name}: the calibrated EF misses the FE by up to "
+                   f"{100 * worst:.1f}{unit} ({c} {what} at {load:g} N; more than "
+                   f"{100 * FIT_TOLERANCE:g}{unit}): do not use it as a stand-in for the "
+                   "FE on this scene; check the FE (fecheck fe SCENE --plot DIR) or "
+                   "calibrate at the loads you will run (--loads)")
+    return out
 
 
 def write(fit: CalibrationFit, scene: Scene, path: str | Path) -> Path:
     """The calibration file of `fit` (contact.calibration reads it)."""
     info = {"scene": scene["name"] or scene.source, "fe_mode": scene["fe.mode"],
-            "loads_N": fit.loads_N,
+            "fingerprint": fit.fingerprint, "loads_N": fit.loads_N,
             "fe": [a.values for a in fit.fe],
             "errors": {"linear_ef": fit.errors("linear"), "calibrated_ef": fit.errors("fitted")},
             "seconds": fit.seconds}
