@@ -24,8 +24,8 @@ with the value that fits. Callers name their keys with `policy` (``--size`` on t
 command line, ``mesh.plateau_size_mm`` in a scene); without it the messages use the
 builders' own parameter names.
 
->>> round(tetrahedra(6 * 2**0.5, 1.0) / TET_FILL, 6)
-1.0
+>>> round(tetrahedra(1000.0, 1.0))         # a 10 mm cube at 1 mm: 0.5 · 1000 · 6√2
+4243
 >>> icosphere_estimate(3).count
 1280.0
 """
