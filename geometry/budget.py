@@ -277,7 +277,7 @@ def guard(builder: str, key: str, value: float, estimate_at: Callable[[float], E
     name = pol.keys.get(key, key)
     shown = f"{value:g}{' ' + unit if unit else ''}"
     head = (f"{pol.label or builder}: {name} {shown} would make about "
-            f"{estimate.count:.2g} {estimate.what} (~{estimate.bytes / GB:.2g} GB")
+            f"{_approx(estimate.count)} {estimate.what} (~{_approx(estimate.bytes / GB)} GB")
     if estimate.bytes > memory:
         head += f"; this machine has {memory / GB:.3g} GB available)"
     else:
@@ -295,6 +295,11 @@ def guard(builder: str, key: str, value: float, estimate_at: Callable[[float], E
     elif pol.force_hint and not pol.force and hard is not None and hard != soft:
         tail += f", or {pol.force_hint} with {name} {op} {hard:g}{units}"
     raise FecheckError(f"{head}: {tail}")
+
+
+def _approx(x: float) -> str:
+    """`x` to 2 significant digits: plainly below 100,000, else in e-notation."""
+    return f"{x:.2g}" if x >= 1e5 else f"{float(f'{x:.2g}'):,g}"
 
 
 def _remedy(estimate_at: Callable[[float], Estimate], value: float, level: bool,
