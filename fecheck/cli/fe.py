@@ -44,7 +44,7 @@ def add_parser(subparsers) -> None:
                    help="split the surface triangles in four N times before the FE "
                         "(overrides fe.refine)")
     p.add_argument("--force", action="store_true",
-                   help="solve beyond 300,000 FE dofs or build meshes beyond the element "
+                   help="solve beyond 500,000 FE dofs or build meshes beyond the element "
                         "limits (never beyond the available memory)")
     p.add_argument("--json", metavar="PATH",
                    help="write the comparison as JSON ('-': stdout, the report to stderr)")
