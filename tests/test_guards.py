@@ -225,3 +225,42 @@ def test_ctrl_c_stops_a_long_gmsh_build_within_seconds(tmp_path):
     assert code in (-signal.SIGINT, 130)
     assert "Traceback" not in (tmp_path / "stderr").read_text()
     assert not out.exists()
+
+
+def test_factorizations_and_their_solves_run_with_ctrl_c_at_its_default_action(monkeypatch):
+    """CHOLMOD does not return to Python while it factorizes: Ctrl-C must end the process
+    there (measured: 0.1 s into a 104k-dof factorization, against 8 s before)."""
+    import numpy as np
+    import scipy.sparse as sp
+    import sksparse.cholmod
+
+    from fecheck.fe.contact import condensed_compliance, factorize
+
+    seen = []
+    real = sksparse.cholmod.cholesky
+
+    def spy(*args, **kwargs):
+        seen.append(signal.getsignal(signal.SIGINT))
+        return real(*args, **kwargs)
+
+    monkeypatch.setattr(sksparse.cholmod, "cholesky", spy)
+    n = 9
+    K = sp.diags([-np.ones(n - 1), 2.5 * np.ones(n), -np.ones(n - 1)], [-1, 0, 1]).tocsc()
+    solve = factorize(K)
+    C, solve_c = condensed_compliance(K, np.array([[0, 1, 2]]), np.array([[0.0, 0.0, 1.0]]))
+    assert seen == [signal.SIG_DFL, signal.SIG_DFL]
+    assert signal.getsignal(signal.SIGINT) is signal.default_int_handler
+
+    class Probe:
+        """A right-hand side that notes SIGINT's action when the solve reads it."""
+
+        def __array__(self, dtype=None, copy=None):
+            seen.append(signal.getsignal(signal.SIGINT))
+            return np.ones(n)
+
+    x, y = solve(Probe()), solve_c(Probe())
+    assert seen[2:] == [signal.SIG_DFL, signal.SIG_DFL]
+    np.testing.assert_allclose(K @ x, np.ones(n), atol=1e-12)
+    np.testing.assert_allclose(K @ y, np.ones(n), atol=1e-12)
+    # C = e₂ᵀ K⁻¹ e₂ (the direction picks dof 2 of the triplet)
+    np.testing.assert_allclose(C[0, 0], np.linalg.inv(K.toarray())[2, 2], rtol=1e-12)

@@ -27,7 +27,8 @@ def _common(p: argparse.ArgumentParser, output: bool = True) -> None:
                        help="output file; format from the extension (.stl, .vtu, .msh, .obj, ...)")
     p.add_argument("--no-cache", action="store_true", help="always rebuild (do not use the cache)")
     p.add_argument("--force", action="store_true",
-                   help="build beyond 2 million elements (never beyond the available memory)")
+                   help="build beyond the element limits (2 million tetrahedra, 1 million "
+                        "quadratic, 500,000 triangles), never beyond the available memory")
 
 
 def _sphere_options(p: argparse.ArgumentParser) -> None:

@@ -56,10 +56,14 @@ def layer_dofs(surface: TriMesh, refine: int, levels: int) -> int:
 
 
 def fe_estimate(bodies: Sequence[FEBody], refine: int, levels: int) -> budget.Estimate:
-    """The dofs of every compartment's layer, their memory and `MAX_DOFS`."""
-    dofs = float(sum(layer_dofs(b.surface, refine, levels) for b in bodies))
-    per_dof = BYTES_PER_DOF * (dofs / REFERENCE_DOFS) ** FILL_EXPONENT
-    return budget.Estimate("FE dofs", dofs, FIXED_BYTES + dofs * per_dof, MAX_DOFS)
+    """The dofs of every compartment's layer, their memory and `MAX_DOFS`. Every layer
+    keeps its own factor, so the memory is summed over the layers (the full femur-tibia
+    knee, two layers of 97k and 100k dofs: estimate 2.4 GB, measured peak RSS 1.7 GB of
+    the whole `fecheck fe` run)."""
+    dofs = np.array([layer_dofs(b.surface, refine, levels) for b in bodies], dtype=float)
+    factors = dofs * BYTES_PER_DOF * (dofs / REFERENCE_DOFS) ** FILL_EXPONENT
+    return budget.Estimate("FE dofs", float(dofs.sum()), FIXED_BYTES + float(factors.sum()),
+                           MAX_DOFS)
 
 
 def guard_layers(bodies: Sequence[FEBody], settings: FESettings, poisson: float) -> None:
