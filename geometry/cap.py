@@ -15,7 +15,7 @@ import numpy as np
 
 from geometry.cache import cached_build
 from geometry.errors import FecheckError
-from geometry.icosphere import check_sphere_parameters, icosphere
+from geometry.icosphere import check_sphere_parameters, guard_subdivisions, icosphere
 from geometry.mesh import TriMesh
 
 #: Vertices closer than this fraction of the radius to the plane are moved onto it.
@@ -117,6 +117,7 @@ def spherical_cap(radius: float, subdivisions: int, center: Sequence[float] = (0
     True
     """
     check_sphere_parameters(radius, subdivisions, center, method)
+    guard_subdivisions("spherical_cap", subdivisions)
     cp = np.asarray(cut_point, dtype=float)
     cn = np.asarray(cut_normal, dtype=float)
     if cp.shape != (3,) or cn.shape != (3,) or not np.all(np.isfinite(np.r_[cp, cn])):

@@ -11,31 +11,36 @@ from collections.abc import Iterator
 from contextlib import contextmanager
 from typing import Any
 
+from geometry.native import interruptible
+
 
 @contextmanager
 def gmsh_session(model_name: str = "fecheck") -> Iterator[Any]:
     """Yield the `gmsh` module with a fresh, silent model named `model_name`.
 
-    Nested sessions share the Gmsh instance; only the outermost one finalises it.
+    Nested sessions share the Gmsh instance; only the outermost one finalises it. Ctrl-C
+    ends the process at once inside a session (`geometry.native.interruptible`: Gmsh
+    does not return to Python while it meshes).
 
     >>> with gmsh_session("demo") as gmsh:
     ...     _ = gmsh.model.occ.addBox(0, 0, 0, 1, 1, 1)
     """
     import gmsh
 
-    owner = not gmsh.isInitialized()
-    if owner:
-        gmsh.initialize(readConfigFiles=False, interruptible=False)
-        _ignore_broken_pipes()
-    gmsh.option.setNumber("General.Terminal", 0)
-    gmsh.option.setNumber("General.Verbosity", 0)
-    gmsh.model.add(model_name)
-    try:
-        yield gmsh
-    finally:
-        gmsh.model.remove()
+    with interruptible():
+        owner = not gmsh.isInitialized()
         if owner:
-            gmsh.finalize()
+            gmsh.initialize(readConfigFiles=False, interruptible=False)
+            _ignore_broken_pipes()
+        gmsh.option.setNumber("General.Terminal", 0)
+        gmsh.option.setNumber("General.Verbosity", 0)
+        gmsh.model.add(model_name)
+        try:
+            yield gmsh
+        finally:
+            gmsh.model.remove()
+            if owner:
+                gmsh.finalize()
 
 
 def _ignore_broken_pipes() -> None:

@@ -13,6 +13,7 @@ from collections.abc import Sequence
 
 import numpy as np
 
+from geometry import budget
 from geometry.cache import cached_build
 from geometry.errors import FecheckError
 from geometry.mesh import TriMesh
@@ -47,6 +48,12 @@ def check_sphere_parameters(radius: float, subdivisions: int, center: Sequence[f
         raise FecheckError(f"icosphere center must be 3 finite coordinates in mm, got {center}")
     if method not in METHODS:
         raise FecheckError(f"icosphere method must be one of {METHODS}, got {method!r}")
+
+
+def guard_subdivisions(builder: str, subdivisions: int) -> None:
+    """`geometry.budget.guard` of a level-n icosphere (20·4^n triangles, exactly)."""
+    budget.guard(builder, "subdivisions", int(subdivisions), budget.icosphere_estimate,
+                 unit="", level=True)
 
 
 def _unit_gmsh(subdivisions: int) -> tuple[np.ndarray, np.ndarray]:
@@ -91,6 +98,7 @@ def icosphere(radius: float, subdivisions: int, center: Sequence[float] = (0.0, 
     320
     """
     check_sphere_parameters(radius, subdivisions, center, method)
+    guard_subdivisions("icosphere", subdivisions)
     builder = _unit_gmsh if method == "gmsh" else _unit_trimesh
     unit = cached_build(f"icosphere-unit-{method}", {"subdivisions": int(subdivisions)},
                         lambda: TriMesh(*builder(int(subdivisions))), use_cache=cache)

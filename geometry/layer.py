@@ -14,10 +14,12 @@ Boundaries "top" and "bottom" are triangle sets (vertex indices into the tet mes
 
 from __future__ import annotations
 
+import math
 from collections.abc import Sequence
 
 import numpy as np
 
+from geometry import budget
 from geometry.cache import cached_build
 from geometry.errors import FecheckError
 from geometry.mesh import TetMesh
@@ -90,6 +92,8 @@ def cartilage_layer(footprint: str = "rectangle", center_xy: Sequence[float] = (
                                f"size in (0, size={size}] mm, got {band}")
     else:
         band = None
+    _guard(footprint, half_x * half_y * thickness, thickness, size, refine_size,
+           rradius if refine_point is not None else None, band, order)
     params = {"footprint": footprint, "center_xy": [float(c) for c in center_xy],
               "half_x": half_x, "half_y": half_y, "thickness": thickness, "top": top,
               "sagittal_deg": sagittal_deg, "frontal_deg": frontal_deg, "size": size,
@@ -101,6 +105,30 @@ def cartilage_layer(footprint: str = "rectangle", center_xy: Sequence[float] = (
 
     return cached_build("cartilage_layer", params, build, use_cache=cache,
                         version=_BUILDER_VERSION)
+
+
+def _guard(footprint: str, half_product: float, thickness: float, size: float,
+           refine_size: float | None, refine_radius: float | None, band: dict | None,
+           order: int) -> None:
+    """`geometry.budget.guard_mesh` of a layer (before the cache and Gmsh): volume
+    footprint area × thickness, refined around the point (a half ball on the top, then
+    the slab) and along the band."""
+    volume = (4.0 if footprint == "rectangle" else math.pi) * half_product
+
+    def zones(s: float, fine: float) -> list[budget.Zone]:
+        out = []
+        if refine_radius is not None:
+            out.append(budget.Zone(fine, refine_radius, refine_radius + thickness + s,
+                                   budget.point_on_slab(thickness)))
+        if band is not None:
+            w = band["band_width"]
+            out.append(budget.Zone(band["band_size"], w, 2 * w + s,
+                                   budget.circle_on_slab(band["band_radius"], thickness)))
+        return out
+
+    budget.guard_mesh("cartilage_layer",
+                      "tetrahedra" if order == 1 else "quadratic tetrahedra", volume, size,
+                      zones, refine_size=refine_size)
 
 
 def top_height(points_xy: np.ndarray, center_xy: Sequence[float], top: Polynomial2D | None,

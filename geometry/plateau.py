@@ -13,10 +13,12 @@ box is rotated by R = Ry(-γ)·Rx(λ) about `center`, and its top normal is
 
 from __future__ import annotations
 
+import math
 from collections.abc import Sequence
 
 import numpy as np
 
+from geometry import budget
 from geometry.cache import cached_build
 from geometry.errors import FecheckError
 from geometry.mesh import TriMesh
@@ -158,6 +160,9 @@ def plateau_box(center: Sequence[float], size_x: float, size_y: float, thickness
     for name, angle in (("sagittal_deg", sagittal_deg), ("frontal_deg", frontal_deg)):
         if not np.isfinite(angle) or abs(angle) >= 90:
             raise FecheckError(f"{name} must be within (-90, 90) degrees, got {angle}")
+    if mesh_size is not None:                     # top and bottom: twice the footprint
+        budget.guard_mesh("plateau_box", "triangles", sx * sy, float(mesh_size),
+                          lambda s, f: [], copies=2.0, size_key="mesh_size")
 
     def build() -> TriMesh:
         if mesh_size is None:
@@ -205,6 +210,7 @@ def plane_patch(center: Sequence[float], normal: Sequence[float], *, radius: flo
         if p3.shape != (3,):
             raise FecheckError("plane_patch refine_point needs 3 coordinates (mm)")
         refine = ((frame[:2] @ (p3 - c)), refine[1], refine[2])
+    _guard("plane_patch", math.pi * r * r, h, refine)
 
     def build() -> TriMesh:
         pts, faces = footprint_mesh("ellipse", r, r, h, refine)
@@ -214,6 +220,20 @@ def plane_patch(center: Sequence[float], normal: Sequence[float], *, radius: flo
     params = {"center": c, "normal": frame[2], "radius": r, "size": h,
               "refine": None if refine is None else [list(refine[0]), refine[1], refine[2]]}
     return cached_build("plane-patch", params, build, use_cache=cache)
+
+
+def _guard(builder: str, area: float, size: float, refine: tuple | None,
+           copies: float = 1.0) -> None:
+    """`geometry.budget.guard_mesh` of a footprint of `area` mm² meshed at `size` with
+    `footprint_mesh`'s refinement (before the cache and Gmsh)."""
+    def zones(s: float, fine: float) -> list[budget.Zone]:
+        if refine is None:
+            return []
+        return [budget.Zone(fine, refine[2], refine[2] + 2.0 * (s - fine),
+                            budget.point_on_plane)]
+
+    budget.guard_mesh(builder, "triangles", area, size, zones, copies=copies,
+                      refine_size=None if refine is None else refine[1])
 
 
 def _poly_inputs(poly, footprint, center_xy, half_x, half_y, size, refine_point, refine_size,
@@ -229,6 +249,10 @@ def _poly_inputs(poly, footprint, center_xy, half_x, half_y, size, refine_point,
     if refine is not None:
         refine = (refine[0] - cxy, refine[1], refine[2])
     return cxy, hx, hy, h, refine
+
+
+def _footprint_area(footprint: str, hx: float, hy: float) -> float:
+    return (4.0 if footprint == "rectangle" else math.pi) * hx * hy
 
 
 def _lifted(poly, footprint, cxy, hx, hy, h, refine) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -250,6 +274,7 @@ def polynomial_patch(poly: Polynomial2D, *, footprint: str = "rectangle",
     """
     cxy, hx, hy, h, refine = _poly_inputs(poly, footprint, center_xy, half_x, half_y, size,
                                           refine_point, refine_size, refine_radius)
+    _guard("polynomial_patch", _footprint_area(footprint, hx, hy), h, refine)
 
     def build() -> TriMesh:
         xy, faces, z = _lifted(poly, footprint, cxy, hx, hy, h, refine)
@@ -272,6 +297,7 @@ def polynomial_plateau(poly: Polynomial2D, *, footprint: str = "rectangle",
     cxy, hx, hy, h, refine = _poly_inputs(poly, footprint, center_xy, half_x, half_y, size,
                                           refine_point, refine_size, refine_radius)
     t = _positive("thickness", thickness)
+    _guard("polynomial_plateau", _footprint_area(footprint, hx, hy), h, refine, copies=2.0)
 
     def build() -> TriMesh:
         xy, faces, z = _lifted(poly, footprint, cxy, hx, hy, h, refine)

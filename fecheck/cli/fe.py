@@ -43,6 +43,9 @@ def add_parser(subparsers) -> None:
     p.add_argument("--refine", type=int, metavar="N",
                    help="split the surface triangles in four N times before the FE "
                         "(overrides fe.refine)")
+    p.add_argument("--force", action="store_true",
+                   help="solve beyond 500,000 FE dofs or build meshes beyond the element "
+                        "limits (never beyond the available memory)")
     p.add_argument("--json", metavar="PATH",
                    help="write the comparison as JSON ('-': stdout, the report to stderr)")
     p.add_argument("--plot", type=Path, metavar="DIR",
@@ -207,11 +210,13 @@ def write_outputs(args: argparse.Namespace, check, scene, out) -> None:
 def run(args: argparse.Namespace) -> int:
     from fecheck.fe.crosscheck import cross_check
     from fecheck.scene import load_scene
+    from geometry.budget import policy
 
     out = _report_stream(args)
     scene = load_scene(args.scene, args.overrides)
     check_outputs(args)
-    check = cross_check(scene, mode=args.mode, refine=args.refine)
+    with policy("fecheck fe", force=args.force, force_hint="--force"):
+        check = cross_check(scene, mode=args.mode, refine=args.refine)
     print(comparison_table(check), file=out)
     for line in summary_lines(check):
         print(line, file=out)

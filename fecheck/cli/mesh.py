@@ -26,6 +26,9 @@ def _common(p: argparse.ArgumentParser, output: bool = True) -> None:
         p.add_argument("-o", "--output", required=True, type=Path,
                        help="output file; format from the extension (.stl, .vtu, .msh, .obj, ...)")
     p.add_argument("--no-cache", action="store_true", help="always rebuild (do not use the cache)")
+    p.add_argument("--force", action="store_true",
+                   help="build beyond the element limits (2 million tetrahedra, 1 million "
+                        "quadratic, 500,000 triangles), never beyond the available memory")
 
 
 def _sphere_options(p: argparse.ArgumentParser) -> None:
@@ -109,6 +112,11 @@ def add_parser(subparsers) -> None:
 def _refine(args) -> dict:
     return {"refine_point": args.refine_point, "refine_size": args.refine_size,
             "refine_radius": args.refine_radius}
+
+
+KEYS = {"size": "--size", "mesh_size": "--mesh-size", "refine_size": "--refine-size",
+        "subdivisions": "--subdivisions"}
+"""Builder parameter → option, for the size guards' messages."""
 
 
 def _build(args):
@@ -222,13 +230,15 @@ def run(args) -> int:
     if args.mesh_kind == "info":
         return _info(args)
     from fecheck.io.outputs import check_output
+    from geometry.budget import policy
     from geometry.cache import STATS
     from geometry.io import check_format, save_mesh
     from geometry.mesh import TetMesh
 
     check_format(args.output)
     check_output(args.output)                   # before meshing, not after
-    mesh = _build(args)
+    with policy(f"fecheck mesh {args.mesh_kind}", KEYS, force=args.force, force_hint="--force"):
+        mesh = _build(args)
     save_mesh(mesh, args.output)
     count = f"{len(mesh.tets)} tets" if isinstance(mesh, TetMesh) else f"{mesh.n_faces} faces"
     print(f"wrote {args.output}: {count}, {len(mesh.points)} vertices "

@@ -29,6 +29,7 @@ import numpy as np
 import scipy.sparse as sp
 
 from fecheck.errors import FecheckError
+from geometry.native import interruptible
 
 SOLVERS = ("cholmod", "superlu")
 
@@ -71,13 +72,26 @@ def factorize(K: sp.spmatrix, solver: str = "cholmod", ordering: str = "default"
                                "scripts/setup.sh); or set fe.solver = 'superlu'") from err
 
         try:
-            return cholesky(K, ordering_method=ordering).solve_A
+            with interruptible():
+                return _interruptible(cholesky(K, ordering_method=ordering).solve_A)
         except CholmodNotPositiveDefiniteError as err:
             raise FecheckError("the layer's stiffness is not positive definite: check its "
                                "supports and material (0 < E, -1 < ν < 0.5)") from err
     from scipy.sparse.linalg import splu
 
-    return splu(K, permc_spec="MMD_AT_PLUS_A").solve
+    with interruptible():
+        return _interruptible(splu(K, permc_spec="MMD_AT_PLUS_A").solve)
+
+
+def _interruptible(solve: Callable[[np.ndarray], np.ndarray]
+                   ) -> Callable[[np.ndarray], np.ndarray]:
+    """`solve`, with Ctrl-C ending the process at once while it runs
+    (`geometry.native.interruptible`)."""
+    def wrapped(b: np.ndarray) -> np.ndarray:
+        with interruptible():
+            return solve(b)
+
+    return wrapped
 
 
 def condensed_compliance(K: sp.spmatrix, dofs: np.ndarray, directions: np.ndarray
@@ -103,24 +117,28 @@ def condensed_compliance(K: sp.spmatrix, dofs: np.ndarray, directions: np.ndarra
     Kq = (Q.T @ K @ Q).tocsc()
     last = np.asarray(dofs)[:, 0]
     inner = np.setdiff1d(np.arange(n), last)
-    order = inner[analyze(Kq[inner][:, inner], ordering_method="metis").P()]
+    with interruptible():
+        order = inner[analyze(Kq[inner][:, inner], ordering_method="metis").P()]
     perm = np.concatenate([order, last])
     Kq = sp.csc_matrix(Kq[perm][:, perm])
     try:
-        factor = cholesky(Kq, ordering_method="natural")
+        with interruptible():
+            factor = cholesky(Kq, ordering_method="natural")
     except CholmodNotPositiveDefiniteError as err:
         raise FecheckError("the layer's stiffness is not positive definite: check its "
                            "supports and material (0 < E, -1 < ν < 0.5)") from err
     del K, Kq            # the factor's copy of L (below) is the peak of memory: free these
-    L22 = factor.L()[n - m:, n - m:].toarray()
-    Y = solve_triangular(L22, np.eye(m), lower=True)
+    with interruptible():
+        L22 = factor.L()[n - m:, n - m:].toarray()
+        Y = solve_triangular(L22, np.eye(m), lower=True)
+        C = Y.T @ Y
     inverse = np.empty(n, dtype=np.int64)
     inverse[perm] = np.arange(n)
 
     def solve(b: np.ndarray) -> np.ndarray:
         return Q @ factor.solve_A((Q.T @ np.asarray(b))[perm])[inverse]
 
-    return Y.T @ Y, solve
+    return C, _interruptible(solve)
 
 
 def _frames(n: int, dofs: np.ndarray, directions: np.ndarray) -> sp.csr_matrix:
@@ -151,7 +169,8 @@ def _active_set(C: np.ndarray, g0: np.ndarray, load_N: float, active: np.ndarray
         kkt[:k, k] = -1.0
         kkt[k, :k] = 1.0
         rhs = np.concatenate([-g0[idx], [load_N]])
-        sol = np.linalg.solve(kkt, rhs)
+        with interruptible():
+            sol = np.linalg.solve(kkt, rhs)
         lam = np.zeros(m)
         lam[idx] = sol[:k]
         delta = float(sol[k])

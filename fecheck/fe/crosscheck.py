@@ -34,6 +34,7 @@ import numpy as np
 
 from fecheck.errors import FecheckError
 from fecheck.fe.bodies import refuse_rigid, scene_bodies
+from fecheck.fe.budget import guard_layers
 from fecheck.fe.press import (
     FELayer,
     build_layers,
@@ -332,6 +333,7 @@ def cross_check(scene: Scene, *, mode: str | None = None, refine: int | None = N
     E, nu = scene["contact.youngs_MPa"], scene["contact.poisson"]
     t0 = time.perf_counter()
     bodies = scene_bodies(scene)
+    guard_layers(bodies, settings, nu)                  # before the EF run, not after it
     run, ef_seconds = _ef_run(scene, say)
     t1 = time.perf_counter()
     layers = build_layers(bodies, E, nu, settings, say)

@@ -39,6 +39,7 @@ import numpy as np
 from fecheck.errors import FecheckError
 from fecheck.fe.contact import condensed_compliance, factorize
 from fecheck.fe.solid import LayerSolid
+from geometry.native import interruptible
 
 POSE_TOL = 1e-9
 """The outer loop stops when the pose step is below this (mm, and rad × 100 mm)."""
@@ -120,9 +121,11 @@ def _active_set(C: np.ndarray, g0: np.ndarray, J: np.ndarray, G: np.ndarray, Q: 
         kkt[a:, a:] = dQ
         rhs = np.concatenate([-g0[idx], -Q])
         try:
-            sol = np.linalg.solve(kkt, rhs)
+            with interruptible():
+                sol = np.linalg.solve(kkt, rhs)
         except np.linalg.LinAlgError:
-            sol = np.linalg.lstsq(kkt, rhs, rcond=None)[0]
+            with interruptible():
+                sol = np.linalg.lstsq(kkt, rhs, rcond=None)[0]
         lam = np.zeros(m)
         lam[idx] = sol[:a]
         dq = sol[a:]

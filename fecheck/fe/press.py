@@ -23,6 +23,7 @@ import numpy as np
 
 from fecheck.errors import FecheckError
 from fecheck.fe.bodies import FEBody
+from fecheck.fe.budget import guard_layers
 from fecheck.fe.joint import ContactLayer, JointContact, JointSolution
 from fecheck.fe.settings import FESettings
 from fecheck.fe.solid import LayerSolid, layer_solid, release_freed_heap
@@ -90,7 +91,9 @@ def _barycentric(tri: np.ndarray, pts: np.ndarray) -> np.ndarray:
 
 def build_layers(bodies: Sequence[FEBody], youngs_MPa: float, poisson: float,
                  settings: FESettings, log: Callable[[str], None]) -> list[FELayer]:
-    """Extrude and assemble every compartment's layer (the costly setup before contact)."""
+    """Extrude and assemble every compartment's layer (the costly setup before contact),
+    refused first when it would not fit (`fecheck.fe.budget.guard_layers`)."""
+    guard_layers(bodies, settings, poisson)
     out = []
     for body in bodies:
         levels = settings.levels(poisson)

@@ -33,6 +33,10 @@ ELEMENTS_PER_CONTACT_RADIUS = 8
 DISC_MARGIN = 1.25
 """Meshed disc radius over the contact radius at the whole load on one compartment."""
 
+SCENE_KEYS = {"size": "mesh.plateau_size_mm", "refine_size": "mesh.plateau_refine_mm",
+              "subdivisions": "mesh.sphere_subdivisions"}
+"""Builder parameter → scene key, for the size guards' messages (`geometry.budget`)."""
+
 
 def total_load_N(scene: Scene) -> float:
     """Magnitude of the external load plus the tibia's weight (if on), N."""
@@ -92,10 +96,12 @@ def plateau_mesh_sizes(scene: Scene, radius_mm: float) -> dict[str, float]:
 
 
 def condyle_mesh(scene: Scene, knee: Knee, c: str):
+    from geometry.budget import policy
     from geometry.icosphere import icosphere
 
-    return icosphere(knee.radius_mm(c), scene["mesh.sphere_subdivisions"],
-                     knee.condyle_center[c], method=scene["mesh.method"])
+    with policy(keys=SCENE_KEYS):
+        return icosphere(knee.radius_mm(c), scene["mesh.sphere_subdivisions"],
+                         knee.condyle_center[c], method=scene["mesh.method"])
 
 
 def plateau_box(scene: Scene, knee: Knee, c: str):
@@ -126,17 +132,19 @@ def plateau_master(scene: Scene, knee: Knee, c: str):
 def plateau_mesh(scene: Scene, knee: Knee, c: str):
     """The meshed plateau disc under condyle `c`, sized to resolve and contain the
     expected contact (`plateau_mesh_sizes`)."""
+    from geometry.budget import policy
     from geometry.plateau import plane_patch, polynomial_patch
     from geometry.polynomial import Polynomial2D
 
     foot = knee.condyle_center[c] - knee.radius_mm(c) * np.array([0.0, 0.0, 1.0])
     size = plateau_mesh_sizes(scene, knee.radius_mm(c))
     radius = size.pop("radius")
-    if scene["plateau.kind"] == "polynomial":
-        poly = Polynomial2D(np.asarray(scene[f"plateau.{c}_coefficients"]))
-        return polynomial_patch(poly, footprint="ellipse", center_xy=foot[:2], half_x=radius,
-                                half_y=radius, refine_point=foot[:2], **size)
-    n = plateau_normals(scene)[c]
-    point = knee.condyle_center[c] - knee.radius_mm(c) * n
-    return plane_patch(point, n, radius=radius, refine_point=point, **size)
+    with policy(keys=SCENE_KEYS):
+        if scene["plateau.kind"] == "polynomial":
+            poly = Polynomial2D(np.asarray(scene[f"plateau.{c}_coefficients"]))
+            return polynomial_patch(poly, footprint="ellipse", center_xy=foot[:2],
+                                    half_x=radius, half_y=radius, refine_point=foot[:2], **size)
+        n = plateau_normals(scene)[c]
+        point = knee.condyle_center[c] - knee.radius_mm(c) * n
+        return plane_patch(point, n, radius=radius, refine_point=point, **size)
 

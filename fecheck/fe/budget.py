@@ -1,0 +1,76 @@
+"""Size guard of the FE cross-check: the dofs and memory of the extruded P2 layers, known
+from the tibial surfaces, ``fe.refine`` and the levels before anything is assembled.
+
+Counts are exact. Splitting a surface of n vertices, E edges and F triangles in four
+gives n + E vertices, 2E + 3F edges and 4F triangles. Extruding it by L levels of prisms,
+each split into 3 tetrahedra along its side diagonals (no inner edge), gives 3·F·L
+tetrahedra, n(L + 1) vertices and E(L + 1) + nL + EL edges: (2L + 1)(n + E) quadratic
+nodes. The bottom's n + E nodes are fixed and one dof of each top edge's midside node is
+tied, so the layer keeps ``6L(n + E) − E`` dofs (`fecheck.fe.solid.layer_solid`).
+
+Memory is the measured peak of assembly and factorization (`BYTES_PER_DOF`): the
+Cholesky factor fills in faster than the dofs grow, so the bytes per dof grow with them.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+
+import numpy as np
+
+from fecheck.fe.bodies import FEBody
+from fecheck.fe.settings import FESettings
+from geometry import budget
+from geometry.mesh import TriMesh
+
+MAX_DOFS = 500_000
+"""Most FE dofs (all layers) solved without ``--force``: minutes here, and the finest
+level of validation/fe_scanned_convergence.py (the full femur-tibia knee with 4 levels,
+407k dofs) stays below it."""
+FIXED_BYTES = 0.2e9
+"""Memory of the FE build that does not grow with the dofs (the assembly's chunk of
+element matrices), bytes."""
+BYTES_PER_DOF = 11_000.0
+"""Peak memory per dof at `REFERENCE_DOFS` dofs, beyond `FIXED_BYTES`, bytes."""
+REFERENCE_DOFS = 100_000
+FILL_EXPONENT = 0.5
+"""Growth of the bytes per dof: ∝ (dofs / `REFERENCE_DOFS`) ** this. With the two
+constants above it bounds the peak RSS of layer assembly and factorization measured on
+a disc of radius 20 mm, 6 mm thick (CHOLMOD, METIS): 0.22 GB at 17.7k dofs (estimate
+0.28), 0.66 at 67.7k (0.81), 1.28 at 104k (1.37), 3.23 at 210k (3.55)."""
+
+def surface_counts(surface: TriMesh, refine: int) -> tuple[int, int, int]:
+    """Vertices, edges and triangles of `surface` split in four `refine` times."""
+    faces = surface.faces
+    edges = np.unique(np.sort(faces[:, [0, 1, 1, 2, 2, 0]].reshape(-1, 2), axis=1), axis=0)
+    n, e, f = surface.n_points, len(edges), len(faces)
+    for _ in range(refine):
+        n, e, f = n + e, 2 * e + 3 * f, 4 * f
+    return n, e, f
+
+
+def layer_dofs(surface: TriMesh, refine: int, levels: int) -> int:
+    """Exact kept dofs of the layer extruded from `surface` (module docstring)."""
+    n, e, _ = surface_counts(surface, refine)
+    return 6 * levels * (n + e) - e
+
+
+def fe_estimate(bodies: Sequence[FEBody], refine: int, levels: int) -> budget.Estimate:
+    """The dofs of every compartment's layer, their memory and `MAX_DOFS`. Every layer
+    keeps its own factor, so the memory is summed over the layers (the full femur-tibia
+    knee, two layers of 97k and 100k dofs: estimate 2.4 GB, measured peak RSS 1.7 GB of
+    the whole `fecheck fe` run)."""
+    dofs = np.array([layer_dofs(b.surface, refine, levels) for b in bodies], dtype=float)
+    factors = dofs * BYTES_PER_DOF * (dofs / REFERENCE_DOFS) ** FILL_EXPONENT
+    return budget.Estimate("FE dofs", float(dofs.sum()), FIXED_BYTES + float(factors.sum()),
+                           MAX_DOFS)
+
+
+def guard_layers(bodies: Sequence[FEBody], settings: FESettings, poisson: float) -> None:
+    """`geometry.budget.guard` of the FE layers before they are built: the remedy lowers
+    ``fe.refine`` (``--refine``)."""
+    levels = settings.levels(poisson)
+    budget.guard("fecheck fe", "fe.refine", settings.refine,
+                 lambda r: fe_estimate(bodies, int(r), levels), unit="", level=True,
+                 otherwise="lower fe.layers or coarsen the surfaces (scanned.decimate_faces, "
+                           "mesh.plateau_refine_mm)")
