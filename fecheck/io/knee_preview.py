@@ -16,6 +16,8 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
+from fecheck.io.outputs import write_output
+
 if TYPE_CHECKING:
     from geometry.mesh import TriMesh
 
@@ -155,7 +157,6 @@ def write_knee_preview(path: str | Path, femur: TriMesh, tibia: Mapping[str, Tri
                        float(centre[0]), femur, {name: tibia[name]}, bones)
     if title:
         fig.suptitle(title, fontsize=11)
-    path = Path(path)
-    fig.savefig(path, dpi=110)
+    path = write_output(path, lambda tmp: fig.savefig(tmp, dpi=110))
     plt.close(fig)
     return path
