@@ -40,15 +40,23 @@ def _error_line(err: str) -> str:
     return lines[0]
 
 
-def _fifo_reader(fifo: Path) -> subprocess.Popen:
-    return subprocess.Popen(["cat", str(fifo)], stdout=subprocess.PIPE)
+def _fifo_reader(fifo: Path) -> int:
+    """The FIFO's read end, opened without waiting and kept open, so that every writer
+    gets in at once and all it writes (up to the pipe's 64 KiB) waits in the pipe."""
+    return os.open(fifo, os.O_RDONLY | os.O_NONBLOCK)
 
 
-def _read(reader: subprocess.Popen) -> bytes:
+def _read(reader: int) -> bytes:
+    """Everything written to the FIFO so far (its writers gone); closes the read end."""
+    chunks = []
     try:
-        return reader.communicate(timeout=20)[0]
+        while chunk := os.read(reader, 1 << 16):
+            chunks.append(chunk)
+    except BlockingIOError:
+        pass
     finally:
-        reader.kill()
+        os.close(reader)
+    return b"".join(chunks)
 
 
 # ------------------------------------------------------------------ where it is written
@@ -117,6 +125,20 @@ def test_dev_stdout_redirected_to_a_file_appends_to_it(mesh_file, tmp_path):
     table, _, doc = text.partition("\n[")
     assert "ico.stl" in table and "faces" in table                 # the table, first
     assert json.loads("[" + doc)[0]["faces"] == 20                  # then the JSON
+
+
+def test_a_sweep_writes_its_csv_to_a_fifo_once(tmp_path, capsys):
+    # the CSV kept up to date while a sweep runs is a file's business: a FIFO reader gets
+    # the whole CSV once, at the end, not one copy per checkpoint
+    fifo = tmp_path / "s.csv"
+    os.mkfifo(fifo)
+    reader = _fifo_reader(fifo)
+    scene = Path(__file__).resolve().parents[1] / "validation" / "scenes" / "rigid.toml"
+    assert main(["sweep", str(scene), "--param", "contact.youngs_MPa", "--values", "9,15,30",
+                 "--csv", str(fifo)]) == 0
+    lines = _read(reader).decode().splitlines()
+    assert len(lines) == 4 and lines[0].startswith("contact.youngs_MPa,")
+    assert [float(line.split(",")[0]) for line in lines[1:]] == [9.0, 15.0, 30.0]
 
 
 def test_check_output_probes_no_file_beside_a_special_target(tmp_path, monkeypatch):

@@ -26,7 +26,7 @@ from fecheck.errors import FecheckError
 from geometry.files import write_output, writes_in_place
 
 __all__ = ["STDOUT", "check_output", "earlier_note", "forget_checked", "left_as_they_were",
-           "write_output", "write_text"]
+           "write_output", "write_text", "writes_in_place"]
 
 STDOUT = "-"
 """The path that means standard output."""
