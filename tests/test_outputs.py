@@ -74,6 +74,26 @@ def test_a_link_is_written_through_to_its_target_and_kept(tmp_path):
     assert os.listdir(target.parent) == ["r.json"]
 
 
+def test_a_dangling_link_is_written_through_creating_its_target(tmp_path):
+    link = tmp_path / "l.json"
+    link.symlink_to(tmp_path / "out" / "r.json")
+    check_output(link)
+    assert not (tmp_path / "out").exists()               # nothing made by the check
+    write_text(link, "new\n")
+    assert link.is_symlink() and (tmp_path / "out" / "r.json").read_text() == "new\n"
+
+
+def test_a_read_only_file_is_refused_not_renamed_over(tmp_path, monkeypatch):
+    # root may write anything, so the permission answer is the operating system's word,
+    # stood in for here: a file the user may not write is not replaced behind their back
+    path = tmp_path / "r.json"
+    path.write_text("keep\n")
+    monkeypatch.setattr(outputs.os, "access",
+                        lambda p, mode: Path(p) != path and os.path.exists(p))
+    with pytest.raises(FecheckError, match=r"cannot write .*r\.json: the file is read-only"):
+        check_output(path)
+
+
 def test_a_fifo_is_written_in_place_not_replaced(tmp_path):
     fifo = tmp_path / "f.json"
     os.mkfifo(fifo)
