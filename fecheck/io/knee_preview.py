@@ -157,6 +157,7 @@ def write_knee_preview(path: str | Path, femur: TriMesh, tibia: Mapping[str, Tri
                        float(centre[0]), femur, {name: tibia[name]}, bones)
     if title:
         fig.suptitle(title, fontsize=11)
-    path = write_output(path, lambda tmp: fig.savefig(tmp, dpi=110))
+    path = Path(path)
+    write_output(path, lambda tmp: fig.savefig(tmp, dpi=110))
     plt.close(fig)
     return path
