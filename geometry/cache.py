@@ -6,7 +6,9 @@ version (the ``version`` argument of `cached_build`: bump it in one builder when
 change, and only that builder's entries are rebuilt), the parameters (floats rounded to 12
 significant digits, keys sorted), the installed gmsh version (`gmsh_version`, read from
 the package metadata without importing gmsh) and `FORMAT_VERSION`. Writes go to a
-temporary file renamed into place, so parallel sweeps never see half an entry.
+temporary file renamed into place (`geometry.files.write_output`), so parallel sweeps never
+see half an entry. A damaged entry (cut short, unreadable, arrays of the wrong shape or
+type) is removed and rebuilt, with a one-line warning naming it.
 
 >>> cache_key("box", {"x": 1.0}, version=2) != cache_key("box", {"x": 1.0}, version=3)
 True
@@ -19,8 +21,8 @@ import hashlib
 import importlib.metadata
 import json
 import os
-import tempfile
 import warnings
+import zipfile
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass
 from pathlib import Path
@@ -29,6 +31,7 @@ from typing import Any
 import numpy as np
 
 from geometry.errors import FecheckError
+from geometry.files import write_output
 from geometry.mesh import TetMesh, TriMesh
 
 #: Bump when the stored layout changes (a builder's output: its own `cached_build` version).
@@ -108,7 +111,40 @@ def _to_arrays(mesh: TriMesh | TetMesh) -> dict[str, np.ndarray]:
     return out
 
 
+_CELL_WIDTHS = {"tri": (3,), "tet": (4, 10)}
+"""Vertices per cell of each stored mesh kind."""
+
+
+def _check_arrays(data: Mapping[str, np.ndarray]) -> None:
+    """Raise `FecheckError` saying what is wrong when a stored mesh's arrays do not make a
+    mesh: (n, 3) finite float points, (m, 3) triangles or (m, 4|10) tets of integer
+    indices below n, groups of indices below m (triangle regions: faces) or n (tet
+    boundaries: vertices)."""
+    kind, points, cells = str(data["kind"]), data["points"], data["cells"]
+    if kind not in _CELL_WIDTHS:
+        raise FecheckError(f"unknown mesh kind {kind!r}")
+    widths = _CELL_WIDTHS[kind]
+    if points.dtype.kind != "f" or points.ndim != 2 or points.shape[1] != 3:
+        raise FecheckError(f"points of shape {points.shape} ({points.dtype}), not (n, 3) "
+                           "floats")
+    if not np.isfinite(points).all():
+        raise FecheckError("points not finite")
+    if cells.dtype.kind not in "iu" or cells.ndim != 2 or cells.shape[1] not in widths:
+        raise FecheckError(f"cells of shape {cells.shape} ({cells.dtype}), not (m, "
+                           f"{'|'.join(map(str, widths))}) integers")
+    limits = {"cells": len(points)}
+    limits |= {k: len(cells) if kind == "tri" else len(points)
+               for k in data if k.startswith("group__")}
+    for name, limit in limits.items():
+        index = data[name]
+        if index.dtype.kind not in "iu":
+            raise FecheckError(f"{name} of type {index.dtype}, not integers")
+        if index.size and (index.min() < 0 or index.max() >= limit):
+            raise FecheckError(f"{name} index {index.max()} out of range 0..{limit - 1}")
+
+
 def _from_arrays(data: Mapping[str, np.ndarray]) -> TriMesh | TetMesh:
+    _check_arrays(data)
     groups = {k[len("group__"):]: data[k] for k in data if k.startswith("group__")}
     if str(data["kind"]) == "tri":
         return TriMesh(data["points"], data["cells"], groups)
@@ -175,29 +211,37 @@ def _entry(name: str, key: str) -> Path | None:
     return folder / f"{name}-{key[:32]}.npz" if folder is not None else None
 
 
+_DAMAGED = (OSError, ValueError, KeyError, EOFError, zipfile.BadZipFile, FecheckError)
+"""What reading a damaged entry raises: cut short (BadZipFile, EOFError), not an npz
+(ValueError), missing arrays (KeyError), arrays that make no mesh (FecheckError)."""
+
+
 def _load(path: Path | None, convert: Callable[[dict[str, np.ndarray]], Any]) -> Any:
-    """`convert` of a stored entry's arrays, or None for no entry (a broken one is
-    removed)."""
+    """`convert` of a stored entry's arrays, or None for no entry; a damaged one is
+    removed with a one-line warning (and rebuilt by the caller)."""
     if path is None or not path.is_file():
         return None
     try:
-        with np.load(path, allow_pickle=False) as data:
-            return convert({k: data[k] for k in data.files})
-    except (OSError, ValueError, KeyError, FecheckError):
+        with open(path, "rb") as fh:
+            data = np.load(fh, allow_pickle=False)
+            if not hasattr(data, "files"):
+                raise ValueError("a single array, not an npz archive")
+            with data:
+                return convert({k: data[k] for k in data.files})
+    except _DAMAGED as err:
+        reason = " ".join(f"{type(err).__name__}: {err}".split())[:160]
+        warnings.warn(f"mesh cache entry {path} was damaged ({reason}); rebuilt",
+                      stacklevel=3)
         path.unlink(missing_ok=True)
         return None
 
 
 def _store(path: Path, arrays: Mapping[str, np.ndarray]) -> None:
-    """Write an entry atomically (a temporary file renamed into place)."""
-    fd, tmp = tempfile.mkstemp(prefix=".tmp-", suffix=".npz", dir=path.parent)
+    """Write an entry by `write_output` (a temporary file renamed into place)."""
     try:
-        with os.fdopen(fd, "wb") as fh:
-            np.savez(fh, **arrays)
-        os.replace(tmp, path)
-    except OSError as err:
-        Path(tmp).unlink(missing_ok=True)
-        warnings.warn(f"could not write cache entry {path}: {err}", stacklevel=3)
+        write_output(path, lambda tmp: np.savez(tmp, **arrays))
+    except FecheckError as err:
+        warnings.warn(f"could not write mesh cache entry ({err})", stacklevel=3)
 
 
 def content_digest(items: list[TriMesh | np.ndarray]) -> str:

@@ -15,6 +15,7 @@ from pathlib import Path
 import numpy as np
 
 from geometry.errors import FecheckError
+from geometry.files import write_output
 from geometry.mesh import TetMesh, TriMesh
 
 #: Gmsh orders the last two edge nodes of a 10-node tet (2-3, 1-3); meshio/VTK (1-3, 2-3).
@@ -164,7 +165,8 @@ def load_mesh(path: str | Path) -> TriMesh | TetMesh:
 
 
 def save_mesh(mesh: TriMesh | TetMesh, path: str | Path) -> Path:
-    """Write `mesh` to `path` in the format its extension names (any meshio format)."""
+    """Write `mesh` to `path` in the format its extension names (any meshio format), by
+    `geometry.files.write_output` (a regular file replaced in one step)."""
     import meshio
 
     path = Path(path)
@@ -179,8 +181,10 @@ def save_mesh(mesh: TriMesh | TetMesh, path: str | Path) -> Path:
         cells = cells.astype(np.int32)
     extra = {"binary": True} if path.suffix.lower() == ".stl" else _format_option(path)
     try:
-        path.parent.mkdir(parents=True, exist_ok=True)
-        meshio.write(path, meshio.Mesh(mesh.points, [(kind, cells)]), **extra)
+        write_output(path, lambda tmp: meshio.write(tmp, meshio.Mesh(mesh.points,
+                                                                     [(kind, cells)]), **extra))
+    except FecheckError:
+        raise
     except Exception as err:  # noqa: BLE001 - meshio: KeyError/ValueError/OSError on writes
         raise FecheckError(f"{path}: cannot write mesh ({type(err).__name__}: {err})") from None
     return path

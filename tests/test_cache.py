@@ -6,6 +6,7 @@ import sys
 import time
 import warnings
 from concurrent.futures import ThreadPoolExecutor
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -125,14 +126,85 @@ def test_unwritable_cache_warns_once_and_still_builds(tmp_path, monkeypatch):
     assert sum("mesh cache disabled" in str(w.message) for w in caught) == 1
 
 
+def _rebuilt_with_a_note(name, params, build, info) -> list[str]:
+    """Run `cached_build` on a damaged entry: it must rebuild, warning once on one line."""
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        again = cached_build(name, params, build, info=info)
+    notes = [str(w.message) for w in caught if "mesh cache entry" in str(w.message)]
+    assert info["source"] == "built" and again is build()
+    assert len(notes) == 1 and "\n" not in notes[0], notes
+    assert notes[0].startswith(f"mesh cache entry {info['path']} was damaged (")
+    assert notes[0].endswith("); rebuilt")
+    return notes
+
+
 def test_corrupt_entry_is_rebuilt(fresh_cache):
     mesh = TriMesh(np.eye(3), np.array([[0, 1, 2]]))
     info = {}
     cached_build("x", {"k": 1}, lambda: mesh, info=info)
     with open(info["path"], "wb") as fh:
         fh.write(b"garbage")
-    again = cached_build("x", {"k": 1}, lambda: mesh, info=info)
-    assert info["source"] == "built" and again is mesh
+    _rebuilt_with_a_note("x", {"k": 1}, lambda: mesh, info)
+
+
+@pytest.mark.parametrize("keep", [0.5, 0.9, 0.0], ids=["half", "tail-cut", "empty"])
+def test_a_truncated_entry_is_rebuilt_with_a_note_and_stored_again(fresh_cache, keep):
+    mesh = icosphere(2.0, 2, cache=False)
+    info = {}
+    cached_build("ico", {}, lambda: mesh, info=info)
+    entry = Path(info["path"])
+    data = entry.read_bytes()
+    entry.write_bytes(data[:int(keep * len(data))])
+    _rebuilt_with_a_note("ico", {}, lambda: mesh, info)
+    back = cached_build("ico", {}, lambda: pytest.fail("the rebuilt entry was not stored"),
+                        info=info)
+    assert info["source"] == "cache"
+    np.testing.assert_array_equal(back.faces, mesh.faces)
+
+
+TRI = {"kind": np.array("tri"), "points": np.eye(3), "cells": np.array([[0, 1, 2]])}
+TET = {"kind": np.array("tet"), "points": np.eye(4, 3), "cells": np.array([[0, 1, 2, 3]]),
+       "group__top": np.array([[1, 2, 3]])}
+
+
+@pytest.mark.parametrize(("kind", "change", "reason"), [
+    ("tri", {"points": np.eye(3)[:, :2]}, "points of shape (3, 2)"),
+    ("tri", {"cells": np.array([[0, 1, 7]])}, "cells index 7 out of range 0..2"),
+    ("tri", {"cells": np.array([[0.0, 1.0, 2.0]])}, "not (m, 3) integers"),
+    ("tri", {"group__top": np.array([0, 4])}, "group__top index 4 out of range 0..0"),
+    ("tri", {"points": np.full((3, 3), np.nan)}, "points not finite"),
+    ("tet", {"cells": np.array([[0, 1, 2, 3, 0]])}, "not (m, 4|10) integers"),
+    ("tet", {"cells": np.array([[0, 1, 2, 9]])}, "cells index 9 out of range 0..3"),
+    ("tet", {"group__top": np.array([[1, 2, 5]])}, "group__top index 5 out of range 0..3"),
+    ("tet", {"kind": np.array("hex")}, "unknown mesh kind 'hex'"),
+], ids=["tri-points", "tri-index", "tri-float", "tri-region", "tri-nan", "tet-width",
+        "tet-index", "tet-boundary", "kind"])
+def test_an_entry_of_the_wrong_shape_is_rebuilt_with_a_note(fresh_cache, kind, change,
+                                                             reason):
+    good = TRI if kind == "tri" else TET
+    mesh = (TriMesh(good["points"], good["cells"]) if kind == "tri"
+            else TetMesh(good["points"], good["cells"], {"top": good["group__top"]}))
+    info = {}
+    cached_build(kind, {}, lambda: mesh, info=info)
+    np.savez(Path(info["path"]), **(good | change))
+    notes = _rebuilt_with_a_note(kind, {}, lambda: mesh, info)
+    assert reason in notes[0]
+
+
+def test_a_damaged_array_entry_is_rebuilt_with_a_note(fresh_cache):
+    mesh = TriMesh(np.eye(3), np.array([[0, 1, 2]]))
+    value = (np.arange(6.0),)
+    assert cache.cached_arrays("arr", [mesh], lambda: value)[0].tolist() == list(range(6))
+    entry = next(Path(fresh_cache).glob("arr-*.npz"))
+    entry.write_bytes(entry.read_bytes()[:40])
+    builds = cache.STATS.builds
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        again = cache.cached_arrays("arr", [mesh], lambda: value)
+    assert again[0].tolist() == list(range(6)) and cache.STATS.builds == builds + 1
+    assert [str(w.message) for w in caught] == [
+        f"mesh cache entry {entry} was damaged (BadZipFile: File is not a zip file); rebuilt"]
 
 
 def test_parallel_writers_leave_one_valid_entry_and_no_temp_files(fresh_cache):
@@ -146,6 +218,6 @@ def test_parallel_writers_leave_one_valid_entry_and_no_temp_files(fresh_cache):
         list(pool.map(lambda _: cached_build("par", {}, build), range(8)))
     files = os.listdir(fresh_cache)
     assert len([f for f in files if f.startswith("par-")]) == 1
-    assert not [f for f in files if f.startswith(".tmp-")]
+    assert not [f for f in files if f.startswith(".")]           # no temporary left
     back = cached_build("par", {}, lambda: pytest.fail("should not rebuild"))
     np.testing.assert_array_equal(back.faces, mesh.faces)

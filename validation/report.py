@@ -25,6 +25,8 @@ from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field, replace
 from pathlib import Path
 
+from geometry.files import write_output
+
 REPRODUCED = "reproduced"
 DEVIATES = "deviates, explained"
 CANNOT = "cannot be reproduced"
@@ -217,29 +219,32 @@ def table_markdown(lines: Sequence[Line]) -> str:
 
 def write_lines_csv(lines: Sequence[Line], path: Path) -> Path:
     """Write the compared lines to `path` (CSV; empty cells where a value is absent)."""
-    path.parent.mkdir(parents=True, exist_ok=True)
-    with open(path, "w", newline="") as fh:
-        w = csv.writer(fh)
-        w.writerow(["quantity", "thesis", "fecheck", "deviation_pct", "fecheck_whole_face",
-                    "whole_face_deviation_pct", "note"])
-        for ln in lines:
-            w.writerow([ln.quantity, _csv(ln.thesis), _csv(ln.fecheck),
-                        _csv(ln.deviation_pct), _csv(ln.whole_face),
-                        _csv(ln.whole_face_deviation_pct), ln.note])
-    return path
+    def write(tmp: Path) -> None:
+        with open(tmp, "w", newline="") as fh:
+            w = csv.writer(fh)
+            w.writerow(["quantity", "thesis", "fecheck", "deviation_pct", "fecheck_whole_face",
+                        "whole_face_deviation_pct", "note"])
+            for ln in lines:
+                w.writerow([ln.quantity, _csv(ln.thesis), _csv(ln.fecheck),
+                            _csv(ln.deviation_pct), _csv(ln.whole_face),
+                            _csv(ln.whole_face_deviation_pct), ln.note])
+
+    return write_output(path, write)
 
 
 def write_data_csv(path: Path, columns: dict[str, Sequence[float]]) -> Path:
     """Write equal-length columns (name with unit → values) to `path` as CSV."""
-    path.parent.mkdir(parents=True, exist_ok=True)
     names = list(columns)
     n = len(columns[names[0]])
-    with open(path, "w", newline="") as fh:
-        w = csv.writer(fh)
-        w.writerow(names)
-        for i in range(n):
-            w.writerow([_csv(columns[k][i]) for k in names])
-    return path
+
+    def write(tmp: Path) -> None:
+        with open(tmp, "w", newline="") as fh:
+            w = csv.writer(fh)
+            w.writerow(names)
+            for i in range(n):
+                w.writerow([_csv(columns[k][i]) for k in names])
+
+    return write_output(path, write)
 
 
 def _csv(x) -> str:
@@ -266,9 +271,8 @@ def save_figure(fig, path: Path) -> Path:
     """Save `fig` as a PNG at `path` and close it."""
     import matplotlib.pyplot as plt
 
-    path.parent.mkdir(parents=True, exist_ok=True)
     fig.tight_layout()
-    fig.savefig(path, dpi=110, bbox_inches="tight")
+    write_output(path, lambda tmp: fig.savefig(tmp, dpi=110, bbox_inches="tight"))
     plt.close(fig)
     return path
 

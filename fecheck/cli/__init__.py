@@ -103,13 +103,16 @@ def main(argv: list[str] | None = None) -> int:
         parser.print_help()
         return 0
     warnings.showwarning = _one_line_warning
+    from fecheck.io import outputs
+
+    outputs.forget_checked()
     try:
         return int(args.run(args) or 0)
     except FecheckError as err:
-        print(f"fecheck: error: {one_line(err)}", file=sys.stderr)
+        print(f"fecheck: error: {one_line(err)}{outputs.earlier_note()}", file=sys.stderr)
         return 2
     except KeyboardInterrupt:
-        print("fecheck: interrupted", file=sys.stderr)
+        print(f"fecheck: interrupted{outputs.earlier_note()}", file=sys.stderr)
         return 130
     except BrokenPipeError:
         _silence_stdout()

@@ -7,9 +7,10 @@ frictionless contact: by default the whole joint under the scene's load (the FE 
 its own split), or per compartment under the EF forces (``--mode compartment``). Only
 the standard library is imported here.
 
-Every output path is checked before the solves (one-line error, exit 2; missing parent
-folders are created); ``--json -`` writes the JSON to standard output and the report to
-standard error. An undefined value prints as ``n/a`` with a note saying why.
+Every output path is checked before the solves (one-line error, exit 2; missing folders
+are made when their first file is written); ``--json -`` writes the JSON to standard
+output and the report to standard error. An undefined value prints as ``n/a`` with a
+note saying why.
 """
 
 from __future__ import annotations

@@ -2,9 +2,10 @@
 
 Only the standard library is imported here; the solver is imported inside `run`, pyvista
 only with ``--plot`` and meshio only with ``--vtk``. Every output path is checked before
-the solve (a bad path stops the run at once with a one-line error, exit 2; missing parent
-folders are created). ``-`` as the path of ``--json``, ``--csv`` or ``--faces-csv`` writes
-to standard output; the human-readable report then goes to standard error.
+the solve (a bad path stops the run at once with a one-line error, exit 2; missing
+folders are made when their first file is written). ``-`` as the path of ``--json``,
+``--csv`` or ``--faces-csv`` writes to standard output; the human-readable report then
+goes to standard error.
 
 The rigid model has no pressure map (point contacts): with it, ``--plot``, ``--vtk`` and
 ``--faces-csv`` print one line saying so and write nothing (no folder either); the run

@@ -123,16 +123,20 @@ def _report(args: argparse.Namespace, points: list, total: int, interrupted: boo
 
 
 class _Checkpoint:
-    """`run_sweep`'s ``on_point``: rewrites the CSV at the pace of `CHECKPOINT_S`."""
+    """`run_sweep`'s ``on_point``: rewrites the CSV at the pace of `CHECKPOINT_S` (not
+    standard output, a FIFO or a device: written once, at the end)."""
 
     def __init__(self, path: str | None, param: str):
-        self.path, self.param = path, param
+        from fecheck.io.outputs import writes_in_place
+
+        self.path = None if not path or path == "-" or writes_in_place(path) else path
+        self.param = param
         self.written_at, self.took = -math.inf, 0.0
 
     def __call__(self, points) -> None:
         from fecheck.studies.sweep import write_csv
 
-        if not self.path or self.path == "-":
+        if self.path is None:
             return
         start = time.monotonic()
         if start - self.written_at < max(CHECKPOINT_S, 10.0 * self.took):

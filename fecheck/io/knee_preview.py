@@ -16,6 +16,8 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
+from fecheck.io.outputs import write_output
+
 if TYPE_CHECKING:
     from geometry.mesh import TriMesh
 
@@ -204,6 +206,6 @@ def write_knee_preview(path: str | Path, femur: TriMesh, tibia: Mapping[str, Tri
     if title:
         fit_title(fig, title)
     path = Path(path)
-    fig.savefig(path, dpi=110)
+    write_output(path, lambda tmp: fig.savefig(tmp, dpi=110))
     plt.close(fig)
     return path

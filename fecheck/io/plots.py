@@ -116,9 +116,9 @@ class Figure:
 
     def save(self, path: str | Path) -> Path:
         """Write the PNG to `path` and close the plotter."""
-        path = Path(path)
-        path.parent.mkdir(parents=True, exist_ok=True)
-        self.plotter.screenshot(str(path))
+        from fecheck.io.outputs import write_output
+
+        path = write_output(path, lambda tmp: self.plotter.screenshot(str(tmp)))
         self.plotter.close()
         return path
 

@@ -26,15 +26,13 @@ from __future__ import annotations
 
 import csv
 import io
-import os
-import tempfile
 from collections.abc import Mapping
 from pathlib import Path
 from typing import TYPE_CHECKING
 
 import numpy as np
 
-from fecheck.errors import FecheckError
+from fecheck.io.outputs import write_output
 from fecheck.model.results import CompartmentResult, RunResult
 
 if TYPE_CHECKING:
@@ -87,7 +85,7 @@ def write_vtu(path: str | Path, points: np.ndarray, faces: np.ndarray,
               cell_data: Mapping[str, np.ndarray],
               point_data: Mapping[str, np.ndarray] | None = None) -> Path:
     """Write a triangle surface (mm) with cell and point data to `path` (.vtu, meshio),
-    atomically (a temporary file renamed into place)."""
+    by `write_output` (a regular file replaced in one step)."""
     import meshio
 
     path = Path(path)
@@ -95,16 +93,7 @@ def write_vtu(path: str | Path, points: np.ndarray, faces: np.ndarray,
                        [("triangle", np.asarray(faces, dtype=np.int64))],
                        point_data={k: np.asarray(v) for k, v in (point_data or {}).items()},
                        cell_data={k: [np.asarray(v)] for k, v in cell_data.items()})
-    path.parent.mkdir(parents=True, exist_ok=True)
-    fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.stem}.", suffix=".vtu")
-    os.close(fd)
-    try:
-        meshio.write(tmp, mesh, file_format="vtu")
-        os.replace(tmp, path)
-    except OSError as err:
-        raise FecheckError(f"cannot write {path}: {err.strerror or err}") from None
-    finally:
-        Path(tmp).unlink(missing_ok=True)
+    write_output(path, lambda tmp: meshio.write(tmp, mesh, file_format="vtu"))
     return path
 
 

@@ -41,6 +41,7 @@ import numpy as np
 
 from fecheck.errors import FecheckError
 from fecheck.laws.kernel import CALIBRATED, law_function
+from geometry.files import write_output
 
 SOFT_DEPTH_MM = 0.01
 """d_s of the law: below this depth the law turns linear (finite tangent at d = 0)."""
@@ -180,6 +181,5 @@ def write_calibration(path: str | Path, parameters: Mapping[str, Calibration],
            "soft_depth_mm": SOFT_DEPTH_MM,
            "compartments": {c: {"C": p.C, "n": p.n} for c, p in parameters.items()},
            **info}
-    path.parent.mkdir(parents=True, exist_ok=True)
-    path.write_text(json.dumps(doc, indent=2) + "\n")
-    return path
+    text = json.dumps(doc, indent=2) + "\n"
+    return write_output(path, lambda tmp: tmp.write_text(text, encoding="utf-8"))

@@ -16,6 +16,8 @@ from typing import Any
 
 import numpy as np
 
+from geometry.files import write_output
+
 POSE_KEYS = ("x_mm", "y_mm", "z_mm", "abduction_deg", "internal_deg")
 
 
@@ -125,7 +127,8 @@ class RunResult:
 
     def write_json(self, path: str | Path) -> None:
         """Write `as_dict()` to `path` as JSON (NaN written as null)."""
-        Path(path).write_text(json.dumps(self.as_dict(), indent=2) + "\n")
+        text = json.dumps(self.as_dict(), indent=2) + "\n"
+        write_output(path, lambda tmp: tmp.write_text(text, encoding="utf-8"))
 
     def flat_row(self) -> dict[str, Any]:
         """One flat row (CSV): pose, compartment metrics and ligament forces."""
@@ -206,8 +209,11 @@ def _jsonable(x: Any) -> Any:
 
 def write_rows(path: str | Path, rows: list[Mapping[str, Any]]) -> None:
     """Write dict rows to a CSV file (columns of the first row, in order)."""
-    with open(path, "w", newline="") as fh:
-        writer = csv.DictWriter(fh, fieldnames=list(rows[0]))
-        writer.writeheader()
-        writer.writerows(rows)
+    def write(tmp: Path) -> None:
+        with open(tmp, "w", newline="") as fh:
+            writer = csv.DictWriter(fh, fieldnames=list(rows[0]))
+            writer.writeheader()
+            writer.writerows(rows)
+
+    write_output(path, write)
 

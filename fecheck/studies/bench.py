@@ -611,7 +611,8 @@ def plot(result: dict, folder: str) -> list[str]:
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    os.makedirs(folder, exist_ok=True)
+    from fecheck.io.outputs import write_output
+
     paths = []
     for key, title in (("error", "error against the model's converged reference"),
                        ("error_vs_fe", "error against the converged FE")):
@@ -638,7 +639,7 @@ def plot(result: dict, folder: str) -> list[str]:
         ax.grid(True, which="both", alpha=0.3)
         ax.legend(fontsize=7)
         path = os.path.join(folder, f"bench_pareto_{key}.png")
-        fig.savefig(path, dpi=120, bbox_inches="tight")
+        write_output(path, lambda tmp, fig=fig: fig.savefig(tmp, dpi=120, bbox_inches="tight"))
         plt.close(fig)
         paths.append(path)
     return paths

@@ -375,7 +375,6 @@ def plot(result: dict, folder: Path) -> list[Path]:
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    folder.mkdir(parents=True, exist_ok=True)
     rows = [r for r in result["rows"] if "time_ms" in r]
     scenarios = list(dict.fromkeys(r["scenario"] for r in rows))
     methods = list(dict.fromkeys(r["method"] for r in rows))
@@ -402,12 +401,15 @@ def plot(result: dict, folder: Path) -> list[Path]:
     fig.suptitle("Contact detection: our engine vs the thesis stack (thesis Figs. 3.21/3.25)")
     fig.tight_layout()
     path = folder / "bench_detection.png"
-    fig.savefig(path, dpi=110)
+    from fecheck.io.outputs import write_output
+
+    write_output(path, lambda tmp: fig.savefig(tmp, dpi=110))
     plt.close(fig)
     return [path]
 
 
 def write_json(result: dict, path: Path) -> None:
     """Write the result as JSON (rows with units in their keys)."""
-    path.parent.mkdir(parents=True, exist_ok=True)
-    path.write_text(json.dumps(result, indent=1))
+    from fecheck.io.outputs import write_text
+
+    write_text(path, json.dumps(result, indent=1))

@@ -41,7 +41,7 @@ from typing import Any
 import numpy as np
 
 from fecheck.errors import FecheckError
-from fecheck.io.outputs import write_text
+from fecheck.io.outputs import write_output, write_text
 from fecheck.model.results import RunResult
 from fecheck.model.reuse import reusing_builds
 from fecheck.scene import SCHEMA, Scene, apply_overrides, with_values
@@ -503,7 +503,6 @@ def write_plots(points: Sequence[SweepPoint], param: str, directory: str | Path
     import matplotlib.pyplot as plt
 
     out = Path(directory)
-    out.mkdir(parents=True, exist_ok=True)
     x = [p.value for p in solved]
     paths = []
     metrics: list[tuple[str, str, Callable]] = [
@@ -519,7 +518,7 @@ def write_plots(points: Sequence[SweepPoint], param: str, directory: str | Path
         ax.legend()
         fig.tight_layout()
         path = out / f"sweep_{name}.png"
-        fig.savefig(path, dpi=120)
+        write_output(path, lambda tmp, fig=fig: fig.savefig(tmp, dpi=120))
         plt.close(fig)
         paths.append(path)
     return paths

@@ -18,6 +18,7 @@ from collections.abc import Sequence
 from pathlib import Path
 
 from fecheck.errors import FecheckError
+from fecheck.io.outputs import write_output
 
 SCRIPT_PREFIX = "row_"
 
@@ -138,7 +139,8 @@ def run_validation(out: Path, quick: bool = False, only: Sequence[str] | None = 
         rows.extend(got)
     total = time.perf_counter() - t_all
     report = out / "report.md"
-    report.write_text(render(rows, quick, total, row_markdown, out))
+    text = render(rows, quick, total, row_markdown, out)
+    write_output(report, lambda tmp: tmp.write_text(text, encoding="utf-8"))
     print(f"wrote {report} ({len(rows)} rows, {total:.0f} s)", file=log, flush=True)
     return report, rows
 
