@@ -149,6 +149,9 @@ def test_scenes_lists_every_packaged_scene_with_its_headline(capsys):
            "Table 5.11)" in lines
     assert any(line.startswith("rigid ") and line.endswith("  Rigid model (thesis §5.1, "
                                                            "Table 5.1)") for line in lines)
+    assert main(["scenes", "--paths"]) == 0
+    paths = [Path(p) for p in capsys.readouterr().out.splitlines()]
+    assert paths == sorted((REPO / "fecheck" / "scenes").glob("*.toml"))
 
 
 def test_description_is_the_headline_of_the_leading_comment(tmp_path):
