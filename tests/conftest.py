@@ -10,7 +10,10 @@ import pytest
 
 REPO = Path(__file__).resolve().parents[1]
 SHARED_DATA = Path(os.environ.get("FECHECK_SHARED_DATA", REPO.parent / "shared" / "data"))
-KNEE_DIR = SHARED_DATA / "knee" / "lenhart2015"
+"""The data sets beside the repository: the source the package data are built from."""
+KNEE_DIR = Path(os.environ.get("FECHECK_KNEE_DIR",
+                               REPO / "fecheck" / "data" / "knee" / "lenhart2015"))
+"""The scanned knee the tests read: the one packaged with fecheck, or $FECHECK_KNEE_DIR."""
 os.environ.setdefault("FECHECK_KNEE_DIR", str(KNEE_DIR))
 # the validation scripts' helpers (validation/lenhart.py: the shipped data set's files)
 sys.path.insert(0, str(REPO / "validation"))
@@ -25,5 +28,5 @@ def _isolated_cache(tmp_path_factory, monkeypatch):
 def require_knee_data() -> Path:
     """The scanned-knee folder, or skip the test with a clear message."""
     if not KNEE_DIR.is_dir():
-        pytest.skip(f"scanned knee data not found at {KNEE_DIR} (set FECHECK_SHARED_DATA)")
+        pytest.skip(f"scanned knee data not found at {KNEE_DIR} (set FECHECK_KNEE_DIR)")
     return KNEE_DIR

@@ -19,7 +19,7 @@ from fecheck.model.run import run_scene
 from fecheck.scene import load_scene
 from fecheck.scene.document import toml_value
 from fecheck.scene.schema import SCHEMA
-from geometry.io import save_mesh
+from geometry.io import load_mesh, save_mesh
 from geometry.mesh import TriMesh
 
 CONDYLE_R_MM, DISH_R_MM, HALF_MM, STEP_MM = 20.0, 100.0, 11.0, 1.0
@@ -177,9 +177,17 @@ def test_bad_input_is_refused_on_one_line(knee, tmp_path, capsys, case, words):
 def test_shipped_knee_reproduces_the_validation_scene(tmp_path, capsys):
     data = require_knee_data()
     out = tmp_path / "lenhart.toml"
-    files = {"--femur": "femur_cartilage", "--tibia": "tibia_cartilage",
-             "--femur-bone": "femur_bone_distal60", "--tibia-bone": "tibia_bone_proximal40"}
-    args = [a for opt, f in files.items() for a in (opt, str(data / f"lenhart2015_R_{f}.stl"))]
+    # the whole tibial sheet in one file (split by its connected pieces): the two halves
+    halves = [load_mesh(data / f"lenhart2015_R_tibia_cartilage_{c}.stl")
+              for c in ("medial", "lateral")]
+    whole = TriMesh(np.vstack([m.points for m in halves]),
+                    np.vstack([halves[0].faces, halves[1].faces + halves[0].n_points]))
+    save_mesh(whole, tmp_path / "lenhart2015_R_tibia_cartilage.stl")
+    files = {"--femur": data / "lenhart2015_R_femur_cartilage.stl",
+             "--tibia": tmp_path / "lenhart2015_R_tibia_cartilage.stl",
+             "--femur-bone": data / "lenhart2015_R_femur_bone_distal60.stl",
+             "--tibia-bone": data / "lenhart2015_R_tibia_bone_proximal40.stl"}
+    args = [a for opt, f in files.items() for a in (opt, str(f))]
     assert main(["knee", "import", *args, "-o", str(out)]) == 0
     shipped = load_scene(REPO / "validation" / "scenes" / "femur_tibia.toml",
                          [f"geometry.dir={toml_value(str(data))}"])

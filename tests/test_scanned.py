@@ -112,9 +112,10 @@ def test_open_femoral_sheet_master_gives_the_data_sets_rest_overlap_without_hole
 
     require_knee_data()
     femur = lenhart.mesh("femur_cartilage")
-    tibia = lenhart.mesh("tibia_cartilage")
+    tibia = np.vstack([lenhart.mesh(f"tibia_cartilage_{c}").points for c in ("medial",
+                                                                            "lateral")])
     assert not is_closed(femur)
-    depth = MeshMaster(femur).depth_values(tibia.points)
+    depth = MeshMaster(femur).depth_values(tibia)
     assert -depth.max() == pytest.approx(-0.409, abs=1e-3)
     assert (depth > 0).sum() == 341
 
@@ -146,8 +147,8 @@ def test_missing_data_in_a_scene_is_a_one_line_error(tmp_path):
         run_scene(scene)
 
 
-def test_default_folder_is_next_to_the_repository():
-    assert lenhart.DEFAULT_DIR == Path(REPO).parent / "shared" / "data" / "knee" / "lenhart2015"
+def test_default_folder_is_the_one_packaged_with_fecheck():
+    assert lenhart.DEFAULT_DIR == Path(REPO) / "fecheck" / "data" / "knee" / "lenhart2015"
 
 
 def test_knee_fits_follow_the_thesis_trends(tmp_path):

@@ -27,7 +27,8 @@ from fecheck.studies.sweep import (
     write_csv,
 )
 
-SCENES = Path(__file__).resolve().parents[1] / "validation" / "scenes"
+REPO = Path(__file__).resolve().parents[1]
+SCENES = REPO / "validation" / "scenes"
 
 
 def test_values_parse_ranges_and_lists():
@@ -301,10 +302,13 @@ def test_dask_points_run_through_the_executor_path_and_the_client_is_closed(
 
 
 def test_scenes_reading_files_pin_an_absolute_folder_for_remote_workers(tmp_path):
-    scanned = load_scene(SCENES / "femur_tibia.toml")
-    pinned = pin_geometry_dir(scanned)["geometry.dir"]
+    relative = load_scene(SCENES / "femur_tibia.toml", ["geometry.dir='../data'"])
+    pinned = pin_geometry_dir(relative)["geometry.dir"]
     assert Path(pinned).is_absolute()
-    assert Path(pinned) == (SCENES / scanned["geometry.dir"]).resolve()
+    # relative to the scene file's own folder (fecheck/scenes: validation/scenes links there)
+    assert Path(pinned) == REPO / "fecheck" / "data"
+    packaged = load_scene(SCENES / "femur_tibia.toml")   # found wherever fecheck is installed
+    assert pin_geometry_dir(packaged) is packaged
     named = load_scene(SCENES / "femur_tibia.toml", [f"geometry.dir='{tmp_path}'"])
     assert pin_geometry_dir(named)["geometry.dir"] == str(tmp_path)
     baseline = load_scene()

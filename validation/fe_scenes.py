@@ -9,9 +9,8 @@ medial/lateral split). This study runs it on
   0.49 and h 2 and 12 mm;
 * condyle spheres on inclined and on polynomial plateaus (inclined.toml, polynomial.toml);
 * condyle hemispheres on the scanned tibia (sphere_tibia.toml) and the scanned femur on
-  the scanned tibia (femur_tibia.toml), both with the bone-distance thickness; these need
-  the lenhart2015 data set (../shared/data/knee/lenhart2015) and are skipped, saying so,
-  where it is absent.
+  the scanned tibia (femur_tibia.toml), both with the bone-distance thickness, on the
+  lenhart2015 knee packaged with fecheck.
 
 Per case and compartment: EF and FE p_max; the largest pressure on the EF run's faces
 (the EF's face pressure against the FE's averaged over each EF face: like for like; on a

@@ -1,12 +1,13 @@
-"""The lenhart2015 scanned right knee beside the repository: where it is, its files and
+"""The lenhart2015 scanned right knee packaged with fecheck: where it is, its files and
 its landmarks, for the validation scripts and tests that reproduce the thesis on it.
 
-fecheck itself reads any knee through a scene's ``[geometry]`` keys; the shipped scenes
-``validation/scenes/sphere_tibia.toml`` and ``femur_tibia.toml`` name these files. The
-data set (MRI-derived, Apache-2.0, see its README.md) lives OUTSIDE the repository, by
-default in ``<repo>/../shared/data/knee/lenhart2015``, or where ``$FECHECK_KNEE_DIR``
-points. Every mesh is in mm in the thesis frame at 0° flexion, femur and tibia frames
-coinciding (its README, "Pose and transform").
+fecheck itself reads any knee through a scene's ``[geometry]`` keys; the packaged scenes
+``sphere_tibia.toml`` and ``femur_tibia.toml`` name these files in
+``geometry.dir = "fecheck:knee/lenhart2015"``. The files (MRI-derived, Apache-2.0, see
+its README.md and docs/data.md) are read from the installed package,
+``fecheck/data/knee/lenhart2015``, or from where ``$FECHECK_KNEE_DIR`` points (e.g. the
+whole data set, ../shared/data/knee/lenhart2015). Every mesh is in mm in the thesis frame
+at 0° flexion, femur and tibia frames coinciding (its README, "Pose and transform").
 
 Landmarks (mm) come from the data set itself, so that geometry and ligaments agree:
 condyle centres and radii from the femoral condyle sphere fits of ``fits.json``; contact
@@ -26,16 +27,16 @@ import numpy as np
 from fecheck.errors import FecheckError
 from fecheck.scene.bundles import Bundle, read_bundles
 from fecheck.scene.constants import COMPARTMENTS
+from fecheck.scene.packaged import data_dir
 from fecheck.scene.surfaces import read_surface
 from geometry.mesh import TriMesh
 
 ENV_VAR = "FECHECK_KNEE_DIR"
-DEFAULT_DIR = Path(__file__).resolve().parents[2] / "shared" / "data" / "knee" / "lenhart2015"
+DEFAULT_DIR = data_dir("fecheck:knee/lenhart2015")
 
 FILES = {
     "femur_cartilage": "lenhart2015_R_femur_cartilage.stl",
     "femur_bone": "lenhart2015_R_femur_bone_distal60.stl",
-    "tibia_cartilage": "lenhart2015_R_tibia_cartilage.stl",
     "tibia_cartilage_medial": "lenhart2015_R_tibia_cartilage_medial.stl",
     "tibia_cartilage_lateral": "lenhart2015_R_tibia_cartilage_lateral.stl",
     "tibia_bone": "lenhart2015_R_tibia_bone_proximal40.stl",
@@ -48,12 +49,12 @@ scenes' load point."""
 
 
 def knee_dir(*, must_exist: bool = True) -> Path:
-    """The data folder: $FECHECK_KNEE_DIR, else the default; `FecheckError` saying where
-    it looked when its ``fits.json`` is missing and `must_exist`."""
+    """The data folder: $FECHECK_KNEE_DIR, else the packaged one; `FecheckError` saying
+    where it looked when its ``fits.json`` is missing and `must_exist`."""
     env = os.environ.get(ENV_VAR)
     path = Path(env).expanduser() if env else DEFAULT_DIR
     if must_exist and not (path / "fits.json").is_file():
-        how = f"${ENV_VAR}" if env else "the default location"
+        how = f"${ENV_VAR}" if env else "the package's data"
         raise FecheckError(f"scanned knee data not found at {path} (from {how}); put the "
                            f"lenhart2015 folder there or set {ENV_VAR}")
     return path

@@ -146,7 +146,7 @@ def require(module: str, owner: str):
 
 def require_knee_data():
     """The scanned-knee folder (`lenhart.knee_dir`), or raise `Missing` saying where it
-    was looked for (../shared/data is not shipped with the repository)."""
+    was looked for (the packaged one, or $FECHECK_KNEE_DIR)."""
     import lenhart
 
     try:

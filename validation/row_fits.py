@@ -1,7 +1,7 @@
 """Surface fits on the scanned knee (thesis §2.2): Tables 2.1, 2.4 and 2.5.
 
-The fits themselves are ``validation/knee_fits.py`` (lenhart2015 cartilage of
-../shared/data); these rows lay them beside the thesis's numbers. Skipped when the
+The fits themselves are ``validation/knee_fits.py`` (lenhart2015 cartilage, packaged
+with fecheck); these rows lay them beside the thesis's numbers. Skipped when the
 scanned data are absent.
 
     python validation/row_fits.py [--quick] [--out DIR]
@@ -134,7 +134,7 @@ def table_2_5(quick: bool, out: Path) -> Row:
 
 
 def rows(quick: bool, out: Path) -> list[Row]:
-    """Tables 2.1, 2.4, 2.5 (need ../shared/data)."""
+    """Tables 2.1, 2.4, 2.5 (need the scanned knee data)."""
     return [guarded("table_2_1", "plateau planes with and without outliers", "Table 2.1", out,
                     lambda: table_2_1(out)),
             guarded("table_2_4", "tibial polynomials z = f(x, y)", "Table 2.4", out,

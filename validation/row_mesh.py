@@ -41,7 +41,8 @@ def _meshes(quick: bool) -> dict[str, object]:
     except Missing:
         return out
     out["tibia/femur split"] = load_mesh(knee / "lenhart2015_R_tibia_cartilage_medial.stl")
-    out["tibia/femur total"] = load_mesh(knee / "lenhart2015_R_tibia_bone.stl")
+    # a closed scanned surface: the tibia bone cut 40 mm below the plateau and capped
+    out["tibia/femur total"] = load_mesh(knee / "lenhart2015_R_tibia_bone_proximal40.stl")
     return out
 
 
@@ -53,7 +54,7 @@ def table_3_1(quick: bool, out: Path) -> Row:
     for kind, expected in tv.TABLE_3_1.items():
         if kind not in meshes:
             lines.append(Line(f"{kind}: all", None, None,
-                              "skipped: scanned knee data not found (../shared/data)"))
+                              "skipped: scanned knee data not found ($FECHECK_KNEE_DIR)"))
             continue
         rep = mesh_report(meshes[kind], name=kind).as_dict()
         for prop in PROPERTIES:

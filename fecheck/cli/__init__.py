@@ -25,7 +25,9 @@ def add_scene_arguments(parser: argparse.ArgumentParser, set_help: str) -> None:
     from pathlib import Path
 
     parser.add_argument("scene", nargs="?", type=Path,
-                        help="scene TOML file (default: the packaged baseline scene)")
+                        help="scene TOML file, or the name of a packaged scene (`fecheck "
+                        "scenes` lists them; a file of that name wins); default: the "
+                        "packaged baseline scene")
     parser.add_argument("--set", dest="overrides", action="append", default=[],
                         metavar="KEY=VALUE", help=set_help)
 

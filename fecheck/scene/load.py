@@ -26,6 +26,7 @@ import tomllib
 from fecheck.errors import FecheckError
 from fecheck.scene.constants import COMPARTMENTS, DOF_NAMES
 from fecheck.scene.knee import PRESETS, Knee, knee_from_landmarks
+from fecheck.scene.packaged import PACKAGE_PREFIX, data_dir, resolve_scene
 from fecheck.scene.relevance import InertKeyWarning, inert_keys, inert_message
 from fecheck.scene.schema import SCHEMA, Key
 
@@ -70,7 +71,7 @@ class Scene:
 
 
 def packaged_scene_path(name: str = "baseline") -> Path:
-    """Path of a scene shipped in `fecheck/scenes`."""
+    """Path of a scene shipped in `fecheck/scenes` (`fecheck.scene.packaged`)."""
     return Path(str(resources.files("fecheck") / "scenes" / f"{name}.toml"))
 
 
@@ -268,6 +269,11 @@ def _check_consistent(scene: Scene, source: str) -> None:
                                    f"plateau.{c}_coefficients")
     if scene["load.force_N"] > 0 and not any(scene["load.direction"]):
         raise FecheckError(f"{source}: load.direction must not be the zero vector")
+    if scene["geometry.dir"].startswith(PACKAGE_PREFIX):
+        try:
+            data_dir(scene["geometry.dir"])
+        except FecheckError as err:
+            raise FecheckError(f"{source}: {err}") from None
 
 
 def _read_scene_file(path: Path) -> dict[str, Any]:
@@ -281,7 +287,8 @@ def _read_scene_file(path: Path) -> dict[str, Any]:
         raw = path.read_bytes()
     except FileNotFoundError:
         raise FecheckError(f"scene file not found: {path}; check the path (give none for "
-                           f"the packaged baseline scene)") from None
+                           f"the packaged baseline scene; `fecheck scenes` lists the packaged "
+                           f"scenes by name)") from None
     except OSError as err:
         raise FecheckError(f"cannot read scene file {path}: {err.strerror}") from None
     try:
@@ -303,7 +310,8 @@ def _read_scene_file(path: Path) -> dict[str, Any]:
 
 
 def load_scene(path: str | Path | None = None, overrides: Sequence[str] = ()) -> Scene:
-    """Read and validate a scene TOML file (None → the packaged baseline).
+    """Read and validate a scene TOML file (None → the packaged baseline; a name that is
+    not an existing file → that packaged scene, `fecheck.scene.packaged.resolve_scene`).
 
     `overrides` are ``KEY=VALUE`` strings (``--set``) applied before validation.
     Raises `FecheckError` naming the file or key on any problem. Warns
@@ -312,7 +320,7 @@ def load_scene(path: str | Path | None = None, overrides: Sequence[str] = ()) ->
     whose value differs from the default (a file that writes out a default, like the
     packaged baseline, documents it rather than sets it).
     """
-    path = packaged_scene_path() if path is None else Path(path)
+    path = packaged_scene_path() if path is None else resolve_scene(path)
     scene = validate(_read_scene_file(path), str(path))
     given = [k for k, v in scene.values.items() if v != SCHEMA[k].default]
     scene, keys = _overridden(scene, overrides)

@@ -352,7 +352,8 @@ SCHEMA: dict[str, Key] = {
         "str", "",
         "Folder the [geometry] file paths are relative to: '' = the scene file's folder; a "
         "relative folder is itself relative to the scene file's folder; ~ and $VARIABLES "
-        "are expanded."),
+        "are expanded; 'fecheck:knee/lenhart2015' = the lenhart2015 scanned knee packaged "
+        "with fecheck (its meshes and ligaments.json; docs/data.md)."),
     "geometry.units": Key("str", "mm", "Length unit of every [geometry] mesh file: 'mm' or "
                           "'m' (scaled by 1000). A surface whose extent is not a knee's in "
                           "mm (5-1000 mm across) is refused, naming the likely unit.",

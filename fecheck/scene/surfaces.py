@@ -9,7 +9,8 @@ file. Conversion, in order: the length unit (``geometry.units``: millimetres or 
 checked against the surface's extent), then the rigid transform (``rotation_deg``
 about x, then y, then z, fixed axes; then ``translation_mm``) into the thesis frame:
 mm, x right, y anterior, z superior, origin at the tibial plateau centre, femur and
-tibia frames coinciding at the reference pose.
+tibia frames coinciding at the reference pose. ``geometry.dir = "fecheck:knee/lenhart2015"``
+names the scanned knee packaged with fecheck (`fecheck.scene.packaged`).
 
 The tibial surface is one file split into its compartments — its two largest connected
 components (``tibia_split = "components"``) or the two sides of the sagittal plane
@@ -31,6 +32,7 @@ import numpy as np
 
 from fecheck.errors import FecheckError
 from fecheck.scene import Scene
+from fecheck.scene.packaged import PACKAGE_PREFIX, data_dir
 from geometry.cache import cached_build
 from geometry.mesh import TriMesh, is_closed
 
@@ -52,6 +54,8 @@ def base_dir(scene: Scene) -> Path:
     given = scene["geometry.dir"]
     if not given:
         return scene_dir
+    if given.startswith(PACKAGE_PREFIX):
+        return data_dir(given)
     folder = Path(os.path.expandvars(given)).expanduser()
     return folder if folder.is_absolute() else (scene_dir / folder).resolve()
 

@@ -5,10 +5,10 @@ evenly spaced around the scene's own load point, as the thesis's load-point swee
 
 * ``baseline`` — the packaged default scene, 1,000 points over the reference ± 8 mm
   (quick: 100); the load stays between the contact points (x = -20.4 and 28.3 mm).
-* ``femur_tibia`` — ``validation/scenes/femur_tibia.toml``, the scanned lenhart2015
-  cartilage sheets, 100 points over the reference ± 5 mm (quick: 10). It reads the data
-  set beside the repository (``../shared/data``); when the scene or one of its files is
-  absent the case is named in ``skipped`` with the reason.
+* ``femur_tibia`` — the packaged scene ``femur_tibia``, the scanned lenhart2015
+  cartilage sheets, 100 points over the reference ± 5 mm (quick: 10). It reads the knee
+  packaged with fecheck; when one of its files is absent (``--set geometry.dir``
+  elsewhere) the case is named in ``skipped`` with the reason.
 
 Each case runs `fecheck.studies.sweep.run_sweep` twice: ``serial`` (in this process,
 each point warm-started from the previous equilibrium) and ``2 workers`` (a local pool,
@@ -36,14 +36,14 @@ from dataclasses import dataclass
 import numpy as np
 
 from fecheck.errors import FecheckError
-from fecheck.scene import Scene, load_scene
+from fecheck.scene import Scene, load_scene, packaged_scene_path
 from fecheck.scene.surfaces import FILE_KEYS, file_path, required_path
 from fecheck.studies.bench import machine
 
 PARAM = "load.point_mm[0]"
 WORKERS = 2
-SCANNED_SCENE = "femur_tibia.toml"
-"""The scanned scene, in ``validation/scenes`` of the source checkout."""
+SCANNED_SCENE = "femur_tibia"
+"""The scanned scene, packaged with fecheck."""
 
 
 @dataclass(frozen=True)
@@ -82,13 +82,8 @@ def missing_data(scene: Scene) -> str:
 
 
 def scanned_scene() -> Scene | str:
-    """The femur-tibia scene, or why it is skipped (scene file or data set absent)."""
-    from fecheck.studies.validate import default_validation_dir
-
-    path = default_validation_dir() / "scenes" / SCANNED_SCENE
-    if not path.is_file():
-        return f"scene {path} not found (it ships with a source checkout of fecheck)"
-    scene = load_scene(path)
+    """The femur-tibia scene, or why it is skipped (a file of its data set absent)."""
+    scene = load_scene(packaged_scene_path(SCANNED_SCENE))
     return missing_data(scene) or scene
 
 

@@ -46,6 +46,7 @@ from fecheck.model.results import RunResult
 from fecheck.model.reuse import reusing_builds
 from fecheck.scene import SCHEMA, Scene, apply_overrides, with_values
 from fecheck.scene.load import warn_inert
+from fecheck.scene.packaged import PACKAGE_PREFIX
 from fecheck.scene.relevance import SCANNED_KINDS
 from fecheck.scene.surfaces import base_dir
 from fecheck.studies.pool import (
@@ -374,9 +375,10 @@ def reads_files(scene: Scene) -> bool:
 def pin_geometry_dir(scene: Scene) -> Scene:
     """`scene` with ``geometry.dir`` made absolute, for workers: a worker elsewhere (Dask)
     may run in another folder, where a path relative to the scene file's folder, or to
-    this process's working folder, would not resolve. Scenes that read no file are
-    returned as they are."""
-    if not reads_files(scene):
+    this process's working folder, would not resolve. Scenes that read no file, or read
+    a data set packaged with fecheck (found wherever fecheck is installed), are returned
+    as they are."""
+    if not reads_files(scene) or scene["geometry.dir"].startswith(PACKAGE_PREFIX):
         return scene
     return with_values(scene, geometry__dir=str(base_dir(scene)))
 

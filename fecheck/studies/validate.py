@@ -39,9 +39,9 @@ CONVENTIONS = """\
   plane (its Fig. 3.20), which overestimates area and underestimates depth by 12-16 % at
   5,000 faces. Where the thesis's number comes from that counting, the tables show
   fecheck's exact value and fecheck's whole-face value side by side.
-- Scanned rows use the lenhart2015 MRI knee of ../shared/data (another subject than the
-  thesis's unpublished scan): they compare trends and orders of magnitude, and are
-  skipped with a message when the data folder is absent.
+- Scanned rows use the lenhart2015 MRI knee packaged with fecheck (another subject than
+  the thesis's unpublished scan): they compare trends and orders of magnitude, and are
+  skipped with a message when $FECHECK_KNEE_DIR names an absent folder.
 - Times are compared as ratios and exponents measured in one run, never as absolute
   values.
 - Status: *reproduced* (every deviation within the row's stated tolerance), *deviates,

@@ -1,0 +1,117 @@
+"""Rebuild or check the scanned knee packaged with fecheck (fecheck/data/knee/lenhart2015).
+
+The package holds, byte for byte, the files of the lenhart2015 data set that the packaged
+scenes, the knee presets and the validation read, with the data set's licence, NOTICE
+and README. The data set itself lives beside the repository, in
+../shared/data/knee/lenhart2015 (docs/data.md); it is the source of the package data.
+
+    python scripts/package_knee_data.py            # copy the files, write SHA256SUMS
+    python scripts/package_knee_data.py --check    # verify, change nothing
+
+``--check`` exits 1 (one line per problem) when a packaged file differs from SHA256SUMS,
+a file is missing or unlisted, or, where the source folder is present, the source no
+longer has the hashes the package was built from. The source is ``--source``, else
+``$FECHECK_SHARED_DATA/knee/lenhart2015`` (as for the tests), else the folder above.
+"""
+
+from __future__ import annotations
+
+import argparse
+import hashlib
+import os
+import shutil
+import sys
+from pathlib import Path
+
+REPO = Path(__file__).resolve().parents[1]
+SHARED = Path(os.environ.get("FECHECK_SHARED_DATA", REPO.parent / "shared" / "data"))
+SOURCE = SHARED / "knee" / "lenhart2015"
+TARGET = REPO / "fecheck" / "data" / "knee" / "lenhart2015"
+MANIFEST = "SHA256SUMS"
+FILES = (
+    "lenhart2015_R_tibia_cartilage_medial.stl",
+    "lenhart2015_R_tibia_cartilage_lateral.stl",
+    "lenhart2015_R_femur_cartilage.stl",
+    "lenhart2015_R_femur_bone_distal60.stl",
+    "lenhart2015_R_tibia_bone_proximal40.stl",
+    "ligaments.json",
+    "fits.json",
+    "README.md",
+    "LICENSE",
+    "NOTICE-opensim-core",
+)
+"""The packaged files: the meshes and bundles the packaged scenes read, the fits the
+validation's landmarks come from, and the data set's README (its provenance and the
+changes made to the originals), licence and NOTICE. Not packaged: the whole (uncropped)
+bones, the unsplit tibial cartilage and preview.png, which no packaged scene reads."""
+
+
+def sha256(path: Path) -> str:
+    """Hex sha256 of a file's bytes."""
+    return hashlib.sha256(path.read_bytes()).hexdigest()
+
+
+def read_manifest(folder: Path) -> dict[str, str]:
+    """{file name: sha256} of ``folder/SHA256SUMS`` (``sha256sum`` format)."""
+    lines = (folder / MANIFEST).read_text(encoding="utf-8").splitlines()
+    return {name.lstrip("*"): digest for digest, name in (line.split(None, 1) for line in lines
+                                                          if line.strip())}
+
+
+def build(source: Path, target: Path) -> None:
+    """Copy `FILES` from `source` to `target` and write their SHA256SUMS."""
+    missing = [name for name in FILES if not (source / name).is_file()]
+    if missing:
+        sys.exit(f"package_knee_data: {source} lacks {', '.join(missing)}")
+    target.mkdir(parents=True, exist_ok=True)
+    for stale in set(p.name for p in target.iterdir()) - set(FILES) - {MANIFEST}:
+        (target / stale).unlink()
+    for name in FILES:
+        shutil.copyfile(source / name, target / name)
+    (target / MANIFEST).write_text("".join(f"{sha256(target / n)}  {n}\n" for n in FILES),
+                                   encoding="utf-8")
+    print(f"package_knee_data: {len(FILES)} files copied from {source} to {target}")
+
+
+def problems(target: Path, source: Path | None) -> list[str]:
+    """What is wrong with the packaged files (and the source, when given)."""
+    manifest = read_manifest(target)
+    out = [f"{name}: listed in {MANIFEST} but not a packaged file" for name in FILES
+           if name not in manifest]
+    present = {p.name for p in target.iterdir()} - {MANIFEST}
+    out += [f"{name}: in {target} but not listed in {MANIFEST}" for name in
+            sorted(present - set(manifest))]
+    for name, digest in manifest.items():
+        for folder, what in ((target, "packaged"), (source, "source")):
+            if folder is None:
+                continue
+            path = folder / name
+            if not path.is_file():
+                out.append(f"{path}: {what} file missing")
+            elif sha256(path) != digest:
+                out.append(f"{path}: {what} file sha256 differs from {MANIFEST}; rebuild with "
+                           "scripts/package_knee_data.py")
+    return out
+
+
+def main(argv: list[str] | None = None) -> int:
+    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    parser.add_argument("--check", action="store_true",
+                        help="verify the packaged files (and the source, if present)")
+    parser.add_argument("--source", type=Path, default=SOURCE,
+                        help=f"the lenhart2015 data set folder (default {SOURCE})")
+    args = parser.parse_args(argv)
+    if not args.check:
+        build(args.source, TARGET)
+    found = problems(TARGET, args.source if args.source.is_dir() else None)
+    for line in found:
+        print(f"package_knee_data: {line}", file=sys.stderr)
+    where = "package and source" if args.source.is_dir() else "package (no source beside it)"
+    if not found:
+        print(f"package_knee_data: {where}: {len(read_manifest(TARGET))} files match "
+              f"{MANIFEST}")
+    return 1 if found else 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
