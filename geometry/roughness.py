@@ -16,13 +16,14 @@ distance raw − smoothed along the local normal at each vertex (mm):
   and wavelength well below L gives A0/√2;
 - max_mm : max |r| and its place;
 - terrace_mm : the dominant step of a terraced (staircase) sheet. Per edge the jump
-  |r_j − r_i|; step edges are those whose jump exceeds half the 99th percentile of all
-  jumps. On a staircase of step h a step edge jumps h − s·e and a tread edge s·e (s the
-  mean slope, e the edge's run), so the step is the median jump of the step edges plus
-  the median jump of the others. It is 0 (no terraces) when the step edges are under
-  0.5 % or over 35 % of the edges, their median jump is under three times the others', or
-  more than a quarter as many other edges jump by over 0.3 times the step edges' median
-  (a smooth or sinusoidal sheet has no separate population of jumps);
+  |(p_j − p_i)·n|, its rise along the mean of its ends' local normals; step edges are
+  those whose jump exceeds half the 99th percentile of all jumps. On a staircase of step
+  h a step edge jumps h − s·e and a tread edge s·e (s the mean slope, e the edge's run),
+  so the step is the median jump of the step edges plus the median jump of the others.
+  It is 0 (no terraces) when the step edges are under 0.5 % or over 35 % of the edges,
+  their median jump is under three times the others', or more than a quarter as many
+  edges jump by amounts in the middle half between the two medians (a smooth or
+  sinusoidal sheet has no separate population of jumps);
 - slivers : faces of quality 4√3·area / Σ edge² below `SLIVER_QUALITY` (1 for an
   equilateral triangle, 0 for a degenerate one).
 
@@ -47,11 +48,10 @@ STEP_SHARE = (0.005, 0.35)
 """Shares of the edges that step edges must lie between for a sheet to count as terraced."""
 STEP_CONTRAST = 3.0
 """A terrace's median jump is at least this many times the median jump of the other edges."""
-STEP_BAND, STEP_GAP = 0.3, 0.25
-"""At most STEP_GAP times as many edges as the step edges may jump by more than STEP_BAND
-times the step edges' median jump without being step edges: a staircase's treads jump by
-its slope times their run (under a fifth of a step on the synthetic sheets), a smooth wave
-jumps by every amount."""
+STEP_GAP = 0.25
+"""At most this many edges per step edge may jump by amounts in the middle half between
+the two populations' medians: a staircase's jumps fall in two separate groups, a smooth
+wave's take every value."""
 
 
 @dataclass(frozen=True, eq=False)
@@ -170,10 +170,14 @@ def smooth_sheet(mesh: TriMesh, radius_mm: float) -> TriMesh:
     return smooth(mesh, radius_mm)
 
 
-def _terrace(mesh: TriMesh, residual: np.ndarray) -> tuple[float, int]:
-    """(step height mm, number of step edges) of the module docstring's definition."""
+def _terrace(mesh: TriMesh, normals: np.ndarray) -> tuple[float, int]:
+    """(step height mm, number of step edges) of the module docstring's definition, with
+    `normals` the (n, 3) local normals of the smoothing."""
     edges = mesh.edges_unique
-    jump = np.abs(residual[edges[:, 1]] - residual[edges[:, 0]])
+    mean = normals[edges[:, 0]] + normals[edges[:, 1]]
+    mean /= np.linalg.norm(mean, axis=1, keepdims=True)
+    rise = mesh.points[edges[:, 1]] - mesh.points[edges[:, 0]]
+    jump = np.abs(np.einsum("ij,ij->i", rise, mean))
     if len(jump) == 0:
         return 0.0, 0
     step = jump > 0.5 * np.percentile(jump, STEP_QUANTILE)
@@ -181,7 +185,8 @@ def _terrace(mesh: TriMesh, residual: np.ndarray) -> tuple[float, int]:
     if not (STEP_SHARE[0] <= share <= STEP_SHARE[1]) or step.all():
         return 0.0, int(step.sum())
     rise, tread = float(np.median(jump[step])), float(np.median(jump[~step]))
-    between = np.count_nonzero((jump > STEP_BAND * rise) & ~step)
+    gap = 0.25 * (rise - tread)
+    between = np.count_nonzero((jump > tread + gap) & (jump < rise - gap))
     if rise < STEP_CONTRAST * tread or between > STEP_GAP * step.sum():
         return 0.0, int(step.sum())
     return rise + tread, int(step.sum())
@@ -198,12 +203,12 @@ def sliver_count(mesh: TriMesh) -> int:
 
 def roughness(mesh: TriMesh, radius_mm: float) -> Roughness:
     """The measures of `mesh` against its copy smoothed over `radius_mm` (mm)."""
-    offset, _ = quadric_offsets(mesh, radius_mm)
+    offset, normals = quadric_offsets(mesh, radius_mm)
     residual = -offset
     area = tributary_areas(mesh)
     rms = float(np.sqrt(np.sum(area * residual**2) / max(area.sum(), 1e-300)))
     worst = int(np.argmax(np.abs(residual)))
-    terrace, steps = _terrace(mesh, residual)
+    terrace, steps = _terrace(mesh, normals)
     return Roughness(float(radius_mm), rms, float(abs(residual[worst])),
                      mesh.points[worst].copy(), terrace, steps, len(mesh.edges_unique),
                      sliver_count(mesh), mesh.n_faces, residual)
