@@ -127,3 +127,76 @@ def test_a_peak_on_a_terrace_step_is_said_to_follow_the_roughness(smooth):
     assert pk.rough and pk.feature_mm > ROUGH_FEATURE_SHARE * depth
     assert len(said) == 1 and "sits on a rough feature" in said[0]
     assert "follows the segmentation's roughness" in said[0]
+
+
+def test_the_smoothing_key_smooths_the_sheets_the_ef_and_fe_read(tmp_path):
+    # the synthetic knee's sheets (a dish with a 0.4 mm wave) read through the scene are
+    # the files smoothed over geometry.smooth_mm (4 mm), the bones would not be; the note
+    # says how far they moved (breaks if surfaces.surface stops smoothing a sheet)
+    from test_own_knee import write_scene
+
+    from fecheck.fe.crosscheck import smoothing_note
+    from fecheck.scene import load_scene, surfaces
+    from geometry.roughness import smooth
+
+    path = write_scene(tmp_path, "stl", "mm", "two-files")
+    raw = {k: surfaces.read_surface(tmp_path / name) for k, name in
+           (("tibia", "tibia_medial.stl"), ("femur", "femur.stl"))}
+    plain = load_scene(path)
+    assert smoothing_note(plain) is None
+    assert surfaces.tibial_compartments(plain)["medial"].points == pytest.approx(
+        raw["tibia"].points)
+    scene = load_scene(path, ["geometry.smooth_mm=4"])
+    medial = surfaces.tibial_compartments(scene)["medial"]
+    femur = surfaces.femoral_surface(scene)
+    assert medial.points == pytest.approx(smooth(raw["tibia"], 4.0).points, abs=1e-12)
+    assert femur.points == pytest.approx(smooth(raw["femur"], 4.0).points, abs=1e-12)
+    moved = np.linalg.norm(medial.points - raw["tibia"].points, axis=1)
+    assert 0.01 < moved.max() < 0.4                          # under the wave's amplitude
+    note = smoothing_note(scene)
+    assert note.startswith("the articular sheets were smoothed over 4 mm (geometry.smooth_mm)")
+    assert f"tibia RMS {np.sqrt(np.mean(moved**2)):.3f} mm, max {moved.max():.3f} mm" in note
+
+
+@pytest.fixture
+def spiked(monkeypatch):
+    """`fecheck fe` answering with the synthetic check of tests/test_fe_maps.py whose medial
+    FE map has one face at 60 MPa, flagged as a lone-vertex spike (smoothed peak 5 MPa)."""
+    import dataclasses
+
+    from test_fe_maps import synthetic_check
+
+    from fecheck.fe.results import PressurePeaks
+    from geometry.roughness import roughness
+
+    check = synthetic_check()
+    medial = check.compartments["medial"]
+    faces = medial.fe_face_pressure_MPa.copy()
+    faces[np.argmax(faces)] = 60.0
+    at = np.array([-20.0, 2.0, -8.0])
+    peak = PressurePeaks(180.0, at, 5.0, 60.0, 5.0, at, 1.0,
+                         "36.0 times its largest neighbour's 5 MPa")
+    check.compartments["medial"] = dataclasses.replace(
+        medial, fe_face_pressure_MPa=faces, peaks=peak,
+        roughness=roughness(medial.layer.body.surface, 2.0))
+    monkeypatch.setattr("fecheck.fe.crosscheck.cross_check", lambda scene, **kw: check)
+    return check
+
+
+def test_fe_prints_and_writes_the_peaks_and_caps_the_map_at_a_spike(spiked, tmp_path, capsys):
+    import json
+
+    from fecheck.cli import main
+    from fecheck.io.fe_plots import fe_panels
+
+    assert main(["fe", "--json", "-", "--plot", str(tmp_path)]) == 0
+    captured = capsys.readouterr()
+    medial = json.loads(captured.out)["compartments"]["medial"]
+    assert medial["fe_peaks"]["smoothed_MPa"] == 5.0 and medial["fe_peaks"]["lone_spike"]
+    assert medial["fe_peaks"]["face_MPa"] == 60.0
+    assert medial["tibial_roughness"]["rms_mm"] == 0.0          # a flat square
+    assert ("FE p_max medial: vertex 180.000, on the EF faces 60.000, smoothed over 1.00 mm "
+            "5.000 MPa  LONE-VERTEX SPIKE at (-20.0, 2.0, -8.0) mm") in captured.err
+    assert "medial tibial sheet: departs from its copy smoothed over 2.00 mm" in captured.err
+    scale = fe_panels(spiked)[0].scale
+    assert scale.clim == (0.0, 5.0) and "capped" in scale.title     # not 60 MPa

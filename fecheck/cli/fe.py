@@ -135,6 +135,30 @@ def comparison_table(check) -> str:
     return "\n".join(lines)
 
 
+def peak_lines(check) -> list[str]:
+    """The FE p_max at three scales per compartment (vertex, averaged on the EF faces,
+    smoothed over a stated length), the lone-spike and rough-feature flags, and each tibial
+    sheet's roughness; [] when the check carries no peaks."""
+    comps = {c: chk for c, chk in check.compartments.items() if chk.peaks is not None}
+    if not comps:
+        return []
+    out = []
+    for c, chk in comps.items():
+        p = chk.peaks
+        flag = ""
+        if p.spike:
+            x, y, z = p.vertex_at_mm
+            flag = f"  LONE-VERTEX SPIKE at ({x:.1f}, {y:.1f}, {z:.1f}) mm"
+        elif p.rough:
+            flag = f"  on a rough feature ({p.feature_mm:.3f} mm)"
+        out.append(f"FE p_max {c}: vertex {p.vertex_MPa:.3f}, on the EF faces {p.face_MPa:.3f}, "
+                   f"smoothed over {p.length_mm:.2f} mm {p.smoothed_MPa:.3f} MPa{flag}")
+    for c, chk in comps.items():
+        if chk.roughness is not None:
+            out.append(chk.roughness.summary(f"{c} tibial sheet"))
+    return out
+
+
 def summary_lines(check) -> list[str]:
     """Split, centres of pressure, pose, geometry, timing and notes below the table."""
     fe_split, ef_split = check.split("fe"), check.split("ef_model")
@@ -213,7 +237,7 @@ def run(args: argparse.Namespace) -> int:
     check_outputs(args)
     check = cross_check(scene, mode=args.mode, refine=args.refine)
     print(comparison_table(check), file=out)
-    for line in summary_lines(check):
+    for line in peak_lines(check) + summary_lines(check):
         print(line, file=out)
     write_outputs(args, check, scene, out)
     return 0
