@@ -135,7 +135,7 @@ def test_the_smoothing_key_smooths_the_sheets_the_ef_and_fe_read(tmp_path):
     # says how far they moved (breaks if surfaces.surface stops smoothing a sheet)
     from test_own_knee import write_scene
 
-    from fecheck.fe.crosscheck import smoothing_note
+    from fecheck.model.notes import smoothing_notes
     from fecheck.scene import load_scene, surfaces
     from geometry.roughness import smooth
 
@@ -143,7 +143,7 @@ def test_the_smoothing_key_smooths_the_sheets_the_ef_and_fe_read(tmp_path):
     raw = {k: surfaces.read_surface(tmp_path / name) for k, name in
            (("tibia", "tibia_medial.stl"), ("femur", "femur.stl"))}
     plain = load_scene(path)
-    assert smoothing_note(plain) is None
+    assert smoothing_notes(plain) == []
     assert surfaces.tibial_compartments(plain)["medial"].points == pytest.approx(
         raw["tibia"].points)
     scene = load_scene(path, ["geometry.smooth_mm=4"])
@@ -153,9 +153,12 @@ def test_the_smoothing_key_smooths_the_sheets_the_ef_and_fe_read(tmp_path):
     assert femur.points == pytest.approx(smooth(raw["femur"], 4.0).points, abs=1e-12)
     moved = np.linalg.norm(medial.points - raw["tibia"].points, axis=1)
     assert 0.01 < moved.max() < 0.4                          # under the wave's amplitude
-    note = smoothing_note(scene)
+    [note] = smoothing_notes(scene)
     assert note.startswith("the articular sheets were smoothed over 4 mm (geometry.smooth_mm)")
     assert f"tibia RMS {np.sqrt(np.mean(moved**2)):.3f} mm, max {moved.max():.3f} mm" in note
+    from fecheck.model.run import run_scene
+
+    assert note in run_scene(scene).notes                 # `fecheck run` says it too
 
 
 @pytest.fixture

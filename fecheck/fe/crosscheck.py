@@ -50,6 +50,7 @@ from fecheck.fe.settings import FESettings
 from fecheck.model.assembly import pose_dict
 from fecheck.model.condyles import scene_knee
 from fecheck.model.equilibrium import axial_force
+from fecheck.model.notes import smoothing_notes
 from fecheck.model.results import CompartmentResult, RunResult
 from fecheck.reference.closed_forms import (
     DONAHUE_2002,
@@ -58,9 +59,8 @@ from fecheck.reference.closed_forms import (
     hertz_sphere_on_plane,
 )
 from fecheck.scene import Scene
-from fecheck.scene.relevance import SCANNED_KINDS
 from fecheck.statics.newton import pose
-from geometry.roughness import Roughness, default_radius, roughness, smooth_sheet
+from geometry.roughness import Roughness, default_radius, roughness
 
 ROUGH_FEATURE_SHARE = 0.1
 """The FE peak sits on a rough feature when the tibial sheet departs from its smoothed copy
@@ -286,30 +286,6 @@ def assess_peaks(name: str, layer: FELayer, pressure: np.ndarray, face_pressure:
     return peaks, rough, out
 
 
-def smoothing_note(scene: Scene) -> str | None:
-    """With ``geometry.smooth_mm`` > 0, how far each articular sheet moved when smoothed
-    (RMS and max, mm); None otherwise or without sheet files."""
-    from fecheck.scene import surfaces
-
-    length = scene["geometry.smooth_mm"]
-    if length <= 0:
-        return None
-    moved = []
-    for key in surfaces.SHEET_KEYS:
-        path = surfaces.file_path(scene, key)
-        if path is None or scene["model.kind"] not in SCANNED_KINDS:
-            continue
-        raw = surfaces.read_surface(path, scene["geometry.units"],
-                                    tuple(scene["geometry.rotation_deg"]),
-                                    tuple(scene["geometry.translation_mm"]))
-        d = np.linalg.norm(smooth_sheet(raw, length).points - raw.points, axis=1)
-        moved.append(f"{key} RMS {np.sqrt(np.mean(d**2)):.3f} mm, max {d.max():.3f} mm")
-    if not moved:
-        return None
-    return (f"the articular sheets were smoothed over {length:g} mm (geometry.smooth_mm) for "
-            "the EF and the FE alike; their vertices moved: " + "; ".join(moved))
-
-
 # ---------------------------------------------------------------------- the scene
 def _refuse_constraints(scene: Scene, settings: FESettings) -> None:
     if settings.mode != "joint":
@@ -436,9 +412,7 @@ def cross_check(scene: Scene, *, mode: str | None = None, refine: int | None = N
               "fe": t3 - t1}
     timing["ef_over_fe"] = ef_seconds / timing["fe"]
     notes = [DONAHUE_NOTE]
-    smoothed = smoothing_note(scene)
-    if smoothed:
-        notes.insert(0, smoothed)
+    notes[:0] = smoothing_notes(scene)
     if geometry["thickness_source"] == "bone-distance":
         notes.insert(0, "one deformable layer on the tibia with the EF's series thickness "
                         "(tibial + femoral cartilage, from the bone distances) under a rigid "
