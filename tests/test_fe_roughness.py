@@ -179,9 +179,13 @@ def spiked(monkeypatch):
     at = np.array([-20.0, 2.0, -8.0])
     peak = PressurePeaks(180.0, at, 5.0, 60.0, 5.0, at, 1.0,
                          "36.0 times its largest neighbour's 5 MPa")
+    femur = roughness(medial.layer.body.surface, 3.0)      # one sheet for both condyles
     check.compartments["medial"] = dataclasses.replace(
         medial, fe_face_pressure_MPa=faces, peaks=peak,
-        roughness=roughness(medial.layer.body.surface, 2.0))
+        roughness=roughness(medial.layer.body.surface, 2.0), femoral_roughness=femur)
+    lateral = check.compartments["lateral"]
+    check.compartments["lateral"] = dataclasses.replace(
+        lateral, peaks=dataclasses.replace(peak, spike=""), femoral_roughness=femur)
     monkeypatch.setattr("fecheck.fe.crosscheck.cross_check", lambda scene, **kw: check)
     return check
 
@@ -201,5 +205,7 @@ def test_fe_prints_and_writes_the_peaks_and_caps_the_map_at_a_spike(spiked, tmp_
     assert ("FE p_max medial: vertex 180.000, on the EF faces 60.000, smoothed over 1.00 mm "
             "5.000 MPa  LONE-VERTEX SPIKE at (-20.0, 2.0, -8.0) mm") in captured.err
     assert "medial tibial sheet: departs from its copy smoothed over 2.00 mm" in captured.err
+    assert captured.err.count("femoral sheet: departs from its copy smoothed over 3.00") == 1
+    assert medial["femoral_roughness"]["radius_mm"] == 3.0
     scale = fe_panels(spiked)[0].scale
     assert scale.clim == (0.0, 5.0) and "capped" in scale.title     # not 60 MPa

@@ -137,8 +137,9 @@ def comparison_table(check) -> str:
 
 def peak_lines(check) -> list[str]:
     """The FE p_max at three scales per compartment (vertex, averaged on the EF faces,
-    smoothed over a stated length), the lone-spike and rough-feature flags, and each tibial
-    sheet's roughness; [] when the check carries no peaks."""
+    smoothed over a stated length), the lone-spike and rough-feature flags, and the
+    roughness of each tibial sheet and of the femoral sheet(s); [] when the check carries
+    no peaks."""
     comps = {c: chk for c, chk in check.compartments.items() if chk.peaks is not None}
     if not comps:
         return []
@@ -153,9 +154,13 @@ def peak_lines(check) -> list[str]:
             flag = f"  on a rough feature ({p.feature_mm:.3f} mm)"
         out.append(f"FE p_max {c}: vertex {p.vertex_MPa:.3f}, on the EF faces {p.face_MPa:.3f}, "
                    f"smoothed over {p.length_mm:.2f} mm {p.smoothed_MPa:.3f} MPa{flag}")
-    for c, chk in comps.items():
+    shared = len({id(chk.femoral_roughness) for chk in comps.values()}) == 1
+    for i, (c, chk) in enumerate(comps.items()):
         if chk.roughness is not None:
             out.append(chk.roughness.summary(f"{c} tibial sheet"))
+        femur = chk.femoral_roughness
+        if femur is not None and not (shared and i):         # a shared sheet: once
+            out.append(femur.summary("femoral sheet" if shared else f"{c} femoral sheet"))
     return out
 
 

@@ -89,6 +89,7 @@ class CompartmentCheck:
     peaks : the FE peak as a vertex value, averaged onto the EF faces and smoothed, with
         the lone-spike and rough-feature flags (None: not assessed)
     roughness : the tibial sheet against its smoothed copy (`geometry.roughness`)
+    femoral_roughness : the same of the femoral sheet pressing it (None: an analytic one)
     """
 
     name: str
@@ -106,6 +107,7 @@ class CompartmentCheck:
     hertz: ContactMetrics | None = None
     peaks: PressurePeaks | None = None
     roughness: Roughness | None = None
+    femoral_roughness: Roughness | None = None
 
     @property
     def cop_distance_mm(self) -> float:
@@ -141,6 +143,7 @@ class CompartmentCheck:
                 "fe_vs_axisym": self.deviation(),
                 "ef_closed_form": metrics(self.ef_closed_form), "hertz": metrics(self.hertz),
                 "fe_peaks": metrics(self.peaks), "tibial_roughness": metrics(self.roughness),
+                "femoral_roughness": metrics(self.femoral_roughness),
                 "donahue_2002": {f"{s:g}mm": m.as_dict()
                                  for s, m in DONAHUE_2002[self.name].items()}}
 
@@ -390,7 +393,7 @@ def cross_check(scene: Scene, *, mode: str | None = None, refine: int | None = N
     t3 = time.perf_counter()
     theta = math.radians(scene["dofs.flexion_deg"])
     rot_ef, t_ef = pose(np.asarray(run.extra["q"], dtype=float), theta)
-    checks, alerts = {}, []
+    checks, alerts, femoral = {}, [], {}
     for name, (lay, lc, worst, (rot, t)) in solved.items():
         fe, pressure = _fe_metrics(lay, lc.force_N, lc.active, rigid_gaps(lay, rot, t), rot)
         res = run.compartments[name]
@@ -398,10 +401,13 @@ def cross_check(scene: Scene, *, mode: str | None = None, refine: int | None = N
         on_faces = _on_ef_faces(lay, pressure)
         peaks, rough, said = assess_peaks(name, lay, pressure, on_faces, fe.depth_mm, E)
         alerts += said
+        femur = getattr(lay.body.indenter, "mesh", None)
+        if femur is not None and id(femur) not in femoral:
+            femoral[id(femur)] = roughness(femur, default_radius(femur))
         checks[name] = CompartmentCheck(
             name, fe, ef_metrics(res, rot_ef, t_ef), lay, pressure, lc.force_N, lc.active,
             on_faces, _ef_face_pressure(lay, res, rot_ef, t_ef), worst, peaks=peaks,
-            roughness=rough, **refs)
+            roughness=rough, femoral_roughness=femoral.get(id(femur)), **refs)
     for text in alerts:
         warnings.warn(text, stacklevel=2)
     t4 = time.perf_counter()
