@@ -205,6 +205,9 @@ def test_fe_prints_and_writes_the_peaks_and_caps_the_map_at_a_spike(spiked, tmp_
     assert ("FE p_max medial: vertex 180.000, on the EF faces 60.000, smoothed over 1.00 mm "
             "5.000 MPa  LONE-VERTEX SPIKE at (-20.0, 2.0, -8.0) mm") in captured.err
     assert "medial tibial sheet: departs from its copy smoothed over 2.00 mm" in captured.err
+    fe_row = next(line for line in captured.err.splitlines() if line.startswith("FE "))
+    assert fe_row.split()[3] == "5.000(1)" and fe_row.split()[9] == "5.000"   # medial only
+    assert "(1) the FE p_max is a lone-vertex spike, not a physical pressure" in captured.err
     assert captured.err.count("femoral sheet: departs from its copy smoothed over 3.00") == 1
     assert medial["femoral_roughness"]["radius_mm"] == 3.0
     scale = fe_panels(spiked)[0].scale
