@@ -97,6 +97,15 @@ def _value(metrics, attr: str) -> float | None:
     return getattr(metrics, attr, None)
 
 
+SPIKE_NOTE = ("the FE p_max is a lone-vertex spike, not a physical pressure: its place and "
+              "the FE p_max on the EF faces and smoothed follow the table")
+
+
+def _spike(check, name: str) -> bool:
+    peaks = check.compartments[name].peaks
+    return peaks is not None and bool(peaks.spike)
+
+
 def comparison_table(check) -> str:
     """Per compartment F, F_axial (N), p_max, p_mean (MPa), area (mm²), depth (mm) of
     every row that has values; undefined values as ``n/a(k)`` with note k below the
@@ -118,6 +127,10 @@ def comparison_table(check) -> str:
                     if reason not in notes:
                         notes.append(reason)
                     text = f"n/a({notes.index(reason) + 1})"
+                elif label == "FE" and attr == "max_pressure_MPa" and _spike(check, c):
+                    if SPIKE_NOTE not in notes:
+                        notes.append(SPIKE_NOTE)
+                    text = f"{text}({notes.index(SPIKE_NOTE) + 1})"
                 row.append(text)
         body.append(row)
     head = [""] + [h for _ in names for h, _, _ in COLUMNS]
