@@ -217,9 +217,19 @@ def roughness(mesh: TriMesh, radius_mm: float) -> Roughness:
 def default_radius(mesh: TriMesh) -> float:
     """The smoothing length the reports use: max(2 mm, 4 median edge lengths), mm (a
     quadric needs a few rings of vertices; 2 mm is a fraction of a knee contact's width)."""
+    return max(2.0, 4.0 * median_edge(mesh))
+
+
+def median_edge(mesh: TriMesh) -> float:
+    """The median edge length of `mesh`, mm (0 without edges)."""
     e = mesh.edges_unique
     length = np.linalg.norm(mesh.points[e[:, 1]] - mesh.points[e[:, 0]], axis=1)
-    return max(2.0, 4.0 * float(np.median(length))) if len(length) else 2.0
+    return float(np.median(length)) if len(length) else 0.0
+
+
+MIN_SMOOTHING_EDGES = 2.0
+"""A smoothing length under this many median edges holds little more than each vertex's
+own ring, which the six-term quadric fits almost exactly: the sheet barely moves."""
 
 
 def roughness_report(mesh: TriMesh, name: str, radius_mm: float | None = None) -> str:

@@ -159,6 +159,11 @@ def test_the_smoothing_key_smooths_the_sheets_the_ef_and_fe_read(tmp_path):
     from fecheck.model.run import run_scene
 
     assert note in run_scene(scene).notes                 # `fecheck run` says it too
+    assert "too short" not in note
+    [short] = smoothing_notes(load_scene(path, ["geometry.smooth_mm=1"]))  # 0.8 mm edges
+    assert "tibia RMS 0.000 mm" in short
+    assert "tibia RMS 0.000 mm, max 0.000 mm (too short for its 0.8" in short
+    assert "mm edges to smooth it: use at least 1.6" in short     # 2 edges of 0.80-0.82 mm
 
 
 @pytest.fixture

@@ -91,7 +91,7 @@ def smoothing_notes(scene: Scene) -> list[str]:
 
     from fecheck.scene import surfaces
     from fecheck.scene.relevance import SCANNED_KINDS
-    from geometry.roughness import smooth_sheet
+    from geometry.roughness import MIN_SMOOTHING_EDGES, median_edge, smooth_sheet
 
     length = scene["geometry.smooth_mm"]
     if length <= 0 or scene["model.kind"] not in SCANNED_KINDS:
@@ -106,6 +106,10 @@ def smoothing_notes(scene: Scene) -> list[str]:
                                     tuple(scene["geometry.translation_mm"]))
         d = np.linalg.norm(smooth_sheet(raw, length).points - raw.points, axis=1)
         moved.append(f"{key} RMS {np.sqrt(np.mean(d**2)):.3f} mm, max {d.max():.3f} mm")
+        edge = median_edge(raw)
+        if length < MIN_SMOOTHING_EDGES * edge:
+            moved[-1] += (f" (too short for its {edge:.2f} mm edges to smooth it: use at "
+                          f"least {MIN_SMOOTHING_EDGES * edge:.2f} mm)")
     if not moved:
         return []
     return [f"the articular sheets were smoothed over {length:g} mm (geometry.smooth_mm) "
