@@ -98,6 +98,25 @@ def test_fe_json_carries_geometry_mode_pose_and_both_sides(baseline):
         assert comp["cop_distance_mm"] >= 0.0
 
 
+def test_the_smooth_baseline_peak_is_no_spike_and_the_json_carries_three_scales(baseline):
+    # a sphere on a flat plateau disc: no spike, no roughness; the disc mean of a
+    # Hertz-like p0·sqrt(1 - r²/a²) over radius L is p0·(2a²/3L²)(1 - (1 - L²/a²)^1.5),
+    # within 3 % of the smoothed peak (a from the FE area)
+    _, check = baseline
+    data = check.as_dict()
+    for name, chk in check.compartments.items():
+        peaks, rough = data["compartments"][name]["fe_peaks"], \
+            data["compartments"][name]["tibial_roughness"]
+        assert not peaks["lone_spike"] and not peaks["on_rough_feature"]
+        assert peaks["vertex_MPa"] == chk.fe.max_pressure_MPa
+        assert peaks["vertex_MPa"] < 1.2 * peaks["neighbour_MPa"]
+        a2, L2 = chk.fe.area_mm2 / math.pi, peaks["smoothing_length_mm"] ** 2
+        disc = 2 * a2 / (3 * L2) * (1 - (1 - L2 / a2) ** 1.5)
+        assert peaks["smoothed_MPa"] == pytest.approx(disc * peaks["vertex_MPa"], rel=0.03)
+        assert peaks["face_MPa"] <= peaks["vertex_MPa"]
+        assert rough["rms_mm"] < 1e-6 and rough["terrace_mm"] == 0.0
+
+
 def test_frictionless_on_an_inclined_plateau():
     # every contact force acts along the plateau's normal: the compartment resultant has
     # no component along the slope (a sheared layer would carry ~26 % of it there)

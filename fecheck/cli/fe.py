@@ -101,6 +101,15 @@ def _value(metrics, attr: str) -> float | None:
     return getattr(metrics, attr, None)
 
 
+SPIKE_NOTE = ("the FE p_max is a lone-vertex spike, not a physical pressure: its place and "
+              "the FE p_max on the EF faces and smoothed follow the table")
+
+
+def _spike(check, name: str) -> bool:
+    peaks = check.compartments[name].peaks
+    return peaks is not None and bool(peaks.spike)
+
+
 def comparison_table(check) -> str:
     """Per compartment F, F_axial (N), p_max, p_mean (MPa), area (mm²), depth (mm) of
     every row that has values; undefined values as ``n/a(k)`` with note k below the
@@ -122,6 +131,10 @@ def comparison_table(check) -> str:
                     if reason not in notes:
                         notes.append(reason)
                     text = f"n/a({notes.index(reason) + 1})"
+                elif label == "FE" and attr == "max_pressure_MPa" and _spike(check, c):
+                    if SPIKE_NOTE not in notes:
+                        notes.append(SPIKE_NOTE)
+                    text = f"{text}({notes.index(SPIKE_NOTE) + 1})"
                 row.append(text)
         body.append(row)
     head = [""] + [h for _ in names for h, _, _ in COLUMNS]
@@ -137,6 +150,35 @@ def comparison_table(check) -> str:
                  "depth mm")
     lines += [f"({i}) {note}" for i, note in enumerate(notes, start=1)] + skipped
     return "\n".join(lines)
+
+
+def peak_lines(check) -> list[str]:
+    """The FE p_max at three scales per compartment (vertex, averaged on the EF faces,
+    smoothed over a stated length), the lone-spike and rough-feature flags, and the
+    roughness of each tibial sheet and of the femoral sheet(s); [] when the check carries
+    no peaks."""
+    comps = {c: chk for c, chk in check.compartments.items() if chk.peaks is not None}
+    if not comps:
+        return []
+    out = []
+    for c, chk in comps.items():
+        p = chk.peaks
+        flag = ""
+        if p.spike:
+            x, y, z = p.vertex_at_mm
+            flag = f"  LONE-VERTEX SPIKE at ({x:.1f}, {y:.1f}, {z:.1f}) mm"
+        elif p.rough:
+            flag = f"  on a rough feature ({p.feature_mm:.3f} mm)"
+        out.append(f"FE p_max {c}: vertex {p.vertex_MPa:.3f}, on the EF faces {p.face_MPa:.3f}, "
+                   f"smoothed over {p.length_mm:.2f} mm {p.smoothed_MPa:.3f} MPa{flag}")
+    shared = len({id(chk.femoral_roughness) for chk in comps.values()}) == 1
+    for i, (c, chk) in enumerate(comps.items()):
+        if chk.roughness is not None:
+            out.append(chk.roughness.summary(f"{c} tibial sheet"))
+        femur = chk.femoral_roughness
+        if femur is not None and not (shared and i):         # a shared sheet: once
+            out.append(femur.summary("femoral sheet" if shared else f"{c} femoral sheet"))
+    return out
 
 
 def summary_lines(check) -> list[str]:
@@ -219,7 +261,7 @@ def run(args: argparse.Namespace) -> int:
     with policy("fecheck fe", force=args.force, force_hint="--force"):
         check = cross_check(scene, mode=args.mode, refine=args.refine)
     print(comparison_table(check), file=out)
-    for line in summary_lines(check):
+    for line in peak_lines(check) + summary_lines(check):
         print(line, file=out)
     write_outputs(args, check, scene, out)
     return 0

@@ -23,9 +23,11 @@ with ``scanned.thickness = "bone-distance"`` that layer has the EF's series thic
 
 from __future__ import annotations
 
+import dataclasses
 import math
 import sys
 import time
+import warnings
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
 from typing import Any
@@ -43,12 +45,13 @@ from fecheck.fe.press import (
     rigid_gaps,
     solve_pressed,
 )
-from fecheck.fe.recovery import zero_contour_area
-from fecheck.fe.results import ContactMetrics, FEContactResult, SideMetrics
+from fecheck.fe.recovery import pressure_peaks, smoothing_length, zero_contour_area
+from fecheck.fe.results import ContactMetrics, FEContactResult, PressurePeaks, SideMetrics
 from fecheck.fe.settings import FESettings
 from fecheck.model.assembly import pose_dict
 from fecheck.model.condyles import scene_knee
 from fecheck.model.equilibrium import axial_force
+from fecheck.model.notes import smoothing_notes
 from fecheck.model.results import CompartmentResult, RunResult
 from fecheck.reference.closed_forms import (
     DONAHUE_2002,
@@ -58,7 +61,14 @@ from fecheck.reference.closed_forms import (
 )
 from fecheck.scene import Scene
 from fecheck.statics.newton import pose
+from geometry.roughness import Roughness, default_radius, roughness
 
+ROUGH_FEATURE_SHARE = 0.1
+"""The FE peak sits on a rough feature when the tibial sheet departs from its smoothed copy
+near the peak by more than this share of the FE contact depth. Measured: 0.3 mm terraces
+every 3 mm under a sphere (tests/test_fe_roughness.py) depart by 23 % of the depth at the
+peak and raise the vertex p_max 62 % above the flat sheet's; the shipped scanned knee's
+sheets depart by 3 % (medial) and 5 % (lateral) at their peaks."""
 DONAHUE_NOTE = ("* Donahue 2002 is another knee under another load (800 N, whole joint with "
                 "menisci): a scale for the numbers, not a reference for this scene")
 
@@ -77,6 +87,10 @@ class CompartmentCheck:
     ef_face_pressure_MPa : (n_ef_faces,) EF face pressure on the same faces (None when the
         EF run's pressure lives on another mesh, e.g. contact.master = 'plateau')
     axisym, ef_closed_form, hertz : at the FE compartment force, flat uniform layers only
+    peaks : the FE peak as a vertex value, averaged onto the EF faces and smoothed, with
+        the lone-spike and rough-feature flags (None: not assessed)
+    roughness : the tibial sheet against its smoothed copy (`geometry.roughness`)
+    femoral_roughness : the same of the femoral sheet pressing it (None: an analytic one)
     """
 
     name: str
@@ -92,6 +106,9 @@ class CompartmentCheck:
     axisym: FEContactResult | None = None
     ef_closed_form: ContactMetrics | None = None
     hertz: ContactMetrics | None = None
+    peaks: PressurePeaks | None = None
+    roughness: Roughness | None = None
+    femoral_roughness: Roughness | None = None
 
     @property
     def cop_distance_mm(self) -> float:
@@ -126,6 +143,8 @@ class CompartmentCheck:
                 "axisym": None if self.axisym is None else self.axisym.as_dict(),
                 "fe_vs_axisym": self.deviation(),
                 "ef_closed_form": metrics(self.ef_closed_form), "hertz": metrics(self.hertz),
+                "fe_peaks": metrics(self.peaks), "tibial_roughness": metrics(self.roughness),
+                "femoral_roughness": metrics(self.femoral_roughness),
                 "donahue_2002": {f"{s:g}mm": m.as_dict()
                                  for s, m in DONAHUE_2002[self.name].items()}}
 
@@ -237,6 +256,40 @@ def _flat_references(scene: Scene, layer: FELayer, load_N: float, settings: FESe
             "hertz": hertz_sphere_on_plane(load_N, radius, E, nu)}
 
 
+def assess_peaks(name: str, layer: FELayer, pressure: np.ndarray, face_pressure: np.ndarray,
+                 depth_mm: float, E_MPa: float) -> tuple[PressurePeaks, Roughness, list[str]]:
+    """The FE peaks of one compartment (`pressure_peaks`, bound: the modulus `E_MPa`), the
+    roughness of its tibial sheet, and the warnings: a lone-vertex spike, or a peak on a
+    rough feature (more than `ROUGH_FEATURE_SHARE` of the contact depth `depth_mm` from the
+    smoothed sheet within the smoothing length of the peak)."""
+    s, sheet = layer.surface, layer.body.surface
+    length = smoothing_length(s.points, s.faces, pressure > 0)
+    peaks = pressure_peaks(s.points, s.faces, layer.solid.tributary_mm2, pressure,
+                           float(np.nanmax(face_pressure)), E_MPa, length)
+    rough = roughness(sheet, default_radius(sheet))
+    feature = rough.local_mm(sheet.points, peaks.vertex_at_mm, length)
+    on_rough = depth_mm > 0 and feature > ROUGH_FEATURE_SHARE * depth_mm
+    peaks = dataclasses.replace(peaks, feature_mm=feature, rough=bool(on_rough))
+    x, y, z = peaks.vertex_at_mm
+    where = (f"{name}: the FE vertex p_max {peaks.vertex_MPa:.3g} MPa at ({x:.1f}, {y:.1f}, "
+             f"{z:.1f}) mm")
+    beside = (f"the FE p_max averaged on the EF faces is {peaks.face_MPa:.3g} MPa, smoothed "
+              f"over {length:.2f} mm {peaks.smoothed_MPa:.3g} MPa")
+    feature_text = (f"the tibial sheet is {feature:.3f} mm from its copy smoothed over "
+                    f"{rough.radius_mm:.2f} mm there ({feature / depth_mm:.0%} of the "
+                    f"{depth_mm:.3f} mm contact depth)" if depth_mm > 0 else "")
+    out = []
+    if peaks.spike:
+        rough_text = f"; it sits on a rough feature: {feature_text}" if on_rough else ""
+        out.append(f"{where} is a lone-vertex spike ({peaks.spike}), not a physical "
+                   f"pressure; {beside}{rough_text}")
+    elif on_rough:
+        out.append(f"{where} sits on a rough feature: {feature_text}, so the FE peak follows "
+                   f"the segmentation's roughness; {beside}; geometry.smooth_mm smooths the "
+                   "sheets")
+    return peaks, rough, out
+
+
 # ---------------------------------------------------------------------- the scene
 def _refuse_constraints(scene: Scene, settings: FESettings) -> None:
     if settings.mode != "joint":
@@ -342,15 +395,23 @@ def cross_check(scene: Scene, *, mode: str | None = None, refine: int | None = N
     t3 = time.perf_counter()
     theta = math.radians(scene["dofs.flexion_deg"])
     rot_ef, t_ef = pose(np.asarray(run.extra["q"], dtype=float), theta)
-    checks = {}
+    checks, alerts, femoral = {}, [], {}
     for name, (lay, lc, worst, (rot, t)) in solved.items():
         fe, pressure = _fe_metrics(lay, lc.force_N, lc.active, rigid_gaps(lay, rot, t), rot)
         res = run.compartments[name]
         refs = _flat_references(scene, lay, float(lc.force_N.sum()), settings)
+        on_faces = _on_ef_faces(lay, pressure)
+        peaks, rough, said = assess_peaks(name, lay, pressure, on_faces, fe.depth_mm, E)
+        alerts += said
+        femur = getattr(lay.body.indenter, "mesh", None)
+        if femur is not None and id(femur) not in femoral:
+            femoral[id(femur)] = roughness(femur, default_radius(femur))
         checks[name] = CompartmentCheck(
             name, fe, ef_metrics(res, rot_ef, t_ef), lay, pressure, lc.force_N, lc.active,
-            _on_ef_faces(lay, pressure), _ef_face_pressure(lay, res, rot_ef, t_ef), worst,
-            **refs)
+            on_faces, _ef_face_pressure(lay, res, rot_ef, t_ef), worst, peaks=peaks,
+            roughness=rough, femoral_roughness=femoral.get(id(femur)), **refs)
+    for text in alerts:
+        warnings.warn(text, stacklevel=2)
     t4 = time.perf_counter()
     dofs = sum(lay.solid.n_dofs for lay in layers)
     geometry = _geometry(layers, dofs)
@@ -359,6 +420,7 @@ def cross_check(scene: Scene, *, mode: str | None = None, refine: int | None = N
               "fe": t3 - t1}
     timing["ef_over_fe"] = ef_seconds / timing["fe"]
     notes = [DONAHUE_NOTE]
+    notes[:0] = smoothing_notes(scene)
     if geometry["thickness_source"] == "bone-distance":
         notes.insert(0, "one deformable layer on the tibia with the EF's series thickness "
                         "(tibial + femoral cartilage, from the bone distances) under a rigid "

@@ -97,3 +97,44 @@ class FEContactResult:
                 "min_pressure_MPa": float(self.pressure_MPa.min()),
                 "node_area_mm2": self.node_area_mm2,
                 "timing_s": dict(self.timing_s)}
+
+
+@dataclass(frozen=True, eq=False)
+class PressurePeaks:
+    """One compartment's FE pressure peak at three scales, and whether the vertex peak is a
+    lone spike (`fecheck.fe.recovery.pressure_peaks`).
+
+    vertex_MPa, vertex_at_mm : the largest vertex pressure (force / tributary area) and its
+        place (tibia frame, mm); neighbour_MPa : the largest of its edge neighbours'
+    face_MPa : the largest FE pressure averaged onto one EF face (the EF's scale)
+    smoothed_MPa, smoothed_at_mm : the largest area-weighted mean pressure over the
+        vertices within `length_mm` of a vertex (the contact force there over its area)
+    spike : why the vertex peak is a lone spike ("" when it is not)
+    feature_mm : largest distance of the tibial sheet from its smoothed copy within
+        `length_mm` of the vertex peak (NaN when not measured); rough : whether that is a
+        rough feature (see `fecheck.fe.crosscheck.ROUGH_FEATURE_SHARE`)
+    """
+
+    vertex_MPa: float
+    vertex_at_mm: np.ndarray
+    neighbour_MPa: float
+    face_MPa: float
+    smoothed_MPa: float
+    smoothed_at_mm: np.ndarray
+    length_mm: float
+    spike: str
+    feature_mm: float = float("nan")
+    rough: bool = False
+
+    def as_dict(self) -> dict:
+        def num(v):
+            return float(v) if np.isfinite(v) else None
+
+        return {"vertex_MPa": num(self.vertex_MPa),
+                "vertex_at_mm": [float(v) for v in self.vertex_at_mm],
+                "neighbour_MPa": num(self.neighbour_MPa), "face_MPa": num(self.face_MPa),
+                "smoothed_MPa": num(self.smoothed_MPa),
+                "smoothed_at_mm": [float(v) for v in self.smoothed_at_mm],
+                "smoothing_length_mm": self.length_mm, "lone_spike": bool(self.spike),
+                "spike_reason": self.spike or None, "feature_mm": num(self.feature_mm),
+                "on_rough_feature": self.rough}

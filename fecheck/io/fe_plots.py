@@ -67,7 +67,10 @@ def compartment_patches(comp: CompartmentCheck) -> dict[str, Patch]:
     "FE - EF" patches (face values, MPa); contact outlines FE orange, EF magenta."""
     fe = comp.fe_face_pressure_MPa
     fe_line = (fe > 0, FE_COLOUR)
-    out = {"FE": _patch(comp, fe, (fe_line,), _side_note("FE", comp.fe))}
+    note = _side_note("FE", comp.fe)
+    if comp.peaks is not None and comp.peaks.spike:
+        note += f" (a lone-vertex spike; smoothed {comp.peaks.smoothed_MPa:.3f} MPa)"
+    out = {"FE": _patch(comp, fe, (fe_line,), note)}
     if comp.ef_face_pressure_MPa is not None:
         ef_line = (comp.ef_face_pressure_MPa > 0, EF_COLOUR)
         out["EF"] = _patch(comp, comp.ef_face_pressure_MPa, (ef_line,),
@@ -78,19 +81,43 @@ def compartment_patches(comp: CompartmentCheck) -> dict[str, Patch]:
     return out
 
 
+def spike_cap(check: CrossCheck) -> float | None:
+    """With a lone-vertex FE spike in any compartment, the largest smoothed FE peak (MPa)
+    the pressure bar stops at (so the spike does not swamp the map); None otherwise."""
+    peaks = [c.peaks for c in check.compartments.values() if c.peaks is not None]
+    if not any(p.spike for p in peaks):
+        return None
+    return max(p.smoothed_MPa for p in peaks)
+
+
+def _pressure_scale(check: CrossCheck, top: float) -> ColourScale:
+    """0 to `top` MPa, or to the EF peak and smoothed FE peak with a lone spike (the bar's
+    title says so)."""
+    cap = spike_cap(check)
+    if cap is None:
+        return ColourScale("pressure\n(MPa)", (0.0, top))
+    ef = [float(np.max(c.ef_face_pressure_MPa)) for c in check.compartments.values()
+          if c.ef_face_pressure_MPa is not None]
+    return ColourScale("pressure (MPa)\ncapped at the\nsmoothed FE peak",
+                       (0.0, min(top, max([cap, *ef])) or 1.0))
+
+
 def fe_panels(check: CrossCheck) -> list[Panel]:
-    """EF and FE maps on one scale (MPa, 0 to the largest face value) and FE − EF on a
-    symmetric diverging one; the FE map alone without EF face pressures."""
+    """EF and FE maps on one scale (MPa, 0 to the largest face value, or capped at the
+    smoothed FE peak with a lone-vertex spike) and FE − EF on a symmetric diverging one;
+    the FE map alone without EF face pressures."""
     patches = [compartment_patches(c) for c in check.compartments.values()]
     fe = [p["FE"] for p in patches]
     if not has_ef_map(check):
         top = max(float(p.values.max()) for p in fe) or 1.0
-        scale = ColourScale("pressure\n(MPa)", (0.0, top))
+        scale = _pressure_scale(check, top)
         return [Panel("FE pressure on the EF faces (MPa); no EF map (see above)", fe, scale)]
     ef, diff = [p["EF"] for p in patches], [p["FE - EF"] for p in patches]
     top = max(float(p.values.max()) for p in fe + ef) or 1.0
     span = max(float(np.abs(p.values).max()) for p in diff) or 1.0
-    scale = ColourScale("pressure\n(MPa)", (0.0, top))
+    scale = _pressure_scale(check, top)
+    if spike_cap(check) is not None:
+        span = min(span, scale.clim[1])
     d_scale = ColourScale("FE - EF\n(MPa)", (-span, span), cmap="RdBu_r")
     return [Panel("EF pressure on the EF faces (MPa)", ef, scale, bar=False),
             Panel("FE pressure averaged onto the same faces (MPa)", fe, scale),
@@ -101,7 +128,11 @@ def fe_heading(check: CrossCheck, title: str, panels: Sequence[Panel]) -> str:
     """The figure's heading: scene, mode, view and what the colours, lines and marks mean
     (three panels: EF, FE, FE − EF; one: FE only)."""
     with_ef = len(panels) == 3
-    bars = f"pressure bar 0 to {panels[0].scale.clim[1]:.3f} MPa (the largest face mean)"
+    top = panels[0].scale.clim[1]
+    bars = (f"pressure bar 0 to {top:.3f} MPa (the largest face mean)"
+            if spike_cap(check) is None else
+            f"pressure bar 0 to {top:.3f} MPa, capped at the smoothed FE peak: a lone-vertex "
+            "FE spike (see the report) would swamp it")
     bars += f"; difference bar ±{panels[2].scale.clim[1]:.3f} MPa" if with_ef else ""
     lines = f"surface edge black, FE contact {FE_COLOUR}"
     lines += f", EF contact {EF_COLOUR}" if with_ef else ""

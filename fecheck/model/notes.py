@@ -82,3 +82,35 @@ def layer_depth_notes(scene: Scene, compartments: Mapping[str, CompartmentResult
                        "not hold; use a stiffer material (contact.youngs_MPa), a thicker "
                        "layer (contact.thickness_mm) or a smaller load (load.force_N)")
 
+
+
+def smoothing_notes(scene: Scene) -> list[str]:
+    """With ``geometry.smooth_mm`` > 0, how far each articular sheet file moved when
+    smoothed (RMS and max over its vertices, mm); [] otherwise."""
+    import numpy as np
+
+    from fecheck.scene import surfaces
+    from fecheck.scene.relevance import SCANNED_KINDS
+    from geometry.roughness import MIN_SMOOTHING_EDGES, median_edge, smooth_sheet
+
+    length = scene["geometry.smooth_mm"]
+    if length <= 0 or scene["model.kind"] not in SCANNED_KINDS:
+        return []
+    moved = []
+    for key in surfaces.SHEET_KEYS:
+        path = surfaces.file_path(scene, key)
+        if path is None:
+            continue
+        raw = surfaces.read_surface(path, scene["geometry.units"],
+                                    tuple(scene["geometry.rotation_deg"]),
+                                    tuple(scene["geometry.translation_mm"]))
+        d = np.linalg.norm(smooth_sheet(raw, length).points - raw.points, axis=1)
+        moved.append(f"{key} RMS {np.sqrt(np.mean(d**2)):.3f} mm, max {d.max():.3f} mm")
+        edge = median_edge(raw)
+        if length < MIN_SMOOTHING_EDGES * edge:
+            moved[-1] += (f" (too short for its {edge:.2f} mm edges to smooth it: use at "
+                          f"least {MIN_SMOOTHING_EDGES * edge:.2f} mm)")
+    if not moved:
+        return []
+    return [f"the articular sheets were smoothed over {length:g} mm (geometry.smooth_mm) "
+            "for the EF and the FE alike; their vertices moved: " + "; ".join(moved)]

@@ -38,7 +38,7 @@ from fecheck.model import sphere_plane
 from fecheck.model.assembly import Compartment, applied_load, law_factory, pose_dict
 from fecheck.model.condyles import fit_note, scene_knee
 from fecheck.model.equilibrium import compartment_results, not_converged_note, solve_equilibrium
-from fecheck.model.notes import layer_depth_notes, mesh_resolution_notes
+from fecheck.model.notes import layer_depth_notes, mesh_resolution_notes, smoothing_notes
 from fecheck.model.results import LigamentResult, RunResult
 from fecheck.model.reuse import reusable
 from fecheck.scene import Scene, surfaces
@@ -188,7 +188,7 @@ def run_scanned(scene: Scene, warm_start: np.ndarray | None = None) -> RunResult
              if scene["scanned.thickness"] == "uniform" else [])
     if scene["model.kind"] == "sphere-plane":       # meshed plateau discs: rim and faces
         notes += mesh_resolution_notes(scene, comps, eq.results)
-    notes += not_converged_note(sol)
+    notes += not_converged_note(sol) + smoothing_notes(scene)
     if scene["model.kind"] == "sphere-tibia":
         notes += fit_note(scene, scene_knee(scene))
     contact = eq.contact

@@ -273,7 +273,7 @@ RULES: tuple[tuple[tuple[str, ...], Reason], ...] = (
     (("geometry.split_x_mm",), _not_sagittal),
     (("geometry.tibia_split",), _no_split),
     (("geometry.tibia", "geometry.tibia_lateral", "geometry.units", "geometry.rotation_deg",
-      "geometry.translation_mm"), _no_scanned_tibia),
+      "geometry.translation_mm", "geometry.smooth_mm"), _no_scanned_tibia),
     (("geometry.femur_bone", "geometry.tibia_bone"), _no_bones),
     (("geometry.ligaments",), _no_bundle_file),
     (("fe.axisym_size_mm",), _no_axisymmetric),

@@ -403,6 +403,14 @@ SCHEMA: dict[str, Key] = {
     "geometry.translation_mm": Key("vec3", [0.0, 0.0, 0.0], "Translation of every "
                                    "[geometry] surface after the rotation, mm.",
                                    low=-10000.0, high=10000.0),
+    "geometry.smooth_mm": Key(
+        "float", 0.0,
+        "Smooth the femoral and tibial articular sheets over this length as they are read, "
+        "for the EF run and the FE alike: each vertex moves onto the least-squares quadric "
+        "fitted to the sheet within this distance (removes segmentation terraces and "
+        "slivers narrower than it; a smooth curved sheet barely moves), mm; 0 = the "
+        "sheets as read. `fecheck fe` says how far the sheets moved.",
+        low=0.0, high=20.0),
     "scanned.thickness": Key(
         "str", "uniform",
         "Foundation thickness of the sphere-tibia and femur-tibia models: 'uniform' = "

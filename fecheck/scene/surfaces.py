@@ -35,9 +35,12 @@ from fecheck.scene import Scene
 from fecheck.scene.packaged import PACKAGE_PREFIX, data_dir
 from geometry.cache import cached_build
 from geometry.mesh import TriMesh, is_closed
+from geometry.roughness import smooth_sheet
 
 FILE_KEYS = ("femur", "tibia", "tibia_lateral", "femur_bone", "tibia_bone", "ligaments")
 """Keys of ``[geometry]`` that name a file."""
+SHEET_KEYS = ("femur", "tibia", "tibia_lateral")
+"""Keys of the articular sheets (``geometry.smooth_mm`` smooths them, not the bones)."""
 UNIT_SCALE = {"mm": 1.0, "m": 1000.0}
 """Millimetres per unit of each ``geometry.units``."""
 KNEE_EXTENT_MM = (5.0, 1000.0)
@@ -205,8 +208,9 @@ def surface(scene: Scene, key: str, why: str) -> TriMesh:
     """The surface of ``geometry.<key>`` (mm, thesis frame); `why` names its use in the
     message when it is unset."""
     path = required_path(scene, key, why)
-    return read_surface(path, scene["geometry.units"], tuple(scene["geometry.rotation_deg"]),
+    mesh = read_surface(path, scene["geometry.units"], tuple(scene["geometry.rotation_deg"]),
                         tuple(scene["geometry.translation_mm"]))
+    return smooth_sheet(mesh, scene["geometry.smooth_mm"]) if key in SHEET_KEYS else mesh
 
 
 def components(mesh: TriMesh) -> list[np.ndarray]:
