@@ -51,6 +51,9 @@ SLIVER_DEG = 5.0
 """A face with an angle under this is a sliver: its tetrahedra make the FE ill-conditioned."""
 SHORT_EDGE_SHARE = 0.1
 """A face with an edge under this share of the sheet's median edge is a sliver too."""
+ROUGH_RMS_MM = 0.05
+"""A sheet further than this (RMS) from its smoothed copy is rough for the FE: its vertex
+peaks follow the segmentation's terraces, mm (a smooth scanned sheet: about 0.02)."""
 MISPLIT_SHARE = 0.1
 """A sagittal plane that puts more than this share of the tibial area under the femoral
 condyles on the other side than its condyle cuts a plateau: an error."""
@@ -447,7 +450,7 @@ def fe_checks(out: Path, files: dict[str, Path]) -> None:
         c, mesh, h = body.name, body.surface, body.thickness_mm
         where = f"the {c} tibial sheet ({files[c].name})"
         found = [_inversion(mesh, h, levels, settings.grading, scene), _curl(mesh),
-                 _slivers(mesh)]
+                 _slivers(mesh), _rough(c, files[c].name, mesh)]
         for text in filter(None, found):
             warnings.warn(f"{where}: {text}", stacklevel=2)
         if not any(found):
@@ -487,6 +490,21 @@ def _inversion(mesh: TriMesh, h: np.ndarray, levels: int, grading: float,
            f"smooth the sheet (even a {thinner[-1]:g} mm layer inverts)")
     return (f"its {np.median(h):.2f} mm layer (median) has prisms that invert under the "
             f"FE's extrusion{place}: `fecheck fe` and `fecheck calibrate` will fail; {fix}")
+
+
+def _rough(compartment: str, name: str, mesh: TriMesh) -> str:
+    """The sheet's roughness (`geometry.roughness`), printed; a warning text when it is
+    terraced or further than `ROUGH_RMS_MM` from its smoothed copy, else ""."""
+    from geometry.roughness import default_radius, roughness
+
+    r = roughness(mesh, default_radius(mesh))
+    _say(compartment, "roughness", r.summary(name))
+    if r.terrace_mm <= 0 and r.rms_mm <= ROUGH_RMS_MM:
+        return ""
+    return (f"it is rough (RMS {r.rms_mm:.3f} mm from its copy smoothed over "
+            f"{r.radius_mm:.2f} mm, terraces {r.terrace_mm:.3f} mm): FE vertex peaks will "
+            f"follow it; set geometry.smooth_mm = {r.radius_mm:.1f} to smooth the sheets for "
+            "the EF and the FE alike")
 
 
 def _curl(mesh: TriMesh) -> str:
