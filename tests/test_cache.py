@@ -1,4 +1,5 @@
-"""On-disk mesh cache: identical arrays, hits faster than builds, atomic, fail-safe."""
+"""On-disk mesh cache: identical arrays, hits without a rebuild (and faster than builds: a
+`bench` test), atomic, fail-safe."""
 
 import os
 import subprocess
@@ -12,6 +13,7 @@ import numpy as np
 import pytest
 
 from geometry import cache, layer
+from geometry import icosphere as icosphere_module
 from geometry.cache import cache_dir, cache_key, cached_build
 from geometry.icosphere import icosphere
 from geometry.mesh import TetMesh, TriMesh
@@ -52,6 +54,18 @@ def test_tet_meshes_round_trip_through_the_cache(fresh_cache):
     np.testing.assert_array_equal(back.boundaries["top"], tet.boundaries["top"])
 
 
+def test_a_cache_hit_reads_the_build_without_running_gmsh(fresh_cache, monkeypatch):
+    built = icosphere(1.0, 6)
+    assert cache.STATS.last == "built"
+    monkeypatch.setattr(icosphere_module, "_unit_gmsh",
+                        lambda *args, **kwargs: pytest.fail("a cache hit ran the builder"))
+    hit = icosphere(1.0, 6)
+    assert cache.STATS.last == "cache"
+    np.testing.assert_array_equal(hit.points, built.points)
+    np.testing.assert_array_equal(hit.faces, built.faces)
+
+
+@pytest.mark.bench
 def test_cache_hit_is_faster_than_the_build(fresh_cache):
     t0 = time.perf_counter()
     built = icosphere(1.0, 6)

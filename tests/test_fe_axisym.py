@@ -58,7 +58,12 @@ def test_deformed_gap_keeps_contact_exact_and_moves_the_answer_slightly(medial):
                                       gap="deformed")
     assert deformed.metrics.force_N == pytest.approx(323.71, rel=1e-9)
     assert deformed.max_penetration_mm <= 1e-6
-    # The surface slides inward under the sphere (ν < 0.5): the deformed-configuration
-    # gap is a second-order effect here, a few percent at a/h ≈ 1.
-    assert deformed.metrics.max_pressure_MPa == pytest.approx(medial.metrics.max_pressure_MPa,
-                                                              rel=0.05)
+    # The surface slides toward the axis under the sphere (ν < 0.5; Hertz: u_r =
+    # -(1-2ν)(1+ν)/(3E)·(a²/r)·p0·[1 - (1 - r²/a²)^1.5] inside the contact), so a surface
+    # point at r sits under the sphere at r + u_r < r, where the gap is smaller: the
+    # contact spreads, p_max drops and the sphere goes in less. Measured p_max -1.9 % and
+    # depth -1.5 % at a/h ≈ 1; a shift of the wrong sign (outward) gives p_max +2.0 %, so
+    # the sign is asserted, not only the size.
+    change = deformed.metrics.max_pressure_MPa / medial.metrics.max_pressure_MPa - 1
+    assert -0.03 < change < -0.01
+    assert deformed.metrics.depth_mm < medial.metrics.depth_mm

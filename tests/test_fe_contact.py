@@ -98,3 +98,23 @@ def test_condensed_compliance_equals_the_solves_it_replaces():
     assert np.abs(C - reference).max() <= 1e-10 * np.abs(reference).max()
     b = rng.normal(size=K.shape[0])
     assert np.linalg.norm(K @ solve(b) - b) <= 1e-10 * np.linalg.norm(b)
+
+
+def test_deformed_gap_is_read_where_the_load_moves_the_surface():
+    # One candidate (vertical dof 0) coupled to its tangential dof 1: K = [[k, c], [c, kt]].
+    # The indenter pushes it down with F, so u = K⁻¹ (-F, 0) = (-kt F, c F) / (k kt - c²):
+    # by hand, with k = 10, kt = 4, c = 2, F = 3 N, the node slides u_t = +1/6 mm. The gap
+    # must be re-evaluated there (the shift passed to gap0), not at -1/6 mm.
+    K = sp.csc_matrix(np.array([[10.0, 2.0], [2.0, 4.0]]))
+    seen = []
+
+    def gap0(shift):
+        seen.append(None if shift is None else shift.copy())
+        return np.array([0.1]) if shift is None else 0.1 + 0.05 * shift[:, 0]
+
+    sol = solve_contact(K, np.array([0]), gap0, 3.0, 0.0, tangential=[np.array([1])],
+                        deformed_gap=True)
+    assert seen[-1] is not None
+    assert seen[-1][0, 0] == pytest.approx(1.0 / 6.0, rel=1e-12)
+    assert sol.u[1] == pytest.approx(1.0 / 6.0, rel=1e-12)   # the field it solved agrees
+    assert sol.u[0] == pytest.approx(-1.0 / 3.0, rel=1e-12)  # -kt F / det = -12/36 mm

@@ -45,6 +45,7 @@ def test_volume_error_below_half_percent_from_5120_faces_and_converges_as_h_squa
     assert order == pytest.approx(2.0, abs=0.01)
 
 
+@pytest.mark.bench
 def test_level_7_builds_with_linear_cost():
     times = {}
     for n in (6, 7):

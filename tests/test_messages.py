@@ -11,7 +11,6 @@ under each condyle sphere), so they need no scanned data.
 from __future__ import annotations
 
 import json
-import time
 from pathlib import Path
 
 import numpy as np
@@ -252,9 +251,8 @@ def test_mesh_info_names_a_truncated_stl_too(tmp_path, capsys):
     (["--set", "fe.layers=-1"], "fe.layers = -1 is out of range"),
 ], ids=["refine", "layers"])
 def test_fe_settings_out_of_range_are_refused_before_any_work(capsys, args, words):
-    t0 = time.perf_counter()
     code, _, err = _run(capsys, "fe", *args)
-    assert code == 2 and time.perf_counter() - t0 < 30
+    assert code == 2
     assert words in _error_line(err)
     assert "EF equilibrium" not in err                        # no work began
 
@@ -282,9 +280,8 @@ def test_an_unwritable_output_is_one_line_before_the_work(capsys, args):
     from geometry.cache import STATS
 
     meshes = (STATS.builds, STATS.hits)
-    t0 = time.perf_counter()
     code, out, err = _run(capsys, *args)
-    assert code == 2 and time.perf_counter() - t0 < 20
+    assert code == 2
     assert err.strip() == _error_line(err)              # no progress: nothing ran first
     assert "/proc" in err and out == ""
     assert (STATS.builds, STATS.hits) == meshes          # no mesh built or read

@@ -9,6 +9,7 @@ import threading
 
 import pytest
 
+from fecheck.contact.pair import ContactPair
 from fecheck.model import reuse
 from fecheck.model.reuse import reusable, reusing_builds
 from fecheck.model.run import run_scene
@@ -80,26 +81,43 @@ def test_a_sweep_of_a_key_the_build_reads_equals_fresh_runs(param, values):
                                                                           rel=1e-9)
 
 
-def test_a_load_point_sweep_builds_the_model_once():
-    scene = load_scene()
-    points = run_sweep(scene, "load.point_mm[0]", [4.0, 5.0, 6.0], progress=False)
-    builds = [p.result.timing_s["build"] for p in points]
-    assert all(b < 0.1 * builds[0] for b in builds[1:])
+def _count_pairs(monkeypatch) -> list:
+    """Every contact pair built from now on (a list that grows)."""
+    made = []
+    init = ContactPair.__init__
+
+    def counted(self, *args, **kwargs):
+        made.append(self)
+        init(self, *args, **kwargs)
+
+    monkeypatch.setattr(ContactPair, "__init__", counted)
+    return made
 
 
-def test_a_mesh_master_sweep_reusing_its_walk_equals_fresh_runs(tmp_path):
+def test_a_load_point_sweep_builds_the_model_once(monkeypatch):
+    made = _count_pairs(monkeypatch)
+    points = run_sweep(load_scene(), "load.point_mm[0]", [4.0, 5.0, 6.0], progress=False)
+    assert all(p.result.converged for p in points)
+    assert len(made) == 2                # one pair per compartment, at the first point
+
+
+def test_a_mesh_master_sweep_reusing_its_walk_equals_fresh_runs(tmp_path, monkeypatch):
     """The femur-tibia model (a mesh master, whose closest-point walk and candidate sets
     carry over from one point to the next) on the synthetic knee of `test_own_knee`."""
     from test_own_knee import write_scene
 
+    from fecheck.model import scanned
+
     scene = load_scene(write_scene(tmp_path, "stl", "mm", "sagittal"))
     values = [600.0, 700.0, 900.0]
+    made, slaves = _count_pairs(monkeypatch), []
+    read = scanned.tibial_slaves
+    monkeypatch.setattr(scanned, "tibial_slaves", lambda s: slaves.append(1) or read(s))
     swept = run_sweep(scene, "load.force_N", values, progress=False)
-    for i, (value, point) in enumerate(zip(values, swept, strict=True)):
+    assert (len(made), len(slaves)) == (2, 1)        # built once, at the first point
+    for value, point in zip(values, swept, strict=True):
         fresh = run_scene(apply_overrides(scene, [f"load.force_N={value}"]))
         assert point.result.converged and fresh.converged
-        if i:                                   # built once, at the first point
-            assert point.result.timing_s["build"] < 0.5 * fresh.timing_s["build"]
         for c, comp in fresh.compartments.items():
             assert comp.force_N > 0
             assert point.result.compartments[c].force_N == pytest.approx(comp.force_N,

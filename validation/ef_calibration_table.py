@@ -65,12 +65,13 @@ import numpy as np
 from report import save_figure
 from scipy.optimize import brentq
 
+from fecheck.laws.calibrated import SOFT_DEPTH_MM
+
 POISSON = (0.3, 0.4, 0.45, 0.49)
 THICKNESS_MM = (1.5, 2.0, 3.0, 4.5, 6.0, 9.0, 12.0)
 RADIUS_MM = (15.0, 20.0, 25.0, 32.0, 40.0, 60.0)
 QUICK = {"poisson": (0.3, 0.49), "thickness_mm": (1.5, 6.0, 12.0), "radius_mm": (25.0,)}
 FORCE_OVER_E = tuple(float(v) for v in np.geomspace(2.0, 100.0, 5))   # mm² (N at E = 1 MPa)
-SOFT_DEPTH_MM = 0.01
 MAX_SIZE_MM = 0.1
 RADIUS_PER_SIZE = 60            # elements across the contact radius (at least 40)
 TOLERANCE = 0.05                # the p_max target of the summary
