@@ -136,6 +136,8 @@ def test_an_unknown_kernel_code_fails_loudly():
     unknown = max(KERNELS) + 1
     with pytest.raises(FecheckError, match="unknown compiled law kernel"):
         compiled_law(unknown, np.array([1.0]))
+    with pytest.raises(FecheckError, match="unknown compiled law kernel"):
+        law_function(unknown, np.array([1.0]))
     with pytest.raises(FecheckError, match="takes c, m"):
         compiled_law(POWER, np.array([1.0]))
     with pytest.raises(ValueError, match="unknown compiled law kernel"):   # inside numba too

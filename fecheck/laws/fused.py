@@ -32,13 +32,7 @@ from fecheck.contact.pair import checked_poses, raise_bad_pose
 from fecheck.contact.surface import ContactSurface
 from fecheck.errors import FecheckError
 from fecheck.laws.foundation import foundation
-from fecheck.laws.kernel import (
-    LINEAR,
-    check_kernel,
-    law_function,
-    law_values,
-    pressure_resultant,
-)
+from fecheck.laws.kernel import LINEAR, law_function, law_values, pressure_resultant
 
 ORIGIN = np.zeros(3)
 PACKED = 44
@@ -112,10 +106,8 @@ def compiled_law(kind: int, params: np.ndarray, full=None,
                  face_scale: np.ndarray | None = None) -> CompiledLaw:
     """A `CompiledLaw` (float arrays; no per-face factor by default). Without `full`, the
     full path is `fecheck.laws.foundation.foundation` of the same law (the linear law's
-    own branch for LINEAR). An unknown `kind` or a wrong parameter count raises
-    `FecheckError` (`fecheck.laws.kernel.check_kernel`)."""
+    own branch for LINEAR)."""
     params = np.ascontiguousarray(params, dtype=float)
-    check_kernel(kind, params)
     scale = np.zeros(0) if face_scale is None else np.ascontiguousarray(face_scale, dtype=float)
     pressure = float(params[0]) if kind == LINEAR else law_function(kind, params)
 
