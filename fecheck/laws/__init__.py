@@ -1,7 +1,8 @@
 """Laws: a contact surface and a material → pressure, the wrench on the slave and its tangent.
 
-Owns materials, the foundation and Hertz laws, the compiled resultant kernel and the
-layer stiffness from thickness maps. Imports `scene`, `reference`, `contact`, `geometry`.
+Owns materials, the foundation and Hertz laws, the law registry (`registry`: every
+``contact.law`` value's entry), the compiled resultant kernel and the layer stiffness
+from thickness maps. Imports `scene`, `reference`, `contact`, `geometry`.
 """
 
 from fecheck.laws.foundation import (

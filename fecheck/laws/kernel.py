@@ -10,9 +10,12 @@ relative to the master; each point carries the force s_q·n_q, s_q = w_q·p_q, a
 from __future__ import annotations
 
 from collections.abc import Callable
+from dataclasses import dataclass
 
 import numpy as np
 from numba import njit
+
+from fecheck.errors import FecheckError
 
 
 # One fused compiled loop over the faces for speed: its branches are the cases of one
@@ -161,18 +164,51 @@ def pressure_resultant(stiffness: float, pressure: np.ndarray, slope: np.ndarray
     return p_out, force, moment, tangent, area
 
 
-LINEAR, BLANKEVOORT, CALIBRATED = 0, 1, 2
-"""Compiled pressure laws p(d) (`law_values`), each a kind and a parameter vector."""
+LINEAR, BLANKEVOORT, CALIBRATED, POWER = 0, 1, 2, 3
+"""Codes of the compiled pressure laws p(d) (`law_values`), each with a parameter vector."""
+
+
+@dataclass(frozen=True)
+class Kernel:
+    """One compiled pressure law of `law_values`: its formula and parameter names."""
+
+    name: str
+    formula: str
+    params: tuple[str, ...]
+
+
+KERNELS: dict[int, Kernel] = {
+    LINEAR: Kernel("linear", "p = k·d", ("k",)),
+    BLANKEVOORT: Kernel("blankevoort", "p = −k0·ln(1 − d/h), linear beyond d_c",
+                        ("k0", "h", "d_c", "p_c", "s_c")),
+    CALIBRATED: Kernel("calibrated", "p = C·d·(d + d_s)^(n − 1)", ("C", "n", "d_s")),
+    POWER: Kernel("power", "p = c·d^m, m ≥ 1", ("c", "m")),
+}
+"""Every compiled kernel by code: `law_values` computes these and refuses any other code."""
+
+
+def check_kernel(kind: int, params: np.ndarray) -> None:
+    """`FecheckError` unless `kind` is a code of `KERNELS` and `params` holds its
+    parameters."""
+    kernel = KERNELS.get(kind)
+    if kernel is None:
+        raise FecheckError(f"unknown compiled law kernel {kind!r}; the kernels are "
+                           + ", ".join(f"{k} = {v.name}" for k, v in KERNELS.items()))
+    if len(params) != len(kernel.params):
+        raise FecheckError(f"the {kernel.name} law kernel ({kernel.formula}) takes "
+                           f"{', '.join(kernel.params)}, got {len(params)} parameters")
 
 
 @njit(cache=True, fastmath=False)
 def law_values(kind: int, params: np.ndarray, d: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """p(d) (MPa) and dp/dd (MPa/mm) at depths d (n,) ≥ 0 (mm) of a compiled law:
+    """p(d) (MPa) and dp/dd (MPa/mm) at depths d (n,) ≥ 0 (mm) of a compiled law
+    (`KERNELS`; any other code raises ValueError):
 
     * LINEAR, (k,): p = k·d (N/mm³);
     * BLANKEVOORT, (k0, h, d_c, p_c, s_c): p = −k0·ln(1 − d/h), continued linearly
       (p_c + s_c·(d − d_c)) beyond d_c (`fecheck.laws.foundation.blankevoort_pressure`);
-    * CALIBRATED, (C, n, d_s): p = C·d·(d + d_s)^(n − 1) (`fecheck.laws.calibrated`).
+    * CALIBRATED, (C, n, d_s): p = C·d·(d + d_s)^(n − 1) (`fecheck.laws.calibrated`);
+    * POWER, (c, m): p = c·d^m, m ≥ 1 (a generic foundation, `fecheck.laws.registry`).
     """
     p = np.empty(d.size)
     slope = np.empty(d.size)
@@ -186,11 +222,17 @@ def law_values(kind: int, params: np.ndarray, d: np.ndarray) -> tuple[np.ndarray
                 p[i], slope[i] = params[3] + params[4] * (x - dc), params[4]
             else:
                 p[i], slope[i] = -k0 * np.log1p(-x / h), k0 / (h - x)
-        else:
+        elif kind == CALIBRATED:
             C, n, ds = params[0], params[1], params[2]
             s = x + ds
             power = s ** (n - 1.0)
             p[i], slope[i] = C * x * power, C * power * (n * x + ds) / s
+        elif kind == POWER:
+            c, m = params[0], params[1]
+            power = x ** (m - 1.0)
+            p[i], slope[i] = c * x * power, c * m * power
+        else:
+            raise ValueError("law_values: unknown compiled law kernel code")
     return p, slope
 
 
@@ -198,6 +240,7 @@ def law_function(kind: int, params: np.ndarray
                  ) -> Callable[[np.ndarray], tuple[np.ndarray, np.ndarray]]:
     """`law_values` of one law as a function of depths of any shape (mm → MPa, MPa/mm)."""
     params = np.asarray(params, dtype=float)
+    check_kernel(kind, params)
 
     def pressure(d: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         x = np.asarray(d, dtype=float)

@@ -20,8 +20,8 @@ import numpy as np
 from fecheck import laws
 from fecheck.errors import FecheckError
 from fecheck.laws import calibrated
-from fecheck.laws.fused import CompiledLaw, HotPath, compiled_law, linear_law
-from fecheck.laws.kernel import BLANKEVOORT, CALIBRATED
+from fecheck.laws.fused import HotPath
+from fecheck.laws.registry import LawInputs, spec_of
 from fecheck.scene import Scene
 from fecheck.scene.constants import COMPARTMENTS, DOF_NAMES, GRAVITY_MPS2, LIGAMENTS
 from fecheck.scene.knee import plane_normal
@@ -217,32 +217,16 @@ def equal_force_constraint(rot: np.ndarray, t: np.ndarray, parts: Sequence[Part]
     return mags[0] - mags[1], -(grads[0] - grads[1]), np.zeros((6, 6))
 
 
+def law_inputs(scene: Scene) -> LawInputs:
+    """What the scene's law is built from (`fecheck.laws.registry.LawInputs`): its values
+    and its calibration file, read when the law asks for it."""
+    return LawInputs(scene, lambda: calibration_file(scene))
+
+
 def law_factory(scene: Scene) -> Callable[[float, str], Callable[[object], laws.LawResult]]:
-    """Validated contact law of a scene, as a function of the condyle radius (mm; NaN
-    where there is no sphere) and the compartment's name."""
-    e, nu, h = scene["contact.youngs_MPa"], scene["contact.poisson"], scene["contact.thickness_mm"]
-    name = scene["contact.law"]
-    if name in ("ef", "volumetric"):
-        laws.validate_material(e, nu, h)
-        k = (laws.ef_stiffness(e, nu, h) if name == "ef"
-             else scene["contact.volumetric_stiffness_N_per_mm3"])
-        law = linear_law(k)
-        return lambda r, c: law
-    if name == "blankevoort":
-        law = compiled_law(BLANKEVOORT, laws.blankevoort_params(e, nu, h))
-        return lambda r, c: law
-    if name == "ef-calibrated":
-        laws.validate_material(e, nu, h)
-        own = calibration_file(scene)
-
-        def calibrated_law(r: float, c: str) -> CompiledLaw:
-            cal = own[c] if own is not None else _table_calibration(scene, r)
-            return compiled_law(CALIBRATED, calibrated.calibrated_params(cal))
-
-        return calibrated_law
-    e_star = laws.hertz_modulus(e, nu, scene["contact.indenter_youngs_MPa"],
-                                scene["contact.indenter_poisson"])
-    return lambda r, c: lambda s: laws.hertz(s, r, e_star)
+    """Validated contact law of a scene (`fecheck.laws.registry`), as a function of the
+    condyle radius (mm; NaN where there is no sphere) and the compartment's name."""
+    return spec_of(scene).build(law_inputs(scene))
 
 
 def calibration_file(scene: Scene) -> dict | None:
@@ -259,15 +243,3 @@ def calibration_file(scene: Scene) -> dict | None:
     out = calibrated.read_calibration(path)
     calibrated.check_fingerprint(path, scene_fingerprint(scene))
     return out
-
-
-def _table_calibration(scene: Scene, radius_mm: float) -> calibrated.Calibration:
-    """The built-in table's law for a sphere of `radius_mm` on the scene's layer."""
-    if not math.isfinite(radius_mm) or scene["scanned.thickness"] == "bone-distance":
-        raise FecheckError("contact.law = 'ef-calibrated' on this scene needs its own "
-                           "calibration (no condyle sphere, or a varying thickness, for the "
-                           "built-in table): run `fecheck calibrate SCENE -o FILE` and set "
-                           "contact.calibration = FILE")
-    return calibrated.table_calibration(scene["contact.youngs_MPa"], scene["contact.poisson"],
-                                        scene["contact.thickness_mm"], radius_mm)
-

@@ -19,10 +19,9 @@ import math
 
 import numpy as np
 
-from fecheck import laws
 from fecheck.errors import FecheckError
+from fecheck.laws.registry import spec_of
 from fecheck.model.assembly import plateau_normals
-from fecheck.reference.closed_forms import ef_cap_depth, hertz_contact_radius
 from fecheck.scene import SCHEMA, Scene
 from fecheck.scene.constants import GRAVITY_MPS2
 from fecheck.scene.knee import Knee
@@ -47,20 +46,7 @@ def expected_contact_radius_mm(scene: Scene, force_N: float, radius_mm: float) -
     """Contact radius (mm) of a sphere of `radius_mm` on a plane pressed by `force_N` (N)
     under the scene's law: the EF law (Blankevoort by its small-depth EF stiffness, a
     slight overestimate), the volumetric k_V, or Hertz. Capped at the sphere radius."""
-    r = float(radius_mm)
-    if force_N <= 0.0:
-        return 0.0
-    e, nu, h = scene["contact.youngs_MPa"], scene["contact.poisson"], scene["contact.thickness_mm"]
-    if scene["contact.law"] == "hertz":
-        e_star = laws.hertz_modulus(e, nu, scene["contact.indenter_youngs_MPa"],
-                                    scene["contact.indenter_poisson"])
-        return min(r, hertz_contact_radius(force_N, r, e_star))
-    k = (scene["contact.volumetric_stiffness_N_per_mm3"] if scene["contact.law"] == "volumetric"
-         else laws.ef_stiffness(e, nu, h))
-    d = ef_cap_depth(force_N, r, k)
-    if d >= r:                                            # the whole hemisphere
-        return r
-    return math.sqrt(max(2.0 * r * d - d * d, 0.0))
+    return spec_of(scene).expected_contact_radius(scene, force_N, radius_mm)
 
 
 def plateau_mesh_sizes(scene: Scene, radius_mm: float) -> dict[str, float]:

@@ -7,6 +7,7 @@ from collections.abc import Mapping, Sequence
 from fecheck.contact.surface import ContactSurface
 from fecheck.errors import FecheckError
 from fecheck.laws import LawResult
+from fecheck.laws.registry import spec_of
 from fecheck.model.assembly import Compartment
 from fecheck.model.meshing import plateau_mesh_sizes
 from fecheck.model.results import CompartmentResult
@@ -69,14 +70,15 @@ def layer_depth_notes(scene: Scene, compartments: Mapping[str, CompartmentResult
     crushed through and the answer is meaningless, so it raises `FecheckError` naming what
     to change. The volumetric law has no thickness: a note. Hertz: nothing.
     """
-    law, h = scene["contact.law"], scene["contact.thickness_mm"]
+    spec, h = spec_of(scene), scene["contact.thickness_mm"]
+    law = spec.name
     deep = {c: r.max_depth_mm for c, r in compartments.items() if r.max_depth_mm >= h}
-    if not deep or law == "hertz":
+    if not deep or spec.beyond_thickness == "ignore":
         return []
     where = ", ".join(f"{c} {d:.3g} mm" for c, d in deep.items())
-    if law == "volumetric":
-        return [(f"depth {where} ≥ the cartilage thickness {h:g} mm: the volumetric law has "
-                 "no thickness, but the bodies overlap deeper than the cartilage")]
+    if spec.beyond_thickness == "note":
+        return [(f"depth {where} ≥ the cartilage thickness {h:g} mm: the {spec.scene.title} "
+                 "law has no thickness, but the bodies overlap deeper than the cartilage")]
     raise FecheckError(f"the cartilage layer is crushed through: solved depth {where} ≥ "
                        f"contact.thickness_mm = {h:g} mm, where the {law} foundation law does "
                        "not hold; use a stiffer material (contact.youngs_MPa), a thicker "

@@ -32,6 +32,7 @@ from fecheck.model.results import RunResult
 from fecheck.scene import Scene
 from fecheck.scene.constants import GRAVITY_MPS2
 from fecheck.scene.knee import check_side
+from fecheck.scene.law_keys import LAWS
 from fecheck.statics.newton import pose
 from geometry.mesh import TriMesh
 
@@ -222,7 +223,8 @@ def _moduli(scene: Scene) -> list[tuple[str, float, float]]:
     if scene["model.kind"] != "rigid":
         out.append(("contact.youngs_MPa", scene["contact.youngs_MPa"], IMPLANT_E_MPA))
         indenter = scene["contact.indenter_youngs_MPa"]
-        if scene["contact.law"] == "hertz" and math.isfinite(indenter):
+        if "contact.indenter_youngs_MPa" in LAWS[scene["contact.law"]].keys \
+                and math.isfinite(indenter):
             out.append(("contact.indenter_youngs_MPa", indenter, INDENTER_E_MPA))
     return out
 
@@ -231,7 +233,7 @@ def volumetric_error(scene: Scene) -> str:
     """The error on a volumetric stiffness typed in N/m³ (the thesis's unit), or ""."""
     key = "contact.volumetric_stiffness_N_per_mm3"
     k = scene[key]
-    if (scene["model.kind"] == "rigid" or scene["contact.law"] != "volumetric"
+    if (scene["model.kind"] == "rigid" or key not in LAWS[scene["contact.law"]].keys
             or k < ABSURD_VOLUMETRIC_N_PER_MM3):
         return ""
     return (f"{key} = {k:g} N/mm³ would press {k:g} MPa at 1 mm depth, no knee's contact: "

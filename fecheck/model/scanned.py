@@ -34,8 +34,15 @@ from fecheck.contact.analytic import Sphere
 from fecheck.contact.pair import ContactPair
 from fecheck.errors import FecheckError
 from fecheck.laws import layer
+from fecheck.laws.registry import laws_with, spec_of
 from fecheck.model import sphere_plane
-from fecheck.model.assembly import Compartment, applied_load, law_factory, pose_dict
+from fecheck.model.assembly import (
+    Compartment,
+    applied_load,
+    law_factory,
+    law_inputs,
+    pose_dict,
+)
 from fecheck.model.condyles import fit_note, scene_knee
 from fecheck.model.equilibrium import compartment_results, not_converged_note, solve_equilibrium
 from fecheck.model.notes import layer_depth_notes, mesh_resolution_notes, smoothing_notes
@@ -112,18 +119,18 @@ def slave_thickness(scene: Scene, slave) -> np.ndarray:
 
 
 def _law(scene: Scene, slave, radius_mm: float, compartment: str):
-    if scene["contact.law"] == "hertz" and not math.isfinite(radius_mm):
-        raise FecheckError("contact.law = 'hertz' needs a condyle radius, and the femur-tibia "
-                           "model has no sphere: use 'ef', 'blankevoort' or 'volumetric'")
-    if scene["scanned.thickness"] == "uniform" or scene["contact.law"] == "ef-calibrated":
+    """The compartment's law (`fecheck.laws.registry`): over the bone-distance thickness
+    map where the scene asks for it and the law takes one (`LawSpec.per_face`)."""
+    spec = spec_of(scene)
+    if scene["scanned.thickness"] == "uniform":
         return law_factory(scene)(radius_mm, compartment)
-    if scene["contact.law"] != "ef":
+    if spec.per_face is None:
+        names = " or ".join(f"'{n}'" for n in laws_with(lambda s: s.per_face is not None))
         raise FecheckError("scanned.thickness = 'bone-distance' sets a linear EF stiffness "
-                           "per face: use contact.law = 'ef' or 'ef-calibrated' (or "
+                           f"per face: use contact.law = {names} (or "
                            "scanned.thickness = 'uniform')")
-    h = slave_thickness(scene, slave)
-    k = layer.face_ef_stiffness(h, scene["contact.youngs_MPa"], scene["contact.poisson"])
-    return layer.face_elastic_foundation(k)
+    return spec.per_face(law_inputs(scene), lambda: slave_thickness(scene, slave), radius_mm,
+                         compartment)
 
 
 @reusable

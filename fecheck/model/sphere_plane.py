@@ -14,12 +14,12 @@ from collections.abc import Mapping
 
 import numpy as np
 
-from fecheck import laws
 from fecheck.contact.analytic import Sphere
 from fecheck.contact.convex import SpherePlanePair
 from fecheck.contact.pair import ContactPair
 from fecheck.errors import FecheckError
 from fecheck.laws.kernel import warm_up
+from fecheck.laws.registry import spec_of
 from fecheck.model.assembly import (
     Compartment,
     equal_force_constraint,
@@ -54,16 +54,13 @@ def _hertz_point_compartments(scene: Scene) -> list[Compartment]:
     """Closed-form sphere (femur) on plane (tibia) pairs: smooth maximum depth. The
     plateau mesh only draws the pressure and is built on first use, never in the solve."""
     knee = scene.knee
-    e_star = laws.hertz_modulus(scene["contact.youngs_MPa"], scene["contact.poisson"],
-                                scene["contact.indenter_youngs_MPa"],
-                                scene["contact.indenter_poisson"])
+    point_law = spec_of(scene).point(scene)
     out = []
     for c, n in plateau_normals(scene).items():
         centre, r = knee.condyle_center[c], knee.radius_mm(c)
         pair = SpherePlanePair(centre, r, centre - r * n, n,
                                mesh=lambda c=c: plateau_mesh(scene, knee, c))
-        out.append(Compartment(c, pair, lambda s, r=r: laws.hertz_point(s, r, e_star),
-                               True, r))
+        out.append(Compartment(c, pair, lambda s, r=r: point_law(s, r), True, r))
     return out
 
 
@@ -81,7 +78,7 @@ def build_compartments(scene: Scene) -> list[Compartment]:
             "contact.detection = 'auto', 'bvh' or 'fcl'")
     knee = scene.knee
     law = law_factory(scene)
-    note = DEEPEST_VERTEX_NOTE if scene["contact.law"] == "hertz" else ""
+    note = "" if spec_of(scene).local else DEEPEST_VERTEX_NOTE
     out = []
     opts = {"method": scene["contact.detection"], "area": scene["contact.area"],
             "margin_mm": scene["contact.margin_mm"]}
@@ -147,11 +144,9 @@ def run_contact_model(scene: Scene, warm_start: np.ndarray | None = None) -> Run
     notes += not_converged_note(sol)
     notes += (layer_depth_notes(scene, compartments)
               + mesh_resolution_notes(scene, comps, eq.results))
-    if scene["contact.law"] == "blankevoort":
-        deep = [c for c, r in compartments.items()
-                if r.max_depth_mm > laws.BLANKEVOORT_LINEAR_FROM * scene["contact.thickness_mm"]]
-        if deep:
-            notes.append(f"depth beyond 0.9 h in {deep}: the log law was continued linearly")
+    spec = spec_of(scene)
+    if spec.depth_notes is not None:
+        notes += spec.depth_notes(scene, {c: r.max_depth_mm for c, r in compartments.items()})
     contact = eq.contact
     extra = {"evaluations": contact.evaluations,
              "contact_faces": {c.name: c.pair.slave.n_faces for c in comps},
@@ -170,14 +165,11 @@ def run_contact_model(scene: Scene, warm_start: np.ndarray | None = None) -> Run
 
 def exact_reference(scene: Scene, compartments: Mapping[str, CompartmentResult]) -> dict:
     """Closed-form EF values at the solved compartment forces, with deviations (%)."""
+    spec = spec_of(scene)
     if (scene["model.kind"] != "sphere-plane" or scene["plateau.kind"] == "polynomial"
-            or scene["contact.law"] not in ("ef", "volumetric")):
+            or not spec.linear):
         return {}
-    if scene["contact.law"] == "ef":
-        k = laws.ef_stiffness(scene["contact.youngs_MPa"], scene["contact.poisson"],
-                              scene["contact.thickness_mm"])
-    else:
-        k = scene["contact.volumetric_stiffness_N_per_mm3"]
+    k = spec.stiffness(scene)
     out = {}
     knee = scene.knee
     for c, res in compartments.items():

@@ -3,7 +3,8 @@
 A key is inert when no verb (``run``, ``sweep``, ``fe``) reads it for the scene's model,
 law, plateau and options: ``mesh.sphere_subdivisions`` when the condyles are exact
 spheres, ``scanned.*`` on a sphere-plane scene, spring stiffnesses without springs. The
-rules mirror how `fecheck.model` and `fecheck.fe` read each key, in one table, `RULES`;
+rules mirror how `fecheck.model` and `fecheck.fe` read each key, in one table (`rules`;
+the law keys' rules from the declared laws, `fecheck.scene.law_keys`);
 `load_scene` warns (`InertKeyWarning`) for the inert keys a user gave.
 
 >>> from fecheck.scene.load import load_scene
@@ -20,6 +21,7 @@ from typing import Any, Protocol
 
 from fecheck.scene.constants import COMPARTMENTS, LIGAMENTS
 from fecheck.scene.knee import PRESETS
+from fecheck.scene.law_keys import LAWS, readers
 
 MESH_DETECTION = ("bvh", "ray-parity", "fcl")
 """Detection methods that need a mesh master: the analytic surface is meshed instead."""
@@ -43,9 +45,10 @@ Reason = Callable[[SceneValues], "str | None"]
 
 
 def hertz_point_contact(scene: SceneValues) -> bool:
-    """Whether a sphere-plane scene uses the closed-form Hertz point contact (Hertz law,
-    plane plateaus, analytic detection, clipped areas): no mesh enters its solve."""
-    return (scene["contact.law"] == "hertz"
+    """Whether a sphere-plane scene uses the closed-form point contact (a law with a
+    point-contact form, `LawKeys.point_contact`: Hertz; plane plateaus, analytic
+    detection, clipped areas): no mesh enters its solve."""
+    return (LAWS[scene["contact.law"]].point_contact
             and scene["plateau.kind"] in ("transverse", "inclined")
             and scene["contact.detection"] not in MESH_DETECTION
             and scene["contact.area"] == "clipped")
@@ -105,13 +108,24 @@ def _no_margin(scene: SceneValues) -> str | None:
     return None
 
 
-def _law_is_not(law: str, title: str) -> Reason:
+def _law_does_not_read(key: str) -> Reason:
     def reason(scene: SceneValues) -> str | None:
-        if scene["contact.law"] != law:
-            return f"contact.law = '{scene['contact.law']}' (only the {title} law reads it)"
-        return None
+        law = scene["contact.law"]
+        if key in LAWS[law].keys:
+            return None
+        titles = [r.title for r in readers(key)]
+        which = (f"the {titles[0]} law reads" if len(titles) == 1
+                 else f"the {', '.join(titles[:-1])} and {titles[-1]} laws read")
+        return f"contact.law = '{law}' (only {which} it)"
 
     return reason
+
+
+def law_rules() -> tuple[tuple[tuple[str, ...], Reason], ...]:
+    """One rule per key that some declared law reads (`fecheck.scene.law_keys`): inert
+    under a law that does not read it."""
+    keys = dict.fromkeys(k for law in LAWS.values() for k in law.keys)
+    return tuple(((k,), _law_does_not_read(k)) for k in keys)
 
 
 def _rigid_indenter(scene: SceneValues) -> str | None:
@@ -245,17 +259,17 @@ _CONTACT_KEYS = ("contact.law", "contact.area", "contact.master", "contact.detec
 _SOLVER_KEYS = ("solver.start_gap_mm", "solver.max_iterations", "solver.tolerance")
 _SPRING_KEYS = ("ligaments.transition_strain",) + tuple(
     f"ligaments.{n}.{p}" for n in LIGAMENTS for p in ("stiffness_N", "reference_strain"))
-_INDENTER_KEYS = ("contact.indenter_youngs_MPa", "contact.indenter_poisson")
 
-RULES: tuple[tuple[tuple[str, ...], Reason], ...] = (
+_LEADING_RULES: tuple[tuple[tuple[str, ...], Reason], ...] = (
     (_MESH_KEYS + _CONTACT_KEYS + _SOLVER_KEYS, _rigid),
     (("mesh.sphere_subdivisions", "mesh.method"), _condyle_not_meshed),
     (_PLATEAU_MESH_KEYS, _plateau_not_meshed),
     (("contact.master",), _master_fixed),
     (("contact.margin_mm",), _no_margin),
-    (("contact.volumetric_stiffness_N_per_mm3",), _law_is_not("volumetric", "volumetric")),
-    (("contact.calibration",), _law_is_not("ef-calibrated", "calibrated EF")),
-    (_INDENTER_KEYS, _law_is_not("hertz", "Hertz")),
+)
+"""The rules that come before the laws' (`law_rules`)."""
+
+RULES: tuple[tuple[tuple[str, ...], Reason], ...] = (
     (("contact.indenter_poisson",), _rigid_indenter),
     (tuple(f"plateau.{c}_angles_deg" for c in COMPARTMENTS),
      _plateau_is_not("inclined", "slope angles")),
@@ -279,7 +293,13 @@ RULES: tuple[tuple[tuple[str, ...], Reason], ...] = (
     (("fe.axisym_size_mm",), _no_axisymmetric),
 )
 """(keys, reason): the keys have no effect in a scene where ``reason(scene)`` is not None.
-The first rule that applies to a key gives its reason."""
+The first rule that applies to a key gives its reason (`rules`: `_LEADING_RULES`, then the
+laws' rules, then these)."""
+
+
+def rules() -> tuple[tuple[tuple[str, ...], Reason], ...]:
+    """Every rule, in order: `_LEADING_RULES`, `law_rules` (from the declared laws), `RULES`."""
+    return _LEADING_RULES + law_rules() + RULES
 
 
 def inert_keys(scene: SceneValues, given_keys: Iterable[str]) -> list[tuple[str, str]]:
@@ -287,7 +307,7 @@ def inert_keys(scene: SceneValues, given_keys: Iterable[str]) -> list[tuple[str,
     given (each key once)."""
     out = []
     for key in dict.fromkeys(given_keys):
-        for keys, reason in RULES:
+        for keys, reason in rules():
             why = reason(scene) if key in keys else None
             if why:
                 out.append((key, why))

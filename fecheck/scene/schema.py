@@ -20,6 +20,7 @@ from typing import Any
 
 from fecheck.scene.constants import DOF_NAMES, MODEL_KINDS
 from fecheck.scene.knee import PRESETS
+from fecheck.scene.law_keys import law_doc, law_names
 
 
 @dataclass(frozen=True)
@@ -212,16 +213,7 @@ SCHEMA: dict[str, Key] = {
         "Lateral plateau surface for plateau.kind = 'polynomial': z = Σ c[i][j] x^i y^j, "
         "mm, tibia frame (see plateau.medial_coefficients).",
         unit="mm", example=[[-6.0, 0.0], [-0.01, 0.0]]),
-    "contact.law": Key(
-        "str", "ef",
-        "Contact law: 'ef' = linear elastic foundation (thesis eq. 4.1-4.3, stiffness from "
-        "contact.youngs_MPa, contact.poisson and contact.thickness_mm), 'hertz' (eq. "
-        "4.4-4.8, from the maximum depth), 'volumetric' (eq. 4.9, stiffness "
-        "contact.volumetric_stiffness_N_per_mm3), 'blankevoort' = the nonlinear foundation "
-        "of Blankevoort et al. 1991, 'ef-calibrated' = a foundation p = C·d·(d + 0.01 "
-        "mm)^(n−1) fitted to FE: per compartment from contact.calibration, or for condyle "
-        "spheres on a uniform layer from the built-in table of axisymmetric FE.",
-        choices=("ef", "hertz", "volumetric", "blankevoort", "ef-calibrated")),
+    "contact.law": Key("str", "ef", law_doc(), choices=law_names()),
     "contact.calibration": Key(
         "str", "",
         "Calibration file of contact.law = 'ef-calibrated', written by `fecheck calibrate "
