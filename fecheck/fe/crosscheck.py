@@ -193,7 +193,10 @@ def ef_metrics(res: CompartmentResult, rot: np.ndarray, t: np.ndarray) -> SideMe
 
 
 def _on_ef_faces(layer: FELayer, pressure: np.ndarray) -> np.ndarray:
-    """FE vertex pressure averaged onto the EF faces (over each face's FE children)."""
+    """FE vertex pressure averaged onto the EF faces (over each face's FE children), or
+    interpolated at their centroids from a prepared sheet."""
+    if layer.to_ef is not None:
+        return layer.to_ef @ pressure
     face = pressure[layer.surface.faces].mean(axis=1)
     n = layer.body.surface.n_faces
     total = np.bincount(layer.parent, weights=face * layer.surface.face_areas, minlength=n)
