@@ -15,16 +15,17 @@ a femoral condyle), so it is prepared as one:
    three corners lie inside a projected kept face (the sheet's outline, to a lattice
    step);
 3. the heights h over the lattice vertices solve the smoothing problem
-   min Σ_i (h(u_i) − z_i)² + λ Σ_v (Δh)_v² over samples (u_i, z_i) of the kept faces
-   (their vertices, split at edge midpoints until the edges are at most half the lattice
-   step, so that every lattice triangle holds samples)
-   (h linear on the lattice triangles, Δ the lattice's graph Laplacian at the vertices
-   with a full ring of six triangles, zero on any plane, so planes are kept): a discrete
-   smoothing spline whose length scale ``smooth_mm`` sets λ = ρ (smooth_mm / size)⁴
-   (ρ samples per lattice vertex): with Δ ≈ 1.5 size² ∇² on the lattice this is the
-   discretisation of ∫ (h − z)² + 2.25 smooth_mm⁴ (∇²h)² per unit sample density, the
-   same surface whatever ``size_mm``; shapes much longer than ``smooth_mm`` are kept and
-   voxel terraces (steps of one voxel) are smoothed out.
+   min Σ_i (h(u_i) − z_i)² + λ Σ_t (h_a − 2 h_b + h_c)_t² over samples (u_i, z_i) of
+   the kept faces (their vertices, split at edge midpoints until the edges are at most
+   half the lattice step, so that every lattice triangle holds samples; h linear on the
+   lattice triangles) and every three consecutive lattice vertices (a, b, c) on a line
+   of the lattice (second differences: zero on any plane, so planes are kept, and every
+   vertex is held, even at a ragged edge): a discrete smoothing spline whose length
+   scale ``smooth_mm`` sets λ = 3 ρ (smooth_mm / size)⁴ (ρ samples per lattice vertex),
+   the discretisation of ∫ (h − z)² + smooth_mm⁴ Σ_d (∂²h/∂d²)² per unit sample density
+   (d the three lattice directions, times 3): the same surface whatever ``size_mm``;
+   shapes much longer than ``smooth_mm`` are kept and voxel terraces (steps of one voxel)
+   are smoothed out.
 
 The result's triangles are all equilateral in the plane (60° angles there; tilted by
 at most ``max_tilt_deg`` in space); `transfer` interpolates values between the sheet
@@ -48,6 +49,10 @@ MAX_TILT_DEG = 65.0
 """Faces whose normal turns further than this from the sheet's axis are trimmed (rims)."""
 SMOOTH_MM = 1.0
 """Default smoothing length of `prepare_sheet`, mm."""
+BENDING = 3.0
+"""Weight of the second differences along the three lattice directions, so that their
+sum, 3 c² size⁴ for a surface of curvature c in every direction, matches the squared
+graph Laplacian's, (1.5 size² ∇²h)² = 9 c² size⁴ (the smoothing measured first)."""
 NEAREST = 16
 """Projected kept faces searched for each lattice vertex's inside test."""
 
@@ -111,7 +116,7 @@ def prepare_sheet(sheet: TriMesh, size_mm: float, *, axis: np.ndarray | None = N
     frame = _frame(a)
     origin = sheet.points[sheet.faces[keep]].reshape(-1, 3).mean(axis=0)
     uv = (sheet.points - origin) @ frame.T
-    lattice, lattice_faces = _lattice(uv[sheet.faces[keep]].reshape(-1, 2), size_mm)
+    lattice, lattice_faces, lines = _lattice(uv[sheet.faces[keep]].reshape(-1, 2), size_mm)
     inside = _inside(lattice, uv, sheet.faces[keep])
     faces = lattice_faces[inside[lattice_faces].all(axis=1)]
     if len(faces) == 0:
@@ -121,10 +126,12 @@ def prepare_sheet(sheet: TriMesh, size_mm: float, *, axis: np.ndarray | None = N
     remap = np.full(len(lattice), -1)
     remap[used] = np.arange(len(used))
     lattice, faces = lattice[used], remap[faces]
+    lines = remap[lines]
+    lines = lines[(lines >= 0).all(axis=1)]
     dense, _ = subdivide(TriMesh(sheet.points, sheet.faces[keep]), _splits(sheet, size_mm))
     rel = dense.points[np.unique(dense.faces)] - origin
     suv, sz = rel @ frame.T, rel @ a
-    h = _smooth_heights(lattice, faces, suv, sz, size_mm,
+    h = _smooth_heights(lattice, faces, lines, suv, sz, size_mm,
                         smooth_mm)
     points = origin + lattice @ frame + h[:, None] * a
     mesh = TriMesh(points, faces)
@@ -147,9 +154,11 @@ def _frame(a: np.ndarray) -> np.ndarray:
     return np.stack([e1, np.cross(a, e1)])
 
 
-def _lattice(uv: np.ndarray, size: float) -> tuple[np.ndarray, np.ndarray]:
+def _lattice(uv: np.ndarray, size: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Equilateral lattice of side `size` covering the points uv (k, 2): its vertices (n, 2)
-    and counter-clockwise triangles (m, 3)."""
+    (row j of vertices (i, j), i·ny + j, shifted by half a step on odd rows), its
+    counter-clockwise triangles (m, 3) and its lines (t, 3): every three consecutive
+    vertices on a line of the lattice (rows, and both diagonals)."""
     lo, hi = uv.min(axis=0) - size, uv.max(axis=0) + size
     dy = size * np.sqrt(3.0) / 2
     nx, ny = int(np.ceil((hi[0] - lo[0]) / size)) + 2, int(np.ceil((hi[1] - lo[1]) / dy)) + 1
@@ -166,7 +175,23 @@ def _lattice(uv: np.ndarray, size: float) -> tuple[np.ndarray, np.ndarray]:
                   np.column_stack([p00, p11, p01]))
     t2 = np.where(even[:, None], np.column_stack([p10, p11, p01]),
                   np.column_stack([p00, p10, p11]))
-    return pts, np.concatenate([t1, t2])
+    return pts, np.concatenate([t1, t2]), _lines(nx, ny)
+
+
+def _lines(nx: int, ny: int) -> np.ndarray:
+    """(t, 3) consecutive vertex triples (previous, middle, next) on the lattice's lines."""
+    i, j = np.meshgrid(np.arange(nx), np.arange(ny), indexing="ij")
+    i, j = i.ravel(), j.ravel()
+    odd = j % 2
+    steps = [((i - 1, j), (i + 1, j)),                              # along the rows
+             ((i - 1 + odd, j - 1), (i + odd, j + 1)),              # up-right diagonal
+             ((i + odd, j - 1), (i - 1 + odd, j + 1))]              # up-left diagonal
+    out = []
+    for (pi, pj), (qi, qj) in steps:
+        ok = (pi >= 0) & (pi < nx) & (pj >= 0) & (pj < ny) & (qi >= 0) & (qi < nx) \
+            & (qj >= 0) & (qj < ny)
+        out.append(np.column_stack([pi * ny + pj, i * ny + j, qi * ny + qj])[ok])
+    return np.concatenate(out)
 
 
 def _inside(points: np.ndarray, uv: np.ndarray, faces: np.ndarray) -> np.ndarray:
@@ -198,9 +223,24 @@ def _bary2(tri: np.ndarray, p: np.ndarray) -> np.ndarray:
 
 
 def plane_interpolation(points: np.ndarray, faces: np.ndarray, query: np.ndarray
-                   ) -> sp.csr_matrix:
+                        ) -> sp.csr_matrix:
     """(k, n) barycentric interpolation from a 2-D triangulation's vertex values to the
     query points (k, 2); the nearest vertex for points outside it."""
+    from scipy.spatial import cKDTree
+
+    face, w, inside = _locate(points, faces, query)
+    _, nearest = cKDTree(points).query(query)
+    cols = np.where(inside[:, None], faces[face], nearest[:, None])
+    vals = np.where(inside[:, None], w, np.array([1.0, 0.0, 0.0]))
+    rows = np.repeat(np.arange(len(query)), 3)
+    return sp.csr_matrix((vals.ravel(), (rows, cols.ravel())),
+                         shape=(len(query), len(points)))
+
+
+def _locate(points: np.ndarray, faces: np.ndarray, query: np.ndarray
+            ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """For each query point (k, 2): the triangle of a 2-D triangulation it lies in (or
+    comes closest to), its barycentric coordinates there (k, 3), and whether it is inside."""
     from scipy.spatial import cKDTree
 
     tri = points[faces]
@@ -211,29 +251,23 @@ def plane_interpolation(points: np.ndarray, faces: np.ndarray, query: np.ndarray
     worst = bary.min(axis=2)
     best = np.argmax(worst, axis=1)
     rows = np.arange(len(query))
-    inside = worst[rows, best] >= -1e-9
-    face = near[rows, best]
-    w = bary[rows, best]
-    _, nearest = cKDTree(points).query(query)
-    cols = np.where(inside[:, None], faces[face], nearest[:, None])
-    vals = np.where(inside[:, None], w, np.array([1.0, 0.0, 0.0]))
-    return sp.csr_matrix((vals.ravel(), (np.repeat(rows, 3), cols.ravel())),
-                         shape=(len(query), len(points)))
+    return near[rows, best], bary[rows, best], worst[rows, best] >= -1e-9
 
 
-def _smooth_heights(lattice: np.ndarray, faces: np.ndarray, uv: np.ndarray, z: np.ndarray,
-                    size: float, smooth: float) -> np.ndarray:
+def _smooth_heights(lattice: np.ndarray, faces: np.ndarray, lines: np.ndarray,
+                    uv: np.ndarray, z: np.ndarray, size: float, smooth: float) -> np.ndarray:
     """Heights at the lattice vertices: the discrete smoothing spline of the samples
-    (uv, z) (module docstring, step 3)."""
+    (uv, z) that fall on the lattice (module docstring, step 3)."""
     from scipy.sparse.linalg import spsolve
 
     n = len(lattice)
-    A = plane_interpolation(lattice, faces, uv)
-    edges = np.unique(np.sort(faces[:, [0, 1, 1, 2, 2, 0]].reshape(-1, 2), axis=1), axis=0)
-    adj = sp.csr_matrix((np.ones(2 * len(edges)), (edges.ravel(), edges[:, ::-1].ravel())),
-                        shape=(n, n))
-    interior = np.bincount(faces.ravel(), minlength=n) == 6       # a full ring of triangles
-    lap = (sp.diags(np.asarray(adj.sum(axis=1)).ravel()) - adj)[interior]
-    lam = len(z) / n * (smooth / size) ** 4
-    lhs = (A.T @ A + lam * (lap.T @ lap) + 1e-9 * sp.identity(n)).tocsc()
-    return np.asarray(spsolve(lhs, A.T @ z)).ravel()
+    face, w, inside = _locate(lattice, faces, uv)
+    rows = np.repeat(np.arange(int(inside.sum())), 3)
+    A = sp.csr_matrix((w[inside].ravel(), (rows, faces[face[inside]].ravel())),
+                      shape=(int(inside.sum()), n))
+    rows = np.repeat(np.arange(len(lines)), 3)
+    D = sp.csr_matrix((np.tile([1.0, -2.0, 1.0], len(lines)), (rows, lines.ravel())),
+                      shape=(len(lines), n))
+    lam = BENDING * inside.sum() / n * (smooth / size) ** 4
+    lhs = (A.T @ A + lam * (D.T @ D) + 1e-9 * sp.identity(n)).tocsc()
+    return np.asarray(spsolve(lhs, A.T @ z[inside])).ravel()
