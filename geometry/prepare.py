@@ -47,7 +47,7 @@ from geometry.subdivide import subdivide
 
 MAX_TILT_DEG = 65.0
 """Faces whose normal turns further than this from the sheet's axis are trimmed (rims)."""
-SMOOTH_MM = 1.0
+SMOOTH_MM = 2.0
 """Default smoothing length of `prepare_sheet`, mm."""
 BENDING = 3.0
 """Weight of the second differences along the three lattice directions, so that their

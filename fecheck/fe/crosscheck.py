@@ -121,7 +121,8 @@ class CompartmentCheck:
                 "vertices_in_contact": int(self.active.sum()),
                 "fe_geometry": {"tibial_surface": self.layer.body.tibial_surface,
                                 "femoral_surface": self.layer.body.femoral_surface,
-                                "smoothing_rounds": self.layer.smoothing_rounds},
+                                "smoothing_rounds": self.layer.smoothing_rounds,
+                                "prepared_sheet": self.layer.to_ef is not None},
                 "axisym": None if self.axisym is None else self.axisym.as_dict(),
                 "fe_vs_axisym": self.deviation(),
                 "ef_closed_form": metrics(self.ef_closed_form), "hertz": metrics(self.hertz),
@@ -360,6 +361,12 @@ def cross_check(scene: Scene, *, mode: str | None = None, refine: int | None = N
               "fe": t3 - t1}
     timing["ef_over_fe"] = ef_seconds / timing["fe"]
     notes = [DONAHUE_NOTE]
+    prepared = [lay.body.name for lay in layers if lay.to_ef is not None]
+    if prepared:
+        notes.insert(0, f"the FE meshes prepared sheets ({', '.join(prepared)}: rims trimmed, "
+                        f"remeshed at fe.size_mm {settings.size_mm:g} mm, smoothed over "
+                        f"fe.smooth_mm {settings.smooth_mm:g} mm, with the femoral surface "
+                        "above), its pressures interpolated onto the EF faces")
     if geometry["thickness_source"] == "bone-distance":
         notes.insert(0, "one deformable layer on the tibia with the EF's series thickness "
                         "(tibial + femoral cartilage, from the bone distances) under a rigid "

@@ -2,9 +2,10 @@
 rigid-body unknowns that drive them, and the load-controlled solve.
 
 `build_layers` extrudes each body's tibial surface into a bonded layer, along normals
-smoothed just enough that no prism inverts; with `fe.refine` the surface is split and
-the coarse layer's bottom interpolated onto it, so the refined layer is the coarse one
-subdivided (same geometry, never inverted). A `Drive` is
+smoothed just enough that no prism inverts (a sheet that no smoothing extrudes, e.g. a
+segmentation's, is prepared first with ``fe.prepare``: `prepared_body`); with
+`fe.refine` the surface is split and the coarse layer's bottom interpolated onto it, so
+the refined layer is the coarse one subdivided (same geometry, never inverted). A `Drive` is
 the tibia's motion: the scene's free DOFs under its load, gravity and ligament springs
 (`joint_drive`), or one compartment pushed along a given force (`push_drive`).
 `solve_pressed` condenses the layers onto the surface vertices near the femoral surface,
