@@ -106,10 +106,11 @@ def test_voxel_knee_fe_matches_the_smooth_knee(tmp_path):
     the FE of the smooth knee it was voxelized from, at the same settings (the same
     imported scene naming the smooth files, its sheets prepared the same way).
 
-    Tolerances: the voxel sheets keep terraces of up to half a voxel (0.3 mm) that the
-    1 mm smoothing (fe.smooth_mm) reduces but does not remove; validation/fe_segmented.py
-    measures the deviation at three element sizes (0.5 mm voxels: within 9 % on the
-    face-averaged p_max and 8 % on the area): 12 % and 10 % here, at 2 mm elements."""
+    Tolerance 5 % on the face-averaged p_max and the area (the acceptance bound of the
+    voxelized knees): the voxel sheets keep terraces of up to half a voxel (0.3 mm) that
+    the 2 mm smoothing (fe.smooth_mm) reduces; validation/fe_segmented.py measures the
+    deviation at three element sizes on 0.5 mm voxels. With fe.smooth_mm = 1 mm the
+    terraces leave -14 % on p_max there, and this test fails."""
     smooth = tmp_path / "smooth"
     smooth.mkdir()
     write_mesh(femur_mesh(), smooth / "femur.stl")
@@ -123,8 +124,8 @@ def test_voxel_knee_fe_matches_the_smooth_knee(tmp_path):
     assert all(c.layer.to_ef is not None for c in chk.compartments.values())
     area = np.array([c.fe.area_mm2 for c in chk.compartments.values()])
     ref_area = np.array([c.fe.area_mm2 for c in ref.compartments.values()])
-    assert np.all(np.abs(_face_peak(chk) / _face_peak(ref) - 1) < 0.12)
-    assert np.all(np.abs(area / ref_area - 1) < 0.10)
+    assert np.all(np.abs(_face_peak(chk) / _face_peak(ref) - 1) < 0.05)
+    assert np.all(np.abs(area / ref_area - 1) < 0.05)
     # the FE pressure carried back onto the raw EF faces carries the FE force
     for c in chk.compartments.values():
         carried = float(c.fe_face_pressure_MPa @ c.layer.body.surface.face_areas)
