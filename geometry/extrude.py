@@ -133,18 +133,39 @@ def extrusion_directions(surface: TriMesh, thickness_mm: float | np.ndarray, *,
     depth = level_fractions(layers, ratio)
     tets, expected = _prisms(surface.faces, n, layers)
     ring = _ring_average(surface.faces, n)
-    d, done, bad = normals.copy(), 0, 0
+    d, done, bad = normals.copy(), 0, np.zeros(surface.n_faces, dtype=bool)
     for rounds in _schedule(int(max_rounds)):
         for _ in range(rounds - done):
             d = _normalised(ring @ d)
         done = rounds
         points = _levels(surface.points, _offsets(h, normals, d), depth)
-        bad = int(_inverted(points, tets, expected).reshape(-1, 3).any(axis=1).sum())
-        if bad == 0:
+        bad = _inverted(points, tets, expected).reshape(layers, -1, 3).any(axis=(0, 2))
+        if not bad.any():
             return d, rounds
-    raise FecheckError(f"{bad} of {layers * surface.n_faces} prisms of the extruded layer stay "
-                       f"inverted after {done} rounds of normal smoothing: use a thinner "
-                       "layer, or a smoother or finer surface")
+    where = surface.points[surface.faces[bad]].mean(axis=1)
+    worst = densest(where)
+    raise ExtrusionError(f"{int(bad.sum())} of {surface.n_faces} faces extrude into "
+                         f"inverted prisms after {done} rounds of normal smoothing (e.g. "
+                         f"the face at ({worst[0]:.1f}, {worst[1]:.1f}, {worst[2]:.1f}) mm): "
+                         "use a thinner layer, or a smoother or finer surface", where)
+
+
+def densest(points: np.ndarray, radius_mm: float = 2.0) -> np.ndarray:
+    """(3,) the point of `points` (k, 3) with the most others within `radius_mm`: where a
+    cluster of them is, mm."""
+    from scipy.spatial import cKDTree
+
+    counts = cKDTree(points).query_ball_point(points, radius_mm, return_length=True)
+    return points[int(np.argmax(counts))]
+
+
+class ExtrusionError(FecheckError):
+    """A surface that no smoothing of its normals extrudes without inverted prisms;
+    `where` (k, 3): the centroids of its faces that invert, mm."""
+
+    def __init__(self, message: str, where: np.ndarray):
+        super().__init__(message)
+        self.where = where
 
 
 def _schedule(max_rounds: int) -> list[int]:

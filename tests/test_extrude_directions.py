@@ -95,8 +95,9 @@ def test_a_layer_thicker_than_the_sphere_cannot_be_mended():
     # a closed sphere of radius 5 mm, 6 mm deep: the bottom level crosses the centre
     # whatever the smoothing (by symmetry the directions stay radial)
     ball = icosphere(5.0, 2, method="trimesh", cache=False)
-    with pytest.raises(FecheckError, match=r"320 of 640 prisms .* stay inverted after 1024 "
-                                           r"rounds .*thinner layer, or a smoother or finer"):
+    with pytest.raises(FecheckError, match=r"320 of 320 faces extrude into inverted prisms "
+                                           r"after 1024 rounds .* at \(.*\) mm\): use a "
+                                           r"thinner layer, or a smoother or finer"):
         extrusion_directions(ball, 6.0, layers=2)
     with pytest.raises(FecheckError, match="after 5 rounds"):
         extrusion_directions(ball, 6.0, layers=2, max_rounds=5)

@@ -176,6 +176,7 @@ def test_keys_declared_inert_leave_the_baseline_answer_unchanged():
     (["model.kind='femur-tibia'", "geometry.tibia_lateral='l.stl'"], "geometry.tibia_split",
      True),
     ([], "fe.size_mm", False),
+    (["fe.prepare=off"], "fe.smooth_mm", True),
     ([], "dofs.x_mm", False),
 ])
 def test_inert_key_rules(overrides, key, inert):

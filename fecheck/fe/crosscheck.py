@@ -139,7 +139,8 @@ class CompartmentCheck:
                 "vertices_in_contact": int(self.active.sum()),
                 "fe_geometry": {"tibial_surface": self.layer.body.tibial_surface,
                                 "femoral_surface": self.layer.body.femoral_surface,
-                                "smoothing_rounds": self.layer.smoothing_rounds},
+                                "smoothing_rounds": self.layer.smoothing_rounds,
+                                "prepared_sheet": self.layer.to_ef is not None},
                 "axisym": None if self.axisym is None else self.axisym.as_dict(),
                 "fe_vs_axisym": self.deviation(),
                 "ef_closed_form": metrics(self.ef_closed_form), "hertz": metrics(self.hertz),
@@ -213,7 +214,10 @@ def ef_metrics(res: CompartmentResult, rot: np.ndarray, t: np.ndarray) -> SideMe
 
 
 def _on_ef_faces(layer: FELayer, pressure: np.ndarray) -> np.ndarray:
-    """FE vertex pressure averaged onto the EF faces (over each face's FE children)."""
+    """FE vertex pressure averaged onto the EF faces (over each face's FE children), or
+    interpolated at their centroids from a prepared sheet."""
+    if layer.to_ef is not None:
+        return layer.to_ef @ pressure
     face = pressure[layer.surface.faces].mean(axis=1)
     n = layer.body.surface.n_faces
     total = np.bincount(layer.parent, weights=face * layer.surface.face_areas, minlength=n)
@@ -420,6 +424,12 @@ def cross_check(scene: Scene, *, mode: str | None = None, refine: int | None = N
               "fe": t3 - t1}
     timing["ef_over_fe"] = ef_seconds / timing["fe"]
     notes = [DONAHUE_NOTE]
+    prepared = [lay.body.name for lay in layers if lay.to_ef is not None]
+    if prepared:
+        notes.insert(0, f"the FE meshes prepared sheets ({', '.join(prepared)}: rims trimmed, "
+                        f"remeshed at fe.size_mm {settings.size_mm:g} mm, smoothed over "
+                        f"fe.smooth_mm {settings.smooth_mm:g} mm, with the femoral surface "
+                        "above), its pressures interpolated onto the EF faces")
     notes[:0] = smoothing_notes(scene)
     if geometry["thickness_source"] == "bone-distance":
         notes.insert(0, "one deformable layer on the tibia with the EF's series thickness "

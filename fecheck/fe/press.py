@@ -2,9 +2,10 @@
 rigid-body unknowns that drive them, and the load-controlled solve.
 
 `build_layers` extrudes each body's tibial surface into a bonded layer, along normals
-smoothed just enough that no prism inverts; with `fe.refine` the surface is split and
-the coarse layer's bottom interpolated onto it, so the refined layer is the coarse one
-subdivided (same geometry, never inverted). A `Drive` is
+smoothed just enough that no prism inverts (a sheet that no smoothing extrudes, e.g. a
+segmentation's, is prepared first with ``fe.prepare``: `prepared_body`); with
+`fe.refine` the surface is split and the coarse layer's bottom interpolated onto it, so
+the refined layer is the coarse one subdivided (same geometry, never inverted). A `Drive` is
 the tibia's motion: the scene's free DOFs under its load, gravity and ligament springs
 (`joint_drive`), or one compartment pushed along a given force (`push_drive`).
 `solve_pressed` condenses the layers onto the surface vertices near the femoral surface,
@@ -17,21 +18,24 @@ from __future__ import annotations
 
 import math
 from collections.abc import Callable, Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
+import scipy.sparse as sp
 
 from fecheck.errors import FecheckError
 from fecheck.fe.bodies import FEBody
 from fecheck.fe.budget import guard_layers
+from fecheck.fe.indenter import MeshIndenter
 from fecheck.fe.joint import ContactLayer, JointContact, JointSolution
 from fecheck.fe.settings import FESettings
 from fecheck.fe.solid import LayerSolid, layer_solid, release_freed_heap
 from fecheck.model.assembly import applied_load, free_indices
 from fecheck.scene import Scene
 from fecheck.statics.newton import geometric_tangent, pose, twist_basis
-from geometry.extrude import extrusion_directions, extrusion_offsets
+from geometry.extrude import ExtrusionError, densest, extrusion_directions, extrusion_offsets
 from geometry.mesh import TriMesh
+from geometry.prepare import PreparedSheet, plane_interpolation, prepare_sheet
 from geometry.subdivide import subdivide
 
 PENETRATION_TOL_MM = 1e-6
@@ -41,35 +45,48 @@ MAX_CANDIDATES = 6000
 are 0.3 GB)."""
 MAX_CANDIDATE_ROUNDS = 3
 """Times the contact candidates are widened when a vertex outside them penetrates."""
+FEMUR_MARGIN_MM = 5.0
+"""A prepared femoral surface covers its tibial sheet's outline plus this margin, mm."""
 
 
 @dataclass(frozen=True, eq=False)
 class FELayer:
     """One compartment's FE layer: its body, the FE surface (the body's surface split
-    `refine` times; `parent` maps each FE face to its EF face) and the assembled solid."""
+    `refine` times; `parent` maps each FE face to its EF face) and the assembled solid.
+    With a prepared sheet (``fe.prepare``) the FE surface is the prepared sheet split
+    `refine` times, `parent` maps to the prepared faces, `to_ef` (n_ef_faces, n_fe)
+    interpolates FE vertex values onto the EF faces' centroids and `prepared_indenter`
+    (a prepared femoral surface, or None) presses the layer instead of the body's."""
 
     body: FEBody
     surface: TriMesh
     parent: np.ndarray
     solid: LayerSolid
     smoothing_rounds: int
+    to_ef: sp.csr_matrix | None = None
+    prepared_indenter: MeshIndenter | None = None
+
+    @property
+    def indenter(self):
+        """The femoral surface that presses the layer (world frame)."""
+        return self.body.indenter if self.prepared_indenter is None else self.prepared_indenter
 
 
-def _refined(body: FEBody, times: int, offsets: np.ndarray
+def _refined(coarse: TriMesh, thickness: np.ndarray, times: int, offsets: np.ndarray
              ) -> tuple[TriMesh, np.ndarray, np.ndarray, np.ndarray]:
-    """The body's surface split `times` times, its parent faces, and the thickness and
+    """The `coarse` surface split `times` times, its parent faces, and the thickness and
     extrusion offsets interpolated linearly onto the new vertices (so the refined layer
     is the coarse layer subdivided: it cannot invert where the coarse one does not)."""
-    surface, parent = subdivide(body.surface, times)
-    values = np.column_stack([body.thickness_mm, offsets])               # (n, 4)
+    surface, parent = subdivide(coarse, times)
+    values = np.column_stack([thickness, offsets])                        # (n, 4)
     out = np.empty((surface.n_points, 4))
-    out[:body.surface.n_points] = values
+    out[:coarse.n_points] = values
     if times:
-        corners = body.surface.points[body.surface.faces[parent]]          # (m, 3, 3)
+        corners = coarse.points[coarse.faces[parent]]                     # (m, 3, 3)
         bary = _barycentric(corners, surface.points[surface.faces])       # (m, 3, 3)
-        inner = np.einsum("mkj,mjc->mkc", bary, values[body.surface.faces[parent]])
+        inner = np.einsum("mkj,mjc->mkc", bary, values[coarse.faces[parent]])
         out[surface.faces.ravel()] = inner.reshape(-1, 4)
-        out[:body.surface.n_points] = values
+        out[:coarse.n_points] = values
     return surface, parent, out[:, 0], out[:, 1:]
 
 
@@ -91,24 +108,101 @@ def _barycentric(tri: np.ndarray, pts: np.ndarray) -> np.ndarray:
 
 def build_layers(bodies: Sequence[FEBody], youngs_MPa: float, poisson: float,
                  settings: FESettings, log: Callable[[str], None]) -> list[FELayer]:
-    """Extrude and assemble every compartment's layer (the costly setup before contact),
-    refused first when it would not fit (`fecheck.fe.budget.guard_layers`)."""
+    """Extrude and assemble every compartment's layer (the costly setup before contact):
+    on the EF faces, or on prepared sheets (``fe.prepare``); refused first when it would
+    not fit (`fecheck.fe.budget.guard_layers`)."""
     guard_layers(bodies, settings, poisson)
     out = []
+    levels = settings.levels(poisson)
     for body in bodies:
-        levels = settings.levels(poisson)
-        directions, rounds = extrusion_directions(body.surface, body.thickness_mm,
-                                                  layers=levels, ratio=settings.grading)
-        offsets = extrusion_offsets(body.surface, body.thickness_mm, directions)
-        surface, parent, h, offsets = _refined(body, settings.refine, offsets)
+        sheet, prepared = body, None
+        directions, rounds = None, 0
+        if settings.prepare != "on":
+            try:
+                directions, rounds = extrusion_directions(
+                    body.surface, body.thickness_mm, layers=levels, ratio=settings.grading)
+            except ExtrusionError as err:
+                if settings.prepare == "off":
+                    raise _extrusion_failure(body, err, settings) from None
+        if directions is None:
+            sheet, prepared = prepared_body(body, settings.size_mm, settings.smooth_mm)
+            log(f"{body.name}: the FE meshes a prepared sheet of {sheet.surface.n_faces} faces "
+                f"of {settings.size_mm:g} mm ({prepared.trimmed_faces} rim or sliver faces "
+                f"of {body.surface.n_faces} trimmed)")
+            try:
+                directions, rounds = extrusion_directions(
+                    sheet.surface, sheet.thickness_mm, layers=levels, ratio=settings.grading)
+            except ExtrusionError as err:
+                raise _extrusion_failure(body, err, settings) from None
+        offsets = extrusion_offsets(sheet.surface, sheet.thickness_mm, directions)
+        surface, parent, h, offsets = _refined(sheet.surface, sheet.thickness_mm,
+                                               settings.refine, offsets)
         solid = layer_solid(surface, h, youngs_MPa, poisson, layers=levels,
                             ratio=settings.grading, offsets=offsets)
         release_freed_heap()
         log(f"{body.name}: layer of {len(solid.mesh.tets)} quadratic tetrahedra, "
             f"{solid.n_dofs} dofs, thickness {h.min():.2f}-{h.max():.2f} mm"
             + (f" (extruded along normals smoothed {rounds} times)" if rounds else ""))
-        out.append(FELayer(body, surface, parent, solid, rounds))
+        to_ef = None
+        if prepared is not None:
+            ef = body.surface
+            to_ef = prepared.transfer(ef.points[ef.faces].mean(axis=1), surface)
+        out.append(FELayer(body, surface, parent, solid, rounds, to_ef,
+                           None if sheet.indenter is body.indenter else sheet.indenter))
     return out
+
+
+def prepared_body(body: FEBody, size_mm: float, smooth_mm: float
+                  ) -> tuple[FEBody, PreparedSheet]:
+    """`body` with its tibial sheet prepared (`geometry.prepare.prepare_sheet`) at
+    `size_mm` with smoothing length `smooth_mm`, its thickness interpolated onto it, and
+    a mesh femoral surface prepared at
+    half that size over the sheet's outline (plus `FEMUR_MARGIN_MM`); the prepared sheet."""
+    prepared = prepare_sheet(body.surface, size_mm, smooth_mm=smooth_mm,
+                             name=f"{body.name} tibial sheet")
+    mesh = prepared.mesh
+    # thickness: the EF vertex values, interpolated on the EF sheet projected on the plane
+    ef = body.surface
+    back = _plane_interpolation(prepared, ef, mesh.points)
+    thickness = back @ body.thickness_mm
+    indenter = body.indenter
+    if isinstance(indenter, MeshIndenter):
+        femur = indenter.mesh
+        uv = prepared.plane(mesh.points)
+        lo, hi = uv.min(axis=0) - FEMUR_MARGIN_MM, uv.max(axis=0) + FEMUR_MARGIN_MM
+        centre = prepared.plane(femur.points[femur.faces].mean(axis=1))
+        near = np.flatnonzero(((centre >= lo) & (centre <= hi)).all(axis=1))
+        if len(near) < 3:
+            raise FecheckError(f"the femoral surface does not cover the {body.name} tibial "
+                               "sheet: check the femoral file and the frame")
+        faces = femur.faces[near]
+        used = np.unique(faces)
+        remap = np.full(femur.n_points, -1)
+        remap[used] = np.arange(len(used))
+        crop = TriMesh(femur.points[used], remap[faces])
+        indenter = MeshIndenter(prepare_sheet(crop, 0.5 * size_mm, axis=-prepared.axis,
+                                              smooth_mm=smooth_mm,
+                                              name=f"{body.name} femoral surface").mesh)
+    return replace(body, surface=mesh, thickness_mm=thickness, indenter=indenter), prepared
+
+
+def _plane_interpolation(prepared: PreparedSheet, mesh: TriMesh, points: np.ndarray
+                         ) -> sp.csr_matrix:
+    """(k, n) interpolation from `mesh`'s vertex values to `points` (k, 3), both projected
+    on the prepared sheet's plane (faces of `mesh` folded or steep in that projection
+    included: the nearest vertex decides where no face covers a point)."""
+    return plane_interpolation(prepared.plane(mesh.points), mesh.faces, prepared.plane(points))
+
+
+def _extrusion_failure(body: FEBody, err: ExtrusionError, settings: FESettings
+                       ) -> FecheckError:
+    """The extrusion error of one compartment with its name, place and the keys to try."""
+    where = densest(err.where)
+    keys = ("fe.prepare = 'on' (remesh the sheet), or a thinner layer" if settings.prepare == "off"
+            else f"a larger fe.size_mm (now {settings.size_mm:g} mm), or a thinner layer")
+    return FecheckError(f"the {body.name} tibial sheet cannot be extruded into a cartilage layer "
+                        f"for the FE: {len(err.where)} faces invert, e.g. at ({where[0]:.1f}, "
+                        f"{where[1]:.1f}, {where[2]:.1f}) mm (tibia frame); try {keys}")
 
 
 @dataclass(frozen=True)
@@ -177,7 +271,7 @@ def rigid_gaps(layer: FELayer, rot: np.ndarray, t: np.ndarray, idx: np.ndarray |
     pts, nrm = layer.surface.points, layer.solid.normals
     if idx is not None:
         pts, nrm = pts[idx], nrm[idx]
-    return layer.body.indenter.gap(pts @ rot.T + t, nrm @ rot.T).gap_mm
+    return layer.indenter.gap(pts @ rot.T + t, nrm @ rot.T).gap_mm
 
 
 def solve_pressed(layers: Sequence[FELayer], drive: Drive, margin_mm: float,
@@ -203,7 +297,7 @@ def solve_pressed(layers: Sequence[FELayer], drive: Drive, margin_mm: float,
                                f"than the {MAX_CANDIDATES} the dense contact solve takes: "
                                "coarsen the surface (fe.refine, scanned.decimate_faces) or "
                                "lower fe.candidate_gap_mm")
-        joint = JointContact([ContactLayer(lay.body.name, lay.solid, lay.body.indenter, c)
+        joint = JointContact([ContactLayer(lay.body.name, lay.solid, lay.indenter, c)
                               for lay, c in zip(layers, cands, strict=True)],
                              solver=settings.solver, log=log)
         condense += joint.seconds

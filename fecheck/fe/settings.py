@@ -10,6 +10,7 @@ from fecheck.errors import FecheckError
 from fecheck.scene import Scene
 
 MODES = ("joint", "compartment")
+PREPARE = ("auto", "on", "off")
 NEARLY_INCOMPRESSIBLE = 0.45
 """Poisson's ratio from which the automatic level count is 3 instead of 2."""
 
@@ -25,6 +26,9 @@ class FESettings:
     candidate_gap_mm: float = 0.5
     solver: str = "cholmod"
     axisym_size_mm: float = 0.1
+    prepare: str = "auto"
+    size_mm: float = 1.0
+    smooth_mm: float = 2.0
 
     @classmethod
     def from_scene(cls, scene: Scene, **overrides: Any) -> FESettings:
@@ -39,6 +43,13 @@ class FESettings:
             raise FecheckError(f"fe.mode must be one of {', '.join(MODES)}, got {self.mode!r}")
         if not 0 <= self.layers <= 32:
             raise FecheckError(f"fe.layers must be 0 (auto) to 32 levels, got {self.layers}")
+        if self.prepare not in PREPARE:
+            raise FecheckError(f"fe.prepare must be one of {', '.join(PREPARE)}, got "
+                               f"{self.prepare!r}")
+        if not (self.size_mm > 0 and math.isfinite(self.size_mm)):
+            raise FecheckError("fe.size_mm must be a positive number of mm")
+        if not (self.smooth_mm >= 0 and math.isfinite(self.smooth_mm)):
+            raise FecheckError("fe.smooth_mm must be a number of mm >= 0")
         if not 0 <= self.refine <= 4:
             raise FecheckError(f"fe.refine must be 0 to 4 subdivisions, got {self.refine}")
         if not (self.candidate_gap_mm > 0 and math.isfinite(self.candidate_gap_mm)):

@@ -250,6 +250,12 @@ def _no_axisymmetric(scene: SceneValues) -> str | None:
     return None
 
 
+def _no_prepare(scene: SceneValues) -> str | None:
+    if scene["fe.prepare"] == "off":
+        return "fe.prepare = 'off': `fecheck fe` meshes the EF run's own faces, unprepared"
+    return None
+
+
 _MESH_KEYS = ("mesh.sphere_subdivisions", "mesh.method", "mesh.plateau_radius_mm",
               "mesh.plateau_size_mm", "mesh.plateau_refine_mm", "mesh.plateau_refine_radius_mm")
 _PLATEAU_MESH_KEYS = _MESH_KEYS[2:]
@@ -291,6 +297,7 @@ RULES: tuple[tuple[tuple[str, ...], Reason], ...] = (
     (("geometry.femur_bone", "geometry.tibia_bone"), _no_bones),
     (("geometry.ligaments",), _no_bundle_file),
     (("fe.axisym_size_mm",), _no_axisymmetric),
+    (("fe.size_mm", "fe.smooth_mm"), _no_prepare),
 )
 """(keys, reason): the keys have no effect in a scene where ``reason(scene)`` is not None.
 The first rule that applies to a key gives its reason (`rules`: `_LEADING_RULES`, then the

@@ -452,6 +452,23 @@ SCHEMA: dict[str, Key] = {
     "fe.solver": Key("str", "cholmod", _FE + "sparse factorization, 'cholmod' "
                      "(scikit-sparse, about 3.5 × faster) or 'superlu' (SciPy).",
                      choices=("cholmod", "superlu")),
+    "fe.prepare": Key("str", "auto", _FE + "'on' = the FE meshes prepared articular sheets "
+                      "instead of the EF run's faces: rims turning more than 65 deg from the "
+                      "sheet's mean normal trimmed, slivers dropped, remeshed as a smoothed "
+                      "height field with equilateral triangles of fe.size_mm (the femoral "
+                      "surface over each compartment too), FE pressures interpolated back "
+                      "onto the EF faces; 'auto' = only when the EF sheet's own extrusion "
+                      "inverts (a segmentation's slivers, curled rims, terraces); 'off' = "
+                      "never.", choices=("auto", "on", "off")),
+    "fe.size_mm": Key("float", 1.0, _FE + "element size (triangle side) of a prepared "
+                      "articular sheet (fe.prepare), mm; the femoral surface is remeshed at "
+                      "half of it.", low=0.05, high=10.0),
+    "fe.smooth_mm": Key("float", 2.0, _FE + "smoothing length of a prepared articular sheet "
+                        "(fe.prepare): its heights are a smoothing spline of the sheet's "
+                        "vertices that keeps shapes much longer than this and smooths out "
+                        "shorter ones (voxel terraces of 0.3-0.6 mm voxels), whatever "
+                        "fe.size_mm; 0 = a least-squares fit on the elements, mm.",
+                        low=0.0, high=20.0),
     "fe.axisym_size_mm": Key("float", 0.1, _FE + "element size of the axisymmetric FE "
                              "reference under the contact, mm; that reference runs only "
                              "for flat layers (plateau.kind = 'transverse').",

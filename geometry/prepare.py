@@ -1,0 +1,273 @@
+"""An articular sheet prepared for meshing: rims trimmed, terraces smoothed, remeshed at a
+given element size with equilateral triangles.
+
+A segmented cartilage sheet (marching cubes of a label) has what breaks an extrusion along
+its normals: sliver faces (edges down to micrometres) whose normals point anywhere, rims
+that curl down over the edge of the cartilage, and voxel terraces. An articular sheet
+seen along its mean contact direction is a height field (a tibial plateau, the bottom of
+a femoral condyle), so it is prepared as one:
+
+1. axis a: the sheet's area-weighted mean face normal (or a given axis); the faces whose
+   normal turns more than ``max_tilt_deg`` from it (curled rims, the cartilage's side
+   walls) are trimmed, with every face of zero area (slivers);
+2. the kept faces are projected on the plane normal to a; a regular lattice of
+   equilateral triangles of side ``size_mm`` over that plane keeps the triangles whose
+   three corners lie inside a projected kept face (the sheet's outline, to a lattice
+   step);
+3. the heights h over the lattice vertices solve the smoothing problem
+   min Σ_i (h(u_i) − z_i)² + λ Σ_t (h_a − 2 h_b + h_c)_t² over samples (u_i, z_i) of
+   the kept faces (their vertices, split at edge midpoints until the edges are at most
+   half the lattice step, so that every lattice triangle holds samples; h linear on the
+   lattice triangles) and every three consecutive lattice vertices (a, b, c) on a line
+   of the lattice (second differences: zero on any plane, so planes are kept, and every
+   vertex is held, even at a ragged edge): a discrete smoothing spline whose length
+   scale ``smooth_mm`` sets λ = 3 ρ (smooth_mm / size)⁴ (ρ samples per lattice vertex),
+   the discretisation of ∫ (h − z)² + smooth_mm⁴ Σ_d (∂²h/∂d²)² per unit sample density
+   (d the three lattice directions, times 3): the same surface whatever ``size_mm``;
+   shapes much longer than ``smooth_mm`` are kept and voxel terraces (steps of one voxel)
+   are smoothed out.
+
+The result's triangles are all equilateral in the plane (60° angles there; tilted by
+at most ``max_tilt_deg`` in space); `transfer` interpolates values between the sheet
+and the prepared sheet (projection on the plane, barycentric in the lattice).
+
+Units: mm. Pure geometry: no mechanics here.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+import scipy.sparse as sp
+
+from geometry.errors import FecheckError
+from geometry.mesh import TriMesh
+from geometry.subdivide import subdivide
+
+MAX_TILT_DEG = 65.0
+"""Faces whose normal turns further than this from the sheet's axis are trimmed (rims)."""
+SMOOTH_MM = 2.0
+"""Default smoothing length of `prepare_sheet`, mm."""
+BENDING = 3.0
+"""Weight of the second differences along the three lattice directions, so that their
+sum, 3 c² size⁴ for a surface of curvature c in every direction, matches the squared
+graph Laplacian's, (1.5 size² ∇²h)² = 9 c² size⁴ (the smoothing measured first)."""
+NEAREST = 16
+"""Projected kept faces searched for each lattice vertex's inside test."""
+
+
+@dataclass(frozen=True, eq=False)
+class PreparedSheet:
+    """A prepared sheet and its plane.
+
+    mesh : the remeshed sheet (normals on the axis's side)
+    axis : (3,) unit axis (the plane's normal, on the side the sheet faces)
+    origin : (3,) a point of the plane; frame : (2, 3) its in-plane unit vectors
+    trimmed_faces : faces of the input sheet dropped as rims or slivers
+    """
+
+    mesh: TriMesh
+    axis: np.ndarray
+    origin: np.ndarray
+    frame: np.ndarray
+    trimmed_faces: int
+
+    def plane(self, points: np.ndarray) -> np.ndarray:
+        """(k, 2) in-plane coordinates of points (k, 3), mm."""
+        return (points - self.origin) @ self.frame.T
+
+    def transfer(self, points: np.ndarray, mesh: TriMesh | None = None) -> sp.csr_matrix:
+        """(k, n) sparse interpolation from the vertex values of the prepared sheet (or of
+        `mesh`, e.g. the prepared sheet subdivided) to points (k, 3) projected along the
+        axis: barycentric in the triangle below, or the nearest vertex for points outside."""
+        mesh = self.mesh if mesh is None else mesh
+        return plane_interpolation(self.plane(mesh.points), mesh.faces, self.plane(points))
+
+
+def sheet_axis(sheet: TriMesh) -> np.ndarray:
+    """(3,) unit area-weighted mean face normal of `sheet`."""
+    a = (sheet.face_normals * sheet.face_areas[:, None]).sum(axis=0)
+    norm = np.linalg.norm(a)
+    if not norm > 0:
+        raise FecheckError("the sheet has no mean normal (its faces cancel out): it is not "
+                           "an articular sheet")
+    return a / norm
+
+
+def prepare_sheet(sheet: TriMesh, size_mm: float, *, axis: np.ndarray | None = None,
+                  max_tilt_deg: float = MAX_TILT_DEG, smooth_mm: float = SMOOTH_MM,
+                  name: str = "sheet") -> PreparedSheet:
+    """The sheet remeshed as a height field over its axis (module docstring).
+
+    size_mm : side of the equilateral triangles, mm; axis : (3,) direction the sheet faces
+    (default `sheet_axis`); max_tilt_deg : rim trimming angle; smooth_mm : smoothing
+    length, mm (0: least squares on the lattice); name : names the sheet in errors.
+    """
+    if not (np.isfinite(size_mm) and size_mm > 0):
+        raise FecheckError(f"the element size of the prepared {name} must be a positive "
+                           f"number of mm, got {size_mm}")
+    a = sheet_axis(sheet) if axis is None else np.asarray(axis, float) / np.linalg.norm(axis)
+    keep = (sheet.face_areas > 1e-12) & (sheet.face_normals @ a
+                                         >= np.cos(np.radians(max_tilt_deg)))
+    if keep.sum() < 3:
+        raise FecheckError(f"the {name} has no faces within {max_tilt_deg:g} deg of its mean "
+                           "normal: it is not an articular sheet")
+    frame = _frame(a)
+    origin = sheet.points[sheet.faces[keep]].reshape(-1, 3).mean(axis=0)
+    uv = (sheet.points - origin) @ frame.T
+    lattice, lattice_faces, lines = _lattice(uv[sheet.faces[keep]].reshape(-1, 2), size_mm)
+    inside = _inside(lattice, uv, sheet.faces[keep])
+    faces = lattice_faces[inside[lattice_faces].all(axis=1)]
+    if len(faces) == 0:
+        raise FecheckError(f"the {name} is narrower than one element of {size_mm:g} mm: "
+                           "lower the element size")
+    used = np.unique(faces)
+    remap = np.full(len(lattice), -1)
+    remap[used] = np.arange(len(used))
+    lattice, faces = lattice[used], remap[faces]
+    lines = remap[lines]
+    lines = lines[(lines >= 0).all(axis=1)]
+    dense, _ = subdivide(TriMesh(sheet.points, sheet.faces[keep]), _splits(sheet, size_mm))
+    rel = dense.points[np.unique(dense.faces)] - origin
+    suv, sz = rel @ frame.T, rel @ a
+    h = _smooth_heights(lattice, faces, lines, suv, sz, size_mm,
+                        smooth_mm)
+    points = origin + lattice @ frame + h[:, None] * a
+    mesh = TriMesh(points, faces)
+    return PreparedSheet(mesh, a, origin, frame, int((~keep).sum()))
+
+
+def _splits(sheet: TriMesh, size: float) -> int:
+    """Midpoint splits of the sheet that bring its median edge to half the lattice step or
+    less, so that every lattice triangle holds samples."""
+    edges = np.linalg.norm(sheet.points[sheet.faces[:, [1, 2, 0]]] - sheet.points[sheet.faces],
+                           axis=2)
+    return int(np.clip(np.ceil(np.log2(np.median(edges) / (0.5 * size))), 0, 4))
+
+
+def _frame(a: np.ndarray) -> np.ndarray:
+    """(2, 3) in-plane unit vectors e1, e2 with e1 × e2 = a."""
+    helper = np.array([1.0, 0.0, 0.0]) if abs(a[0]) < 0.9 else np.array([0.0, 1.0, 0.0])
+    e1 = np.cross(helper, a)
+    e1 /= np.linalg.norm(e1)
+    return np.stack([e1, np.cross(a, e1)])
+
+
+def _lattice(uv: np.ndarray, size: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Equilateral lattice of side `size` covering the points uv (k, 2): its vertices (n, 2)
+    (row j of vertices (i, j), i·ny + j, shifted by half a step on odd rows), its
+    counter-clockwise triangles (m, 3) and its lines (t, 3): every three consecutive
+    vertices on a line of the lattice (rows, and both diagonals)."""
+    lo, hi = uv.min(axis=0) - size, uv.max(axis=0) + size
+    dy = size * np.sqrt(3.0) / 2
+    nx, ny = int(np.ceil((hi[0] - lo[0]) / size)) + 2, int(np.ceil((hi[1] - lo[1]) / dy)) + 1
+    i, j = np.meshgrid(np.arange(nx), np.arange(ny), indexing="ij")
+    pts = np.column_stack([(lo[0] + (i + 0.5 * (j % 2)) * size).ravel(),
+                           (lo[1] + j * dy).ravel()])
+    ci, cj = np.meshgrid(np.arange(nx - 1), np.arange(ny - 1), indexing="ij")
+    ci, cj = ci.ravel(), cj.ravel()
+    p00, p10 = ci * ny + cj, (ci + 1) * ny + cj
+    p01, p11 = p00 + 1, p10 + 1
+    even = (cj % 2) == 0
+    # even rows: the row above is shifted right by half a step
+    t1 = np.where(even[:, None], np.column_stack([p00, p10, p01]),
+                  np.column_stack([p00, p11, p01]))
+    t2 = np.where(even[:, None], np.column_stack([p10, p11, p01]),
+                  np.column_stack([p00, p10, p11]))
+    return pts, np.concatenate([t1, t2]), _lines(nx, ny)
+
+
+def _lines(nx: int, ny: int) -> np.ndarray:
+    """(t, 3) consecutive vertex triples (previous, middle, next) on the lattice's lines."""
+    i, j = np.meshgrid(np.arange(nx), np.arange(ny), indexing="ij")
+    i, j = i.ravel(), j.ravel()
+    odd = j % 2
+    steps = [((i - 1, j), (i + 1, j)),                              # along the rows
+             ((i - 1 + odd, j - 1), (i + odd, j + 1)),              # up-right diagonal
+             ((i + odd, j - 1), (i - 1 + odd, j + 1))]              # up-left diagonal
+    out = []
+    for (pi, pj), (qi, qj) in steps:
+        ok = (pi >= 0) & (pi < nx) & (pj >= 0) & (pj < ny) & (qi >= 0) & (qi < nx) \
+            & (qj >= 0) & (qj < ny)
+        out.append(np.column_stack([pi * ny + pj, i * ny + j, qi * ny + qj])[ok])
+    return np.concatenate(out)
+
+
+def _inside(points: np.ndarray, uv: np.ndarray, faces: np.ndarray) -> np.ndarray:
+    """(n,) True where a point (n, 2) lies in one of the projected triangles uv[faces]."""
+    from scipy.spatial import cKDTree
+
+    tri = uv[faces]                                                    # (m, 3, 2)
+    k = min(NEAREST, len(faces))
+    _, near = cKDTree(tri.mean(axis=1)).query(points, k=k)
+    near = near.reshape(len(points), k)
+    bary = _bary2(tri[near], points[:, None, :])                       # (n, k, 3)
+    return (bary >= -1e-9).all(axis=2).any(axis=1)
+
+
+def _bary2(tri: np.ndarray, p: np.ndarray) -> np.ndarray:
+    """Barycentric coordinates (..., 3) of 2-D points p (..., 2) in triangles (..., 3, 2);
+    -1 for a triangle of zero area."""
+    a, b, c = tri[..., 0, :], tri[..., 1, :], tri[..., 2, :]
+    det = (b[..., 0] - a[..., 0]) * (c[..., 1] - a[..., 1]) \
+        - (c[..., 0] - a[..., 0]) * (b[..., 1] - a[..., 1])
+    ok = np.abs(det) > 1e-14
+    safe = np.where(ok, det, 1.0)
+    v = ((p[..., 0] - a[..., 0]) * (c[..., 1] - a[..., 1])
+         - (c[..., 0] - a[..., 0]) * (p[..., 1] - a[..., 1])) / safe
+    w = ((b[..., 0] - a[..., 0]) * (p[..., 1] - a[..., 1])
+         - (p[..., 0] - a[..., 0]) * (b[..., 1] - a[..., 1])) / safe
+    out = np.stack([1.0 - v - w, v, w], axis=-1)
+    return np.where(ok[..., None], out, -1.0)
+
+
+def plane_interpolation(points: np.ndarray, faces: np.ndarray, query: np.ndarray
+                        ) -> sp.csr_matrix:
+    """(k, n) barycentric interpolation from a 2-D triangulation's vertex values to the
+    query points (k, 2); the nearest vertex for points outside it."""
+    from scipy.spatial import cKDTree
+
+    face, w, inside = _locate(points, faces, query)
+    _, nearest = cKDTree(points).query(query)
+    cols = np.where(inside[:, None], faces[face], nearest[:, None])
+    vals = np.where(inside[:, None], w, np.array([1.0, 0.0, 0.0]))
+    rows = np.repeat(np.arange(len(query)), 3)
+    return sp.csr_matrix((vals.ravel(), (rows, cols.ravel())),
+                         shape=(len(query), len(points)))
+
+
+def _locate(points: np.ndarray, faces: np.ndarray, query: np.ndarray
+            ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """For each query point (k, 2): the triangle of a 2-D triangulation it lies in (or
+    comes closest to), its barycentric coordinates there (k, 3), and whether it is inside."""
+    from scipy.spatial import cKDTree
+
+    tri = points[faces]
+    k = min(NEAREST, len(faces))
+    _, near = cKDTree(tri.mean(axis=1)).query(query, k=k)
+    near = near.reshape(len(query), k)
+    bary = _bary2(tri[near], query[:, None, :])                         # (q, k, 3)
+    worst = bary.min(axis=2)
+    best = np.argmax(worst, axis=1)
+    rows = np.arange(len(query))
+    return near[rows, best], bary[rows, best], worst[rows, best] >= -1e-9
+
+
+def _smooth_heights(lattice: np.ndarray, faces: np.ndarray, lines: np.ndarray,
+                    uv: np.ndarray, z: np.ndarray, size: float, smooth: float) -> np.ndarray:
+    """Heights at the lattice vertices: the discrete smoothing spline of the samples
+    (uv, z) that fall on the lattice (module docstring, step 3)."""
+    from scipy.sparse.linalg import spsolve
+
+    n = len(lattice)
+    face, w, inside = _locate(lattice, faces, uv)
+    rows = np.repeat(np.arange(int(inside.sum())), 3)
+    A = sp.csr_matrix((w[inside].ravel(), (rows, faces[face[inside]].ravel())),
+                      shape=(int(inside.sum()), n))
+    rows = np.repeat(np.arange(len(lines)), 3)
+    D = sp.csr_matrix((np.tile([1.0, -2.0, 1.0], len(lines)), (rows, lines.ravel())),
+                      shape=(len(lines), n))
+    lam = BENDING * inside.sum() / n * (smooth / size) ** 4
+    lhs = (A.T @ A + lam * (D.T @ D) + 1e-9 * sp.identity(n)).tocsc()
+    return np.asarray(spsolve(lhs, A.T @ z[inside])).ravel()
