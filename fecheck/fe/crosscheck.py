@@ -58,6 +58,9 @@ from fecheck.reference.closed_forms import (
 from fecheck.scene import Scene
 from fecheck.statics.newton import pose
 
+SOLID_NOTE = ("the tibial body is the closed solid geometry.tibia_solid (Gmsh tetrahedra): "
+              "its base fixed (fe.solid_base_deg), its walls free, frictionless contact on "
+              "its articular face under a rigid femoral surface")
 DONAHUE_NOTE = ("* Donahue 2002 is another knee under another load (800 N, whole joint with "
                 "menisci): a scale for the numbers, not a reference for this scene")
 
@@ -350,13 +353,15 @@ def cross_check(scene: Scene, *, mode: str | None = None, refine: int | None = N
             _on_ef_faces(lay, pressure), _ef_face_pressure(lay, res, rot_ef, t_ef), worst,
             **refs)
     t4 = time.perf_counter()
-    dofs = sum(lay.solid.n_dofs for lay in layers)
+    dofs = sum(sol.n_dofs for sol in _solids(layers))
     geometry = _geometry(layers, dofs)
     timing = {"ef_equilibrium": ef_seconds, "fe_build": t2 - t1, "fe_condense": condense,
               "fe_contact": t3 - t2 - condense, "references": t4 - t3, "total": t4 - t0,
               "fe": t3 - t1}
     timing["ef_over_fe"] = ef_seconds / timing["fe"]
     notes = [DONAHUE_NOTE]
+    if geometry["thickness_source"] == "solid":
+        notes.insert(0, SOLID_NOTE)
     if geometry["thickness_source"] == "bone-distance":
         notes.insert(0, "one deformable layer on the tibia with the EF's series thickness "
                         "(tibial + femoral cartilage, from the bone distances) under a rigid "
@@ -383,9 +388,22 @@ def _geometry(layers: Sequence[FELayer], dofs: int) -> dict[str, Any]:
             "femoral_surface": joined(lay.body.femoral_surface for lay in layers),
             "thickness_source": joined(lay.body.thickness_source for lay in layers),
             "deformable_layers": 1,
-            "elements": int(sum(len(lay.solid.mesh.tets) for lay in layers)),
-            "levels": int(len(layers[0].solid.mesh.tets) // (3 * layers[0].surface.n_faces)),
-            "nodes": int(sum(lay.solid.n_nodes for lay in layers)),
+            "elements": int(sum(len(sol.mesh.tets) for sol in _solids(layers))),
+            "nodes": int(sum(sol.n_nodes for sol in _solids(layers))),
             "dofs": int(dofs),
-            "smallest_size_mm": float(min(edges)),
+            "smallest_size_mm": float(min(edges))} | _element(layers)
+
+
+def _solids(layers: Sequence[FELayer]) -> list:
+    """The distinct assembled solids of `layers` (the compartments of one closed tibial
+    solid share one)."""
+    return list({id(lay.solid.K): lay.solid for lay in layers}.values())
+
+
+def _element(layers: Sequence[FELayer]) -> dict[str, Any]:
+    """The element and, for extruded layers, the levels through the thickness."""
+    if any(lay.body.solid is not None for lay in layers):
+        return {"element": "quadratic tetrahedron (P2), Gmsh tetrahedralization of the "
+                           "closed tibial solid"}
+    return {"levels": int(len(layers[0].solid.mesh.tets) // (3 * layers[0].surface.n_faces)),
             "element": "quadratic tetrahedron (P2), prisms of the extruded surface split in 3"}

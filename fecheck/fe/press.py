@@ -90,9 +90,14 @@ def _barycentric(tri: np.ndarray, pts: np.ndarray) -> np.ndarray:
 
 def build_layers(bodies: Sequence[FEBody], youngs_MPa: float, poisson: float,
                  settings: FESettings, log: Callable[[str], None]) -> list[FELayer]:
-    """Extrude and assemble every compartment's layer (the costly setup before contact)."""
+    """Extrude and assemble every compartment's layer (the costly setup before contact);
+    a body with a closed tibial solid gets the solid instead (`solid_layer`)."""
     out = []
+    built: dict[int, dict[str, LayerSolid]] = {}
     for body in bodies:
+        if body.solid is not None:
+            out.append(solid_layer(body, youngs_MPa, poisson, settings, log, built))
+            continue
         levels = settings.levels(poisson)
         directions, rounds = extrusion_directions(body.surface, body.thickness_mm,
                                                   layers=levels, ratio=settings.grading)
@@ -106,6 +111,25 @@ def build_layers(bodies: Sequence[FEBody], youngs_MPa: float, poisson: float,
             + (f" (extruded along normals smoothed {rounds} times)" if rounds else ""))
         out.append(FELayer(body, surface, parent, solid, rounds))
     return out
+
+
+def solid_layer(body: FEBody, youngs_MPa: float, poisson: float, settings: FESettings,
+                log: Callable[[str], None], built: dict[int, dict[str, LayerSolid]]
+                ) -> FELayer:
+    """The compartment's view of its closed tibial solid (`fecheck.fe.volume`), meshed
+    and assembled once per solid (`built`, by the solid's identity)."""
+    from fecheck.fe.volume import parent_faces, solid_layers
+
+    key = id(body.solid)
+    if key not in built:
+        built[key] = solid_layers(body.solid, youngs_MPa, poisson,
+                                  base_deg=settings.solid_base_deg, refine=settings.refine)
+        release_freed_heap()
+        one = next(iter(built[key].values()))
+        log(f"{body.solid.name}: closed solid of {len(one.mesh.tets)} quadratic tetrahedra, "
+            f"{one.n_dofs} dofs, base fixed, walls free")
+    solid = built[key][body.name]
+    return FELayer(body, solid.surface, parent_faces(solid.surface, body.surface), solid, 0)
 
 
 @dataclass(frozen=True)

@@ -25,6 +25,8 @@ class FESettings:
     candidate_gap_mm: float = 0.5
     solver: str = "cholmod"
     axisym_size_mm: float = 0.1
+    body: str = "auto"
+    solid_base_deg: float = 45.0
 
     @classmethod
     def from_scene(cls, scene: Scene, **overrides: Any) -> FESettings:
