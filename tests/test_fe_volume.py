@@ -15,7 +15,7 @@ import math
 
 import numpy as np
 import pytest
-from implant_synthetic import LOAD_N, cylinder_solid, insert_solid, write_implant
+from implant_pair import LOAD_N, cylinder_solid, insert_solid, write_implant
 
 from fecheck.cli import main
 from fecheck.fe import volume

@@ -1,5 +1,10 @@
 """A total knee replacement and a test cylinder built from formulas, for the FE of closed
-tibial solids (`fecheck.fe.volume`).
+tibial solids (`fecheck.fe.volume`): `validation/fe_implant.py` and the tests use them.
+
+    python validation/implant_pair.py [--quick] [--out DIR] [--femur-y MM]
+
+writes DIR/femur.stl, insert.stl (closed), insert_top.stl and implant.toml (then
+``fecheck fe DIR/implant.toml``); --quick a coarser insert.
 
 Units mm, N, MPa; frame x right, y anterior, z superior; a RIGHT knee (medial at -x).
 
@@ -25,6 +30,7 @@ vertical gap 0); under a +z load on the tibia it presses in.
 
 from __future__ import annotations
 
+import argparse
 from pathlib import Path
 
 import numpy as np
@@ -231,3 +237,18 @@ def write_implant(folder: Path, femur_y_mm: float = FEMUR_Y_MM, fine_mm: float =
     scene.write_text(SCENE.format(E=YOUNGS_MPA, nu=POISSON, h=BASE_DEPTH_MM, F=LOAD_N),
                      encoding="utf-8")
     return scene
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--quick", action="store_true", help="a coarser insert (1.5 mm)")
+    parser.add_argument("--out", type=Path, default=Path("out/implant"))
+    parser.add_argument("--femur-y", type=float, default=FEMUR_Y_MM,
+                        help="condyles this far anterior of the dwells, mm")
+    args = parser.parse_args()
+    scene = write_implant(args.out, args.femur_y, fine_mm=1.5 if args.quick else 1.0)
+    print(f"wrote {scene} and its meshes; run: fecheck fe {scene}")
+
+
+if __name__ == "__main__":
+    main()
