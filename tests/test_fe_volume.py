@@ -119,3 +119,14 @@ def test_a_missing_or_open_solid_is_refused_before_any_mesh(implant, capsys, mon
     assert main(["fe", str(implant), "--set", f"geometry.tibia_solid='{value}'"]) == 2
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 1 and message in err[0]
+
+
+def test_without_a_sheet_the_ef_uses_the_solids_up_facing_part(implant):
+    scene = load_scene(implant, ["geometry.tibia=''"])
+    sheets = surfaces.tibial_compartments(scene)
+    top = surfaces.surface(load_scene(implant), "tibia", "")
+    assert sum(s.n_faces for s in sheets.values()) == top.n_faces
+    assert sum(s.area for s in sheets.values()) == pytest.approx(top.area, rel=1e-12)
+    # split by geometry.tibia_split = 'sagittal' at x = 0 (face centroids): medial at -x
+    assert (sheets["medial"].face_centroids[:, 0].max() < 0.0
+            <= sheets["lateral"].face_centroids[:, 0].min())
