@@ -86,10 +86,21 @@ def implant(tmp_path_factory):
     return write_implant(tmp_path_factory.mktemp("implant"))
 
 
-def test_the_implant_pair_runs_through_fe_with_the_insert_as_a_solid(implant, capsys):
-    out = implant.parent / "solid.json"
-    assert main(["fe", str(implant), "--json", str(out)]) == 0
-    check = json.loads(out.read_text(encoding="utf-8"))
+def _fe_json(scene, name: str, *overrides: str) -> dict:
+    """`fecheck fe` of `scene` (exit 0) and its JSON."""
+    out = scene.parent / f"{name}.json"
+    assert main(["fe", str(scene), "--json", str(out),
+                 *[a for o in overrides for a in ("--set", o)]]) == 0
+    return json.loads(out.read_text(encoding="utf-8"))
+
+
+@pytest.fixture(scope="module")
+def solid_check(implant):
+    return _fe_json(implant, "solid")
+
+
+def test_the_implant_pair_runs_through_fe_with_the_insert_as_a_solid(implant, solid_check):
+    check = solid_check
     geometry = check["fe_geometry"]
     assert geometry["tibial_surface"] == "solid:insert.stl"
     assert geometry["thickness_source"] == "solid"
@@ -104,6 +115,19 @@ def test_the_implant_pair_runs_through_fe_with_the_insert_as_a_solid(implant, ca
     scene = load_scene(implant)
     tets = volume.tetrahedralize(surfaces.surface(scene, "tibia_solid", ""), "insert")
     assert geometry["elements"] == len(tets.tets)
+
+
+@pytest.mark.slow
+def test_a_layer_of_the_solids_thickness_map_is_good_enough_on_the_implant(implant,
+                                                                          solid_check):
+    # the crosscheck's note: within 2.1 % (p_max, area) and 0.1 mm (centre of pressure)
+    layer = _fe_json(implant, "layer", "fe.body='layer'")
+    assert layer["fe_geometry"]["thickness_source"] == "solid-distance"
+    for c, chk in layer["compartments"].items():
+        fe, ref = chk["fe"], solid_check["compartments"][c]["fe"]
+        assert fe["max_pressure_MPa"] == pytest.approx(ref["max_pressure_MPa"], rel=0.025)
+        assert fe["area_mm2"] == pytest.approx(ref["area_mm2"], rel=0.025)
+        assert abs(fe["center_of_pressure_mm"][1] - ref["center_of_pressure_mm"][1]) < 0.1
 
 
 @pytest.mark.parametrize("value, message", [
