@@ -149,9 +149,10 @@ def _tibia_solid(scene: Scene) -> TibiaSolid:
 
     solid = solid_surface(scene)
     name = surfaces.file_path(scene, "tibia_solid").name
-    articular = {}
+    articular, taken = {}, np.zeros(0, dtype=np.int64)
     for c, sheet in surfaces.tibial_compartments(scene).items():
-        articular[c] = on_sheet(solid, sheet)
+        articular[c] = np.setdiff1d(on_sheet(solid, sheet), taken)   # one compartment each
+        taken = np.union1d(taken, articular[c])
         if len(articular[c]) == 0:
             raise FecheckError(f"geometry.tibia_solid = {name!r}: no face of the solid lies "
                                f"on the {c} tibial sheet (within 0.1 mm): the sheet "
