@@ -10,7 +10,11 @@ used, its thickness and the femoral surface that presses it.
   thickness (tibial plus femoral cartilage in series) averaged onto the vertices.
   The FE then models that total thickness as one deformable layer on the tibia under a
   rigid femoral surface — the EF's own assumption; two deformable layers in contact are
-  not modelled, and every report says so.
+  not modelled, and every report says so. With ``geometry.tibia_solid`` and ``fe.body``
+  "layer": the solid's own thickness map (`fecheck.fe.volume.solid_thickness`).
+- Tibial solid (``fe.body`` "solid", or "auto" with ``geometry.tibia_solid``): the closed
+  solid itself (`fecheck.fe.volume`), each compartment's articular face the part of its
+  boundary on that compartment's sheet (`fecheck.scene.tibia_solid.on_sheet`).
 - Femoral surface (world = femur frame, fixed): the analytic condyle sphere, or the
   femoral surface file (``geometry.femur``; or the closed hemisphere mesh) as a rigid
   mesh indenter.
@@ -27,6 +31,7 @@ import numpy as np
 from fecheck.contact.analytic import Sphere
 from fecheck.errors import FecheckError
 from fecheck.fe.indenter import MeshIndenter, SphereIndenter
+from fecheck.fe.volume import TibiaSolid, solid_thickness
 from fecheck.scene import Scene, surfaces
 from fecheck.scene.constants import COMPARTMENTS
 from fecheck.scene.relevance import SCANNED_KINDS
@@ -45,7 +50,10 @@ class FEBody:
     indenter : the rigid femoral surface, world frame
     tibial_surface, femoral_surface : what was meshed ("plane", "inclined",
         "polynomial", "mesh:<name>"; "sphere R <r> mm", "mesh:<name>")
-    thickness_source : "uniform" or "bone-distance"
+    thickness_source : "uniform", "bone-distance", "solid" (the solid itself) or
+        "solid-distance" (a layer with the solid's thickness map)
+    solid : the closed tibial solid the FE meshes instead of extruding `surface` (shared
+        by the compartments of a one-piece solid), or None
     """
 
     name: str
@@ -55,6 +63,7 @@ class FEBody:
     tibial_surface: str
     femoral_surface: str
     thickness_source: str
+    solid: TibiaSolid | None = None
 
 
 def vertex_values(surface: TriMesh, face_values: np.ndarray) -> np.ndarray:
@@ -99,16 +108,57 @@ def _scanned_bodies(scene: Scene) -> list[FEBody]:
     tibia_name = {c: surfaces.file_path(scene, "tibia").name for c in COMPARTMENTS}
     if surfaces.file_path(scene, "tibia_lateral") is not None:
         tibia_name["lateral"] = surfaces.file_path(scene, "tibia_lateral").name
+    body = _tibial_body(scene)
+    solid = None if body == "none" else _tibia_solid(scene)
     out = []
     for c in COMPARTMENTS:
         surface = slaves[c]
-        if source == "uniform":
+        if solid is not None:
+            h = solid_thickness(solid, surface)
+        elif source == "uniform":
             h = np.full(surface.n_points, float(scene["contact.thickness_mm"]))
         else:
             h = vertex_values(surface, slave_thickness(scene, surface))
         indenter, femoral = _indenter(masters[c], femur_name)
-        out.append(FEBody(c, surface, h, indenter, f"mesh:{tibia_name[c]}", femoral, source))
+        if body == "solid":
+            out.append(FEBody(c, surface, h, indenter, f"solid:{solid.name}", femoral,
+                              "solid", solid))
+        else:
+            out.append(FEBody(c, surface, h, indenter, f"mesh:{tibia_name[c]}", femoral,
+                              "solid-distance" if solid is not None else source))
     return out
+
+
+def _tibial_body(scene: Scene) -> str:
+    """What the FE makes of the tibia: "solid" (mesh geometry.tibia_solid), "layer"
+    (extrude the sheet by the solid's thickness map) or "none" (no solid: extrude the
+    sheet by the EF's thickness)."""
+    given = surfaces.file_path(scene, "tibia_solid") is not None
+    body = scene["fe.body"]
+    if body == "auto":
+        return "solid" if given else "none"
+    if body == "solid" or given:
+        return body
+    return "none"
+
+
+def _tibia_solid(scene: Scene) -> TibiaSolid:
+    """The closed solid of ``geometry.tibia_solid`` with each compartment's articular
+    face (the faces on its undecimated sheet)."""
+    from fecheck.scene.tibia_solid import on_sheet, solid_surface
+
+    solid = solid_surface(scene)
+    name = surfaces.file_path(scene, "tibia_solid").name
+    articular, taken = {}, np.zeros(0, dtype=np.int64)
+    for c, sheet in surfaces.tibial_compartments(scene).items():
+        articular[c] = np.setdiff1d(on_sheet(solid, sheet), taken)   # one compartment each
+        taken = np.union1d(taken, articular[c])
+        if len(articular[c]) == 0:
+            raise FecheckError(f"geometry.tibia_solid = {name!r}: no face of the solid lies "
+                               f"on the {c} tibial sheet (within 0.1 mm): the sheet "
+                               "geometry.tibia must be the solid's articular face, in the "
+                               "same frame")
+    return TibiaSolid(solid, articular, name)
 
 
 def refuse_rigid(scene: Scene) -> None:
@@ -124,4 +174,8 @@ def scene_bodies(scene: Scene) -> list[FEBody]:
     refuse_rigid(scene)
     if scene["model.kind"] in SCANNED_KINDS:
         return _scanned_bodies(scene)
+    if scene["fe.body"] == "solid":
+        raise FecheckError(f"model.kind = {scene['model.kind']!r} presses plateau discs: a "
+                           "closed tibial solid (geometry.tibia_solid, fe.body = 'solid') "
+                           "needs model.kind = 'sphere-tibia' or 'femur-tibia'")
     return _sphere_plane_bodies(scene)

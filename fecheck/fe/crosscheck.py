@@ -69,6 +69,16 @@ near the peak by more than this share of the FE contact depth. Measured: 0.3 mm 
 every 3 mm under a sphere (tests/test_fe_roughness.py) depart by 23 % of the depth at the
 peak and raise the vertex p_max 62 % above the flat sheet's; the shipped scanned knee's
 sheets depart by 3 % (medial) and 5 % (lateral) at their peaks."""
+SOLID_NOTE = ("the tibial body is the closed solid geometry.tibia_solid (Gmsh tetrahedra): "
+              "its base fixed (fe.solid_base_deg), its walls free, frictionless contact on "
+              "its articular face under a rigid femoral surface")
+LAYER_NOTE = ("when a layer is good enough for an implant (validation/fe_implant.py, a "
+              "generated insert 7-12 mm thick, contact radius / thickness 0.75-1.05, slopes "
+              "up to 18 deg, contact away from the walls): a layer with the solid's own "
+              "thickness map (fe.body = 'layer') came within 2.1 % of the solid on p_max and "
+              "area and 0.1 mm on the centre of pressure; a uniform layer of the dwells' "
+              "thickness was 12 % off on p_max and area. Near walls, posts or undercuts, or "
+              "where the base is not parallel to the surface, mesh the solid")
 DONAHUE_NOTE = ("* Donahue 2002 is another knee under another load (800 N, whole joint with "
                 "menisci): a scale for the numbers, not a reference for this scene")
 
@@ -417,7 +427,7 @@ def cross_check(scene: Scene, *, mode: str | None = None, refine: int | None = N
     for text in alerts:
         warnings.warn(text, stacklevel=2)
     t4 = time.perf_counter()
-    dofs = sum(lay.solid.n_dofs for lay in layers)
+    dofs = sum(sol.n_dofs for sol in _solids(layers))
     geometry = _geometry(layers, dofs)
     timing = {"ef_equilibrium": ef_seconds, "fe_build": t2 - t1, "fe_condense": condense,
               "fe_contact": t3 - t2 - condense, "references": t4 - t3, "total": t4 - t0,
@@ -431,6 +441,9 @@ def cross_check(scene: Scene, *, mode: str | None = None, refine: int | None = N
                         f"fe.smooth_mm {settings.smooth_mm:g} mm, with the femoral surface "
                         "above), its pressures interpolated onto the EF faces")
     notes[:0] = smoothing_notes(scene)
+    if geometry["thickness_source"] in ("solid", "solid-distance"):
+        notes[:0] = [SOLID_NOTE, LAYER_NOTE] if geometry["thickness_source"] == "solid" \
+            else [LAYER_NOTE]
     if geometry["thickness_source"] == "bone-distance":
         notes.insert(0, "one deformable layer on the tibia with the EF's series thickness "
                         "(tibial + femoral cartilage, from the bone distances) under a rigid "
@@ -457,9 +470,22 @@ def _geometry(layers: Sequence[FELayer], dofs: int) -> dict[str, Any]:
             "femoral_surface": joined(lay.body.femoral_surface for lay in layers),
             "thickness_source": joined(lay.body.thickness_source for lay in layers),
             "deformable_layers": 1,
-            "elements": int(sum(len(lay.solid.mesh.tets) for lay in layers)),
-            "levels": int(len(layers[0].solid.mesh.tets) // (3 * layers[0].surface.n_faces)),
-            "nodes": int(sum(lay.solid.n_nodes for lay in layers)),
+            "elements": int(sum(len(sol.mesh.tets) for sol in _solids(layers))),
+            "nodes": int(sum(sol.n_nodes for sol in _solids(layers))),
             "dofs": int(dofs),
-            "smallest_size_mm": float(min(edges)),
+            "smallest_size_mm": float(min(edges))} | _element(layers)
+
+
+def _solids(layers: Sequence[FELayer]) -> list:
+    """The distinct assembled solids of `layers` (the compartments of one closed tibial
+    solid share one)."""
+    return list({id(lay.solid.K): lay.solid for lay in layers}.values())
+
+
+def _element(layers: Sequence[FELayer]) -> dict[str, Any]:
+    """The element and, for extruded layers, the levels through the thickness."""
+    if any(lay.body.solid is not None for lay in layers):
+        return {"element": "quadratic tetrahedron (P2), Gmsh tetrahedralization of the "
+                           "closed tibial solid"}
+    return {"levels": int(len(layers[0].solid.mesh.tets) // (3 * layers[0].surface.n_faces)),
             "element": "quadratic tetrahedron (P2), prisms of the extruded surface split in 3"}

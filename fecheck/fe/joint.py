@@ -32,9 +32,10 @@ from __future__ import annotations
 
 import time
 from collections.abc import Callable, Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
+import scipy.sparse as sp
 
 from fecheck.errors import FecheckError
 from fecheck.fe.contact import condensed_compliance, factorize
@@ -84,18 +85,21 @@ class JointSolution:
 
 
 class _Compliance:
-    """A layer's factorized stiffness and its normal compliance at the candidates."""
+    """The factorized stiffness of one solid and its normal compliance at the candidates
+    of the layers it carries: one layer, or the compartments of one tibial solid (their
+    `LayerSolid`s share the stiffness matrix), coupled through it."""
 
-    def __init__(self, layer: ContactLayer, solver: str, block: int = 256):
-        self.layer = layer
-        rows = layer.solid.normal_rows[layer.candidates]              # (m, n)
+    def __init__(self, layers: Sequence[ContactLayer], solver: str, block: int = 256):
+        self.layers = layers
+        rows = sp.vstack([lay.solid.normal_rows[lay.candidates] for lay in layers]).tocsr()
         self.rows = rows
+        K = layers[0].solid.K
         if solver == "cholmod":
-            C, self.solve = condensed_compliance(layer.solid.K,
-                                                 layer.solid.vertex_dofs[layer.candidates],
-                                                 layer.solid.normals[layer.candidates])
+            C, self.solve = condensed_compliance(
+                K, np.concatenate([lay.solid.vertex_dofs[lay.candidates] for lay in layers]),
+                np.concatenate([lay.solid.normals[lay.candidates] for lay in layers]))
         else:
-            self.solve = factorize(layer.solid.K, solver)
+            self.solve = factorize(K, solver)
             m = rows.shape[0]
             C = np.empty((m, m))
             rhs_all = rows.T.tocsc()
@@ -103,6 +107,26 @@ class _Compliance:
                 stop = min(start + block, m)
                 C[:, start:stop] = rows @ self.solve(rhs_all[:, start:stop].toarray())
         self.C = 0.5 * (C + C.T)
+
+
+def _shared_solids(layers: Sequence[ContactLayer]) -> tuple[list[ContactLayer], list[list[int]]]:
+    """The layers grouped by the stiffness they share (the compartments of one tibial
+    solid), each candidate vertex whose dofs an earlier layer of its group already holds
+    left out (a vertex on the seam between two compartments' articular faces)."""
+    groups: dict[int, list[int]] = {}
+    for i, layer in enumerate(layers):
+        groups.setdefault(id(layer.solid.K), []).append(i)
+    out = list(layers)
+    for members in groups.values():
+        seen = np.zeros(0, dtype=np.int64)
+        for i in members:
+            lay = out[i]
+            first = lay.solid.vertex_dofs[lay.candidates, 0]
+            keep = ~np.isin(first, seen)
+            seen = np.concatenate([seen, first[keep]])
+            if not keep.all():
+                out[i] = replace(lay, candidates=lay.candidates[keep])
+    return out, list(groups.values())
 
 
 def _active_set(C: np.ndarray, g0: np.ndarray, J: np.ndarray, G: np.ndarray, Q: np.ndarray,
@@ -148,18 +172,21 @@ class JointContact:
     def __init__(self, layers: Sequence[ContactLayer], *, solver: str = "cholmod",
                  log: Callable[[str], None] = lambda s: None):
         t0 = time.perf_counter()
-        self.layers = list(layers)
-        self.compliance = []
-        for layer in self.layers:
-            log(f"FE {layer.name}: factorizing {layer.solid.n_dofs} dofs, condensing onto "
-                f"{len(layer.candidates)} contact candidates")
-            self.compliance.append(_Compliance(layer, solver))
+        self.layers, self.groups = _shared_solids(layers)
         sizes = [len(layer.candidates) for layer in self.layers]
         self.offsets = np.concatenate([[0], np.cumsum(sizes)]).astype(int)
         self.C = np.zeros((self.offsets[-1], self.offsets[-1]))
-        for i, c in enumerate(self.compliance):
-            block = slice(self.offsets[i], self.offsets[i + 1])
-            self.C[block, block] = c.C
+        self.compliance, self.group_rows = [], []
+        for members in self.groups:
+            group = [self.layers[i] for i in members]
+            log(f"FE {' + '.join(lay.name for lay in group)}: factorizing "
+                f"{group[0].solid.n_dofs} dofs, condensing onto "
+                f"{sum(len(lay.candidates) for lay in group)} contact candidates")
+            self.compliance.append(_Compliance(group, solver))
+            idx = np.concatenate([np.arange(self.offsets[i], self.offsets[i + 1])
+                                  for i in members])
+            self.group_rows.append(idx)
+            self.C[np.ix_(idx, idx)] = self.compliance[-1].C
         self.seconds = time.perf_counter() - t0
         self.log = log
 
@@ -203,16 +230,19 @@ class JointContact:
             raise FecheckError(f"the FE joint equilibrium did not settle in {max_outer} pose "
                                "updates; check the load and the free DOFs")
         g0, _, _ = _linearised_gaps(self.layers, pose, basis, q)
+        u = {}
+        for members, c, idx in zip(self.groups, self.compliance, self.group_rows,
+                                   strict=True):
+            u.update(dict.fromkeys(members, c.solve(-(c.rows.T @ lam[idx]))))
         out = []
-        for i, (layer, c) in enumerate(zip(self.layers, self.compliance, strict=True)):
+        for i, layer in enumerate(self.layers):
             block = slice(self.offsets[i], self.offsets[i + 1])
             s = layer.solid.surface.n_points
             force = np.zeros(s)
             force[layer.candidates] = lam[block]
             gap = np.full(s, np.inf)
             gap[layer.candidates] = g0[block] + self.C[block] @ lam
-            out.append(LayerContact(layer.name, force, gap, force > 0,
-                                    c.solve(-(c.rows.T @ lam[block]))))
+            out.append(LayerContact(layer.name, force, gap, force > 0, u[i]))
         timing = {"condense": self.seconds, "contact": time.perf_counter() - t0}
         return JointSolution(q, out, outer, inner, timing)
 

@@ -109,12 +109,17 @@ def _barycentric(tri: np.ndarray, pts: np.ndarray) -> np.ndarray:
 def build_layers(bodies: Sequence[FEBody], youngs_MPa: float, poisson: float,
                  settings: FESettings, log: Callable[[str], None]) -> list[FELayer]:
     """Extrude and assemble every compartment's layer (the costly setup before contact):
-    on the EF faces, or on prepared sheets (``fe.prepare``); refused first when it would
-    not fit (`fecheck.fe.budget.guard_layers`)."""
+    on the EF faces, or on prepared sheets (``fe.prepare``); a body with a closed tibial
+    solid gets the solid instead (`solid_layer`); refused first when it would not fit
+    (`fecheck.fe.budget.guard_layers`)."""
     guard_layers(bodies, settings, poisson)
     out = []
+    built: dict[int, dict[str, LayerSolid]] = {}
     levels = settings.levels(poisson)
     for body in bodies:
+        if body.solid is not None:
+            out.append(solid_layer(body, youngs_MPa, poisson, settings, log, built))
+            continue
         sheet, prepared = body, None
         directions, rounds = None, 0
         if settings.prepare != "on":
@@ -203,6 +208,25 @@ def _extrusion_failure(body: FEBody, err: ExtrusionError, settings: FESettings
     return FecheckError(f"the {body.name} tibial sheet cannot be extruded into a cartilage layer "
                         f"for the FE: {len(err.where)} faces invert, e.g. at ({where[0]:.1f}, "
                         f"{where[1]:.1f}, {where[2]:.1f}) mm (tibia frame); try {keys}")
+
+
+def solid_layer(body: FEBody, youngs_MPa: float, poisson: float, settings: FESettings,
+                log: Callable[[str], None], built: dict[int, dict[str, LayerSolid]]
+                ) -> FELayer:
+    """The compartment's view of its closed tibial solid (`fecheck.fe.volume`), meshed
+    and assembled once per solid (`built`, by the solid's identity)."""
+    from fecheck.fe.volume import parent_faces, solid_layers
+
+    key = id(body.solid)
+    if key not in built:
+        built[key] = solid_layers(body.solid, youngs_MPa, poisson,
+                                  base_deg=settings.solid_base_deg, refine=settings.refine)
+        release_freed_heap()
+        one = next(iter(built[key].values()))
+        log(f"{body.solid.name}: closed solid of {len(one.mesh.tets)} quadratic tetrahedra, "
+            f"{one.n_dofs} dofs, base fixed, walls free")
+    solid = built[key][body.name]
+    return FELayer(body, solid.surface, parent_faces(solid.surface, body.surface), solid, 0)
 
 
 @dataclass(frozen=True)

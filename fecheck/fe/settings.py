@@ -29,6 +29,8 @@ class FESettings:
     prepare: str = "auto"
     size_mm: float = 1.0
     smooth_mm: float = 2.0
+    body: str = "auto"
+    solid_base_deg: float = 45.0
 
     @classmethod
     def from_scene(cls, scene: Scene, **overrides: Any) -> FESettings:

@@ -95,7 +95,7 @@ def layer_solid(surface: TriMesh, thickness_mm: float | np.ndarray, youngs_MPa: 
     edge_normal /= np.linalg.norm(edge_normal, axis=1, keepdims=True)
     mid_dofs = basis.edge_dofs[:, find_edge(*top_edges.T)].T              # (e, 3)
     end_dofs = basis.nodal_dofs[:, top_edges.ravel()].T.reshape(-1, 2, 3)  # (e, 2, 3)
-    T, kept = _tie_matrix(basis.N, fixed, mid_dofs, end_dofs, edge_normal)
+    T, kept = tie_matrix(basis.N, fixed, mid_dofs, end_dofs, edge_normal)
     K_red = (T.T @ K @ T).tocsc()
     vertex_dofs = basis.nodal_dofs[:, :s].T                                # (s, 3)
     rows = np.repeat(np.arange(s), 3)
@@ -164,7 +164,7 @@ def _face_edges(faces: np.ndarray) -> np.ndarray:
     return np.unique(e, axis=0)
 
 
-def _tie_matrix(n: int, fixed: np.ndarray, mid: np.ndarray, ends: np.ndarray,
+def tie_matrix(n: int, fixed: np.ndarray, mid: np.ndarray, ends: np.ndarray,
                 normal: np.ndarray) -> tuple[sp.csr_matrix, np.ndarray]:
     """T (n × kept) with u = T ũ: fixed dofs are zero, and at each top edge midside node
     the component along its largest normal axis k is eliminated by

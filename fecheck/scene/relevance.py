@@ -186,6 +186,14 @@ def _no_scanned_tibia(scene: SceneValues) -> str | None:
     return None
 
 
+def _no_tibia_solid(scene: SceneValues) -> str | None:
+    if not scene["geometry.tibia_solid"]:
+        return "no geometry.tibia_solid: the FE extrudes the sheet into a bonded layer"
+    if scene["fe.body"] == "layer":
+        return "fe.body = 'layer' extrudes the sheet into a bonded layer"
+    return _no_scanned_tibia(scene)
+
+
 def _not_sphere_tibia(scene: SceneValues) -> str | None:
     if scene["model.kind"] != "sphere-tibia":
         return (f"model.kind = '{scene['model.kind']}' (only sphere-tibia has condyle spheres "
@@ -293,7 +301,9 @@ RULES: tuple[tuple[tuple[str, ...], Reason], ...] = (
     (("geometry.split_x_mm",), _not_sagittal),
     (("geometry.tibia_split",), _no_split),
     (("geometry.tibia", "geometry.tibia_lateral", "geometry.units", "geometry.rotation_deg",
-      "geometry.translation_mm", "geometry.smooth_mm"), _no_scanned_tibia),
+      "geometry.translation_mm", "geometry.smooth_mm", "geometry.tibia_solid"),
+     _no_scanned_tibia),
+    (("fe.solid_base_deg",), _no_tibia_solid),
     (("geometry.femur_bone", "geometry.tibia_bone"), _no_bones),
     (("geometry.ligaments",), _no_bundle_file),
     (("fe.axisym_size_mm",), _no_axisymmetric),

@@ -366,6 +366,16 @@ SCHEMA: dict[str, Key] = {
     "geometry.tibia_lateral": Key("str", "", "Lateral tibial articular surface, one "
                                   "compartment per file ('' = both compartments are in "
                                   "geometry.tibia)."),
+    "geometry.tibia_solid": Key(
+        "str", "",
+        "Closed triangle surface of the whole tibial cartilage volume or implant insert "
+        "(same formats, units and transform as geometry.tibia): one closed piece for both "
+        "compartments or two, one per compartment. `fecheck fe` meshes it in tetrahedra "
+        "(Gmsh) instead of extruding the sheet (fe.body): its articular face is the part "
+        "of its boundary on geometry.tibia (within 0.1 mm), its base is fixed "
+        "(fe.solid_base_deg), its walls are free. Without geometry.tibia the EF's sheet is "
+        "its up-facing part (normals within 75 deg of +z, seen from above), split by "
+        "geometry.tibia_split. '' = no solid."),
     "geometry.tibia_split": Key(
         "str", "components",
         "How one geometry.tibia file is split into compartments: 'components' = its two "
@@ -473,6 +483,17 @@ SCHEMA: dict[str, Key] = {
                              "reference under the contact, mm; that reference runs only "
                              "for flat layers (plateau.kind = 'transverse').",
                              low=0.005, high=2.0),
+    "fe.body": Key("str", "auto", _FE + "the tibial body: 'solid' = the closed "
+                   "geometry.tibia_solid meshed in quadratic tetrahedra, base fixed, walls "
+                   "free; 'layer' = the articular sheet extruded into a layer bonded at its "
+                   "bottom (with a geometry.tibia_solid: the solid's own thickness map, the "
+                   "distance from each sheet vertex along its inward normal to the solid's "
+                   "far side); 'auto' = 'solid' when geometry.tibia_solid is given, else "
+                   "'layer'.", choices=("auto", "solid", "layer")),
+    "fe.solid_base_deg": Key("float", 45.0, _FE + "the fixed base of geometry.tibia_solid: "
+                             "the boundary faces whose outward normal is within this angle of "
+                             "-z (pointing away from the femur), all their nodes fixed; every "
+                             "other non-articular face is free, deg.", low=0.0, high=89.0),
 }
 """Every scene key (dotted) → its `Key`; the order is the order of the documents."""
 

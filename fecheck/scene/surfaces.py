@@ -37,7 +37,8 @@ from geometry.cache import cached_build
 from geometry.mesh import TriMesh, is_closed
 from geometry.roughness import smooth_sheet
 
-FILE_KEYS = ("femur", "tibia", "tibia_lateral", "femur_bone", "tibia_bone", "ligaments")
+FILE_KEYS = ("femur", "tibia", "tibia_lateral", "femur_bone", "tibia_bone", "ligaments",
+             "tibia_solid")
 """Keys of ``[geometry]`` that name a file."""
 SHEET_KEYS = ("femur", "tibia", "tibia_lateral")
 """Keys of the articular sheets (``geometry.smooth_mm`` smooths them, not the bones)."""
@@ -286,7 +287,13 @@ def _one_piece(mesh: TriMesh, path: Path) -> TriMesh:
 def tibial_compartments(scene: Scene) -> dict[str, TriMesh]:
     """{medial, lateral}: the tibial articular surface split into its compartments (mm,
     thesis frame; their winding is checked with the other sheet checks before the
-    solve, `fecheck.model.plausibility.check_winding`)."""
+    solve, `fecheck.model.plausibility.check_winding`). Without ``geometry.tibia`` but
+    with a closed ``geometry.tibia_solid``: the solid's up-facing part
+    (`fecheck.scene.tibia_solid.articular_sheets`)."""
+    if file_path(scene, "tibia") is None and file_path(scene, "tibia_solid") is not None:
+        from fecheck.scene.tibia_solid import articular_sheets
+
+        return articular_sheets(scene)
     why = f"model.kind = {scene['model.kind']!r} (the tibial articular surface)"
     path = required_path(scene, "tibia", why)
     side = scene.side

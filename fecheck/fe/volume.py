@@ -1,0 +1,203 @@
+"""The tibial cartilage or insert as a closed solid in the FE: tetrahedralized, base
+fixed, walls free.
+
+A closed outward triangle surface (``geometry.tibia_solid``, `fecheck.scene.tibia_solid`;
+each closed piece its own volume) is handed to Gmsh as a discrete surface and its volume
+meshed in tetrahedra (``geo.addSurfaceLoop`` + ``addVolume``): the boundary triangles are
+kept as given, so the articular face is the user's (or, with ``fe.refine``, theirs split
+in four per level), and the interior sizes are interpolated from the boundary's (a fine
+articular face over a coarse base grades the mesh by itself). Small-strain elasticity on
+quadratic tetrahedra with straight edges (`fecheck.fe.solid.p2_elasticity`); every node
+of the base faces (outward normal within ``fe.solid_base_deg`` of -z, away from the
+femur) is fixed, the walls are free. On the articular face contact acts at the vertices
+along their normals, the midside normal displacements tied to their end vertices' as on
+the extruded layer (`fecheck.fe.solid`), so both paths press the same kind of surface.
+
+One solid carries both compartments when it is one piece (their `LayerSolid` views share
+one stiffness matrix, which `fecheck.fe.joint` condenses once, coupled).
+
+Units: mm, N, MPa; the solid lives in the tibia frame.
+"""
+
+from __future__ import annotations
+
+import math
+import time
+from dataclasses import dataclass
+
+import numpy as np
+import scipy.sparse as sp
+
+from fecheck.errors import FecheckError
+from fecheck.fe.recovery import tributary_areas
+from fecheck.fe.solid import LayerSolid, edge_lookup, p2_elasticity, tie_matrix
+from fecheck.scene.surfaces import components
+from geometry.mesh import TetMesh, TriMesh
+from geometry.subdivide import subdivide
+
+
+@dataclass(frozen=True, eq=False)
+class TibiaSolid:
+    """A closed tibial solid: its outward surface (mm, tibia frame), the face indices of
+    each compartment's articular face, and its file name."""
+
+    surface: TriMesh
+    articular: dict[str, np.ndarray]
+    name: str
+
+
+def tetrahedralize(surface: TriMesh, name: str) -> TetMesh:
+    """Linear tetrahedra filling the closed outward `surface` (every closed piece its own
+    volume); the surface's vertices are the mesh's first points, in order.
+
+    Raises `FecheckError` naming `name` when Gmsh cannot fill it (a self-intersecting or
+    inside-out surface) or returns an inverted tetrahedron.
+    """
+    from geometry.gmsh_session import gmsh_session
+
+    pieces = components(surface)
+    with gmsh_session("tibia-solid") as gmsh:
+        for k, faces in enumerate(pieces, start=1):
+            used = np.unique(surface.faces[faces])
+            gmsh.model.addDiscreteEntity(2, k)
+            gmsh.model.mesh.addNodes(2, k, used + 1, surface.points[used].ravel())
+            gmsh.model.mesh.addElementsByType(k, 2, [], (surface.faces[faces] + 1).ravel())
+        for k in range(1, len(pieces) + 1):
+            gmsh.model.geo.addVolume([gmsh.model.geo.addSurfaceLoop([k])])
+        gmsh.model.geo.synchronize()
+        try:
+            gmsh.model.mesh.generate(3)
+        except Exception as err:       # gmsh raises a bare Exception with its log line
+            raise FecheckError(f"{name}: Gmsh could not mesh the volume of the closed "
+                               f"surface ({str(err).splitlines()[0]}); check that it does "
+                               "not intersect itself") from err
+        tags, coords, _ = gmsh.model.mesh.getNodes()
+        _, tet_nodes = gmsh.model.mesh.getElementsByType(4)
+    tags = tags.astype(np.int64)
+    index = np.full(tags.max() + 1, -1, dtype=np.int64)
+    index[np.sort(tags)] = np.arange(len(tags))
+    points = np.empty((len(tags), 3))
+    points[index[tags]] = coords.reshape(-1, 3)
+    tets = index[tet_nodes.astype(np.int64)].reshape(-1, 4)
+    if len(tets) == 0 or not np.allclose(points[:surface.n_points], surface.points):
+        raise FecheckError(f"{name}: Gmsh did not fill the closed surface with tetrahedra; "
+                           "check that it does not intersect itself")
+    mesh = TetMesh(points, tets)
+    if (mesh.tet_volumes <= 0).any():
+        raise FecheckError(f"{name}: the tetrahedral mesh has "
+                           f"{int((mesh.tet_volumes <= 0).sum())} inverted elements; check "
+                           "that the closed surface does not intersect itself")
+    return mesh
+
+
+def base_faces(surface: TriMesh, articular: np.ndarray, base_deg: float, name: str
+               ) -> np.ndarray:
+    """Face indices of the fixed base: outward normals within `base_deg` of -z, not
+    articular; `FecheckError` when a closed piece has none (it would float)."""
+    down = surface.face_normals[:, 2] <= -math.cos(math.radians(base_deg))
+    down[articular] = False
+    for piece in components(surface):
+        if not down[piece].any():
+            low = surface.points[np.unique(surface.faces[piece])][:, 2].min()
+            raise FecheckError(f"{name}: a closed piece of the tibial solid (lowest at z = "
+                               f"{low:.1f} mm) has no face whose normal is within "
+                               f"fe.solid_base_deg = {base_deg:g} deg of -z, so nothing fixes "
+                               "it: raise fe.solid_base_deg or check geometry.rotation_deg")
+    return np.flatnonzero(down)
+
+
+def solid_layers(solid: TibiaSolid, youngs_MPa: float, poisson: float, *,
+                 base_deg: float = 45.0, refine: int = 0) -> dict[str, LayerSolid]:
+    """{compartment: the assembled solid seen from that compartment's articular face}
+    (module docstring); all views share one stiffness matrix."""
+    if not (np.isfinite(youngs_MPa) and youngs_MPa > 0):
+        raise FecheckError(f"Young's modulus must be a positive number of MPa, got {youngs_MPa}")
+    if not (np.isfinite(poisson) and 0.0 <= poisson < 0.5):
+        raise FecheckError(f"Poisson's ratio must lie in [0, 0.5), got {poisson}")
+    timing = {}
+    t0 = time.perf_counter()
+    surface, parent = subdivide(solid.surface, refine)
+    articular = {c: np.flatnonzero(np.isin(parent, f)) for c, f in solid.articular.items()}
+    every = np.concatenate(list(articular.values()))
+    fixed_faces = surface.faces[base_faces(surface, every, base_deg, solid.name)]
+    tets = tetrahedralize(surface, solid.name)
+    timing["mesh"] = time.perf_counter() - t0
+    t0 = time.perf_counter()
+    mesh, basis, K = p2_elasticity(tets, youngs_MPa, poisson)
+    timing["assemble"] = time.perf_counter() - t0
+    t0 = time.perf_counter()
+    find_edge = edge_lookup(mesh.edges, mesh.p.shape[1])
+    base_edges = TriMesh(surface.points, fixed_faces).edges_unique
+    fixed = np.concatenate([basis.nodal_dofs[:, np.unique(fixed_faces)].ravel(),
+                            basis.edge_dofs[:, find_edge(*base_edges.T)].ravel()])
+    top = surface.faces[every]
+    top_normals = np.zeros_like(surface.points)
+    top_normals[np.unique(top)] = _vertex_normals(surface.points, top)[np.unique(top)]
+    top_edges = TriMesh(surface.points, top).edges_unique
+    edge_normal = top_normals[top_edges[:, 0]] + top_normals[top_edges[:, 1]]
+    edge_normal /= np.linalg.norm(edge_normal, axis=1, keepdims=True)
+    mid_dofs = basis.edge_dofs[:, find_edge(*top_edges.T)].T
+    end_dofs = basis.nodal_dofs[:, top_edges.ravel()].T.reshape(-1, 2, 3)
+    T, kept = tie_matrix(basis.N, fixed, mid_dofs, end_dofs, edge_normal)
+    K_red = (T.T @ K @ T).tocsc()
+    position = np.full(basis.N, -1)
+    position[kept] = np.arange(len(kept))
+    timing["reduce"] = time.perf_counter() - t0
+    out = {}
+    for c, faces in articular.items():
+        used, inverse = np.unique(surface.faces[faces], return_inverse=True)
+        face_view = TriMesh(surface.points[used], inverse.reshape(-1, 3))
+        dofs = basis.nodal_dofs[:, used].T                                   # (s, 3)
+        if (position[dofs] < 0).any():
+            where = surface.points[used[(position[dofs] < 0).any(axis=1)][0]]
+            raise FecheckError(f"{solid.name}: the {c} articular face touches the fixed base "
+                               f"at ({', '.join(f'{v:.1f}' for v in where)}) mm; lower "
+                               "fe.solid_base_deg")
+        normals = face_view.vertex_normals
+        rows = np.repeat(np.arange(len(used)), 3)
+        N_full = sp.csr_matrix((normals.ravel(), (rows, dofs.ravel())),
+                               shape=(len(used), basis.N))
+        out[c] = LayerSolid(tets, K_red, (N_full @ T).tocsr(), position[dofs], normals,
+                            tributary_areas(face_view.points, face_view.faces), face_view,
+                            len(kept), basis.N // 3, timing)
+    return out
+
+
+def _vertex_normals(points: np.ndarray, faces: np.ndarray) -> np.ndarray:
+    """Area-weighted unit vertex normals of `faces` (zero at unused points)."""
+    return TriMesh(points, faces).vertex_normals
+
+
+def solid_thickness(solid: TibiaSolid, sheet: TriMesh) -> np.ndarray:
+    """(n,) distance from each sheet vertex along its inward normal to the far side of
+    `solid` (its faces off the articular face), mm: the thickness map of the layer
+    equivalent to it (each
+    ray starts a thousandth of the way toward the vertex's adjacent face centroids, so a
+    vertex on the solid's rim or corner does not run down its wall).
+    `FecheckError` where the ray leaves the solid nowhere (the sheet is not on it)."""
+    from geometry.distance import ray_hits
+
+    far = np.setdiff1d(np.arange(solid.surface.n_faces),
+                       np.concatenate(list(solid.articular.values())))
+    far_side = TriMesh(solid.surface.points, solid.surface.faces[far])
+    n = sheet.vertex_normals
+    eps = 1e-6 * float(np.linalg.norm(np.ptp(far_side.points, axis=0)))
+    inward = np.zeros_like(sheet.points)          # toward the adjacent faces' centroids
+    np.add.at(inward, sheet.faces.ravel(), np.repeat(sheet.face_centroids, 3, axis=0))
+    inward = inward / np.bincount(sheet.faces.ravel(), minlength=sheet.n_points)[:, None]
+    start = sheet.points + 1e-3 * (inward - sheet.points) - eps * n   # off rims and corners
+    dist, _ = ray_hits(start, -n, far_side, facing=-n)
+    if not np.all(np.isfinite(dist)):
+        where = sheet.points[np.flatnonzero(~np.isfinite(dist))[0]]
+        raise FecheckError("geometry.tibia_solid: a ray down from the sheet geometry.tibia "
+                           f"at ({', '.join(f'{v:.1f}' for v in where)}) mm leaves the solid "
+                           "nowhere: the sheet does not lie on the solid")
+    return dist + eps
+
+
+def parent_faces(surface: TriMesh, ef_surface: TriMesh) -> np.ndarray:
+    """(m,) for each face of `surface` the face of `ef_surface` closest to its centroid
+    (how the FE pressure is averaged onto the EF's faces)."""
+    from geometry.distance import closest_distance
+
+    return closest_distance(surface.face_centroids, ef_surface)[1]
