@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import csv
 import math
+from pathlib import Path
 
 import pytest
 
@@ -132,5 +133,31 @@ def test_cli_refuses_before_any_work(tmp_path, monkeypatch):
     monkeypatch.setattr(verify, "run_suite", never)
     assert main(["verify", "--only", "no-such-case"]) == 2
     assert main(["verify", "--scene", "x.toml"]) == 2                 # needs --out
+    scene = str(Path(verify.__file__).parents[1] / "scenes" / "baseline.toml")
+    assert main(["verify", "--out", str(tmp_path), "--scene", scene,
+                 "--scene-levels", "0", "2"]) == 2                  # ratio 4: refused
     (tmp_path / "f").write_text("")
     assert main(["verify", "--out", str(tmp_path / "f")]) == 2        # a file, not a folder
+
+
+def test_scene_estimate_is_the_gci_of_the_fe_answers(monkeypatch):
+    # synthetic FE answers p(h) = 4 + 0.3 h^1.5, A(h) = 100 − 8 h² at refine k (h = 2^-k):
+    # three levels give order 1.5 and 4.0 extrapolated, GCI 1.25·|p1 − 4|/p1
+    from types import SimpleNamespace
+
+    import fecheck.fe.crosscheck as crosscheck
+
+    def fake(scene, refine, log):
+        h = 0.5 ** refine
+        fe = SimpleNamespace(max_pressure_MPa=4.0 + 0.3 * h ** 1.5, area_mm2=100 - 8 * h * h)
+        return SimpleNamespace(compartments={"medial": SimpleNamespace(fe=fe)})
+
+    monkeypatch.setattr(crosscheck, "cross_check", fake)
+    text = verify.scene_estimate(None, [0, 1, 2], "s.toml")
+    p_row = [ln for ln in text.splitlines() if "max_pressure_MPa" in ln][0].split("|")
+    assert float(p_row[4]) == pytest.approx(1.5, abs=0.005)
+    assert float(p_row[5]) == pytest.approx(4.0, abs=5e-4)
+    p1 = 4.0 + 0.3 * 0.25 ** 1.5
+    assert float(p_row[6].strip(" %")) == pytest.approx(100 * 1.25 * (p1 - 4) / p1, abs=0.006)
+    a_row = [ln for ln in text.splitlines() if "area_mm2" in ln][0].split("|")
+    assert float(a_row[4]) == pytest.approx(2.0, abs=0.005)

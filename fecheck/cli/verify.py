@@ -56,6 +56,7 @@ def run(args: argparse.Namespace) -> int:
     if args.scene is not None:
         from fecheck.scene import load_scene
 
+        verify.check_levels(args.scene_levels)
         scene = load_scene(args.scene)
     table = sys.stderr if args.json is not None and str(args.json) == STDOUT else sys.stdout
     print(verify.HEADER, file=table, flush=True)
@@ -68,7 +69,8 @@ def run(args: argparse.Namespace) -> int:
         write_text(args.json, json.dumps({"cases": [r.as_dict() for r in rows]}, indent=1)
                    + "\n")
     if args.out is not None:
-        estimate = verify.scene_estimate(scene, args.scene_levels) if scene else ""
+        estimate = (verify.scene_estimate(scene, args.scene_levels, str(args.scene))
+                    if scene else "")
         verify.write_csv(rows, args.out / "verify.csv")
         verify.plot(rows, args.out / "verify.png")
         write_text(args.out / "report.md", verify.report(rows, args.quick, estimate))

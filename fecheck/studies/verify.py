@@ -405,18 +405,28 @@ def report(rows: Sequence[Row], quick: bool, scene_estimate: str = "") -> str:
     return "\n".join(lines) + "\n"
 
 
-def scene_estimate(scene, refines: Sequence[int], log: Callable[[str], None] | None = None
-                   ) -> str:
-    """Markdown: the FE cross-check of `scene` at surface subdivisions `refines` (each
-    halves the edges: ratio 2), and per compartment the GCI of its p_max and area
-    (Roache's Fs 1.25 with three levels, 3 with two, the formal order 2 assumed then)."""
+def check_levels(refines: Sequence[int]) -> list[int]:
+    """`refines` sorted, or a `FecheckError` unless 2 or 3 distinct fe.refine values in
+    0..4 (consecutive: the ratio is 2)."""
+    levels = sorted(set(refines))
+    if len(levels) not in (2, 3) or levels[0] < 0 or levels[-1] > 4 or \
+            levels != list(range(levels[0], levels[0] + len(levels))):
+        raise FecheckError(f"--scene-levels takes 2 or 3 consecutive fe.refine values in "
+                           f"0..4 (e.g. 0 1 2), got {' '.join(map(str, refines))}")
+    return levels
+
+
+def scene_estimate(scene, refines: Sequence[int], label: str,
+                   log: Callable[[str], None] | None = None) -> str:
+    """Markdown: the FE cross-check of `scene` (named `label`) at surface subdivisions
+    `refines` (each halves the edges: ratio 2), and per compartment the GCI of its p_max
+    and area (Roache's Fs 1.25 with three levels, 3 with two, the formal order 2 assumed
+    then)."""
     from fecheck.fe.crosscheck import cross_check
 
-    refines = sorted(refines)
-    if len(refines) not in (2, 3):
-        raise FecheckError(f"--scene-levels takes 2 or 3 refinements, got {list(refines)}")
+    refines = check_levels(refines)
     checks = [cross_check(scene, refine=k, log=log) for k in refines]
-    lines = [f"Scene {scene.name!r}: FE at fe.refine {', '.join(map(str, refines))} "
+    lines = [f"Scene `{label}`: FE at fe.refine {', '.join(map(str, refines))} "
              "(each level halves the surface edges, r = 2).", "",
              "| compartment | quantity | values (coarse → fine) | order | extrapolated | "
              "GCI fine | Fs |", "|---|---|---|---|---|---|---|"]
