@@ -266,6 +266,18 @@ def cases() -> list[Case]:
              (0.2, 0.1, 0.05), (0.2, 0.1, 0.05),
              partial(lambda h, q: vp.axisym_hertz(h, q), q="radius"), 1.5, (0.8, 2.5), 0.03),
     ]
+    axisym = "the axisymmetric FE at 0.05 mm (its own error ~1e-5: axisym-layer-nu0.3)"
+    out += [
+        Case("fe3d-layer-depth", "3-D FE contact", "the 3-D FE contact path (extruded P2 "
+             "layer, exact contact) converges to the axisymmetric answer; indentation "
+             "depth (its p_max converges non-monotonically: -1.8, -0.4, +0.3 %)", axisym,
+             "depth (h: element under the contact, mm)", (1.6, 0.8, 0.4), (1.6, 0.8),
+             partial(lambda h, q: vp.fe3d_layer(h, q), q="depth"), 2.0, (1.7, 3.2), 0.005),
+        Case("fe3d-layer-area", "3-D FE contact", "the same, contact area (zero contour "
+             "of the recovered pressure)", axisym, "area (h: element under the contact, mm)",
+             (1.6, 0.8, 0.4), (1.6, 0.8),
+             partial(lambda h, q: vp.fe3d_layer(h, q), q="area"), 2.0, (1.5, 3.5), 0.02),
+    ]
     for nu in (0.3, 0.45, 0.49, 0.4999):
         known = ("volumetric locking of the displacement-only P2 layer: p_max does not "
                  "converge at ν 0.4999 (a mixed u-p formulation is needed)"

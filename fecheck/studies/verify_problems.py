@@ -347,3 +347,30 @@ def p2_elasticity_cube(n: int, nu: float):
     from fecheck.fe.solid import p2_elasticity
 
     return p2_elasticity(_cube(n, jitter=0.3), E_MPA, nu)
+
+
+@lru_cache(maxsize=4)
+def _baseline_axisym():
+    """The fine axisymmetric reference of the baseline medial contact (0.05 mm)."""
+    from fecheck.fe.axisym import axisym_sphere_on_layer
+
+    return axisym_sphere_on_layer(323.71, R_MM, E_MPA, 0.3, 6.0, size_mm=0.05).metrics
+
+
+@lru_cache(maxsize=4)
+def _baseline_3d(size_mm: float):
+    from fecheck.fe.sphere_layer import sphere_on_flat_layer
+
+    return sphere_on_flat_layer(323.71, R_MM, E_MPA, 0.3, 6.0, refine_size_mm=size_mm,
+                                size_mm=max(2.0, size_mm), layers=3, grading=1.6).metrics
+
+
+def fe3d_layer(size_mm: float, quantity: str) -> Sample:
+    """The general 3-D FE contact path (`fecheck.fe.sphere_layer`: extruded P2 layer, 3
+    levels through 6 mm, exact frictionless contact) of the baseline medial contact
+    (323.71 N, R 25.5, E 20, ν 0.3) against the axisymmetric FE at 0.05 mm: the
+    indentation depth or the contact area, element `size_mm` under the contact."""
+    fe, ref = _baseline_3d(size_mm), _baseline_axisym()
+    if quantity == "depth":
+        return fe.depth_mm, ref.depth_mm
+    return fe.area_mm2, ref.area_mm2
