@@ -371,6 +371,8 @@ def plot(rows: Sequence[Row], path) -> None:
         ax.set_title(group, fontsize=10)
         ax.set_xlabel(H_LABELS.get(group, "element size under the contact h (mm)"), fontsize=8)
         ax.set_ylabel("relative error (Δ: successive change)", fontsize=8)
+        ticks = sorted({h for r in shown if r.case.group == group for h in r.levels})
+        ax.set_xticks(ticks, [f"{h:.3g}" for h in ticks], fontsize=7)
         ax.xaxis.set_minor_formatter(NullFormatter())
         ax.grid(alpha=0.3, which="both")
         ax.legend(fontsize=6)
