@@ -98,7 +98,8 @@ def test_suite_has_25_cases_each_with_an_expectation():
 
 @pytest.mark.parametrize("name", ["patch-P2-nu0.49", "patch-P1-nu0.3",
                                   "patch-traction-P2-nu0.3", "hertz-two-bodies",
-                                  "ef-invariance-tilt20-spin30", "load-scaling-nu0.3"])
+                                  "ef-invariance-tilt20-spin30", "load-scaling-nu0.3",
+                                  "fe3d-invariance-tilt20-spin30"])
 def test_exact_cases_are_round_off(name):
     (case,) = [c for c in verify.cases() if c.name == name]
     row = verify.run_case(case, quick=True)

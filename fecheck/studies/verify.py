@@ -249,6 +249,14 @@ def cases() -> list[Case]:
                               "max relative change of |F|, area, p_max",
                               partial(lambda h, t, s: vp.ef_invariance(t, s), t=tilt, s=spin),
                               (4,), 1e-10))
+    for tilt, spin in ((10.0, 0.0), (20.0, 30.0)):
+        out.append(_exactness(f"fe3d-invariance-tilt{tilt:g}-spin{spin:g}", "invariance",
+                              f"3-D FE contact (extruded layer, sphere, load) tilted {tilt:g}° "
+                              f"about x and turned {spin:g}° about z, the same mesh turned",
+                              "the flat answer", "max relative change of p_max, force, "
+                              "approach, contact vertices",
+                              partial(lambda h, t, s: vp.fe3d_invariance(t, s), t=tilt,
+                                      s=spin), (1,), 1e-9))
     out.append(_exactness("hertz-two-bodies", "Hertz", "Hertz law with the two-body "
                           "modulus (20 MPa layer on a 460 MPa body)",
                           "P = 4/3 E*√R d^1.5, 1/E* = Σ(1 − ν²)/E (Johnson 1985 §4.2)",

@@ -374,3 +374,44 @@ def fe3d_layer(size_mm: float, quantity: str) -> Sample:
     if quantity == "depth":
         return fe.depth_mm, ref.depth_mm
     return fe.area_mm2, ref.area_mm2
+
+
+def _pressed_layer(surface, up: np.ndarray, load_N: float, settings) -> np.ndarray:
+    """(p_max MPa, summed contact force N, approach mm, contact vertices) of the general
+    FE path: `surface` extruded 6 mm (E 20, ν 0.3), pressed along -`up` by a rigid
+    sphere (R 25.5) touching it at the origin."""
+    from fecheck.fe.bodies import FEBody
+    from fecheck.fe.indenter import SphereIndenter
+    from fecheck.fe.press import build_layers, push_drive, solve_pressed
+    from fecheck.fe.sphere_layer import candidate_margin
+
+    indenter = SphereIndenter(R_MM * up, R_MM)
+    body = FEBody("layer", surface, np.full(surface.n_points, 6.0), indenter, "plane",
+                  indenter.describe(), "uniform")
+    layer = build_layers([body], E_MPA, 0.3, settings, lambda m: None)[0]
+    drive = push_drive(np.eye(3), np.zeros(3), -load_N * up)
+    sol, _, _, _ = solve_pressed([layer], drive, candidate_margin(load_N, R_MM, E_MPA, 0.3),
+                                 settings, lambda m: None)
+    c = sol.layers[0]
+    return np.array([float((c.force_N / layer.solid.tributary_mm2).max()),
+                     float(c.force_N.sum()), float(sol.q[0]), float(c.active.sum())])
+
+
+def fe3d_invariance(tilt_deg: float, spin_deg: float, load_N: float = 100.0) -> float:
+    """Largest relative change of p_max, the summed contact force, the approach and the
+    number of contact vertices of the 3-D FE path when the whole problem (the layer's
+    surface, the sphere, the load) is tilted by `tilt_deg` about x and turned by
+    `spin_deg` about z: the same mesh, turned, so only round-off may differ."""
+    from fecheck.fe.sphere_layer import flat_layer
+    from fecheck.statics.frames import rotation
+    from geometry.mesh import TriMesh
+
+    layer, settings = flat_layer(load_N, R_MM, E_MPA, 0.3, 6.0, refine_size_mm=2.0,
+                                 size_mm=3.0, layers=2)
+    flat = layer.body.surface
+    rot = rotation(0.0, 0.0, math.radians(spin_deg)) @ rotation(math.radians(tilt_deg), 0.0,
+                                                                  0.0)
+    up = np.array([0.0, 0.0, 1.0])
+    a = _pressed_layer(flat, up, load_N, settings)
+    b = _pressed_layer(TriMesh(flat.points @ rot.T, flat.faces), rot @ up, load_N, settings)
+    return float(np.max(np.abs(b / a - 1)))
