@@ -220,7 +220,7 @@ def summary_lines(check) -> list[str]:
     return out
 
 
-def estimate_lines(est) -> list[str]:
+def estimate_lines(est, mode: str = "joint") -> list[str]:
     """The error-estimate table: per compartment and quantity the value at each level,
     the extrapolated value and the GCI band of the finest level; the method, ratios and
     cost below it."""
@@ -253,6 +253,9 @@ def estimate_lines(est) -> list[str]:
                   + "), safety factor 1.25 (Roache's GCI with three levels)")
     out.append(f"levels: {levels}; ratio r = (dofs ratio)^(1/3) = {ratios}; {method}; the "
                "band is the finest value ± GCI; p_max faces on the default run's EF faces")
+    if mode == "compartment":
+        out.append("the force shares are the EF's at every level (compartment mode): no error "
+                   "there")
     return out
 
 
@@ -312,7 +315,7 @@ def run(args: argparse.Namespace) -> int:
     for line in peak_lines(check) + summary_lines(check):
         print(line, file=out)
     if est is not None:
-        for line in estimate_lines(est):
+        for line in estimate_lines(est, check.settings.mode):
             print(line, file=out)
         print(f"time: error estimate {est.extra_seconds:.1f} s = {est.cost:.2f} × the "
               "default FE time", file=out)
