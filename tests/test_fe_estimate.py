@@ -13,6 +13,7 @@ import pytest
 
 import fecheck.fe.crosscheck
 from fecheck.cli import main
+from fecheck.errors import FecheckError
 from fecheck.fe import estimate as est_mod
 from fecheck.fe.crosscheck import cross_check
 from fecheck.fe.estimate import QUANTITIES, Level, band, estimate
@@ -122,3 +123,19 @@ def test_fe_json_carries_the_bands_and_no_estimate_skips_the_solve(baseline, mon
         p = est["compartments"][c]["p_max_vertex_MPa"]
         lo, hi = p["band"]
         assert lo <= data["compartments"][c]["axisym"]["max_pressure_MPa"] <= hi
+
+
+def test_a_failed_coarse_level_warns_and_keeps_the_answer(baseline, monkeypatch, tmp_path,
+                                                          capsys):
+    _, check, _ = baseline
+    monkeypatch.setattr(fecheck.fe.crosscheck, "cross_check", lambda *a, **k: check)
+
+    def fails(*args, **kwargs):
+        raise FecheckError("the coarse sheet does not extrude")
+
+    monkeypatch.setattr(est_mod, "solve_level", fails)
+    out = tmp_path / "fe.json"
+    assert main(["fe", "--mode", "compartment", "--json", str(out)]) == 0
+    assert "no error estimate: its coarse level failed" in capsys.readouterr().err
+    assert json.loads(out.read_text())["error_estimate"] is None
+    assert main(["fe", "--mode", "compartment", "--verify"]) == 2

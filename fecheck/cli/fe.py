@@ -297,6 +297,22 @@ def write_outputs(args: argparse.Namespace, check, scene, out, est=None) -> None
             print(f"wrote {path}", file=out)
 
 
+def _estimate(args: argparse.Namespace, scene, check, estimate, log):
+    """The error estimate, or None with a one-line warning when its coarse level fails
+    (with --verify the failure is the command's)."""
+    import warnings
+
+    from fecheck.errors import FecheckError
+
+    try:
+        return estimate(scene, check, check.ef_run, verify=args.verify, log=log)
+    except FecheckError as err:
+        if args.verify:
+            raise
+        warnings.warn(f"no error estimate: its coarse level failed: {err}", stacklevel=2)
+        return None
+
+
 def run(args: argparse.Namespace) -> int:
     from fecheck.fe.crosscheck import cross_check, stderr_log
     from fecheck.fe.estimate import estimate
@@ -310,7 +326,7 @@ def run(args: argparse.Namespace) -> int:
     with policy("fecheck fe", force=args.force, force_hint="--force"):
         check = cross_check(scene, mode=args.mode, refine=args.refine)
         if not args.no_estimate:
-            est = estimate(scene, check, check.ef_run, verify=args.verify, log=stderr_log)
+            est = _estimate(args, scene, check, estimate, stderr_log)
     print(comparison_table(check), file=out)
     for line in peak_lines(check) + summary_lines(check):
         print(line, file=out)
@@ -321,5 +337,8 @@ def run(args: argparse.Namespace) -> int:
               "default FE time", file=out)
     elif args.no_estimate:
         print("error estimate: skipped (--no-estimate)", file=out)
+    else:
+        print("error estimate: none (a closed tibial solid has no coarse level here, or its "
+              "solve failed: see the warning)", file=out)
     write_outputs(args, check, scene, out, est)
     return 0

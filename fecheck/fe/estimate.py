@@ -34,6 +34,7 @@ from typing import Any
 
 import numpy as np
 
+from fecheck.errors import FecheckError
 from fecheck.fe.bodies import FEBody
 from fecheck.fe.press import FELayer, build_layers, rigid_gaps
 from fecheck.fe.settings import FESettings
@@ -256,8 +257,13 @@ def estimate(scene: Scene, check, run: RunResult, *, verify: bool = False,
         fine_settings = dataclasses.replace(settings, refine=settings.refine + 1,
                                             layers=2 * levels_)
         say("error estimate: the finer level (--verify)")
-        found.insert(0, solve_level(scene, check, run, "fine", fine_settings,
-                                    [lay.body for lay in layers], say))
+        try:
+            found.insert(0, solve_level(scene, check, run, "fine", fine_settings,
+                                        [lay.body for lay in layers], say))
+        except FecheckError as err:
+            raise FecheckError(f"--verify: its finer level (fe.refine {fine_settings.refine}, "
+                               f"{fine_settings.layers} levels through the thickness) cannot "
+                               f"be solved: {err}") from None
     ratios = tuple((a.dofs / b.dofs) ** (1 / 3) for a, b in zip(found[:-1], found[1:], strict=True))
     bands = {c: {q: band([lv.values[c][q] for lv in found], ratios) for q, _, _ in QUANTITIES}
              for c in default.values}
