@@ -1,4 +1,4 @@
-"""The error estimate of `fecheck fe` (`fecheck.fe.estimate`): the GCI band against hand
+"""The error estimate of `fecheck fe` (`fecheck.studies.estimate`): the GCI band against hand
 values, the band of the baseline's FE against the axisymmetric FE (the reference of a flat
 layer, converged to 0.3 % at fe.axisym_size_mm), the three-level plumbing on synthetic
 levels of known order, and the CLI's JSON keys and solve counts.
@@ -14,10 +14,10 @@ import pytest
 import fecheck.fe.crosscheck
 from fecheck.cli import main
 from fecheck.errors import FecheckError
-from fecheck.fe import estimate as est_mod
 from fecheck.fe.crosscheck import cross_check
-from fecheck.fe.estimate import QUANTITIES, Level, band, estimate
 from fecheck.scene import load_scene
+from fecheck.studies import estimate as est_mod
+from fecheck.studies.estimate import QUANTITIES, Level, band, estimate
 
 
 @pytest.fixture(scope="module")

@@ -224,7 +224,7 @@ def estimate_lines(est, mode: str = "joint") -> list[str]:
     """The error-estimate table: per compartment and quantity the value at each level,
     the extrapolated value and the GCI band of the finest level; the method, ratios and
     cost below it."""
-    from fecheck.fe.estimate import QUANTITIES
+    from fecheck.studies.estimate import QUANTITIES
 
     labels = [lv.label for lv in est.levels]
     head = ["", "quantity"] + labels + ["extrapolated", "GCI band"]
@@ -315,8 +315,8 @@ def _estimate(args: argparse.Namespace, scene, check, estimate, log):
 
 def run(args: argparse.Namespace) -> int:
     from fecheck.fe.crosscheck import cross_check, stderr_log
-    from fecheck.fe.estimate import estimate
     from fecheck.scene import load_scene
+    from fecheck.studies.estimate import estimate
     from geometry.budget import policy
 
     out = _report_stream(args)

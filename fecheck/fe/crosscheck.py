@@ -35,7 +35,7 @@ from typing import Any
 import numpy as np
 
 from fecheck.errors import FecheckError
-from fecheck.fe.bodies import refuse_rigid, scene_bodies
+from fecheck.fe.bodies import FEBody, refuse_rigid, scene_bodies
 from fecheck.fe.budget import guard_layers
 from fecheck.fe.press import (
     FELayer,
@@ -457,6 +457,27 @@ def cross_check(scene: Scene, *, mode: str | None = None, refine: int | None = N
                        "ef_k_N_per_mm3": column_stiffness(E, nu, scene["contact.thickness_mm"])},
                       {"fe": pose_dict(q_fe), "ef": pose_dict(run.extra["q"])}, geometry,
                       timing, tuple(notes), run)
+
+
+def fe_level(scene: Scene, bodies: Sequence[FEBody], run: RunResult, settings: FESettings,
+             log: Callable[[str], None]) -> tuple[dict[str, tuple], int, float]:
+    """The FE of `bodies` at `settings` from the EF `run`'s pose under the load control of
+    ``settings.mode`` (another discretization level of a cross-check):
+    {compartment: (layer, FE metrics, vertex pressures MPa)}, the FE dofs and time, s."""
+    E, nu = scene["contact.youngs_MPa"], scene["contact.poisson"]
+    t0 = time.perf_counter()
+    layers = build_layers(bodies, E, nu, settings, log)
+    solved, _, _ = _solve(scene, layers, run, settings, log)
+    out = {}
+    for name, (lay, lc, _, (rot, t)) in solved.items():
+        out[name] = (lay, *_fe_metrics(lay, lc.force_N, lc.active, rigid_gaps(lay, rot, t),
+                                       rot))
+    return out, sum(sol.n_dofs for sol in _solids(layers)), time.perf_counter() - t0
+
+
+def on_ef_faces(layer: FELayer, pressure: np.ndarray) -> np.ndarray:
+    """FE vertex `pressure` (MPa) of `layer` averaged onto its EF faces."""
+    return _on_ef_faces(layer, pressure)
 
 
 def _geometry(layers: Sequence[FELayer], dofs: int) -> dict[str, Any]:

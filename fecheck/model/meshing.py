@@ -118,7 +118,7 @@ def plateau_master(scene: Scene, knee: Knee, c: str):
 def plateau_mesh(scene: Scene, knee: Knee, c: str, scale: float = 1.0):
     """The meshed plateau disc under condyle `c`, sized to resolve and contain the
     expected contact (`plateau_mesh_sizes`); `scale` multiplies its element sizes (2: the
-    coarse level of `fecheck.fe.estimate`), not its radii."""
+    coarse level of `fecheck.studies.estimate`), not its radii."""
     from geometry.budget import policy
     from geometry.plateau import plane_patch, polynomial_patch
     from geometry.polynomial import Polynomial2D

@@ -27,7 +27,6 @@ from __future__ import annotations
 
 import dataclasses
 import math
-import time
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from typing import Any
@@ -36,7 +35,7 @@ import numpy as np
 
 from fecheck.errors import FecheckError
 from fecheck.fe.bodies import FEBody
-from fecheck.fe.press import FELayer, build_layers, rigid_gaps
+from fecheck.fe.press import FELayer
 from fecheck.fe.settings import FESettings
 from fecheck.model.results import RunResult
 from fecheck.scene import Scene
@@ -153,15 +152,15 @@ def _on_default_faces(default: FELayer, layer: FELayer, pressure: np.ndarray) ->
     """`layer`'s vertex `pressure` interpolated onto the `default` layer's FE vertices
     (both projected on the plane normal to the default surface), then averaged onto the
     default run's EF faces."""
-    from fecheck.fe.crosscheck import _on_ef_faces
+    from fecheck.fe.crosscheck import on_ef_faces
     from geometry.prepare import plane_interpolation
 
     if layer is default:
-        return _on_ef_faces(default, pressure)
+        return on_ef_faces(default, pressure)
     uv = _plane_uv(default)
     to = plane_interpolation(layer.surface.points @ uv, layer.surface.faces,
                              default.surface.points @ uv)
-    return _on_ef_faces(default, to @ pressure)
+    return on_ef_faces(default, to @ pressure)
 
 
 def _values(metrics: dict, defaults: dict[str, FELayer], layers: dict[str, FELayer],
@@ -213,23 +212,16 @@ def solve_level(scene: Scene, check, run: RunResult, label: str, settings: FESet
                 bodies: Sequence[FEBody], log: Callable[[str], None]) -> Level:
     """The FE of `bodies` at `settings` from the EF `run`'s pose under the default run's
     load control, as a `Level` (its face-averaged p_max on the default run's EF faces)."""
-    from fecheck.fe.crosscheck import _fe_metrics, _solids, _solve
+    from fecheck.fe.crosscheck import fe_level
 
-    E, nu = scene["contact.youngs_MPa"], scene["contact.poisson"]
-    t0 = time.perf_counter()
-    layers = build_layers(bodies, E, nu, settings, log)
-    solved, _, _ = _solve(scene, layers, run, settings, log)
-    seconds = time.perf_counter() - t0
-    metrics, pressures, by_name = {}, {}, {}
-    for name, (lay, lc, _, (rot, t)) in solved.items():
-        metrics[name], pressures[name] = _fe_metrics(lay, lc.force_N, lc.active,
-                                                     rigid_gaps(lay, rot, t), rot)
-        by_name[name] = lay
+    solved, dofs, seconds = fe_level(scene, bodies, run, settings, log)
+    metrics = {name: m for name, (_, m, _) in solved.items()}
+    pressures = {name: p for name, (_, _, p) in solved.items()}
+    by_name = {name: lay for name, (lay, _, _) in solved.items()}
     defaults = {c: chk.layer for c, chk in check.compartments.items()}
-    dofs = sum(sol.n_dofs for sol in _solids(layers))
     return Level(label, _values(metrics, defaults, by_name, pressures), dofs,
                  {c: lay.surface.n_faces for c, lay in by_name.items()},
-                 settings.levels(nu), seconds)
+                 settings.levels(scene["contact.poisson"]), seconds)
 
 
 def estimate(scene: Scene, check, run: RunResult, *, verify: bool = False,
