@@ -9,11 +9,14 @@ from __future__ import annotations
 import dataclasses
 import json
 
+import numpy as np
 import pytest
+from conftest import require_knee_data
 
 import fecheck.fe.crosscheck
 from fecheck.cli import main
 from fecheck.errors import FecheckError
+from fecheck.fe.bodies import scene_bodies
 from fecheck.fe.crosscheck import cross_check
 from fecheck.scene import load_scene
 from fecheck.studies import estimate as est_mod
@@ -139,3 +142,24 @@ def test_a_failed_coarse_level_warns_and_keeps_the_answer(baseline, monkeypatch,
     assert "no error estimate: its coarse level failed" in capsys.readouterr().err
     assert json.loads(out.read_text())["error_estimate"] is None
     assert main(["fe", "--mode", "compartment", "--verify"]) == 2
+
+
+def test_the_coarse_scanned_sheet_has_edges_twice_as_long():
+    # a quarter of the faces of a sheet is edges about twice as long (same area); the
+    # thickness map is carried over from the nearest default vertex
+    require_knee_data()
+    scene = load_scene("femur_tibia", ["scanned.decimate_faces=2000"])
+    for body in scene_bodies(scene):
+        coarse = est_mod.coarse_body(scene, body)
+        assert coarse.surface.n_faces == pytest.approx(body.surface.n_faces / 4, abs=2)
+        ratio = _mean_edge(coarse.surface) / _mean_edge(body.surface)
+        assert 1.8 < ratio < 2.2, body.name
+        assert coarse.surface.area == pytest.approx(body.surface.area, rel=0.01)
+        assert body.thickness_mm.min() <= coarse.thickness_mm.min()
+        assert coarse.thickness_mm.max() <= body.thickness_mm.max()
+        assert coarse.indenter is body.indenter
+
+
+def _mean_edge(mesh) -> float:
+    e = mesh.points[mesh.faces[:, [1, 2, 0]]] - mesh.points[mesh.faces]
+    return float(np.linalg.norm(e, axis=2).mean())
