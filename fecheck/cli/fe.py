@@ -54,7 +54,8 @@ def add_parser(subparsers) -> None:
                         "mesh coarsened by 2 for a Richardson value and a GCI band)")
     p.add_argument("--verify", action="store_true",
                    help="add a finer level to the error estimate (fe.refine + 1, twice the "
-                        "levels) and report the observed order")
+                        "levels: about 8 times the default's dofs, refused beyond the FE "
+                        "limits without --force) and report the observed order")
     p.add_argument("--plot", type=Path, metavar="DIR",
                    help="write DIR/fe_pressure_map.png: EF and FE pressure on the tibial "
                         "surface in one colour scale, and FE - EF")

@@ -256,7 +256,8 @@ def estimate(scene: Scene, check, run: RunResult, *, verify: bool = False,
             raise FecheckError(f"--verify: its finer level (fe.refine {fine_settings.refine}, "
                                f"{fine_settings.layers} levels through the thickness) cannot "
                                f"be solved: {err}") from None
-    ratios = tuple((a.dofs / b.dofs) ** (1 / 3) for a, b in zip(found[:-1], found[1:], strict=True))
+    ratios = tuple((a.dofs / b.dofs) ** (1 / 3)
+                   for a, b in zip(found[:-1], found[1:], strict=True))
     bands = {c: {q: band([lv.values[c][q] for lv in found], ratios) for q, _, _ in QUANTITIES}
              for c in default.values}
     extra = sum(lv.seconds for lv in found if lv is not default)
