@@ -299,12 +299,15 @@ def write_outputs(args: argparse.Namespace, check, scene, out, est=None) -> None
 
 
 def _estimate(args: argparse.Namespace, scene, check, estimate, log):
-    """The error estimate, or None with a one-line warning when its coarse level fails
-    (with --verify the failure is the command's)."""
+    """The error estimate (None: a check without its EF run, or a closed tibial solid), or
+    None with a one-line warning when its coarse level fails (with --verify the failure is
+    the command's)."""
     import warnings
 
     from fecheck.errors import FecheckError
 
+    if check.ef_run is None:
+        return None
     try:
         return estimate(scene, check, check.ef_run, verify=args.verify, log=log)
     except FecheckError as err:
@@ -339,7 +342,7 @@ def run(args: argparse.Namespace) -> int:
     elif args.no_estimate:
         print("error estimate: skipped (--no-estimate)", file=out)
     else:
-        print("error estimate: none (a closed tibial solid has no coarse level here, or its "
-              "solve failed: see the warning)", file=out)
+        print("error estimate: none (a closed tibial solid has no coarse level here, or the "
+              "coarse solve failed: see the warning)", file=out)
     write_outputs(args, check, scene, out, est)
     return 0
