@@ -124,6 +124,11 @@ class ErrorEstimate:
         return sum(lv.seconds for lv in self.levels if lv.label != "default")
 
     def as_dict(self) -> dict[str, Any]:
+        """The ``error_estimate`` of ``fecheck fe --json``: method, levels (label, dofs,
+        surface faces per compartment, levels through the thickness, FE seconds), ratios,
+        cost_over_default, extra_seconds and per compartment and quantity (`QUANTITIES`)
+        the values (finest first), extrapolated, gci_half_width, band [low, high], order
+        and safety_factor (null where undefined)."""
         return {"method": ("Richardson extrapolation and Roache's GCI (Celik et al. 2008): "
                            + ("2 levels, order 2 assumed, Fs 3" if len(self.levels) == 2
                               else "3 levels, observed order, Fs 1.25")),
