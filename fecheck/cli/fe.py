@@ -49,6 +49,13 @@ def add_parser(subparsers) -> None:
                         "limits (never beyond the available memory)")
     p.add_argument("--json", metavar="PATH",
                    help="write the comparison as JSON ('-': stdout, the report to stderr)")
+    p.add_argument("--no-estimate", action="store_true",
+                   help="skip the error estimate (by default the FE is solved again on a "
+                        "mesh coarsened by 2 for a Richardson value and a GCI band)")
+    p.add_argument("--verify", action="store_true",
+                   help="add a finer level to the error estimate (fe.refine + 1, twice the "
+                        "levels: about 8 times the default's dofs, refused beyond the FE "
+                        "limits without --force) and report the observed order")
     p.add_argument("--plot", type=Path, metavar="DIR",
                    help="write DIR/fe_pressure_map.png: EF and FE pressure on the tibial "
                         "surface in one colour scale, and FE - EF")
@@ -214,6 +221,45 @@ def summary_lines(check) -> list[str]:
     return out
 
 
+def estimate_lines(est, mode: str = "joint") -> list[str]:
+    """The error-estimate table: per compartment and quantity the value at each level,
+    the extrapolated value and the GCI band of the finest level; the method, ratios and
+    cost below it."""
+    from fecheck.studies.estimate import QUANTITIES
+
+    labels = [lv.label for lv in est.levels]
+    head = ["", "quantity"] + labels + ["extrapolated", "GCI band"]
+    rows = []
+    for c, bands in est.bands.items():
+        for key, label, decimals in QUANTITIES:
+            b = bands[key]
+            low, high = _number(b.low, decimals), _number(b.high, decimals)
+            rows.append([c, label] + [_number(v, decimals) or "n/a" for v in b.values]
+                        + [_number(b.extrapolated, decimals) or "n/a",
+                           f"{low} to {high}" if low and high else "n/a"])
+    widths = [max(len(r[i]) for r in rows + [head]) for i in range(len(head))]
+    out = ["error estimate (discretization):"]
+    out += ["  ".join(f"{v:<{w}s}" if i < 2 else f"{v:>{w}s}"
+                      for i, (v, w) in enumerate(zip(r, widths, strict=True))).rstrip()
+            for r in [head] + rows]
+    levels = "; ".join(f"{lv.label} {lv.dofs} dofs, {sum(lv.faces.values())} surface faces, "
+                       f"{lv.levels} levels" for lv in est.levels)
+    ratios = ", ".join(f"{r:.2f}" for r in est.ratios)
+    if len(est.levels) == 2:
+        method = "order 2 assumed, safety factor 3 (Roache's GCI with two levels)"
+    else:
+        orders = [b.order for bands in est.bands.values() for b in bands.values()]
+        method = ("observed order (per quantity "
+                  + ", ".join(_number(p, 2) or "n/a" for p in orders)
+                  + "), safety factor 1.25 (Roache's GCI with three levels)")
+    out.append(f"levels: {levels}; ratio r = (dofs ratio)^(1/3) = {ratios}; {method}; the "
+               "band is the finest value ± GCI; p_max faces on the default run's EF faces")
+    if mode == "compartment":
+        out.append("the force shares are the EF's at every level (compartment mode): no error "
+                   "there")
+    return out
+
+
 # ---------------------------------------------------------------------- the verb
 def _report_stream(args: argparse.Namespace):
     return sys.stderr if args.json is not None and str(args.json) == STDOUT else sys.stdout
@@ -228,14 +274,16 @@ def check_outputs(args: argparse.Namespace) -> None:
     check_output(args.vtk, directory=True)
 
 
-def write_outputs(args: argparse.Namespace, check, scene, out) -> None:
-    """The --json, --vtk and --plot outputs."""
+def write_outputs(args: argparse.Namespace, check, scene, out, est=None) -> None:
+    """The --json (with the error estimate `est` under ``error_estimate``; null when
+    skipped), --vtk and --plot outputs."""
     import json
 
     from fecheck.io.outputs import write_text
 
     if args.json is not None:
-        write_text(args.json, json.dumps(check.as_dict(), indent=2) + "\n")
+        data = check.as_dict() | {"error_estimate": None if est is None else est.as_dict()}
+        write_text(args.json, json.dumps(data, indent=2) + "\n")
         if str(args.json) != STDOUT:
             print(f"wrote {args.json}", file=out)
     if args.vtk:
@@ -250,18 +298,51 @@ def write_outputs(args: argparse.Namespace, check, scene, out) -> None:
             print(f"wrote {path}", file=out)
 
 
+def _estimate(args: argparse.Namespace, scene, check, estimate, log):
+    """The error estimate (None: a check without its EF run, or a closed tibial solid), or
+    None with a one-line warning when its coarse level fails (with --verify the failure is
+    the command's)."""
+    import warnings
+
+    from fecheck.errors import FecheckError
+
+    if check.ef_run is None:
+        return None
+    try:
+        return estimate(scene, check, check.ef_run, verify=args.verify, log=log)
+    except FecheckError as err:
+        if args.verify:
+            raise
+        warnings.warn(f"no error estimate: its coarse level failed: {err}", stacklevel=2)
+        return None
+
+
 def run(args: argparse.Namespace) -> int:
-    from fecheck.fe.crosscheck import cross_check
+    from fecheck.fe.crosscheck import cross_check, stderr_log
     from fecheck.scene import load_scene
+    from fecheck.studies.estimate import estimate
     from geometry.budget import policy
 
     out = _report_stream(args)
     scene = load_scene(args.scene, args.overrides)
     check_outputs(args)
+    est = None
     with policy("fecheck fe", force=args.force, force_hint="--force"):
         check = cross_check(scene, mode=args.mode, refine=args.refine)
+        if not args.no_estimate:
+            est = _estimate(args, scene, check, estimate, stderr_log)
     print(comparison_table(check), file=out)
     for line in peak_lines(check) + summary_lines(check):
         print(line, file=out)
-    write_outputs(args, check, scene, out)
+    if est is not None:
+        for line in estimate_lines(est, check.settings.mode):
+            print(line, file=out)
+        print(f"time: error estimate {est.extra_seconds:.1f} s = {est.cost:.2f} × the "
+              "default FE time", file=out)
+    elif args.no_estimate:
+        print("error estimate: skipped (--no-estimate)", file=out)
+    else:
+        print("error estimate: none (a closed tibial solid has no coarse level here, or the "
+              "coarse solve failed: see the warning)", file=out)
+    write_outputs(args, check, scene, out, est)
     return 0

@@ -35,7 +35,7 @@ from typing import Any
 import numpy as np
 
 from fecheck.errors import FecheckError
-from fecheck.fe.bodies import refuse_rigid, scene_bodies
+from fecheck.fe.bodies import FEBody, refuse_rigid, scene_bodies
 from fecheck.fe.budget import guard_layers
 from fecheck.fe.press import (
     FELayer,
@@ -171,6 +171,8 @@ class CrossCheck:
     geometry: dict[str, Any]
     timing_s: dict[str, float]
     notes: tuple[str, ...] = field(default=())
+    ef_run: RunResult | None = None
+    """The EF run compared (the error estimate's FE levels start from its pose)."""
 
     def split(self, side: str) -> dict[str, float]:
         """{compartment: share of the summed compartment force magnitudes} of `side`
@@ -383,9 +385,11 @@ def _solve(scene: Scene, layers: Sequence[FELayer], run: RunResult, settings: FE
 
 
 def cross_check(scene: Scene, *, mode: str | None = None, refine: int | None = None,
-                log: Callable[[str], None] | None = stderr_log) -> CrossCheck:
+                log: Callable[[str], None] | None = stderr_log,
+                ef: tuple[RunResult, float] | None = None) -> CrossCheck:
     """The FE cross-check of `scene` (module docstring); `mode` and `refine` override
-    ``fe.mode`` and ``fe.refine``; `log` gets progress lines (None: silent).
+    ``fe.mode`` and ``fe.refine``; `log` gets progress lines (None: silent); `ef` the
+    scene's EF run and its time (s) when the caller has them (None: solved here).
 
     Raises
     ------
@@ -401,7 +405,7 @@ def cross_check(scene: Scene, *, mode: str | None = None, refine: int | None = N
     t0 = time.perf_counter()
     bodies = scene_bodies(scene)
     guard_layers(bodies, settings, nu)                  # before the EF run, not after it
-    run, ef_seconds = _ef_run(scene, say)
+    run, ef_seconds = ef if ef is not None else _ef_run(scene, say)
     t1 = time.perf_counter()
     layers = build_layers(bodies, E, nu, settings, say)
     t2 = time.perf_counter()
@@ -452,7 +456,28 @@ def cross_check(scene: Scene, *, mode: str | None = None, refine: int | None = N
                       {"E_MPa": E, "nu": nu, "thickness_mm": scene["contact.thickness_mm"],
                        "ef_k_N_per_mm3": column_stiffness(E, nu, scene["contact.thickness_mm"])},
                       {"fe": pose_dict(q_fe), "ef": pose_dict(run.extra["q"])}, geometry,
-                      timing, tuple(notes))
+                      timing, tuple(notes), run)
+
+
+def fe_level(scene: Scene, bodies: Sequence[FEBody], run: RunResult, settings: FESettings,
+             log: Callable[[str], None]) -> tuple[dict[str, tuple], int, float]:
+    """The FE of `bodies` at `settings` from the EF `run`'s pose under the load control of
+    ``settings.mode`` (another discretization level of a cross-check):
+    {compartment: (layer, FE metrics, vertex pressures MPa)}, the FE dofs and time, s."""
+    E, nu = scene["contact.youngs_MPa"], scene["contact.poisson"]
+    t0 = time.perf_counter()
+    layers = build_layers(bodies, E, nu, settings, log)
+    solved, _, _ = _solve(scene, layers, run, settings, log)
+    out = {}
+    for name, (lay, lc, _, (rot, t)) in solved.items():
+        out[name] = (lay, *_fe_metrics(lay, lc.force_N, lc.active, rigid_gaps(lay, rot, t),
+                                       rot))
+    return out, sum(sol.n_dofs for sol in _solids(layers)), time.perf_counter() - t0
+
+
+def on_ef_faces(layer: FELayer, pressure: np.ndarray) -> np.ndarray:
+    """FE vertex `pressure` (MPa) of `layer` averaged onto its EF faces."""
+    return _on_ef_faces(layer, pressure)
 
 
 def _geometry(layers: Sequence[FELayer], dofs: int) -> dict[str, Any]:

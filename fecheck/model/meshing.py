@@ -115,9 +115,10 @@ def plateau_master(scene: Scene, knee: Knee, c: str):
     return Plane(knee.condyle_center[c] - knee.radius_mm(c) * n, n)
 
 
-def plateau_mesh(scene: Scene, knee: Knee, c: str):
+def plateau_mesh(scene: Scene, knee: Knee, c: str, scale: float = 1.0):
     """The meshed plateau disc under condyle `c`, sized to resolve and contain the
-    expected contact (`plateau_mesh_sizes`)."""
+    expected contact (`plateau_mesh_sizes`); `scale` multiplies its element sizes (2: the
+    coarse level of `fecheck.studies.estimate`), not its radii."""
     from geometry.budget import policy
     from geometry.plateau import plane_patch, polynomial_patch
     from geometry.polynomial import Polynomial2D
@@ -125,6 +126,8 @@ def plateau_mesh(scene: Scene, knee: Knee, c: str):
     foot = knee.condyle_center[c] - knee.radius_mm(c) * np.array([0.0, 0.0, 1.0])
     size = plateau_mesh_sizes(scene, knee.radius_mm(c))
     radius = size.pop("radius")
+    size["size"] *= scale
+    size["refine_size"] *= scale
     with policy(keys=SCENE_KEYS):
         if scene["plateau.kind"] == "polynomial":
             poly = Polynomial2D(np.asarray(scene[f"plateau.{c}_coefficients"]))
