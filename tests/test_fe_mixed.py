@@ -114,3 +114,65 @@ def test_thick_block_matches_hertz_near_incompressibility():
     hz = hertz_sphere_on_plane(20.0, 25.5, E, 0.4999)
     assert fe.metrics.max_pressure_MPa == pytest.approx(hz.max_pressure_MPa, rel=0.01)
     assert np.sqrt(fe.metrics.area_mm2) == pytest.approx(np.sqrt(hz.area_mm2), rel=0.01)
+
+
+# The converged axisymmetric mixed solve of the baseline medial compartment (323.71 N,
+# R 25.5 mm, E 20 MPa, h 6 mm), p_max (MPa) and area (mm²) at 0.0125 mm under the
+# contact: `python validation/fe_incompressible.py` section 1 (it changes by < 0.2 %
+# from 0.025 mm; the displacement form agrees to 0.02 % at ν 0.3 and locks at 0.4999).
+REFERENCE = {0.45: (4.95638, 101.7737), 0.49: (5.18935, 97.5301), 0.4999: (5.25497, 96.4239)}
+
+
+@pytest.mark.parametrize("nu", [0.49, 0.4999])
+def test_axisymmetric_mixed_solve_converges_to_the_stored_reference(nu):
+    # At 0.05 mm (measured: p_max +0.1 %, area ≤ 0.2 %); the displacement form at ν
+    # 0.4999 is +20 % there (locking). The area is quantised by the node spacing (half a
+    # spacing of contact radius: ±0.9 % at 0.05 mm).
+    m = axisym_sphere_on_layer(*MEDIAL, E, nu, H, size_mm=0.05).metrics
+    p_ref, a_ref = REFERENCE[nu]
+    assert m.max_pressure_MPa == pytest.approx(p_ref, rel=3e-3)
+    assert m.area_mm2 == pytest.approx(a_ref, rel=0.01)
+
+
+def test_flat_layer_at_nu_049_is_accurate_with_two_levels():
+    # The general 3D path (`fecheck fe`'s extruded layer, the formulation picked by the
+    # default fe.formulation = 'auto': mixed) at 1 mm under the contact with 2 levels
+    # through 6 mm: measured p_max +1.0 %, area +1.4 % against the reference; the
+    # displacement form there: p_max +8.0 %, area -1.9 % (the level over-stiffens and
+    # the vertex pressures zigzag). Allow 2 %.
+    from fecheck.fe.sphere_layer import sphere_on_flat_layer
+
+    m = sphere_on_flat_layer(*MEDIAL, E, 0.49, H, refine_size_mm=1.0, layers=2).metrics
+    p_ref, a_ref = REFERENCE[0.49]
+    assert m.max_pressure_MPa == pytest.approx(p_ref, rel=0.02)
+    assert m.area_mm2 == pytest.approx(a_ref, rel=0.02)
+
+
+def test_settings_check_the_formulation():
+    from fecheck.errors import FecheckError
+    from fecheck.fe.settings import FESettings
+
+    assert FESettings().formulation_for(0.49) == "mixed"
+    assert FESettings(formulation="displacement").formulation_for(0.49) == "displacement"
+    with pytest.raises(FecheckError, match="fe.formulation must be one of"):
+        FESettings(formulation="bbar").check()
+
+
+def test_nearly_incompressible_baseline_is_refused_with_the_reason_before_any_work(
+        monkeypatch, capsys):
+    # At ν 0.4999 the EF's contact (radius ~1.2 mm at half the load: column stiffness
+    # ∝ 1/(1 - 2ν)) refines the baseline plateaus to 0.1 mm: ~6e5 FE dofs. The refusal
+    # comes before the EF run and names the cause and the remedy.
+    import fecheck.fe.crosscheck
+    from fecheck.cli import main
+
+    def no_work(*args, **kwargs):
+        raise AssertionError("the EF run started")
+
+    monkeypatch.setattr(fecheck.fe.crosscheck, "_ef_run", no_work)
+    code = main(["fe", "--set", "contact.poisson=0.4999"])
+    err = capsys.readouterr().err.strip().splitlines()[-1]
+    assert code == 2
+    assert "FE dofs" in err
+    assert "at contact.poisson 0.4999 the EF's contact" in err
+    assert "set mesh.plateau_refine_mm = 0.79" in err

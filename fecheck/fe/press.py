@@ -102,7 +102,8 @@ def build_layers(bodies: Sequence[FEBody], youngs_MPa: float, poisson: float,
         offsets = extrusion_offsets(body.surface, body.thickness_mm, directions)
         surface, parent, h, offsets = _refined(body, settings.refine, offsets)
         solid = layer_solid(surface, h, youngs_MPa, poisson, layers=levels,
-                            ratio=settings.grading, offsets=offsets)
+                            ratio=settings.grading, offsets=offsets,
+                            formulation=settings.formulation_for(poisson))
         release_freed_heap()
         log(f"{body.name}: layer of {len(solid.mesh.tets)} quadratic tetrahedra, "
             f"{solid.n_dofs} dofs, thickness {h.min():.2f}-{h.max():.2f} mm"

@@ -7,6 +7,7 @@ from dataclasses import dataclass
 from typing import Any
 
 from fecheck.errors import FecheckError
+from fecheck.fe.elasticity import FORMULATIONS, resolve
 from fecheck.scene import Scene
 
 MODES = ("joint", "compartment")
@@ -20,6 +21,7 @@ class FESettings:
 
     mode: str = "joint"
     layers: int = 0
+    formulation: str = "auto"
     grading: float = 1.6
     refine: int = 0
     candidate_gap_mm: float = 0.5
@@ -37,12 +39,19 @@ class FESettings:
     def check(self) -> None:
         if self.mode not in MODES:
             raise FecheckError(f"fe.mode must be one of {', '.join(MODES)}, got {self.mode!r}")
+        if self.formulation not in FORMULATIONS:
+            raise FecheckError(f"fe.formulation must be one of {', '.join(FORMULATIONS)}, "
+                               f"got {self.formulation!r}")
         if not 0 <= self.layers <= 32:
             raise FecheckError(f"fe.layers must be 0 (auto) to 32 levels, got {self.layers}")
         if not 0 <= self.refine <= 4:
             raise FecheckError(f"fe.refine must be 0 to 4 subdivisions, got {self.refine}")
         if not (self.candidate_gap_mm > 0 and math.isfinite(self.candidate_gap_mm)):
             raise FecheckError("fe.candidate_gap_mm must be a positive number of mm")
+
+    def formulation_for(self, poisson: float) -> str:
+        """'displacement' or 'mixed' (`fecheck.fe.elasticity.resolve`)."""
+        return resolve(self.formulation, poisson)
 
     def levels(self, poisson: float) -> int:
         """Levels of elements through the thickness: `layers`, or with 0 (auto) 2, and 3
