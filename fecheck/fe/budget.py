@@ -81,8 +81,8 @@ def guard_layers(bodies: Sequence[FEBody], settings: FESettings, poisson: float)
     if poisson >= EF_NARROWS_FROM and not any(b.tibial_surface.startswith("mesh:") for b in bodies):
         otherwise += (f"; at contact.poisson {poisson:g} the EF's contact, which the plateau's "
                       "automatic refinement follows, is several times narrower than the "
-                      "FE's: set mesh.plateau_refine_mm = 0.79 (the FE's p_max within 0.5 %, "
-                      "area within 2 %)")
+                      "FE's: set mesh.plateau_refine_mm = 0.4 (the size ν 0.49 gets; the FE's "
+                      "p_max and area within 1 % there)")
     budget.guard("fecheck fe", "fe.refine", settings.refine,
                  lambda r: fe_estimate(bodies, int(r), levels), unit="", level=True,
                  otherwise=otherwise)
