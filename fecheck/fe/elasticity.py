@@ -10,7 +10,7 @@ is condensed element by element (the mean-dilatation or B-bar method):
 
 with K_μ the 2μ ε:ε part and |T| = ∫_T dV. K stays symmetric positive definite (the
 contact's Cholesky path is kept) and has the pattern of the displacement stiffness (D
-couples only the dofs of one element), so it costs the same per dof. For quadratic
+couples only the dofs of one element), so it costs about the same per dof. For quadratic
 tetrahedra div φ is linear and ∫_T div φ = |T| div φ(centroid): the same as one-point
 integration of the λ term. The axisymmetric (r, z) form weights dV = 2πr dA and adds the
 hoop strain u_r/r to the divergence. Units: N, mm, MPa.
@@ -27,11 +27,12 @@ FORMULATIONS = ("auto", "displacement", "mixed")
 MIXED_FROM_POISSON = 0.45
 """Poisson's ratio from which ``auto`` picks the mixed form (`resolve`). Measured on the
 baseline scene's `fecheck fe` against the converged axisymmetric solve (p_max, area;
-medial / lateral): at ν 0.3 the displacement form is the closer (-0.1 / -0.04 %, -0.06 /
--0.6 %; mixed -0.5 / -0.3 %, +1.0 / +0.7 %: its element-constant pressure converges at
-first order); at ν 0.45 the mixed one (+0.3 / +0.4 %, +0.5 / +0.3 %; displacement +0.9 /
-+0.8 %, -0.8 / -0.9 %), at ν 0.49 by far (+0.5 / +0.6 %, +0.5 / +0.3 %; displacement
-+4.3 / +3.6 %, -1.5 / -1.7 %). Both cost the same per dof."""
+medial / lateral; validation/fe_incompressible.py): at ν 0.3 the displacement form is
+the closer (-0.07 / -0.02 %, -0.04 / -0.6 %; mixed -0.5 / -0.2 %, +1.0 / +0.7 %: its
+element-constant pressure converges at first order); at ν 0.45 the mixed one (+0.3 /
++0.4 %, +0.6 / +0.4 %; displacement +0.9 / +0.8 %, -0.8 / -0.8 %), at ν 0.49 by far
+(+0.5 / +0.6 %, +0.8 / +0.5 %; displacement +4.3 / +3.6 %, -1.2 / -1.5 %). The CPU time
+per dof of the two is within 20 % at the same mesh."""
 
 
 def lame(youngs_MPa: float, poisson: float) -> tuple[float, float]:
