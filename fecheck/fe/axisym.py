@@ -20,6 +20,13 @@ import numpy as np
 
 from fecheck.errors import FecheckError
 from fecheck.fe.contact import solve_contact
+from fecheck.fe.elasticity import (
+    FORMULATIONS,
+    dilatation_matrix,
+    lame,
+    mean_dilatation_stiffness,
+    resolve,
+)
 from fecheck.fe.recovery import contact_metrics, project_pressure
 from fecheck.fe.results import FEContactResult
 from fecheck.reference.closed_forms import hertz_sphere_on_plane
@@ -41,7 +48,8 @@ def _graded(fine_to: float, step: float, end: float, ratio: float, max_step: flo
 def axisym_sphere_on_layer(load_N: float, radius_mm: float, E_MPa: float, nu: float,
                            thickness_mm: float, *, layer_radius_mm: float = 30.0,
                            size_mm: float = 0.05, gap: str = "reference",
-                           solver: str = "cholmod") -> FEContactResult:
+                           solver: str = "cholmod",
+                           formulation: str = "auto") -> FEContactResult:
     """Rigid sphere (radius R) pressed with `load_N` on a bonded axisymmetric disc layer.
 
     Parameters
@@ -55,13 +63,18 @@ def axisym_sphere_on_layer(load_N: float, radius_mm: float, E_MPa: float, nu: fl
     gap : "reference" (vertical gap in the reference configuration) or "deformed"
         (vertical gap measured from the displaced node position)
     solver : sparse factorization, "cholmod" or "superlu"
+    formulation : "displacement", "mixed" (an element-constant pressure condensed per
+        element, `fecheck.fe.elasticity`) or "auto" (mixed for nearly incompressible ν)
 
     Returns
     -------
     FEContactResult; its ``points`` are (r, 0, 0) of the top nodes.
     """
-    from skfem import Basis, BilinearForm, ElementTriP2, ElementVector, MeshTri, asm
+    from skfem import Basis, ElementTriP2, ElementVector, MeshTri
 
+    if formulation not in FORMULATIONS:
+        raise FecheckError(f"formulation must be one of {', '.join(FORMULATIONS)}, "
+                           f"got {formulation!r}")
     if gap not in ("reference", "deformed"):
         raise FecheckError(f"gap convention must be 'reference' or 'deformed', got {gap!r}")
     if not (0 < size_mm < thickness_mm):
@@ -77,21 +90,7 @@ def axisym_sphere_on_layer(load_N: float, radius_mm: float, E_MPa: float, nu: fl
     z = -_graded(0.0, size_mm, thickness_mm, 1.2, thickness_mm / 6)[::-1]
     mesh = MeshTri.init_tensor(r, z)
     basis = Basis(mesh, ElementVector(ElementTriP2()))
-    lam_, mu_ = E_MPa * nu / ((1 + nu) * (1 - 2 * nu)), E_MPa / (2 * (1 + nu))
-
-    @BilinearForm
-    def axisym_elasticity(u, v, w):
-        rr = w.x[0]
-
-        def strains(f):
-            return (f.grad[0][0], f.grad[1][1], f[0] / rr, 0.5 * (f.grad[0][1] + f.grad[1][0]))
-
-        eu, ev = strains(u), strains(v)
-        tr = eu[0] + eu[1] + eu[2]
-        s = [2 * mu_ * eu[k] + lam_ * tr for k in range(3)] + [2 * mu_ * eu[3]]
-        return 2 * np.pi * rr * (s[0] * ev[0] + s[1] * ev[1] + s[2] * ev[2] + 2 * s[3] * ev[3])
-
-    K = asm(axisym_elasticity, basis)
+    K = axisym_stiffness(basis, E_MPa, nu, resolve(formulation, nu))
     timing["assemble"] = time.perf_counter() - t
     ir, iz = basis.split_indices()
     loc = basis.doflocs
@@ -139,6 +138,40 @@ def axisym_sphere_on_layer(load_N: float, radius_mm: float, E_MPa: float, nu: fl
                            iterations=sol.iterations, timing_s=timing,
                            max_penetration_mm=float(max(0.0, -sol.gap_mm.min())),
                            node_area_mm2=area)
+
+
+def axisym_stiffness(basis, E_MPa: float, nu: float, formulation: str = "displacement"):
+    """Stiffness (N/mm, per radian times 2π: the whole ring) of axisymmetric isotropic
+    elasticity on a scikit-fem (r, z) vector basis: strains ∂u_r/∂r, ∂u_z/∂z, u_r/r and
+    the shear, weighted by 2πr; `formulation` 'mixed' puts the λ term on the element
+    means of div u = ∂u_r/∂r + u_r/r + ∂u_z/∂z (`fecheck.fe.elasticity`)."""
+    from skfem import BilinearForm, asm
+
+    lam, mu = lame(E_MPa, nu)
+    lam_point = 0.0 if formulation == "mixed" else lam
+
+    @BilinearForm
+    def axisym_elasticity(u, v, w):
+        rr = w.x[0]
+
+        def strains(f):
+            return (f.grad[0][0], f.grad[1][1], f[0] / rr, 0.5 * (f.grad[0][1] + f.grad[1][0]))
+
+        eu, ev = strains(u), strains(v)
+        tr = eu[0] + eu[1] + eu[2]
+        s = [2 * mu * eu[k] + lam_point * tr for k in range(3)] + [2 * mu * eu[3]]
+        return 2 * np.pi * rr * (s[0] * ev[0] + s[1] * ev[1] + s[2] * ev[2] + 2 * s[3] * ev[3])
+
+    K = asm(axisym_elasticity, basis)
+    if formulation == "mixed":
+        K = K + mean_dilatation_stiffness(*dilatation_matrix(
+            basis, axisym_divergence, lambda x: 2 * np.pi * x[0]), lam)
+    return K
+
+
+def axisym_divergence(f, x: np.ndarray) -> np.ndarray:
+    """div u = ∂u_r/∂r + u_r/r + ∂u_z/∂z of an (r, z) DiscreteField at points x."""
+    return f.grad[0][0] + f.grad[1][1] + f[0] / x[0]
 
 
 def _line_p2_mass(r: np.ndarray, seg: np.ndarray) -> np.ndarray:

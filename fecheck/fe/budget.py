@@ -38,6 +38,12 @@ FILL_EXPONENT = 0.5
 constants above it bounds the peak RSS of layer assembly and factorization measured on
 a disc of radius 20 mm, 6 mm thick (CHOLMOD, METIS): 0.22 GB at 17.7k dofs (estimate
 0.28), 0.66 at 67.7k (0.81), 1.28 at 104k (1.37), 3.23 at 210k (3.55)."""
+EF_NARROWS_FROM = 0.495
+"""Poisson's ratio from which a refusal explains that the EF's contact sizes the plateau
+mesh: the EF's column stiffness grows as 1/(1 - 2ν) and its contact radius as its -1/4
+power (5.9 times narrower at ν 0.4999 than at 0.3), while the FE's contact narrows by 8 %
+(baseline medial, axisymmetric FE: 6.0 to 5.5 mm)."""
+
 
 def surface_counts(surface: TriMesh, refine: int) -> tuple[int, int, int]:
     """Vertices, edges and triangles of `surface` split in four `refine` times."""
@@ -70,7 +76,13 @@ def guard_layers(bodies: Sequence[FEBody], settings: FESettings, poisson: float)
     """`geometry.budget.guard` of the FE layers before they are built: the remedy lowers
     ``fe.refine`` (``--refine``)."""
     levels = settings.levels(poisson)
+    otherwise = ("lower fe.layers or coarsen the surfaces (scanned.decimate_faces, "
+                 "mesh.plateau_refine_mm)")
+    if poisson >= EF_NARROWS_FROM and not any(b.tibial_surface.startswith("mesh:") for b in bodies):
+        otherwise += (f"; at contact.poisson {poisson:g} the EF's contact, which the plateau's "
+                      "automatic refinement follows, is several times narrower than the "
+                      "FE's: set mesh.plateau_refine_mm = 0.4 (the size ν 0.49 gets; the FE's "
+                      "p_max and area within 1 % there)")
     budget.guard("fecheck fe", "fe.refine", settings.refine,
                  lambda r: fe_estimate(bodies, int(r), levels), unit="", level=True,
-                 otherwise="lower fe.layers or coarsen the surfaces (scanned.decimate_faces, "
-                           "mesh.plateau_refine_mm)")
+                 otherwise=otherwise)

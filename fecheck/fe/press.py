@@ -143,7 +143,8 @@ def build_layers(bodies: Sequence[FEBody], youngs_MPa: float, poisson: float,
         surface, parent, h, offsets = _refined(sheet.surface, sheet.thickness_mm,
                                                settings.refine, offsets)
         solid = layer_solid(surface, h, youngs_MPa, poisson, layers=levels,
-                            ratio=settings.grading, offsets=offsets)
+                            ratio=settings.grading, offsets=offsets,
+                            formulation=settings.formulation_for(poisson))
         release_freed_heap()
         log(f"{body.name}: layer of {len(solid.mesh.tets)} quadratic tetrahedra, "
             f"{solid.n_dofs} dofs, thickness {h.min():.2f}-{h.max():.2f} mm"
@@ -220,7 +221,8 @@ def solid_layer(body: FEBody, youngs_MPa: float, poisson: float, settings: FESet
     key = id(body.solid)
     if key not in built:
         built[key] = solid_layers(body.solid, youngs_MPa, poisson,
-                                  base_deg=settings.solid_base_deg, refine=settings.refine)
+                                  base_deg=settings.solid_base_deg, refine=settings.refine,
+                                  formulation=settings.formulation_for(poisson))
         release_freed_heap()
         one = next(iter(built[key].values()))
         log(f"{body.solid.name}: closed solid of {len(one.mesh.tets)} quadratic tetrahedra, "

@@ -29,6 +29,7 @@ import numpy as np
 import scipy.sparse as sp
 
 from fecheck.errors import FecheckError
+from fecheck.fe.elasticity import dilatation_matrix, lame, mean_dilatation_stiffness
 from fecheck.fe.recovery import tributary_areas
 from geometry.extrude import extrude_layer
 from geometry.mesh import TetMesh, TriMesh
@@ -63,13 +64,14 @@ class LayerSolid:
 def layer_solid(surface: TriMesh, thickness_mm: float | np.ndarray, youngs_MPa: float,
                 poisson: float, *, layers: int = 4, ratio: float = 1.5,
                 directions: np.ndarray | None = None,
-                offsets: np.ndarray | None = None) -> LayerSolid:
+                offsets: np.ndarray | None = None,
+                formulation: str = "displacement") -> LayerSolid:
     """Assemble the bonded layer under `surface`, `thickness_mm` deep (a number or one value
     per surface vertex, mm, along the normal), with `layers` levels of elements graded by
     `ratio`, extruded along -`directions` (n, 3) (None: the vertex normals; see
     `geometry.extrude.extrusion_directions`) or by `offsets` (n, 3) from each bottom copy
     up to its vertex (they replace thickness and directions). Contact acts along the
-    vertex normals."""
+    vertex normals; `formulation` as in `p2_elasticity`."""
     if not (np.isfinite(youngs_MPa) and youngs_MPa > 0):
         raise FecheckError(f"Young's modulus must be a positive number of MPa, got {youngs_MPa}")
     if not (np.isfinite(poisson) and 0.0 <= poisson < 0.5):
@@ -80,7 +82,7 @@ def layer_solid(surface: TriMesh, thickness_mm: float | np.ndarray, youngs_MPa: 
                           directions=directions, offsets=offsets)
     timing["mesh"] = time.perf_counter() - t0
     t0 = time.perf_counter()
-    mesh, basis, K = p2_elasticity(layer, youngs_MPa, poisson)
+    mesh, basis, K = p2_elasticity(layer, youngs_MPa, poisson, formulation=formulation)
     timing["assemble"] = time.perf_counter() - t0
     t0 = time.perf_counter()
     s = surface.n_points
@@ -109,9 +111,12 @@ def layer_solid(surface: TriMesh, thickness_mm: float | np.ndarray, youngs_MPa: 
                       basis.N // 3, timing)
 
 
-def p2_elasticity(layer: TetMesh, youngs_MPa: float, poisson: float, chunk: int = 8192):
+def p2_elasticity(layer: TetMesh, youngs_MPa: float, poisson: float, chunk: int = 8192,
+                  formulation: str = "displacement"):
     """(skfem mesh, basis, K): isotropic small-strain elasticity on quadratic tetrahedra
-    (degree-2 quadrature, exact for affine P2), stiffness K in N/mm.
+    (degree-2 quadrature, exact for affine P2), stiffness K in N/mm; `formulation`
+    'mixed' condenses an element-constant pressure (`fecheck.fe.elasticity`: the λ term
+    on the element means of div u, for nearly incompressible layers).
 
     The element matrices are formed at once from the scalar P2 gradients,
     K_(ia)(jb) = ∫ λ ∂_a φ_i ∂_b φ_j + μ (δ_ab ∇φ_i·∇φ_j + ∂_b φ_i ∂_a φ_j) dx, in chunks
@@ -121,11 +126,11 @@ def p2_elasticity(layer: TetMesh, youngs_MPa: float, poisson: float, chunk: int 
     matrix to round-off, 2x slower (tests/test_fe_general.py).
     """
     from skfem import Basis, ElementTetP2, ElementVector, MeshTet
-    from skfem.models.elasticity import lame_parameters
 
     mesh = MeshTet(np.ascontiguousarray(layer.points.T), np.ascontiguousarray(layer.tets.T))
     basis = Basis(mesh, ElementVector(ElementTetP2()), intorder=2)
-    lam, mu = lame_parameters(youngs_MPa, poisson)
+    lam, mu = lame(youngs_MPa, poisson)
+    lam_point = 0.0 if formulation == "mixed" else lam
     scalar = Basis(mesh, ElementTetP2(), intorder=2)
     grads = np.array([phi[0].grad for phi in scalar.basis])            # (10, 3, nel, nq)
     K = sp.csr_matrix((basis.N, basis.N))
@@ -133,13 +138,15 @@ def p2_elasticity(layer: TetMesh, youngs_MPa: float, poisson: float, chunk: int 
         part = slice(start, start + chunk)
         a = np.einsum("iaeq,jbeq,eq->eijab", grads[:, :, part], grads[:, :, part],
                       scalar.dx[part], optimize=True)
-        ke = lam * a + mu * np.swapaxes(a, 3, 4)
+        ke = lam_point * a + mu * np.swapaxes(a, 3, 4)
         ke += mu * np.einsum("eijcc->eij", a)[..., None, None] * np.eye(3)
         ke = ke.transpose(0, 1, 3, 2, 4).reshape(-1, 30, 30)
         dofs = basis.element_dofs[:, part].T.astype(np.int32)           # (e, 30)
         K = K + sp.csr_matrix((ke.ravel(), (np.repeat(dofs, 30, axis=1).ravel(),
                                             np.tile(dofs, (1, 30)).ravel())),
                               shape=(basis.N, basis.N))
+    if formulation == "mixed":
+        K = K + mean_dilatation_stiffness(*dilatation_matrix(basis), lam)
     return mesh, basis, K
 
 

@@ -42,8 +42,8 @@ def contact_radius_estimate(load_N: float, radius_mm: float, youngs_MPa: float,
 def flat_layer(load_N: float, radius_mm: float, youngs_MPa: float, poisson: float,
                thickness_mm: float, *, refine_size_mm: float = 0.8, size_mm: float = 2.0,
                disc_radius_mm: float | None = None, layers: int = 2, grading: float = 1.6,
-               solver: str = "cholmod", log: Callable[[str], None] | None = None
-               ) -> tuple[FELayer, FESettings]:
+               solver: str = "cholmod", log: Callable[[str], None] | None = None,
+               formulation: str = "auto") -> tuple[FELayer, FESettings]:
     """The assembled layer of `sphere_on_flat_layer` (same arguments) and its settings."""
     from geometry.plateau import plane_patch
 
@@ -55,7 +55,8 @@ def flat_layer(load_N: float, radius_mm: float, youngs_MPa: float, poisson: floa
     indenter = SphereIndenter(np.array([0.0, 0.0, radius_mm]), radius_mm)
     body = FEBody("layer", surface, np.full(surface.n_points, float(thickness_mm)), indenter,
                   "plane", indenter.describe(), "uniform")
-    settings = FESettings(mode="compartment", layers=layers, grading=grading, solver=solver)
+    settings = FESettings(mode="compartment", layers=layers, grading=grading, solver=solver,
+                          formulation=formulation)
     settings.check()
     layer = build_layers([body], youngs_MPa, poisson, settings, log or (lambda m: None))[0]
     return layer, settings
@@ -73,13 +74,15 @@ def sphere_on_flat_layer(load_N: float, radius_mm: float, youngs_MPa: float, poi
                          thickness_mm: float, *, refine_size_mm: float = 0.8,
                          size_mm: float = 2.0, disc_radius_mm: float | None = None,
                          layers: int = 2, grading: float = 1.6, solver: str = "cholmod",
-                         log: Callable[[str], None] | None = None) -> FEContactResult:
+                         log: Callable[[str], None] | None = None,
+                         formulation: str = "auto") -> FEContactResult:
     """The sphere (radius_mm) pressed on the layer with `load_N`, touching it at the origin.
 
     `refine_size_mm` is the element size within `CANDIDATE_RADII` Hertz contact radii of
     the axis, plus two elements (and `size_mm` beyond); the disc radius defaults to 3
     contact radii plus the thickness (at least 14 mm); `layers` levels of elements
-    through the thickness, each `grading` times thicker than the one above. Returns the
+    through the thickness, each `grading` times thicker than the one above; `formulation`
+    of the layer's elasticity as ``fe.formulation``. Returns the
     FE answer with its metrics (p_max, mean = load / area, zero-contour area,
     indentation depth, summed contact force).
     """
@@ -88,7 +91,8 @@ def sphere_on_flat_layer(load_N: float, radius_mm: float, youngs_MPa: float, poi
     layer, settings = flat_layer(load_N, radius_mm, youngs_MPa, poisson, thickness_mm,
                                  refine_size_mm=refine_size_mm, size_mm=size_mm,
                                  disc_radius_mm=disc_radius_mm, layers=layers,
-                                 grading=grading, solver=solver, log=say)
+                                 grading=grading, solver=solver, log=say,
+                                 formulation=formulation)
     surface = layer.surface
     t1 = time.perf_counter()
     drive = push_drive(np.eye(3), np.zeros(3), -load_N * UP)

@@ -107,9 +107,11 @@ def base_faces(surface: TriMesh, articular: np.ndarray, base_deg: float, name: s
 
 
 def solid_layers(solid: TibiaSolid, youngs_MPa: float, poisson: float, *,
-                 base_deg: float = 45.0, refine: int = 0) -> dict[str, LayerSolid]:
+                 base_deg: float = 45.0, refine: int = 0,
+                 formulation: str = "displacement") -> dict[str, LayerSolid]:
     """{compartment: the assembled solid seen from that compartment's articular face}
-    (module docstring); all views share one stiffness matrix."""
+    (module docstring); all views share one stiffness matrix; `formulation` as in
+    `fecheck.fe.solid.p2_elasticity`."""
     if not (np.isfinite(youngs_MPa) and youngs_MPa > 0):
         raise FecheckError(f"Young's modulus must be a positive number of MPa, got {youngs_MPa}")
     if not (np.isfinite(poisson) and 0.0 <= poisson < 0.5):
@@ -123,7 +125,7 @@ def solid_layers(solid: TibiaSolid, youngs_MPa: float, poisson: float, *,
     tets = tetrahedralize(surface, solid.name)
     timing["mesh"] = time.perf_counter() - t0
     t0 = time.perf_counter()
-    mesh, basis, K = p2_elasticity(tets, youngs_MPa, poisson)
+    mesh, basis, K = p2_elasticity(tets, youngs_MPa, poisson, formulation=formulation)
     timing["assemble"] = time.perf_counter() - t0
     t0 = time.perf_counter()
     find_edge = edge_lookup(mesh.edges, mesh.p.shape[1])

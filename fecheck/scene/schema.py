@@ -449,6 +449,11 @@ SCHEMA: dict[str, Key] = {
                      "thickness (the EF run's tibial surface extruded along its normals); 0 "
                      "= automatic: 2, or 3 where contact.poisson >= 0.45 (2 levels let a "
                      "nearly incompressible layer's pressures zigzag).", low=0, high=32),
+    "fe.formulation": Key("str", "auto", _FE + "'displacement' (quadratic tetrahedra), "
+                          "'mixed' (plus an element-constant pressure condensed per "
+                          "element: accurate as contact.poisson -> 0.5, about the same "
+                          "cost) or 'auto' (mixed from contact.poisson 0.45).",
+                          choices=("auto", "displacement", "mixed")),
     "fe.grading": Key("float", 1.6, _FE + "each level of elements this many times thicker "
                       "than the one above it (1 = even levels; > 1 thin levels under the "
                       "contact).", low=1.0, high=4.0),
