@@ -74,10 +74,8 @@ def hertz(surface: ContactSurface, radius_mm: float, e_star_MPa: float,
         out[surface.face] = p0 * np.sqrt(np.clip(ratio, 0.0, None))
         return out
 
-    extra = {"contact_radius_mm": a, "p0_MPa": p0, "mean_pressure_MPa": load / (math.pi * a * a),
-             "area_mm2": math.pi * a * a, "force_N": load}
     return LawResult(surface, np.zeros(len(surface.qp_depth)), force, moment, tangent, p0,
-                     math.pi * a * a, d, extra, face_pressure_fn=face_pressure)
+                     math.pi * a * a, d, a, face_pressure_fn=face_pressure)
 
 
 def hertz_point(contact: PointContact, radius_mm: float, e_star_MPa: float,
@@ -124,8 +122,6 @@ def hertz_point(contact: PointContact, radius_mm: float, e_star_MPa: float,
         ratio = 1.0 - np.einsum("ij,ij->i", rel, rel) / (a * a)
         return p0 * np.sqrt(np.clip(ratio, 0.0, None))
 
-    extra = {"contact_radius_mm": a, "p0_MPa": p0, "mean_pressure_MPa": load / area,
-             "area_mm2": area, "force_N": load, "depth_mm": d}
-    return LawResult(contact, np.zeros(0), force, moment, tangent, p0, area, d, extra,
+    return LawResult(contact, np.zeros(0), force, moment, tangent, p0, area, d, a,
                      face_pressure_fn=no_mesh if centroids is None else face_pressure)
 

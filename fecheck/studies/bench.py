@@ -285,7 +285,7 @@ def scene_solve(overrides: list[str], fe_refs: dict) -> Callable[[], Outcome]:
         worst = max(dev, key=dev.get)
         comp, ref = res.compartments[worst], res.exact[worst]
         return Outcome(comp.max_pressure_MPa, comp.area_mm2, res.iterations,
-                       sum(res.extra["contact_faces"].values()),
+                       sum(res.record.contact_faces.values()),
                        (ref["max_pressure_MPa"], ref["area_mm2"]), fe_refs[worst])
 
     return run
