@@ -222,10 +222,11 @@ def hertz_on_icosphere(radius_mm: float, force_N: float, level: int) -> Callable
     """Hertz law (from the maximum depth) of an icosphere slave on the plane z = 0."""
     from fecheck.contact import ContactPair, Plane
     from fecheck.laws import hertz, hertz_modulus
+    from fecheck.reference.closed_forms import hertz_approach
 
     slave, e_star = _icosphere(radius_mm, level), hertz_modulus(E_MPA, NU)
     plane = Plane([0.0, 0.0, 0.0], [0.0, 0.0, 1.0])
-    start = (3 * force_N / (4 * e_star * math.sqrt(radius_mm))) ** (2 / 3)
+    start = hertz_approach(force_N, radius_mm, e_star)
 
     def run() -> Outcome:
         pair = ContactPair(slave, plane)
