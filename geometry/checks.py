@@ -12,7 +12,7 @@ from dataclasses import asdict, dataclass
 
 import numpy as np
 
-from geometry.mesh import TetMesh, TriMesh
+from geometry.mesh import TetMesh, TriMesh, edge_table
 
 #: Relative tolerance on |V_hull - V_mesh| / V_hull for a closed mesh to count as convex.
 CONVEX_RTOL = 1e-9
@@ -50,13 +50,8 @@ class MeshReport:
 
 def _edge_table(faces: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Unique undirected edges (e, 2), faces per edge (e,), signed direction sum (e,)."""
-    directed = faces[:, [0, 1, 1, 2, 2, 0]].reshape(-1, 2)
-    sign = np.where(directed[:, 0] < directed[:, 1], 1, -1)
-    undirected = np.sort(directed, axis=1)
-    edges, inverse, counts = np.unique(undirected, axis=0, return_inverse=True,
-                                       return_counts=True)
-    direction_sum = np.bincount(inverse.ravel(), weights=sign, minlength=len(edges))
-    return edges, counts, direction_sum
+    table = edge_table(faces)
+    return table.edges, table.counts, table.direction_sum
 
 
 def edge_counts(faces: np.ndarray) -> tuple[int, int, int]:

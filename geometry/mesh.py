@@ -15,6 +15,50 @@ from geometry.errors import FecheckError
 
 
 @dataclass(frozen=True, eq=False)
+class EdgeTable:
+    """The edges of a triangle mesh: its 3·m half-edges sorted by undirected edge.
+
+    Half-edge 3k + j of face k runs from its corner j to corner j + 1 (mod 3).
+    directed : (3m, 2) the half-edges;  order : (3m,) their indices sorted by undirected
+    edge (stable);  start : (e,) where each edge's run begins in `order`
+    edges : (e, 2) the unique undirected edges as sorted vertex pairs, in lexicographic
+    order;  counts : (e,) faces sharing each;  direction_sum : (e,) Σ ±1 over those
+    faces (+1 where the face runs from the lower vertex to the higher): 0 for an edge
+    that two faces traverse in opposite directions
+    """
+
+    directed: np.ndarray
+    order: np.ndarray
+    start: np.ndarray
+    edges: np.ndarray
+    counts: np.ndarray
+    direction_sum: np.ndarray
+
+    @cached_property
+    def sorted_edge(self) -> np.ndarray:
+        """(3m,) the edge of every half-edge, in `order`."""
+        return np.repeat(np.arange(len(self.edges)), self.counts)
+
+
+def edge_table(faces: np.ndarray) -> EdgeTable:
+    """The `EdgeTable` of triangles `faces` (m, 3) (one sort of integer edge keys)."""
+    directed = np.asarray(faces, dtype=np.int64)[:, [0, 1, 1, 2, 2, 0]].reshape(-1, 2)
+    lo, hi = directed.min(axis=1), directed.max(axis=1)
+    n = int(hi.max(initial=-1)) + 1
+    key = lo * n + hi
+    order = np.argsort(key, kind="stable")
+    ordered = key[order]
+    start = np.flatnonzero(np.r_[True, ordered[1:] != ordered[:-1]]) if len(key) else \
+        np.zeros(0, dtype=np.int64)
+    counts = np.diff(np.r_[start, len(key)])
+    unique = ordered[start]
+    sign = np.where(directed[:, 0] < directed[:, 1], 1, -1)[order]
+    direction_sum = np.add.reduceat(sign, start) if len(key) else np.zeros(0, dtype=np.int64)
+    return EdgeTable(directed, order, start, np.column_stack([unique // n, unique % n]),
+                     counts, direction_sum)
+
+
+@dataclass(frozen=True, eq=False)
 class TriMesh:
     """A triangle surface mesh.
 
@@ -98,10 +142,14 @@ class TriMesh:
         return float(np.einsum("ij,ij->i", t[:, 0], np.cross(t[:, 1], t[:, 2])).sum() / 6.0)
 
     @cached_property
+    def edge_table(self) -> EdgeTable:
+        """The mesh's `EdgeTable` (half-edges, unique edges, faces per edge, winding)."""
+        return edge_table(self.faces)
+
+    @cached_property
     def edges_unique(self) -> np.ndarray:
         """(e, 2) sorted vertex pairs of the unique edges."""
-        e = np.sort(self.faces[:, [0, 1, 1, 2, 2, 0]].reshape(-1, 2), axis=1)
-        return np.unique(e, axis=0)
+        return self.edge_table.edges
 
     @cached_property
     def vertex_normals(self) -> np.ndarray:

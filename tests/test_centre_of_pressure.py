@@ -28,7 +28,7 @@ def rotated():
     scene = load_scene(overrides=POSE)
     run = run_scene(scene)
     assert run.converged
-    rot, t = pose(np.asarray(run.extra["q"], dtype=float),
+    rot, t = pose(np.asarray(run.pose.q, dtype=float),
                   math.radians(scene["dofs.flexion_deg"]))
     return scene, run, rot, t
 

@@ -8,7 +8,7 @@ from geometry.cap import spherical_cap
 from geometry.checks import mesh_report, tet_surface
 from geometry.icosphere import icosahedron, icosphere
 from geometry.io import load_mesh
-from geometry.mesh import TetMesh, TriMesh
+from geometry.mesh import TetMesh, TriMesh, edge_table
 from geometry.plateau import plateau_box
 
 # Table 3.1 rows: (χ, winding consistent, convex, watertight, empty). The thesis found
@@ -128,3 +128,22 @@ def test_scanned_knee_meshes_match_trimesh():
         assert (r.vertices, r.faces) == (len(t.vertices), len(t.faces))
         assert (r.euler, r.watertight, r.winding_consistent) == (
             t.euler_number, t.is_watertight, t.is_winding_consistent)
+
+
+def test_edge_table_of_a_tetrahedron_by_hand():
+    # the tetrahedron's 4 outward faces: 6 edges, each shared by 2 faces run oppositely
+    faces = np.array([[0, 2, 1], [0, 1, 3], [1, 2, 3], [0, 3, 2]])
+    t = edge_table(faces)
+    assert t.edges.tolist() == [[0, 1], [0, 2], [0, 3], [1, 2], [1, 3], [2, 3]]
+    assert t.counts.tolist() == [2] * 6 and t.direction_sum.tolist() == [0] * 6
+    # face 0 flipped to (0, 1, 2): its edges 0-1, 1-2, 0-2 are now run the same way twice
+    # (0→1 with face 1, 1→2 with face 2, 2→0 with face 3); a copy of face 1 makes three
+    # faces share 0-1, 1-3 and 0-3
+    flipped = edge_table(np.vstack([[0, 1, 2], faces[1:], faces[1]]))
+    assert flipped.direction_sum.tolist() == [3, -2, -1, 2, 1, 0]
+    assert flipped.counts.tolist() == [3, 2, 3, 2, 3, 2]
+    # every run of the sorted half-edges is one edge (faces 0, 1, 4 for 0-1: stable)
+    for e, first, n in zip(flipped.edges, flipped.start, flipped.counts, strict=True):
+        run = flipped.order[first:first + n]
+        assert all(sorted(flipped.directed[h].tolist()) == e.tolist() for h in run)
+    assert (flipped.order[:3] // 3).tolist() == [0, 1, 4]

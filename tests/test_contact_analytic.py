@@ -126,3 +126,17 @@ def test_polynomial_plateau_slave_under_sphere_master_is_refinement_consistent()
         values.append([s.area, volume(s)])
     coarse, fine = np.array(values)
     assert np.all(np.abs(fine / coarse - 1) < 5e-3)
+
+
+def test_sphere_ray_roots_by_hand():
+    from fecheck.contact.kernels import sphere_ray_roots
+
+    # sphere R 2 at (1, 0, 0): from (1, 0, -5) along +z the near hit is z = -2 (s = 3);
+    # from its centre along +z, s = -2 (the near root is behind); x = 3.5 misses;
+    # from (1, 0, 5) along (0, 0.6, -0.8): r = (0, 0, 5), b = -4, disc = 16 - 25 + 4 < 0
+    y = np.array([[1.0, 0, -5], [1, 0, 0], [3.5, 0, -5], [1, 0, 5], [1, 1.2, 5]])
+    u = np.array([[0.0, 0, 1], [0, 0, 1], [0, 0, 1], [0, 0.6, -0.8], [0, 0, -1]])
+    s, hit = sphere_ray_roots(y, u, np.array([1.0, 0, 0]), 2.0)
+    assert hit.tolist() == [True, True, False, False, True]
+    # last: r = (0, 1.2, 5), b = -5, disc = 25 - 26.44 + 4 = 2.56: s = 5 - 1.6 = 3.4
+    assert s[[0, 1, 4]] == pytest.approx([3.0, -2.0, 3.4], abs=1e-12)

@@ -11,6 +11,7 @@ from fecheck.model.meshing import (
     expected_contact_radius_mm,
     plateau_mesh_sizes,
 )
+from fecheck.reference import closed_forms as cf
 from fecheck.reference.closed_forms import ef_sphere_plane
 from fecheck.scene import load_scene
 
@@ -33,6 +34,19 @@ def test_hertz_contact_radius_gives_back_the_load():
     a = expected_contact_radius_mm(scene, 400.0, R)
     e_star = laws.hertz_modulus(20.0, 0.3)
     assert 4.0 / 3.0 * e_star * math.sqrt(R) * (a * a / R) ** 1.5 == pytest.approx(400.0)
+
+
+def test_the_hertz_closed_forms_on_hand_computed_numbers():
+    # R 4 mm, E* 0.75 MPa, d 1 mm: P = 4/3·0.75·√4·1 = 2 N, a = √(4·1) = 2 mm,
+    # p0 = 3·2/(2π·2²) = 3/(4π); back from P = 2 N: a = (3·2·4/(4·0.75))^(1/3) = 2, d = a²/R = 1
+    assert cf.hertz_load(1.0, 4.0, 0.75) == pytest.approx(2.0, rel=1e-15)
+    assert cf.hertz_radius_at_depth(1.0, 4.0) == 2.0
+    assert cf.hertz_peak_pressure(2.0, 2.0) == pytest.approx(3 / (4 * math.pi), rel=1e-15)
+    assert cf.hertz_contact_radius(2.0, 4.0, 0.75) == pytest.approx(2.0, rel=1e-15)
+    assert cf.hertz_approach(2.0, 4.0, 0.75) == pytest.approx(1.0, rel=1e-15)
+    # 1/E* = (1 − 0.5²)/3 + (1 − 0²)/4 = 1/4 + 1/4: E* = 2 MPa; rigid indenter: 4 MPa
+    assert cf.hertz_effective_modulus(3.0, 0.5, 4.0, 0.0) == pytest.approx(2.0, rel=1e-15)
+    assert cf.hertz_effective_modulus(3.0, 0.5) == pytest.approx(4.0, rel=1e-15)
 
 
 def test_baseline_plateau_mesh_keeps_its_defaults():

@@ -8,7 +8,7 @@ import scipy.sparse as sp
 from scipy.optimize import brentq
 
 from fecheck.errors import FecheckError
-from fecheck.fe.contact import solve_contact
+from fecheck.fe.contact import active_set, solve_contact
 from fecheck.reference.closed_forms import ef_sphere_on_plane, hertz_sphere_on_plane
 
 
@@ -118,3 +118,14 @@ def test_deformed_gap_is_read_where_the_load_moves_the_surface():
     assert seen[-1][0, 0] == pytest.approx(1.0 / 6.0, rel=1e-12)
     assert sol.u[1] == pytest.approx(1.0 / 6.0, rel=1e-12)   # the field it solved agrees
     assert sol.u[0] == pytest.approx(-1.0 / 3.0, rel=1e-12)  # -kt F / det = -12/36 mm
+
+
+def test_active_set_by_hand():
+    # two candidates of compliance 1 mm/N, gaps 0 and 0.5 mm, pushed by δ with 1 N: from
+    # {0}: λ0 = 1, δ = 1, candidate 1 penetrates (0.5 − 1 < 0) and joins; then
+    # λ0 − δ = 0, λ1 − δ = −0.5, λ0 + λ1 = 1: δ = 0.75, λ = (0.75, 0.25)
+    lam, step, active, it = active_set(np.eye(2), np.array([0.0, 0.5]), -np.ones((2, 1)),
+                                       np.ones((2, 1)), np.array([-1.0]), np.zeros((1, 1)),
+                                       np.array([True, False]), 10, "hint")
+    assert lam == pytest.approx([0.75, 0.25], abs=1e-14) and step == pytest.approx([0.75])
+    assert active.tolist() == [True, True] and it == 2

@@ -79,7 +79,7 @@ def test_force_radius_and_peak_pressure_follow_the_hertz_closed_forms():
     assert np.allclose(res.force, -p * n_world, rtol=0, atol=1e-10 * p)
     assert np.allclose(res.moment, np.cross(CENTRE - about, res.force), rtol=0,
                        atol=1e-10 * p * 100)
-    assert res.extra["contact_radius_mm"] == pytest.approx(a, rel=1e-12)
+    assert res.contact_radius_mm == pytest.approx(a, rel=1e-12)
     assert a * a / R == pytest.approx(d, rel=1e-12)
     assert res.max_pressure == pytest.approx(3 * p / (2 * math.pi * a * a), rel=1e-12)
     assert res.area == pytest.approx(math.pi * a * a, rel=1e-12)
@@ -145,7 +145,7 @@ def _hertz_run(x_mm: float, *extra: str):
 
 def _contact_force_sum(scene, result) -> np.ndarray:
     """Σ compartment forces on the tibia (N): magnitude along minus the plateau normal."""
-    rot, _ = pose(np.array(result.extra["q"]))
+    rot, _ = pose(np.array(result.pose.q))
     normals = plateau_normals(scene)
     return sum(-res.force_N * (rot @ normals[c]) for c, res in result.compartments.items())
 
@@ -161,7 +161,7 @@ def test_load_sweep_converges_and_matches_rigid_statics_at_the_solved_pose(x_mm,
                                                f"plateau.kind='{plateau}'"])
     r = run_scene(scene)
     assert r.converged and r.iterations <= 15
-    q = np.array(r.extra["q"])
+    q = np.array(r.pose.q)
     rot, t = pose(q)
     applied, _ = applied_load(scene)(rot, t)
     rigid = solve_rigid(scene.knee, plateau_normals(scene), applied, q, (2, 3))
@@ -194,7 +194,7 @@ def test_compartment_results_report_hertz_values_and_face_pressures():
         assert res.face_pressure_MPa.shape == (len(res.slave_faces),)
         assert 0 < res.n_contact_faces == np.count_nonzero(res.face_pressure_MPa)
         assert res.face_pressure_MPa.max() <= res.max_pressure_MPa
-    assert all("closed form sphere-plane" in d for d in r.extra["detection"].values())
+    assert all("closed form sphere-plane" in d for d in r.record.detection.values())
 
 
 @pytest.mark.parametrize("overrides", [("contact.detection='bvh'",),

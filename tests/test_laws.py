@@ -203,7 +203,7 @@ def test_hertz_values_follow_eq_4_4_to_4_8(fine_plate):
     assert -r.force[2] == pytest.approx(p, rel=1e-9)
     # DESIGN §5: a = (3FR/(4E*))^(1/3), p0 = 3F/(2πa²), d = a²/R
     a = (3 * p * R / (4 * e_star)) ** (1 / 3)
-    assert r.extra["contact_radius_mm"] == pytest.approx(a, rel=1e-9)
+    assert r.contact_radius_mm == pytest.approx(a, rel=1e-9)
     assert r.max_pressure == pytest.approx(3 * p / (2 * math.pi * a * a), rel=1e-9)
     assert r.area == pytest.approx(math.pi * a * a, rel=1e-9)
 

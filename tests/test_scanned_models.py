@@ -128,7 +128,7 @@ def _contact_force(scene, rot: np.ndarray, t: np.ndarray) -> np.ndarray:
 
 def _hand_balance(scene, result) -> np.ndarray:
     """Σ forces on the tibia at the solved pose (N), each term computed independently."""
-    rot, t = pose(np.asarray(result.extra["q"]), 0.0)
+    rot, t = pose(np.asarray(result.pose.q), 0.0)
     total = _contact_force(scene, rot, t)
     d = np.asarray(scene["load.direction"])
     total = total + scene["load.force_N"] * d / np.linalg.norm(d)

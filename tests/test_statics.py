@@ -189,7 +189,7 @@ def test_baseline_forces_equal_rigid_statics_at_the_solved_pose(baseline):
     # same split (to the Newton tolerance); vs the reference-pose rigid split (Table 5.1)
     # the 0.07° tilt of the solved tibia moves 0.49 N (contact points shift r·θ ≈ 0.03 mm).
     scene = load_scene(SCENES / "baseline.toml")
-    q = np.array(baseline.extra["q"])
+    q = np.array(baseline.pose.q)
     rot, t = pose(q)
     applied, _ = applied_load(scene)(rot, t)
     sol = solve_rigid(scene.knee, plateau_normals(scene), applied, q, (2, 3))
@@ -326,7 +326,7 @@ def test_equal_force_constraint_holds_in_the_contact_model():
     assert r.converged
     assert r.compartments["medial"].force_N == pytest.approx(
         r.compartments["lateral"].force_N, abs=1e-6)
-    assert "equal_forces_multiplier" in r.extra
+    assert r.record.equal_forces_multiplier is not None
 
 
 def test_negative_stiffness_start_reaches_the_stable_equilibrium_not_the_saddle():

@@ -80,9 +80,9 @@ def test_checks_accept_the_baseline_and_name_nan_tension_and_imbalance(baseline)
         with pytest.raises(stress.Inconsistent) as err:
             stress.check_run(scene, doctored)
         assert err.value.outcome == outcome
-    shifted = dict(result.extra, q=(np.asarray(result.extra["q"]) + [0, 0, 0.01, 0, 0]).tolist())
+    shifted = dataclasses.replace(result.pose, q=tuple(np.add(result.pose.q, [0, 0, 0.01, 0, 0])))
     with pytest.raises(stress.Inconsistent, match="force balance"):
-        stress.check_run(scene, dataclasses.replace(result, extra=shifted))
+        stress.check_run(scene, dataclasses.replace(result, pose=shifted))
     unconverged = dataclasses.replace(result, converged=False)
     with pytest.raises(stress.Inconsistent) as err:
         stress.check_run(scene, unconverged)

@@ -66,7 +66,7 @@ def _sphere_case():
     from fecheck.statics.newton import pose
 
     scene = load_scene(None)
-    rot, t = pose(np.asarray(run_scene(scene).extra["q"]))
+    rot, t = pose(np.asarray(run_scene(scene).pose.q))
     comp = build_compartments(scene)[0]
     return comp.pair, (rot, t), (np.eye(3), np.zeros(3))
 

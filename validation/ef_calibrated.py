@@ -118,7 +118,7 @@ def _compare(label: str, kind: str, scene, fit, calibration: Path, donor: Path |
         except FecheckError as err:
             print(f"  {label} {law}: {err}", file=sys.stderr)
             continue
-        rot, t = pose(np.asarray(result.extra["q"], dtype=float),
+        rot, t = pose(np.asarray(result.pose.q, dtype=float),
                       math.radians(scene["dofs.flexion_deg"]))
         row = {"case": label, "kind": kind, "law": law, "ef_s": seconds,
                "solve_s": solve, "fe_s": check.timing_s["fe"]}

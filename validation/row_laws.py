@@ -231,7 +231,7 @@ def figs_4_7_4_8(quick: bool, out: Path) -> list[Row]:
     p_ef, p_hz = ef.face_pressure(), hz.face_pressure()
     touched = p_ef > 0
     k = K_EF
-    a_hz = hz.extra["contact_radius_mm"]
+    a_hz = hz.contact_radius_mm
     fig, axes = figure(ncols=2, width=5.0)
     vmax = float(max(p_ef.max(), p_hz.max()))
     tri = ind.mesh.faces[touched]

@@ -79,7 +79,7 @@ def measure(decimate_faces: int) -> dict:
     wall = time.perf_counter() - t0
     comps = build_compartments(scene)
     model = ContactModel(comps)
-    rot, t = pose(np.asarray(result.extra["q"]), 0.0)
+    rot, t = pose(np.asarray(result.pose.q), 0.0)
     ours = best_time(lambda: model(rot, t))
     eye, zero = np.eye(3), np.zeros(3)
     detect = best_time(lambda: [c.pair.evaluate((rot, t), (eye, zero)) for c in comps])
@@ -91,7 +91,7 @@ def measure(decimate_faces: int) -> dict:
     return {"decimate_faces": decimate_faces,
             "tibial_faces": sum(c.pair.slave.n_faces for c in comps),
             "femoral_faces": master.n_faces, "converged": result.converged,
-            "iterations": result.iterations, "evaluations": result.extra["evaluations"],
+            "iterations": result.iterations, "evaluations": result.record.evaluations,
             "solve_s": result.timing_s["solve"], "build_s": result.timing_s["build"],
             "run_wall_s": wall, "evaluation_ms": 1e3 * ours, "detection_ms": 1e3 * detect,
             "thesis_embree_ms": 1e3 * thesis, "thesis_python_ms": 1e3 * python,

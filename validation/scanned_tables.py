@@ -59,7 +59,7 @@ sheet, so inside tibial vertices are missed (tests/test_scanned.py)."""
 
 def balance(scene, result) -> float:
     """|Σ forces on the tibia| along the free translations / load (hand statics)."""
-    rot, t = pose(np.asarray(result.extra["q"]), 0.0)
+    rot, t = pose(np.asarray(result.pose.q), 0.0)
     model = ContactModel(build_compartments(scene))
     total = sum(w[:3] for w in model.wrenches(rot, t).values())
     d = np.asarray(scene["load.direction"], dtype=float)
@@ -82,7 +82,7 @@ def pressure_png(result, scene, path: Path) -> Path:
     def poly(points, faces):
         return pv.PolyData(points, np.hstack([np.full((len(faces), 1), 3), faces]).ravel())
 
-    rot, t = pose(np.asarray(result.extra["q"]), 0.0)
+    rot, t = pose(np.asarray(result.pose.q), 0.0)
     bone = surfaces.bone(scene, "tibia")
     plotter = pv.Plotter(off_screen=True, window_size=(1000, 800))
     plotter.add_mesh(poly(bone.points @ rot.T + t, bone.faces), color="lightgrey")

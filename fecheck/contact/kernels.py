@@ -17,7 +17,9 @@ One evaluation of a contact pair is a few hundred faces of arithmetic; in NumPy 
   for the points that can be in contact), so that an evaluation that reuses its
   candidate set is one compiled call.
 * `sphere_ray_depth` (one point) and `sphere_depths` (arrays) — the sphere master's ray
-  depth and gradients, also behind `fecheck.contact.analytic.Sphere.depth_values`.
+  depth and gradients, also behind `fecheck.contact.analytic.Sphere.depth_values`;
+  `sphere_ray_roots` — the nearer line-sphere intersection (the FE's rigid sphere,
+  `fecheck.fe.indenter.SphereIndenter`); one line-sphere formula behind both.
 
 Conventions (mm, world frame): a vertex twist row is ``(∂d/∂v, ∂d/∂ω)``; poses are
 ``y = R p + t`` (slave → master frame) and ``x = Rm y + tm`` (master → world).
@@ -178,16 +180,41 @@ def _contact_faces(D: np.ndarray) -> np.ndarray:
 
 
 @njit(cache=True, fastmath=False, inline="always")
+def _ray_sphere(y0: float, y1: float, y2: float, u0: float, u1: float, u2: float,
+                center: np.ndarray, radius: float):
+    """The line y + s·u (unit u) and the sphere |x − c| = R: r = y − c (3 floats),
+    b = u·r, |r|² and the discriminant b² − |r|² + R² (the line meets the sphere iff
+    ≥ 0, at s = −b ± √disc)."""
+    r0, r1, r2 = y0 - center[0], y1 - center[1], y2 - center[2]
+    b = u0 * r0 + u1 * r1 + u2 * r2
+    rr = r0 * r0 + r1 * r1 + r2 * r2
+    return r0, r1, r2, b, rr, b * b - rr + radius * radius
+
+
+@njit(cache=True, fastmath=False)
+def sphere_ray_roots(y: np.ndarray, u: np.ndarray, center: np.ndarray, radius: float):
+    """The nearer intersection of the lines y + s·u (points y (n, 3), unit directions u
+    (n, 3)) with the sphere: s (n,) mm, and hit (n,) False where the line misses (s 0)."""
+    n = y.shape[0]
+    s = np.zeros(n)
+    hit = np.zeros(n, dtype=np.bool_)
+    for i in range(n):
+        _, _, _, b, _, disc = _ray_sphere(y[i, 0], y[i, 1], y[i, 2], u[i, 0], u[i, 1],
+                                          u[i, 2], center, radius)
+        if disc >= 0.0:
+            s[i] = -b - np.sqrt(disc)
+            hit[i] = True
+    return s, hit
+
+
+@njit(cache=True, fastmath=False, inline="always")
 def sphere_ray_depth(y0: float, y1: float, y2: float, u0: float, u1: float, u2: float,
                      center: np.ndarray, radius: float):
     """Depth (mm) of point y along unit u to the sphere: the larger root ``s`` with
     ``y + s·u`` on it, or ``R - |y - c|`` where the line misses the ball. Returns
     (depth, ∂d/∂y as 3 floats, ray) with ray False where the radial gradient is used
     (missed line, or a ray tangent to the sphere)."""
-    r0, r1, r2 = y0 - center[0], y1 - center[1], y2 - center[2]
-    b = u0 * r0 + u1 * r1 + u2 * r2
-    rr = r0 * r0 + r1 * r1 + r2 * r2
-    disc = b * b - rr + radius * radius
+    r0, r1, r2, b, rr, disc = _ray_sphere(y0, y1, y2, u0, u1, u2, center, radius)
     if disc >= 0.0:
         d = np.sqrt(disc) - b
         q0, q1, q2 = r0 + d * u0, r1 + d * u1, r2 + d * u2        # sphere point - c

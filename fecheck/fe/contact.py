@@ -158,31 +158,48 @@ def _frames(n: int, dofs: np.ndarray, directions: np.ndarray) -> sp.csr_matrix:
                          shape=(n, n))
 
 
-def _active_set(C: np.ndarray, g0: np.ndarray, load_N: float, active: np.ndarray,
-                max_iter: int) -> tuple[np.ndarray, float, np.ndarray, int]:
-    m = len(g0)
+def active_set(C: np.ndarray, g0: np.ndarray, J: np.ndarray, G: np.ndarray, Q: np.ndarray,
+               dQ: np.ndarray, active: np.ndarray, max_iter: int, hint: str
+               ) -> tuple[np.ndarray, np.ndarray, np.ndarray, int]:
+    """Primal-dual active set (Hintermüller-Ito-Kunisch) of the mixed LCP
+    g = g0 + J δq + C λ ≥ 0, λ ≥ 0, λ·g = 0, Gᵀλ + dQ δq = −Q.
+
+    C (m, m) compliance at the candidates (mm/N), g0 (m,) gaps (mm), J (m, k) and G (m, k)
+    the gaps' and the forces' maps to the k unknowns δq, Q (k,) and dQ (k, k) the
+    unknowns' load and its stiffness; `active` (m,) the first set. For a set A the
+    equalities are one dense solve; candidates that pull are released and those that
+    penetrate are added (at least the deepest stays) until A stops changing. Returns
+    (λ (m,) N, δq (k,), A, iterations); `FecheckError` ending with `hint` when A keeps
+    changing for `max_iter` iterations.
+    """
+    m, k = J.shape
     for it in range(1, max_iter + 1):
         idx = np.flatnonzero(active)
-        k = len(idx)
-        kkt = np.zeros((k + 1, k + 1))
-        kkt[:k, :k] = C[np.ix_(idx, idx)]
-        kkt[:k, k] = -1.0
-        kkt[k, :k] = 1.0
-        rhs = np.concatenate([-g0[idx], [load_N]])
-        with interruptible():
-            sol = np.linalg.solve(kkt, rhs)
+        a = len(idx)
+        kkt = np.zeros((a + k, a + k))
+        kkt[:a, :a] = C[np.ix_(idx, idx)]
+        kkt[:a, a:] = J[idx]
+        kkt[a:, :a] = G[idx].T
+        kkt[a:, a:] = dQ
+        rhs = np.concatenate([-g0[idx], -Q])
+        try:
+            with interruptible():
+                sol = np.linalg.solve(kkt, rhs)
+        except np.linalg.LinAlgError:
+            with interruptible():
+                sol = np.linalg.lstsq(kkt, rhs, rcond=None)[0]
         lam = np.zeros(m)
-        lam[idx] = sol[:k]
-        delta = float(sol[k])
-        gap = g0 - delta + C @ lam
-        new_active = np.where(active, lam > 0, gap < 0)
-        if not new_active.any():
-            new_active[np.argmin(gap)] = True
-        if np.array_equal(new_active, active):
-            return lam, delta, active, it
-        active = new_active
-    raise FecheckError(f"contact active set did not settle in {max_iter} iterations; "
-                       "refine the mesh under the contact or change the load")
+        lam[idx] = sol[:a]
+        dq = sol[a:]
+        gap = g0 + J @ dq + C @ lam
+        new = np.where(active, lam > 0.0, gap < 0.0)
+        if not new.any():
+            new[np.argmin(gap)] = True
+        if np.array_equal(new, active):
+            return lam, dq, active, it
+        active = new
+    raise FecheckError(f"the FE contact active set did not settle in {max_iter} iterations; "
+                       f"{hint}")
 
 
 def solve_contact(K: sp.spmatrix, candidates: np.ndarray,
@@ -238,7 +255,11 @@ def solve_contact(K: sp.spmatrix, candidates: np.ndarray,
         active[np.argmin(g0)] = True
     iterations = 0
     for _ in range(max_iter):
-        lam, delta, active, it = _active_set(C, g0, load_N, active, max_iter)
+        lam, step, active, it = active_set(C, g0, -np.ones((m, 1)), np.ones((m, 1)),
+                                           np.array([-load_N]), np.zeros((1, 1)), active,
+                                           max_iter, "refine the mesh under the contact or "
+                                           "change the load")
+        delta = float(step[0])
         iterations += it
         if not deformed_gap:
             break

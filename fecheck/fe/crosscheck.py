@@ -364,7 +364,7 @@ def _solve(scene: Scene, layers: Sequence[FELayer], run: RunResult, settings: FE
     compartment mode) and the condensation time."""
     from fecheck.model.run import ligament_springs
 
-    q_ef = np.asarray(run.extra["q"], dtype=float)
+    q_ef = np.asarray(run.pose.q, dtype=float)
     margin = settings.candidate_gap_mm + _expected_depth(scene, run)
     if settings.mode == "joint":
         drive = joint_drive(scene, q_ef, ligament_springs(scene))
@@ -412,7 +412,7 @@ def cross_check(scene: Scene, *, mode: str | None = None, refine: int | None = N
     solved, q_fe, condense = _solve(scene, layers, run, settings, say)
     t3 = time.perf_counter()
     theta = math.radians(scene["dofs.flexion_deg"])
-    rot_ef, t_ef = pose(np.asarray(run.extra["q"], dtype=float), theta)
+    rot_ef, t_ef = pose(np.asarray(run.pose.q, dtype=float), theta)
     checks, alerts, femoral = {}, [], {}
     for name, (lay, lc, worst, (rot, t)) in solved.items():
         fe, pressure = _fe_metrics(lay, lc.force_N, lc.active, rigid_gaps(lay, rot, t), rot)
@@ -455,7 +455,7 @@ def cross_check(scene: Scene, *, mode: str | None = None, refine: int | None = N
     return CrossCheck(checks, settings,
                       {"E_MPa": E, "nu": nu, "thickness_mm": scene["contact.thickness_mm"],
                        "ef_k_N_per_mm3": column_stiffness(E, nu, scene["contact.thickness_mm"])},
-                      {"fe": pose_dict(q_fe), "ef": pose_dict(run.extra["q"])}, geometry,
+                      {"fe": pose_dict(q_fe), "ef": pose_dict(run.pose.q)}, geometry,
                       timing, tuple(notes), run)
 
 

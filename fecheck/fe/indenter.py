@@ -17,6 +17,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from fecheck.contact.kernels import sphere_ray_roots
 from fecheck.errors import FecheckError
 from geometry.distance import ray_hits
 from geometry.mesh import TriMesh
@@ -57,12 +58,12 @@ class SphereIndenter:
 
     def gap(self, points: np.ndarray, normals: np.ndarray) -> Gap:
         """Gap along `normals` from `points` to the sphere (the near intersection)."""
-        rel = points - np.asarray(self.center, dtype=float)
-        b = np.einsum("ij,ij->i", normals, rel)
-        disc = b * b - (np.einsum("ij,ij->i", rel, rel) - self.radius_mm ** 2)
-        hit = disc >= 0.0
-        s = np.where(hit, -b - np.sqrt(np.maximum(disc, 0.0)), FAR_MM)
-        m = (rel + s[:, None] * normals) / self.radius_mm
+        center = np.asarray(self.center, dtype=float)
+        s, hit = sphere_ray_roots(np.ascontiguousarray(points, dtype=float),
+                                  np.ascontiguousarray(normals, dtype=float), center,
+                                  float(self.radius_mm))
+        s = np.where(hit, s, FAR_MM)
+        m = (points - center + s[:, None] * normals) / self.radius_mm
         return Gap(s, _twist_rows(points, normals, s, m, hit))
 
 

@@ -38,9 +38,8 @@ import numpy as np
 import scipy.sparse as sp
 
 from fecheck.errors import FecheckError
-from fecheck.fe.contact import condensed_compliance, factorize
+from fecheck.fe.contact import active_set, condensed_compliance, factorize
 from fecheck.fe.solid import LayerSolid
-from geometry.native import interruptible
 
 POSE_TOL = 1e-9
 """The outer loop stops when the pose step is below this (mm, and rad × 100 mm)."""
@@ -129,41 +128,6 @@ def _shared_solids(layers: Sequence[ContactLayer]) -> tuple[list[ContactLayer], 
     return out, list(groups.values())
 
 
-def _active_set(C: np.ndarray, g0: np.ndarray, J: np.ndarray, G: np.ndarray, Q: np.ndarray,
-                dQ: np.ndarray, active: np.ndarray, max_iter: int
-                ) -> tuple[np.ndarray, np.ndarray, np.ndarray, int]:
-    """λ ≥ 0 and δq of the mixed problem for fixed g0, J, G, Q and the load's stiffness
-    dQ (module docstring)."""
-    m, k = J.shape
-    for it in range(1, max_iter + 1):
-        idx = np.flatnonzero(active)
-        a = len(idx)
-        kkt = np.zeros((a + k, a + k))
-        kkt[:a, :a] = C[np.ix_(idx, idx)]
-        kkt[:a, a:] = J[idx]
-        kkt[a:, :a] = G[idx].T
-        kkt[a:, a:] = dQ
-        rhs = np.concatenate([-g0[idx], -Q])
-        try:
-            with interruptible():
-                sol = np.linalg.solve(kkt, rhs)
-        except np.linalg.LinAlgError:
-            with interruptible():
-                sol = np.linalg.lstsq(kkt, rhs, rcond=None)[0]
-        lam = np.zeros(m)
-        lam[idx] = sol[:a]
-        dq = sol[a:]
-        gap = g0 + J @ dq + C @ lam
-        new = np.where(active, lam > 0.0, gap < 0.0)
-        if np.array_equal(new, active):
-            return lam, dq, active, it
-        if not new.any():
-            new[np.argmin(gap)] = True
-        active = new
-    raise FecheckError(f"the FE contact active set did not settle in {max_iter} iterations; "
-                       "refine the layer under the contact or check the load")
-
-
 class JointContact:
     """Layers ready to solve: each factorized and condensed onto its contact candidates
     once (the costly part), then `solve` for any load in milliseconds, so that answers
@@ -217,8 +181,9 @@ class JointContact:
             if active is None:
                 active = g0 <= np.sort(g0)[min(len(g0) - 1, 3)]
             dQ = np.zeros((len(q), len(q))) if stiffness is None else stiffness(q)
-            lam, dq, active, it = _active_set(self.C, g0, J, G, load(q), dQ, active,
-                                              max_active)
+            lam, dq, active, it = active_set(self.C, g0, J, G, load(q), dQ, active,
+                                             max_active, "refine the layer under the "
+                                             "contact or check the load")
             inner += it
             q = q + dq
             self.log(f"FE pose update {outer}: {int(active.sum())} vertices in contact, "

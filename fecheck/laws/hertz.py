@@ -1,10 +1,11 @@
 """Hertz laws (thesis eq. 4.4-4.8): the force from the maximum depth d only.
 
 P = 4/3·E*·√R·d^{3/2}; E* from `fecheck.laws.materials.hertz_modulus`; a = √(R d),
-p0 = 3P/(2πa²). `hertz_point` takes d from a convex point contact
-(`fecheck.contact.convex`, smooth in the pose); `hertz` from the deepest vertex of a
-meshed slave, which is NOT smooth (the deepest vertex switches as the slave tilts, and
-Newton may stall): it is kept for polynomial plateaus and mesh detection.
+p0 = 3P/(2πa²), each written once in `fecheck.reference.closed_forms`. `hertz_point`
+takes d from a convex point contact (`fecheck.contact.convex`, smooth in the pose);
+`hertz` from the deepest vertex of a meshed slave, which is NOT smooth (the deepest
+vertex switches as the slave tilts, and Newton may stall): it is kept for polynomial
+plateaus and mesh detection.
 """
 
 from __future__ import annotations
@@ -18,6 +19,7 @@ from fecheck.contact.surface import ContactSurface
 from fecheck.errors import FecheckError
 from fecheck.laws.kernel import NO_CLIP, NO_SLIDE, pressure_resultant
 from fecheck.laws.result import LawResult, no_contact
+from fecheck.reference.closed_forms import hertz_load, hertz_peak_pressure, hertz_radius_at_depth
 
 
 def _deepest_vertex(surface: ContactSurface) -> tuple[int, np.ndarray, float, np.ndarray]:
@@ -54,9 +56,9 @@ def hertz(surface: ContactSurface, radius_mm: float, e_star_MPa: float,
     r = float(radius_mm)
     face, x, d, dd = _deepest_vertex(surface)
     n = surface.normal[face]
-    load = 4.0 / 3.0 * e_star_MPa * math.sqrt(r) * d ** 1.5
-    a = math.sqrt(r * d)
-    p0 = 3 * load / (2 * math.pi * a * a)
+    load = hertz_load(d, r, e_star_MPa)
+    a = hertz_radius_at_depth(d, r)
+    p0 = hertz_peak_pressure(load, a)
     slide = surface.normal_slide
     _, force, moment, tangent, _ = pressure_resultant(
         0.0, np.array([load]), np.array([1.5 * load / d]), np.array([d]), np.ones(1),
@@ -74,10 +76,8 @@ def hertz(surface: ContactSurface, radius_mm: float, e_star_MPa: float,
         out[surface.face] = p0 * np.sqrt(np.clip(ratio, 0.0, None))
         return out
 
-    extra = {"contact_radius_mm": a, "p0_MPa": p0, "mean_pressure_MPa": load / (math.pi * a * a),
-             "area_mm2": math.pi * a * a, "force_N": load}
     return LawResult(surface, np.zeros(len(surface.qp_depth)), force, moment, tangent, p0,
-                     math.pi * a * a, d, extra, face_pressure_fn=face_pressure)
+                     math.pi * a * a, d, a, face_pressure_fn=face_pressure)
 
 
 def hertz_point(contact: PointContact, radius_mm: float, e_star_MPa: float,
@@ -108,15 +108,15 @@ def hertz_point(contact: PointContact, radius_mm: float, e_star_MPa: float,
                          else lambda: np.zeros(len(centroids())))
     r = float(radius_mm)
     u, c = contact.direction, contact.point
-    load = 4.0 / 3.0 * e_star_MPa * math.sqrt(r) * d ** 1.5
+    load = hertz_load(d, r, e_star_MPa)
     force = load * u
     arm = c - about
     moment = np.cross(arm, force)
     dforce = np.outer(u, 1.5 * load / d * contact.depth_twist) + load * contact.direction_twist
     tangent = np.vstack([dforce, np.cross(arm, dforce, axisa=0, axisb=0, axisc=0)])
-    a = math.sqrt(r * d)
+    a = hertz_radius_at_depth(d, r)
     area = math.pi * a * a
-    p0 = 3 * load / (2 * area)
+    p0 = hertz_peak_pressure(load, a)
 
     def face_pressure() -> np.ndarray:
         rel = centroids() - c
@@ -124,8 +124,6 @@ def hertz_point(contact: PointContact, radius_mm: float, e_star_MPa: float,
         ratio = 1.0 - np.einsum("ij,ij->i", rel, rel) / (a * a)
         return p0 * np.sqrt(np.clip(ratio, 0.0, None))
 
-    extra = {"contact_radius_mm": a, "p0_MPa": p0, "mean_pressure_MPa": load / area,
-             "area_mm2": area, "force_N": load, "depth_mm": d}
-    return LawResult(contact, np.zeros(0), force, moment, tangent, p0, area, d, extra,
+    return LawResult(contact, np.zeros(0), force, moment, tangent, p0, area, d, a,
                      face_pressure_fn=no_mesh if centroids is None else face_pressure)
 

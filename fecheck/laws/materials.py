@@ -12,7 +12,7 @@ import math
 import warnings
 
 from fecheck.errors import FecheckError
-from fecheck.reference.closed_forms import column_stiffness
+from fecheck.reference.closed_forms import column_stiffness, hertz_effective_modulus
 
 
 def _check_number(name: str, value: float) -> float:
@@ -53,9 +53,7 @@ def hertz_modulus(youngs_MPa: float, poisson: float, indenter_youngs_MPa: float 
                   indenter_poisson: float = 0.3) -> float:
     """Effective modulus E* (MPa): 1/E* = (1−ν²)/E + (1−ν_i²)/E_i (E_i = inf: rigid)."""
     validate_material(youngs_MPa, poisson)
-    inv = (1 - poisson ** 2) / youngs_MPa
     if not math.isinf(indenter_youngs_MPa):
         validate_material(indenter_youngs_MPa, indenter_poisson)
-        inv += (1 - indenter_poisson ** 2) / indenter_youngs_MPa
-    return 1.0 / inv
+    return hertz_effective_modulus(youngs_MPa, poisson, indenter_youngs_MPa, indenter_poisson)
 

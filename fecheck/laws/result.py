@@ -2,8 +2,9 @@
 
 from __future__ import annotations
 
+import math
 from collections.abc import Callable
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 
 import numpy as np
 
@@ -20,7 +21,7 @@ class LawResult:
     force : (3,) N;  moment : (3,) N·mm about `about`;  tangent : (6, 6) d[F, M]/dξ
     max_pressure : MPa at the deepest point;  max_depth : mm;  area : mm² (law's own
     contact area: the clipped area for foundation laws, πa² for Hertz)
-    extra : law-specific values (Hertz: contact_radius_mm, p0_MPa, …)
+    contact_radius_mm : Hertz contact radius a (mm); NaN for laws without one
     """
 
     surface: ContactSurface | PointContact
@@ -31,7 +32,7 @@ class LawResult:
     max_pressure: float
     area: float
     max_depth: float
-    extra: dict = field(default_factory=dict)
+    contact_radius_mm: float = math.nan
     face_pressure_fn: Callable[[], np.ndarray] | None = None
 
     @property

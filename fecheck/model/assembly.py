@@ -22,6 +22,7 @@ from fecheck.errors import FecheckError
 from fecheck.laws import calibrated
 from fecheck.laws.fused import HotPath
 from fecheck.laws.registry import LawInputs, spec_of
+from fecheck.model.results import Pose
 from fecheck.scene import Scene
 from fecheck.scene.constants import COMPARTMENTS, DOF_NAMES, GRAVITY_MPS2, LIGAMENTS
 from fecheck.scene.knee import plane_normal
@@ -42,8 +43,7 @@ def start_pose(scene: Scene) -> np.ndarray:
 
 def pose_dict(q: np.ndarray) -> dict[str, float]:
     """Pose for reports: x_mm, y_mm, z_mm, abduction_deg, internal_deg."""
-    return {"x_mm": float(q[0]), "y_mm": float(q[1]), "z_mm": float(q[2]),
-            "abduction_deg": math.degrees(q[3]), "internal_deg": math.degrees(q[4])}
+    return dict(Pose.of(q))
 
 
 def free_indices(scene: Scene) -> tuple[int, ...]:

@@ -330,14 +330,12 @@ class EdgeNeighbours:
 
 @once_per_mesh
 def edge_neighbours(mesh: TriMesh) -> EdgeNeighbours:
-    """Face pairs across the shared edges of `mesh` (one sort of the 3·n_faces
-    half-edges; `geometry.checks.mesh_report` answers the same winding question with
-    every other check, ~10x the time, too slow for every run)."""
-    directed = mesh.faces[:, [0, 1, 1, 2, 2, 0]].reshape(-1, 2)
-    lo, hi = directed.min(axis=1), directed.max(axis=1)
-    key = lo.astype(np.int64) * mesh.n_points + hi
-    order = np.argsort(key)
-    equal = key[order][1:] == key[order][:-1]
+    """Face pairs across the shared edges of `mesh`, from its `geometry.mesh.EdgeTable`
+    (`geometry.checks.mesh_report` answers the same winding question with every other
+    check, ~10x the time, too slow for every run)."""
+    table = mesh.edge_table
+    directed, order = table.directed, table.order
+    equal = table.sorted_edge[1:] == table.sorted_edge[:-1]
     same = np.flatnonzero(equal)
     a, b = order[same], order[same + 1]
     third = np.flatnonzero(equal[1:] & equal[:-1])

@@ -9,7 +9,7 @@ from __future__ import annotations
 import csv
 import json
 import math
-from collections.abc import Mapping
+from collections.abc import Iterator, Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -19,6 +19,71 @@ import numpy as np
 from geometry.files import write_output
 
 POSE_KEYS = ("x_mm", "y_mm", "z_mm", "abduction_deg", "internal_deg")
+
+
+@dataclass(frozen=True, eq=False)
+class Pose(Mapping[str, float]):
+    """The solved pose of one body relative to the fixed femur.
+
+    q : (x, y, z mm, θy abduction rad, θz internal rad), the generalized coordinates of
+        `fecheck.statics.newton.pose`; flexion θx (rad) is set by the scene, not solved
+    body : the body's name ("tibia": the only moving body of today's models)
+
+    As a mapping it reads the reported values (`POSE_KEYS`: x_mm … internal_deg), so that
+    ``result.pose["z_mm"]`` and ``dict(result.pose)`` give the report's pose.
+    """
+
+    q: tuple[float, ...]
+    flexion_rad: float = 0.0
+    body: str = "tibia"
+
+    @classmethod
+    def of(cls, q: Any, flexion_rad: float = 0.0, body: str = "tibia") -> Pose:
+        """The pose of generalized coordinates `q` (5,) (mm, rad)."""
+        return cls(tuple(float(v) for v in q), float(flexion_rad), body)
+
+    @property
+    def x_mm(self) -> float:
+        return self.q[0]
+
+    @property
+    def y_mm(self) -> float:
+        return self.q[1]
+
+    @property
+    def z_mm(self) -> float:
+        return self.q[2]
+
+    @property
+    def abduction_rad(self) -> float:
+        return self.q[3]
+
+    @property
+    def internal_rad(self) -> float:
+        return self.q[4]
+
+    @property
+    def abduction_deg(self) -> float:
+        return math.degrees(self.q[3])
+
+    @property
+    def internal_deg(self) -> float:
+        return math.degrees(self.q[4])
+
+    @property
+    def flexion_deg(self) -> float:
+        return math.degrees(self.flexion_rad)
+
+    def __getitem__(self, key: str) -> float:
+        if key not in POSE_KEYS:
+            raise KeyError(key)
+        return getattr(self, key)
+
+    def __iter__(self) -> Iterator[str]:
+        return iter(POSE_KEYS)
+
+    def __len__(self) -> int:
+        return len(POSE_KEYS)
 
 
 @dataclass(frozen=True)
@@ -83,6 +148,40 @@ class LigamentResult:
 
 
 @dataclass(frozen=True)
+class SolveRecord:
+    """What the Newton solve of a contact model did.
+
+    evaluations : contact-and-tangent evaluations of every compartment
+    contact_faces : {compartment: slave faces of its contact pair}
+    detection : {compartment: how its contact is detected (one line)}
+    residual_history : residual norm (N) of every iteration
+    equal_forces_multiplier : the equal-force constraint's multiplier (N), None without it
+    wrench_N : {"contact"|"ligaments"|"load_and_gravity": (6,) wrench on the tibia, N and
+        N·mm about the world origin} at equilibrium (scanned models), else None
+    """
+
+    evaluations: int
+    contact_faces: Mapping[str, int]
+    detection: Mapping[str, str]
+    residual_history: tuple[float, ...]
+    equal_forces_multiplier: float | None = None
+    wrench_N: Mapping[str, np.ndarray] | None = None
+
+    def as_dict(self, pose: Pose) -> dict[str, Any]:
+        """The run JSON's "extra" object: this record with the solved `pose`'s q."""
+        out: dict[str, Any] = {"evaluations": int(self.evaluations),
+                               "contact_faces": dict(self.contact_faces),
+                               "detection": dict(self.detection),
+                               "residual_history": list(self.residual_history)}
+        if self.equal_forces_multiplier is not None:
+            out["equal_forces_multiplier"] = self.equal_forces_multiplier
+        out["q"] = list(pose.q)
+        if self.wrench_N is not None:
+            out["wrench_N"] = dict(self.wrench_N)
+        return _jsonable(out)
+
+
+@dataclass(frozen=True)
 class RunResult:
     """Everything one `fecheck run` reports.
 
@@ -94,7 +193,11 @@ class RunResult:
         and contact pairs; contact = all contact-and-tangent evaluations; per_evaluation
         = one evaluation of every compartment)
     exact : closed-form references and deviations (sphere-plane EF), else {}
-    extra : other outputs (multipliers, evaluation counts, …)
+    record : the Newton solve's record (`SolveRecord`); None for the rigid model, which
+        solves one linear system
+
+    `pose` is the tibia's; the femur is the fixed frame. `poses` maps every moving body's
+    name to its `Pose` (today only the tibia moves).
     """
 
     scene: str
@@ -103,13 +206,18 @@ class RunResult:
     converged: bool
     iterations: int
     residual_norm: float
-    pose: Mapping[str, float]
+    pose: Pose
     compartments: Mapping[str, CompartmentResult]
     ligaments: Mapping[str, LigamentResult]
     timing_s: Mapping[str, float]
     exact: Mapping[str, Any] = field(default_factory=dict)
     notes: tuple[str, ...] = ()
-    extra: Mapping[str, Any] = field(default_factory=dict)
+    record: SolveRecord | None = None
+
+    @property
+    def poses(self) -> dict[str, Pose]:
+        """{body name: solved pose} of every moving body."""
+        return {self.pose.body: self.pose}
 
     def as_dict(self) -> dict[str, Any]:
         """JSON-ready nested dict (keys as documented in the README)."""
@@ -122,7 +230,7 @@ class RunResult:
             "ligaments": {k: v.as_dict() for k, v in self.ligaments.items()},
             "timing_s": {k: _num(v) for k, v in self.timing_s.items()},
             "exact": _jsonable(self.exact), "notes": list(self.notes),
-            "extra": _jsonable(self.extra),
+            "extra": {} if self.record is None else self.record.as_dict(self.pose),
         }
 
     def write_json(self, path: str | Path) -> None:

@@ -13,12 +13,11 @@ from fecheck.model.assembly import (
     free_indices,
     ligament_names,
     plateau_normals,
-    pose_dict,
     start_pose,
 )
 from fecheck.model.equilibrium import axial_force
 from fecheck.model.plausibility import before_solve
-from fecheck.model.results import CompartmentResult, LigamentResult, RunResult
+from fecheck.model.results import CompartmentResult, LigamentResult, Pose, RunResult
 from fecheck.scene import Scene
 from fecheck.scene.constants import COMPARTMENTS
 from fecheck.statics.newton import pose
@@ -54,5 +53,5 @@ def run_rigid(scene: Scene, warm_start: np.ndarray | None = None) -> RunResult:
             for k, v in sol.ligament_force_N.items()}
     elapsed = time.perf_counter() - t0
     return RunResult(scene["name"] or scene.source, "rigid", "none", True, 1, sol.residual_N,
-                     pose_dict(q), comps, ligs, {"total": elapsed, "solve": elapsed})
+                     Pose.of(q, theta_x), comps, ligs, {"total": elapsed, "solve": elapsed})
 

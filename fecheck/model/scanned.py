@@ -41,12 +41,11 @@ from fecheck.model.assembly import (
     applied_load,
     law_factory,
     law_inputs,
-    pose_dict,
 )
 from fecheck.model.condyles import fit_note, scene_knee
 from fecheck.model.equilibrium import compartment_results, not_converged_note, solve_equilibrium
 from fecheck.model.notes import layer_depth_notes, mesh_resolution_notes, smoothing_notes
-from fecheck.model.results import LigamentResult, RunResult
+from fecheck.model.results import LigamentResult, Pose, RunResult, SolveRecord
 from fecheck.model.reuse import reusable
 from fecheck.scene import Scene, surfaces
 from fecheck.scene.bundles import read_bundles
@@ -200,16 +199,14 @@ def run_scanned(scene: Scene, warm_start: np.ndarray | None = None) -> RunResult
         notes += fit_note(scene, scene_knee(scene))
     contact = eq.contact
     contact_wrench = sum(eq.wrenches)
-    extra = {"evaluations": contact.evaluations,
-             "contact_faces": {c.name: c.pair.slave.n_faces for c in comps},
-             "detection": {c.name: c.pair.describe() for c in comps},
-             "residual_history": list(sol.history),
-             "q": sol.q.tolist(),
-             "wrench_N": {"contact": contact_wrench.tolist(), "ligaments": lig_wrench.tolist(),
-                          "load_and_gravity": applied_load(scene)(rot, t)[0].tolist()}}
+    record = SolveRecord(contact.evaluations, {c.name: c.pair.slave.n_faces for c in comps},
+                         {c.name: c.pair.describe() for c in comps}, tuple(sol.history),
+                         wrench_N={"contact": contact_wrench, "ligaments": lig_wrench,
+                                   "load_and_gravity": applied_load(scene)(rot, t)[0]})
     timing = {"total": time.perf_counter() - t_start, "build": t_built - t_start,
               "solve": eq.seconds, "contact": contact.contact_seconds,
               "per_evaluation_us": 1e6 * contact.contact_seconds / max(contact.evaluations, 1)}
     return RunResult(scene["name"] or scene.source, scene["model.kind"], scene["contact.law"],
-                     sol.converged, sol.iterations, sol.residual_norm, pose_dict(sol.q),
-                     compartments, ligaments, timing, {}, tuple(notes), extra)
+                     sol.converged, sol.iterations, sol.residual_norm,
+                     Pose.of(sol.q, math.radians(scene["dofs.flexion_deg"])), compartments,
+                     ligaments, timing, {}, tuple(notes), record)

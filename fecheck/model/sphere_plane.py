@@ -9,6 +9,7 @@ vertex, which is not smooth (Newton may stall).
 
 from __future__ import annotations
 
+import math
 import time
 from collections.abc import Mapping
 
@@ -26,7 +27,6 @@ from fecheck.model.assembly import (
     law_factory,
     ligament_names,
     plateau_normals,
-    pose_dict,
 )
 from fecheck.model.equilibrium import compartment_results, not_converged_note, solve_equilibrium
 from fecheck.model.meshing import (
@@ -41,7 +41,7 @@ from fecheck.model.notes import (
     layer_depth_notes,
     mesh_resolution_notes,
 )
-from fecheck.model.results import CompartmentResult, LigamentResult, RunResult
+from fecheck.model.results import CompartmentResult, LigamentResult, Pose, RunResult, SolveRecord
 from fecheck.model.reuse import reusable
 from fecheck.reference.closed_forms import ef_sphere_plane
 from fecheck.scene import Scene
@@ -148,19 +148,18 @@ def run_contact_model(scene: Scene, warm_start: np.ndarray | None = None) -> Run
     if spec.depth_notes is not None:
         notes += spec.depth_notes(scene, {c: r.max_depth_mm for c, r in compartments.items()})
     contact = eq.contact
-    extra = {"evaluations": contact.evaluations,
-             "contact_faces": {c.name: c.pair.slave.n_faces for c in comps},
-             "detection": {c.name: c.describe() for c in comps},
-             "residual_history": list(sol.history)}
-    if scene["constraints.equal_forces"]:
-        extra["equal_forces_multiplier"] = float(sol.multipliers[-1])
+    record = SolveRecord(contact.evaluations, {c.name: c.pair.slave.n_faces for c in comps},
+                         {c.name: c.describe() for c in comps}, tuple(sol.history),
+                         float(sol.multipliers[-1]) if scene["constraints.equal_forces"]
+                         else None)
     timing = {"total": time.perf_counter() - t_start, "build": t_built - t_start,
               "solve": eq.seconds, "contact": contact.contact_seconds,
               "per_evaluation": contact.contact_seconds / max(contact.evaluations, 1)}
     return RunResult(scene["name"] or scene.source, scene["model.kind"], scene["contact.law"],
-                     sol.converged, sol.iterations, sol.residual_norm, pose_dict(sol.q),
-                     compartments, ligaments, timing, exact_reference(scene, compartments),
-                     tuple(notes), extra | {"q": sol.q.tolist()})
+                     sol.converged, sol.iterations, sol.residual_norm,
+                     Pose.of(sol.q, math.radians(scene["dofs.flexion_deg"])), compartments,
+                     ligaments, timing, exact_reference(scene, compartments), tuple(notes),
+                     record)
 
 
 def exact_reference(scene: Scene, compartments: Mapping[str, CompartmentResult]) -> dict:

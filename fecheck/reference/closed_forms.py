@@ -100,18 +100,50 @@ def ef_sphere_on_plane(load_N: float, radius_mm: float, E_MPa: float, nu: float,
                           force_N=float(load_N))
 
 
+# Hertz, sphere of radius R on an elastic half-space (Johnson 1985 §4.2; thesis eq.
+# 4.4-4.8): every Hertz formula of fecheck is one of these.
+def hertz_effective_modulus(E_MPa: float, nu: float, indenter_E_MPa: float = math.inf,
+                            indenter_nu: float = 0.3) -> float:
+    """Effective modulus E* (MPa): 1/E* = (1−ν²)/E + (1−ν_i²)/E_i (E_i = inf: rigid)."""
+    inv = (1 - nu ** 2) / E_MPa
+    if not math.isinf(indenter_E_MPa):
+        inv += (1 - indenter_nu ** 2) / indenter_E_MPa
+    return 1.0 / inv
+
+
+def hertz_load(depth_mm: float, radius_mm: float, e_star_MPa: float) -> float:
+    """Hertz force at approach d: P = 4/3·E*·√R·d^(3/2), N."""
+    return 4.0 / 3.0 * e_star_MPa * math.sqrt(radius_mm) * depth_mm ** 1.5
+
+
+def hertz_radius_at_depth(depth_mm: float, radius_mm: float) -> float:
+    """Hertz contact radius at approach d: a = √(R d), mm."""
+    return math.sqrt(radius_mm * depth_mm)
+
+
 def hertz_contact_radius(force_N: float, radius_mm: float, e_star_MPa: float) -> float:
     """Hertz contact radius a = (3FR / (4E*))^(1/3), mm."""
     return (3 * force_N * radius_mm / (4 * e_star_MPa)) ** (1 / 3)
+
+
+def hertz_approach(force_N: float, radius_mm: float, e_star_MPa: float) -> float:
+    """Hertz approach (maximum depth) under force F: d = a²/R, mm."""
+    a = hertz_contact_radius(force_N, radius_mm, e_star_MPa)
+    return a * a / radius_mm
+
+
+def hertz_peak_pressure(force_N: float, contact_radius_mm: float) -> float:
+    """Hertz peak pressure p0 = 3F / (2πa²), MPa (1.5 × the mean pressure)."""
+    return 3 * force_N / (2 * math.pi * contact_radius_mm * contact_radius_mm)
 
 
 def hertz_sphere_on_plane(load_N: float, radius_mm: float, E_MPa: float,
                           nu: float) -> ContactMetrics:
     """Hertz, rigid sphere on an elastic half-space: E* = E/(1-ν²), a = (3FR/4E*)^(1/3)."""
     _check(load_N, radius_mm, E_MPa, nu)
-    a = hertz_contact_radius(load_N, radius_mm, E_MPa / (1 - nu * nu))
+    a = hertz_contact_radius(load_N, radius_mm, hertz_effective_modulus(E_MPa, nu))
     area = np.pi * a * a
-    return ContactMetrics(max_pressure_MPa=float(3 * load_N / (2 * area)),
+    return ContactMetrics(max_pressure_MPa=float(hertz_peak_pressure(load_N, a)),
                           mean_pressure_MPa=float(load_N / area), area_mm2=float(area),
                           depth_mm=float(a * a / radius_mm), force_N=float(load_N))
 

@@ -40,10 +40,8 @@ of +z (and seen from above)."""
 
 def open_edges(mesh: TriMesh) -> np.ndarray:
     """(k, 2) vertex pairs of the edges not shared by exactly two faces."""
-    e = np.sort(mesh.faces[:, [0, 1, 1, 2, 2, 0]].reshape(-1, 2), axis=1).astype(np.int64)
-    keys, counts = np.unique(e[:, 0] * mesh.n_points + e[:, 1], return_counts=True)
-    bad = keys[counts != 2]
-    return np.column_stack([bad // mesh.n_points, bad % mesh.n_points])
+    table = mesh.edge_table
+    return table.edges[table.counts != 2]
 
 
 def outward(mesh: TriMesh, name: str) -> TriMesh:

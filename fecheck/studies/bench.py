@@ -222,10 +222,11 @@ def hertz_on_icosphere(radius_mm: float, force_N: float, level: int) -> Callable
     """Hertz law (from the maximum depth) of an icosphere slave on the plane z = 0."""
     from fecheck.contact import ContactPair, Plane
     from fecheck.laws import hertz, hertz_modulus
+    from fecheck.reference.closed_forms import hertz_approach
 
     slave, e_star = _icosphere(radius_mm, level), hertz_modulus(E_MPA, NU)
     plane = Plane([0.0, 0.0, 0.0], [0.0, 0.0, 1.0])
-    start = (3 * force_N / (4 * e_star * math.sqrt(radius_mm))) ** (2 / 3)
+    start = hertz_approach(force_N, radius_mm, e_star)
 
     def run() -> Outcome:
         pair = ContactPair(slave, plane)
@@ -285,7 +286,7 @@ def scene_solve(overrides: list[str], fe_refs: dict) -> Callable[[], Outcome]:
         worst = max(dev, key=dev.get)
         comp, ref = res.compartments[worst], res.exact[worst]
         return Outcome(comp.max_pressure_MPa, comp.area_mm2, res.iterations,
-                       sum(res.extra["contact_faces"].values()),
+                       sum(res.record.contact_faces.values()),
                        (ref["max_pressure_MPa"], ref["area_mm2"]), fe_refs[worst])
 
     return run

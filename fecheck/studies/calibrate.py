@@ -126,7 +126,7 @@ class _EFRuns:
             self.count += 1
             if not result.converged:
                 raise FecheckError(f"calibrate: the calibrated EF did not converge at {load:g} N")
-            self.start[i] = np.asarray(result.extra["q"], dtype=float)
+            self.start[i] = np.asarray(result.pose.q, dtype=float)
             out.append(_ef_answer(result))
         return out
 

@@ -275,7 +275,7 @@ def _balance(scene, result) -> str:
     from fecheck.model.sphere_plane import build_compartments
     from fecheck.statics.newton import Problem, pose, twist_basis
 
-    q = np.asarray(result.extra["q"], dtype=float)
+    q = np.asarray(result.pose.q, dtype=float)
     theta_x = math.radians(scene["dofs.flexion_deg"])
     rot, t = pose(q, theta_x)
     contact = ContactModel(build_compartments(scene))

@@ -228,7 +228,7 @@ def _solve_on_worker(scene: Scene, override: str, value: float, label: str,
         _worker.sweep_id, _worker.memo, _worker.q = sweep_id, {}, None
     point = _solve_reusing(_worker.memo, scene, override, value, _worker.q)
     if not point.failed:
-        _worker.q = point.result.extra.get("q")
+        _worker.q = point.result.pose.q
         return point
     where = f"worker {socket.gethostname()} pid {os.getpid()}"
     return SweepPoint(value, None, f"{label} failed on {where}: {point.error}")
@@ -286,7 +286,7 @@ def _run_serial(scene: Scene, values: Sequence[float], overrides: Sequence[str],
         point = _solve_reusing(memo, scene, override, value, warm)
         rearm_handlers()
         raise_pending_interrupt()
-        warm = None if point.failed else point.result.extra.get("q")
+        warm = None if point.failed else point.result.pose.q
         finished.add(i, point)
         if fail_fast and point.failed:
             return
