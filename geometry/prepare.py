@@ -18,15 +18,16 @@ a femoral condyle), so it is prepared as one:
    a + b u + c v + d u² + e uv + f v² fitted by weighted least squares to samples
    (u_i, z_i) of the kept faces within ``smooth_mm`` of the vertex in the plane (the
    faces' vertices, split at edge midpoints until the edges are at most half the lattice
-   step; each weighted by its area times the biweight (1 − r²/smooth_mm²)² of its
-   distance r): a local quadric regression (`quadric_heights`). A quadric is reproduced
-   exactly and a smooth shape nearly so (the synthetic plateau's 0.4 mm bump of 12 mm
-   wavelength is kept to about 15 µm at 4 mm), whatever ``size_mm``; voxel terraces
-   and noise narrower than ``smooth_mm`` are averaged out. (A smoothing spline that
-   penalises curvature, the first version, flattened that bump by 30 % of its p_max.)
-   With ``smooth_mm`` 0 the heights are the least-squares fit of the samples on the
-   lattice (h linear on its triangles; a vanishing penalty on second differences along
-   the lattice lines holds every vertex).
+   step or a quarter of ``smooth_mm``; each weighted by its area times the biweight
+   (1 − r²/smooth_mm²)² of its distance r): a local quadric regression
+   (`quadric_heights`). A quadric is reproduced exactly and a smooth shape nearly so
+   (the synthetic plateau's 0.4 mm bump of 12 mm wavelength is kept to about 30 µm at
+   4 mm), whatever ``size_mm``; voxel terraces and noise narrower than ``smooth_mm``
+   are averaged out. (A smoothing spline that penalised curvature, the first version,
+   flattened that bump and took 30 % off the FE p_max.) With ``smooth_mm`` 0 the
+   heights are the least-squares fit of the samples on the lattice (h linear on its
+   triangles; a vanishing penalty on second differences along the lattice lines holds
+   every vertex).
 
 The result's triangles are all equilateral in the plane (60° angles there; tilted by
 at most ``max_tilt_deg`` in space); `transfer` interpolates values between the sheet
@@ -129,7 +130,8 @@ def prepare_sheet(sheet: TriMesh, size_mm: float, *, axis: np.ndarray | None = N
     lattice, faces = lattice[used], remap[faces]
     lines = remap[lines]
     lines = lines[(lines >= 0).all(axis=1)]
-    dense, _ = subdivide(TriMesh(sheet.points, sheet.faces[keep]), _splits(sheet, size_mm))
+    step = max(0.5 * size_mm, 0.25 * smooth_mm)
+    dense, _ = subdivide(TriMesh(sheet.points, sheet.faces[keep]), _splits(sheet, step))
     used = np.unique(dense.faces)
     rel = dense.points[used] - origin
     suv, sz = rel @ frame.T, rel @ a
@@ -142,12 +144,13 @@ def prepare_sheet(sheet: TriMesh, size_mm: float, *, axis: np.ndarray | None = N
     return PreparedSheet(mesh, a, origin, frame, int((~keep).sum()))
 
 
-def _splits(sheet: TriMesh, size: float) -> int:
-    """Midpoint splits of the sheet that bring its median edge to half the lattice step or
-    less, so that every lattice triangle holds samples."""
+def _splits(sheet: TriMesh, step: float) -> int:
+    """Midpoint splits of the sheet that bring its median edge to `step` or less (half the
+    lattice step, so that every lattice triangle holds samples, or a quarter of the
+    smoothing length if longer: enough samples in each quadric fit, and no more)."""
     edges = np.linalg.norm(sheet.points[sheet.faces[:, [1, 2, 0]]] - sheet.points[sheet.faces],
                            axis=2)
-    return int(np.clip(np.ceil(np.log2(np.median(edges) / (0.5 * size))), 0, 4))
+    return int(np.clip(np.ceil(np.log2(np.median(edges) / step)), 0, 4))
 
 
 def _frame(a: np.ndarray) -> np.ndarray:
