@@ -87,20 +87,13 @@ def test_prepared_voxel_sheet_quality_and_distance(voxel, size):
     # facing: every normal on the axis's side, within the trimming angle
     assert (mesh.face_normals @ prepared.axis).min() > np.cos(np.radians(MAX_TILT_DEG))
     assert prepared.axis[2] > 0.99
-    # the terraces smoothed: within a fifth of a voxel of the smooth plateau prepared the
-    # same way (the default 2 mm smoothing also flattens the plateau's 0.4 mm bump)
+    # the terraces smoothed: within the voxels' half step of the smooth plateau itself
+    # (measured 0.24 mm at 0.6 mm voxels: the voxel sheet's own error there, a flat
+    # terrace on the bump's top, is longer than the smoothing length)
     c = CONDYLES["medial"]
-    smooth = prepare_sheet(tibia_compartment("medial"), size).mesh
-    below = plane_interpolation(smooth.points[:, :2], smooth.faces, mesh.points[:, :2])
+    err = mesh.points[:, 2] - plateau_height(c, mesh.points[:, 0], mesh.points[:, 1])
     centre = (np.abs(mesh.points[:, 0] - c.patch_centre[0]) < 10) \
         & (np.abs(mesh.points[:, 1] - c.patch_centre[1]) < 10)
-    assert np.abs(mesh.points[centre, 2] - (below @ smooth.points[:, 2])[centre]).max() \
-        < 0.2 * SPACING_MM
-    # with 1 mm smoothing, within the voxels' half-step of the smooth plateau itself
-    light = prepare_sheet(tibia, size, smooth_mm=1.0).mesh
-    err = light.points[:, 2] - plateau_height(c, light.points[:, 0], light.points[:, 1])
-    centre = (np.abs(light.points[:, 0] - c.patch_centre[0]) < 10) \
-        & (np.abs(light.points[:, 1] - c.patch_centre[1]) < 10)
     assert np.abs(err[centre]).max() < 0.5 * SPACING_MM
     # covers the sheet's outline to about a lattice step: 26 × 26 mm patch
     lo, hi = mesh.points[:, :2].min(axis=0), mesh.points[:, :2].max(axis=0)
@@ -116,6 +109,33 @@ def test_a_plane_is_kept_exactly():
     assert np.abs(p[:, 2] - (0.2 * p[:, 0] - 0.1 * p[:, 1] + 3.0)).max() < 1e-6
     # the lattice covers the 20 x 20 mm square to about one element along its edges
     assert 400 - 4 * 20 < prepared.mesh.area / np.sqrt(1 + 0.2 ** 2 + 0.1 ** 2) < 400
+
+
+def test_a_quadric_is_kept_exactly():
+    """The heights are local quadric fits: a jittered sheet on a quadric (curvatures
+    0.02 to -0.04 /mm, a twist, a slope) comes out on the quadric at every lattice
+    vertex, edges included (a smoothing that penalises curvature flattens it)."""
+    sheet = _plane_sheet()
+    x, y = sheet.points[:, 0] - 10.0, sheet.points[:, 1] - 10.0
+
+    def quadric(x, y):
+        return 0.01 * x * x + 0.005 * x * y - 0.02 * y * y + 0.2 * x + 3.0
+
+    sheet = TriMesh(np.column_stack([sheet.points[:, :2], quadric(x, y)]), sheet.faces)
+    # at 2 mm the samples are the sheet's vertices (no split), all on the quadric
+    p = prepare_sheet(sheet, 2.0, smooth_mm=3.0, axis=np.array([0.0, 0.0, 1.0])).mesh.points
+    assert np.abs(p[:, 2] - quadric(p[:, 0] - 10.0, p[:, 1] - 10.0)).max() < 1e-9
+
+
+def test_the_plateau_bump_is_kept_at_the_default_smoothing():
+    """The smooth plateau (its 0.4 mm bump of 12-14 mm wavelength on a dish) prepared at
+    the default: within 0.05 mm of the plateau (an eighth of the bump; the quadric fits
+    over 4 mm miss the bump's fourth-order terms by about 0.03 mm). The first smoothing
+    (a spline penalising curvature over 2 mm) left 0.2 mm and 30 % of the FE p_max."""
+    c = CONDYLES["medial"]
+    mesh = prepare_sheet(tibia_compartment("medial"), 1.0).mesh
+    err = mesh.points[:, 2] - plateau_height(c, mesh.points[:, 0], mesh.points[:, 1])
+    assert np.abs(err).max() < 0.05
 
 
 def test_curled_rims_are_trimmed():

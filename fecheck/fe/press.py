@@ -47,6 +47,13 @@ MAX_CANDIDATE_ROUNDS = 3
 """Times the contact candidates are widened when a vertex outside them penetrates."""
 FEMUR_MARGIN_MM = 5.0
 """A prepared femoral surface covers its tibial sheet's outline plus this margin, mm."""
+FEMUR_SMOOTH = 2.0
+"""A prepared femoral surface is smoothed over this many times fe.smooth_mm: a condyle is
+close to a quadric over a wider radius than a plateau (its bumps), and a voxelized
+condyle keeps a flat terrace about 2·sqrt(2 R v) wide at its bottom (10 mm for a radius R
+of 22 mm and voxels v of 0.6 mm). Measured on the 0.6 mm voxel knee at 1 mm elements,
+face p_max against the smooth knee's own FE: +12 / +22 % at 1 (medial / lateral),
+-3 / +6 % at 2; the smooth knee prepared moves by 0.2 % between the two."""
 
 
 @dataclass(frozen=True, eq=False)
@@ -162,8 +169,8 @@ def prepared_body(body: FEBody, size_mm: float, smooth_mm: float
                   ) -> tuple[FEBody, PreparedSheet]:
     """`body` with its tibial sheet prepared (`geometry.prepare.prepare_sheet`) at
     `size_mm` with smoothing length `smooth_mm`, its thickness interpolated onto it, and
-    a mesh femoral surface prepared at
-    half that size over the sheet's outline (plus `FEMUR_MARGIN_MM`); the prepared sheet."""
+    a mesh femoral surface prepared at half that size, smoothed over `FEMUR_SMOOTH` times
+    `smooth_mm`, over the sheet's outline (plus `FEMUR_MARGIN_MM`); the prepared sheet."""
     prepared = prepare_sheet(body.surface, size_mm, smooth_mm=smooth_mm,
                              name=f"{body.name} tibial sheet")
     mesh = prepared.mesh
@@ -187,7 +194,7 @@ def prepared_body(body: FEBody, size_mm: float, smooth_mm: float
         remap[used] = np.arange(len(used))
         crop = TriMesh(femur.points[used], remap[faces])
         indenter = MeshIndenter(prepare_sheet(crop, 0.5 * size_mm, axis=-prepared.axis,
-                                              smooth_mm=smooth_mm,
+                                              smooth_mm=FEMUR_SMOOTH * smooth_mm,
                                               name=f"{body.name} femoral surface").mesh)
     return replace(body, surface=mesh, thickness_mm=thickness, indenter=indenter), prepared
 

@@ -30,7 +30,7 @@ class FESettings:
     axisym_size_mm: float = 0.1
     prepare: str = "auto"
     size_mm: float = 1.0
-    smooth_mm: float = 2.0
+    smooth_mm: float = 4.0
     body: str = "auto"
     solid_base_deg: float = 45.0
 

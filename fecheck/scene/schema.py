@@ -478,10 +478,10 @@ SCHEMA: dict[str, Key] = {
     "fe.size_mm": Key("float", 1.0, _FE + "element size (triangle side) of a prepared "
                       "articular sheet (fe.prepare), mm; the femoral surface is remeshed at "
                       "half of it.", low=0.05, high=10.0),
-    "fe.smooth_mm": Key("float", 2.0, _FE + "smoothing length of a prepared articular sheet "
-                        "(fe.prepare): its heights are a smoothing spline of the sheet's "
-                        "vertices that keeps shapes much longer than this and smooths out "
-                        "shorter ones (voxel terraces of 0.3-0.6 mm voxels), whatever "
+    "fe.smooth_mm": Key("float", 4.0, _FE + "smoothing length of a prepared articular sheet "
+                        "(fe.prepare): the height at each element vertex is a quadric fitted "
+                        "to the sheet within this radius, so curved shapes are kept and "
+                        "terraces and noise shorter than it are averaged out, whatever "
                         "fe.size_mm; 0 = a least-squares fit on the elements, mm.",
                         low=0.0, high=20.0),
     "fe.axisym_size_mm": Key("float", 0.1, _FE + "element size of the axisymmetric FE "
