@@ -16,6 +16,7 @@ import sys
 import time
 from pathlib import Path
 
+import numpy as np
 import pytest
 
 from fecheck.cli import main
@@ -264,3 +265,59 @@ def test_factorizations_and_their_solves_run_with_ctrl_c_at_its_default_action(m
     np.testing.assert_allclose(K @ y, np.ones(n), atol=1e-12)
     # C = e₂ᵀ K⁻¹ e₂ (the direction picks dof 2 of the triplet)
     np.testing.assert_allclose(C[0, 0], np.linalg.inv(K.toarray())[2, 2], rtol=1e-12)
+
+
+# ------------------------------------------------- prepared sheets (fe.prepare)
+def _dense_tilted_disc(radius_mm: float = 20.0, step_mm: float = 0.1):
+    """A tilted, gently dished disc of fine right triangles (a dense segmentation
+    sheet): about 2·π·r²/step² faces."""
+    from geometry.mesh import TriMesh
+
+    n = int(2 * radius_mm / step_mm) + 1
+    x, y = np.meshgrid(np.linspace(-radius_mm, radius_mm, n),
+                       np.linspace(-radius_mm, radius_mm, n), indexing="ij")
+    ids = np.arange(n * n).reshape(n, n)
+    a, b, c, d = ids[:-1, :-1], ids[1:, :-1], ids[1:, 1:], ids[:-1, 1:]
+    faces = np.concatenate([np.stack([a, b, c], -1).reshape(-1, 3),
+                            np.stack([a, c, d], -1).reshape(-1, 3)])
+    z = 0.1 * x + (x**2 + y**2) / 200.0
+    points = np.column_stack([x.ravel(), y.ravel(), z.ravel()])
+    inside = (np.hypot(x, y).ravel()[faces] <= radius_mm).all(axis=1)
+    return TriMesh(points, faces[inside])
+
+
+def test_a_prepared_sheet_is_counted_as_the_fe_meshes_it():
+    """The dofs of a prepared sheet: estimated from its projected area at fe.size_mm,
+    against the real prepared lattice (within 10 %), far below the raw dense sheet's."""
+    from types import SimpleNamespace
+
+    from fecheck.fe.budget import fe_estimate, layer_dofs
+    from fecheck.fe.settings import FESettings
+    from geometry.prepare import prepare_sheet
+
+    sheet = _dense_tilted_disc(step_mm=0.25)
+    bodies = [SimpleNamespace(surface=sheet)]
+    real = layer_dofs(prepare_sheet(sheet, 1.0).mesh, 0, 3)
+    on = FESettings(prepare="on", size_mm=1.0)
+    estimate = fe_estimate(bodies, 0, 3, on).count
+    assert estimate == pytest.approx(real, rel=0.10)
+    raw = fe_estimate(bodies, 0, 3, FESettings(prepare="off")).count
+    assert raw > 10 * estimate
+    # 'auto' prepares only a sheet that does not extrude: the smaller count, refused only
+    # when neither fits
+    assert fe_estimate(bodies, 0, 3, FESettings(prepare="auto")).count == estimate
+
+
+def test_a_dense_sheet_the_fe_prepares_is_not_refused_for_its_raw_size():
+    """A 0.1 mm sheet (over 500k raw layer dofs) prepared at 1 mm fits the FE limits; the
+    same sheet meshed as it is (fe.prepare = 'off') is refused, naming fe.refine."""
+    from types import SimpleNamespace
+
+    from fecheck.fe.budget import guard_layers
+    from fecheck.fe.settings import FESettings
+
+    bodies = [SimpleNamespace(surface=_dense_tilted_disc(step_mm=0.1))]
+    guard_layers(bodies, FESettings(prepare="on"), 0.3)
+    guard_layers(bodies, FESettings(prepare="auto"), 0.3)
+    with pytest.raises(FecheckError, match="fe.refine"):
+        guard_layers(bodies, FESettings(prepare="off"), 0.3)

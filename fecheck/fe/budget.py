@@ -15,6 +15,7 @@ Cholesky factor fills in faster than the dofs grow, so the bytes per dof grow wi
 from __future__ import annotations
 
 from collections.abc import Sequence
+from dataclasses import replace
 
 import numpy as np
 
@@ -61,20 +62,58 @@ def layer_dofs(surface: TriMesh, refine: int, levels: int) -> int:
     return 6 * levels * (n + e) - e
 
 
-def fe_estimate(bodies: Sequence[FEBody], refine: int, levels: int) -> budget.Estimate:
+def prepared_counts(surface: TriMesh, size_mm: float) -> tuple[int, int]:
+    """Vertices and edges of `surface` prepared at `size_mm` (`geometry.prepare`: a
+    lattice of equilateral triangles over the sheet's area projected on its mean normal;
+    a triangulation of F triangles has about F/2 vertices and 3F/2 edges)."""
+    a = (surface.face_normals * surface.face_areas[:, None]).sum(axis=0)
+    area = float(np.linalg.norm(a))                    # the projected area, mm²
+    f = area / (np.sqrt(3.0) / 4.0 * size_mm**2)
+    return int(np.ceil(0.5 * f)), int(np.ceil(1.5 * f))
+
+
+def sheet_dofs(surface: TriMesh, settings: FESettings, levels: int,
+               prepared: bool | None) -> int:
+    """Layer dofs of one tibial sheet: as it is (`prepared` False), prepared at
+    ``fe.size_mm`` (True), or the smaller of the two (None: ``fe.prepare = 'auto'``
+    prepares only a sheet that does not extrude, which is not known before trying)."""
+    raw = layer_dofs(surface, settings.refine, levels)
+    if prepared is False:
+        return raw
+    n, e = prepared_counts(surface, settings.size_mm)
+    f = 2 * n
+    for _ in range(settings.refine):
+        n, e, f = n + e, 2 * e + 3 * f, 4 * f
+    ready = 6 * levels * (n + e) - e
+    return ready if prepared else min(raw, ready)
+
+
+def fe_estimate(bodies: Sequence[FEBody], refine: int, levels: int,
+                settings: FESettings | None = None,
+                prepared: Sequence[bool | None] | None = None) -> budget.Estimate:
     """The dofs of every compartment's layer, their memory and `MAX_DOFS`. Every layer
     keeps its own factor, so the memory is summed over the layers (the full femur-tibia
     knee, two layers of 97k and 100k dofs: estimate 2.4 GB, measured peak RSS 1.7 GB of
-    the whole `fecheck fe` run)."""
-    dofs = np.array([layer_dofs(b.surface, refine, levels) for b in bodies], dtype=float)
+    the whole `fecheck fe` run). With `settings`, each sheet is counted as the FE will
+    mesh it (`sheet_dofs`, `prepared` per body; default from ``fe.prepare``)."""
+    if settings is None:
+        counts = [layer_dofs(b.surface, refine, levels) for b in bodies]
+    else:
+        s = replace(settings, refine=refine)
+        flags = prepared if prepared is not None else [
+            {"off": False, "on": True}.get(settings.prepare) for _ in bodies]
+        counts = [sheet_dofs(b.surface, s, levels, p)
+                  for b, p in zip(bodies, flags, strict=True)]
+    dofs = np.array(counts, dtype=float)
     factors = dofs * BYTES_PER_DOF * (dofs / REFERENCE_DOFS) ** FILL_EXPONENT
     return budget.Estimate("FE dofs", float(dofs.sum()), FIXED_BYTES + float(factors.sum()),
                            MAX_DOFS)
 
 
-def guard_layers(bodies: Sequence[FEBody], settings: FESettings, poisson: float) -> None:
-    """`geometry.budget.guard` of the FE layers before they are built: the remedy lowers
-    ``fe.refine`` (``--refine``)."""
+def guard_layers(bodies: Sequence[FEBody], settings: FESettings, poisson: float,
+                 prepared: Sequence[bool | None] | None = None) -> None:
+    """`geometry.budget.guard` of the FE layers before they are built (each sheet counted
+    as `fe_estimate` says): the remedy lowers ``fe.refine`` (``--refine``)."""
     levels = settings.levels(poisson)
     otherwise = ("lower fe.layers or coarsen the surfaces (scanned.decimate_faces, "
                  "mesh.plateau_refine_mm)")
@@ -84,5 +123,6 @@ def guard_layers(bodies: Sequence[FEBody], settings: FESettings, poisson: float)
                       "FE's: set mesh.plateau_refine_mm = 0.4 (the size ν 0.49 gets; the FE's "
                       "p_max and area within 1 % there)")
     budget.guard("fecheck fe", "fe.refine", settings.refine,
-                 lambda r: fe_estimate(bodies, int(r), levels), unit="", level=True,
+                 lambda r: fe_estimate(bodies, int(r), levels, settings, prepared),
+                 unit="", level=True,
                  otherwise=otherwise)

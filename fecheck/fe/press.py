@@ -117,35 +117,20 @@ def build_layers(bodies: Sequence[FEBody], youngs_MPa: float, poisson: float,
                  settings: FESettings, log: Callable[[str], None]) -> list[FELayer]:
     """Extrude and assemble every compartment's layer (the costly setup before contact):
     on the EF faces, or on prepared sheets (``fe.prepare``); a body with a closed tibial
-    solid gets the solid instead (`solid_layer`); refused first when it would not fit
-    (`fecheck.fe.budget.guard_layers`)."""
-    guard_layers(bodies, settings, poisson)
+    solid gets the solid instead (`solid_layer`); refused before assembly when the sheets
+    chosen would not fit (`fecheck.fe.budget.guard_layers`)."""
+    levels = settings.levels(poisson)
+    sheets = [None if body.solid is not None else _sheet(body, settings, levels, log)
+              for body in bodies]
+    guard_layers([s[0] if s else b for s, b in zip(sheets, bodies, strict=True)], settings, poisson,
+                 prepared=[False] * len(bodies))
     out = []
     built: dict[int, dict[str, LayerSolid]] = {}
-    levels = settings.levels(poisson)
-    for body in bodies:
-        if body.solid is not None:
+    for body, chosen in zip(bodies, sheets, strict=True):
+        if chosen is None:
             out.append(solid_layer(body, youngs_MPa, poisson, settings, log, built))
             continue
-        sheet, prepared = body, None
-        directions, rounds = None, 0
-        if settings.prepare != "on":
-            try:
-                directions, rounds = extrusion_directions(
-                    body.surface, body.thickness_mm, layers=levels, ratio=settings.grading)
-            except ExtrusionError as err:
-                if settings.prepare == "off":
-                    raise _extrusion_failure(body, err, settings) from None
-        if directions is None:
-            sheet, prepared = prepared_body(body, settings.size_mm, settings.smooth_mm)
-            log(f"{body.name}: the FE meshes a prepared sheet of {sheet.surface.n_faces} faces "
-                f"of {settings.size_mm:g} mm ({prepared.trimmed_faces} rim or sliver faces "
-                f"of {body.surface.n_faces} trimmed)")
-            try:
-                directions, rounds = extrusion_directions(
-                    sheet.surface, sheet.thickness_mm, layers=levels, ratio=settings.grading)
-            except ExtrusionError as err:
-                raise _extrusion_failure(body, err, settings) from None
+        sheet, prepared, directions, rounds = chosen
         offsets = extrusion_offsets(sheet.surface, sheet.thickness_mm, directions)
         surface, parent, h, offsets = _refined(sheet.surface, sheet.thickness_mm,
                                                settings.refine, offsets)
@@ -163,6 +148,32 @@ def build_layers(bodies: Sequence[FEBody], youngs_MPa: float, poisson: float,
         out.append(FELayer(body, surface, parent, solid, rounds, to_ef,
                            None if sheet.indenter is body.indenter else sheet.indenter))
     return out
+
+
+def _sheet(body: FEBody, settings: FESettings, levels: int, log: Callable[[str], None]
+           ) -> tuple[FEBody, PreparedSheet | None, np.ndarray, int]:
+    """The sheet the FE meshes for `body` (its own, or prepared: ``fe.prepare``), the
+    preparation (None for its own), its extrusion directions and smoothing rounds."""
+    directions, rounds = None, 0
+    if settings.prepare != "on":
+        try:
+            directions, rounds = extrusion_directions(
+                body.surface, body.thickness_mm, layers=levels, ratio=settings.grading)
+        except ExtrusionError as err:
+            if settings.prepare == "off":
+                raise _extrusion_failure(body, err, settings) from None
+    if directions is not None:
+        return body, None, directions, rounds
+    sheet, prepared = prepared_body(body, settings.size_mm, settings.smooth_mm)
+    log(f"{body.name}: the FE meshes a prepared sheet of {sheet.surface.n_faces} faces "
+        f"of {settings.size_mm:g} mm ({prepared.trimmed_faces} rim or sliver faces "
+        f"of {body.surface.n_faces} trimmed)")
+    try:
+        directions, rounds = extrusion_directions(
+            sheet.surface, sheet.thickness_mm, layers=levels, ratio=settings.grading)
+    except ExtrusionError as err:
+        raise _extrusion_failure(body, err, settings) from None
+    return sheet, prepared, directions, rounds
 
 
 def prepared_body(body: FEBody, size_mm: float, smooth_mm: float
