@@ -61,6 +61,14 @@ class LayerSolid:
     timing_s: dict = field(default_factory=dict)
 
 
+def check_material(youngs_MPa: float, poisson: float) -> None:
+    """`FecheckError` unless E (MPa) is a positive number and ν lies in [0, 0.5)."""
+    if not (np.isfinite(youngs_MPa) and youngs_MPa > 0):
+        raise FecheckError(f"Young's modulus must be a positive number of MPa, got {youngs_MPa}")
+    if not (np.isfinite(poisson) and 0.0 <= poisson < 0.5):
+        raise FecheckError(f"Poisson's ratio must lie in [0, 0.5), got {poisson}")
+
+
 def layer_solid(surface: TriMesh, thickness_mm: float | np.ndarray, youngs_MPa: float,
                 poisson: float, *, layers: int = 4, ratio: float = 1.5,
                 directions: np.ndarray | None = None,
@@ -72,10 +80,7 @@ def layer_solid(surface: TriMesh, thickness_mm: float | np.ndarray, youngs_MPa: 
     `geometry.extrude.extrusion_directions`) or by `offsets` (n, 3) from each bottom copy
     up to its vertex (they replace thickness and directions). Contact acts along the
     vertex normals; `formulation` as in `p2_elasticity`."""
-    if not (np.isfinite(youngs_MPa) and youngs_MPa > 0):
-        raise FecheckError(f"Young's modulus must be a positive number of MPa, got {youngs_MPa}")
-    if not (np.isfinite(poisson) and 0.0 <= poisson < 0.5):
-        raise FecheckError(f"Poisson's ratio must lie in [0, 0.5), got {poisson}")
+    check_material(youngs_MPa, poisson)
     timing = {}
     t0 = time.perf_counter()
     layer = extrude_layer(surface, thickness_mm, layers=layers, ratio=ratio,

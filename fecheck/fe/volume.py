@@ -30,7 +30,13 @@ import scipy.sparse as sp
 
 from fecheck.errors import FecheckError
 from fecheck.fe.recovery import tributary_areas
-from fecheck.fe.solid import LayerSolid, edge_lookup, p2_elasticity, tie_matrix
+from fecheck.fe.solid import (
+    LayerSolid,
+    check_material,
+    edge_lookup,
+    p2_elasticity,
+    tie_matrix,
+)
 from fecheck.scene.surfaces import components
 from geometry.mesh import TetMesh, TriMesh
 from geometry.subdivide import subdivide
@@ -112,10 +118,7 @@ def solid_layers(solid: TibiaSolid, youngs_MPa: float, poisson: float, *,
     """{compartment: the assembled solid seen from that compartment's articular face}
     (module docstring); all views share one stiffness matrix; `formulation` as in
     `fecheck.fe.solid.p2_elasticity`."""
-    if not (np.isfinite(youngs_MPa) and youngs_MPa > 0):
-        raise FecheckError(f"Young's modulus must be a positive number of MPa, got {youngs_MPa}")
-    if not (np.isfinite(poisson) and 0.0 <= poisson < 0.5):
-        raise FecheckError(f"Poisson's ratio must lie in [0, 0.5), got {poisson}")
+    check_material(youngs_MPa, poisson)
     timing = {}
     t0 = time.perf_counter()
     surface, parent = subdivide(solid.surface, refine)
