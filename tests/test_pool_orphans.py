@@ -184,3 +184,44 @@ def test_an_idle_worker_stops_when_the_parents_end_of_its_pipe_closes():
             assert process.exitcode == 0, f"worker {process.pid} still waiting on its pipe"
     finally:
         pool.terminate()
+
+
+def _descendants(pid: int) -> list[int]:
+    """Live processes below `pid` (children, grandchildren, ...)."""
+    out, todo = [], [pid]
+    while todo:
+        kids = _children(todo.pop())
+        out += kids
+        todo += kids
+    return out
+
+
+def test_kill_9_of_a_stress_run_leaves_no_case_running(tmp_path):
+    """A stress case runs in a process forked from a fork server: `kill -9` of the run
+    ends the server, and the case (here a 60 s sleep) ends with it within 5 s."""
+    tests = Path(__file__).parent
+    script = textwrap.dedent(f"""
+        import sys
+        sys.path.insert(0, {str(tests)!r})
+        from test_stress import _sleep
+        from fecheck.studies import stress
+        stress.run_case(stress.Case("hang", "sleep"), timeout_s=120.0, runner=_sleep)
+    """)
+    parent = subprocess.Popen([sys.executable, "-c", script], cwd=tmp_path)
+    try:
+        deadline = time.monotonic() + STARTED_WITHIN_S
+        case = []
+        while time.monotonic() < deadline and parent.poll() is None:
+            below = _descendants(parent.pid)
+            case = [p for p in below if _stat(p) and int(_stat(p)[1]) != parent.pid]
+            if case:
+                break
+            time.sleep(0.1)
+        assert case, "the stress case never started"
+        below = _descendants(parent.pid)
+        os.kill(parent.pid, signal.SIGKILL)
+        parent.wait()
+        assert _wait_gone(below) == [], "processes of the stress run outlived it"
+    finally:
+        if parent.poll() is None:
+            parent.kill()

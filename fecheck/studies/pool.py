@@ -13,6 +13,7 @@ import ctypes
 import multiprocessing
 import multiprocessing.connection
 import os
+import select
 import signal
 import sys
 import threading
@@ -106,6 +107,40 @@ def _watch_parent(parent: int) -> None:
 def _start_watchdog(parent: int) -> None:
     """Run `_watch_parent` in a daemon thread (a worker busy in a solve reads no pipe)."""
     threading.Thread(target=_watch_parent, args=(parent,), name="fecheck-parent-watch",
+                     daemon=True).start()
+
+
+def _watch_process(pid: int) -> None:
+    """Watchdog body: end this process as soon as process `pid` ends (a pidfd becomes
+    readable then, a zombie included; without one, poll every `PARENT_POLL_S`)."""
+    try:
+        fd = os.pidfd_open(pid)
+    except (AttributeError, OSError):
+        fd = None
+    if fd is not None:
+        select.select([fd], [], [])
+    else:
+        while _exists(pid):
+            time.sleep(PARENT_POLL_S)
+    os._exit(1)
+
+
+def _exists(pid: int) -> bool:
+    """Whether process `pid` exists."""
+    try:
+        os.kill(pid, 0)
+    except ProcessLookupError:
+        return False
+    except PermissionError:
+        return True
+    return True
+
+
+def die_with(pid: int) -> None:
+    """Make this process end when process `pid` ends, even by SIGKILL, whether `pid` is
+    its parent or further up (a stress case, forked by a fork server, dies with the run
+    that started the server): a daemon thread waits for it."""
+    threading.Thread(target=_watch_process, args=(pid,), name="fecheck-run-watch",
                      daemon=True).start()
 
 

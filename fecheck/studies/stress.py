@@ -26,6 +26,7 @@ from __future__ import annotations
 import difflib
 import math
 import multiprocessing as mp
+import os
 import time
 import traceback
 import warnings
@@ -37,7 +38,7 @@ import numpy as np
 from fecheck.errors import FecheckError
 from fecheck.laws.registry import spec_of
 from fecheck.statics.load_control import NotConverged
-from fecheck.studies.pool import interrupts_held
+from fecheck.studies.pool import die_with, interrupts_held
 
 OK_OUTCOMES = ("converged", "clear-error")
 BALANCE_TOL = 1e-6      # relative to the load scale: the solver's tolerance is 1e-8
@@ -478,7 +479,8 @@ def execute(case: Case, runner=None) -> dict:
     return out
 
 
-def _child(case: Case, conn, runner) -> None:
+def _child(case: Case, conn, runner, run: int) -> None:
+    die_with(run)           # `run` started the fork server: the case ends with it (kill -9)
     conn.send(execute(case, runner))
     conn.close()
 
@@ -498,7 +500,7 @@ def run_case(case: Case, timeout_s: float, runner=None) -> CaseResult:
     module-level function of the params) replaces ``RUNNERS[case.kind]``."""
     ctx = _context()
     recv, send = ctx.Pipe(duplex=False)
-    proc = ctx.Process(target=_child, args=(case, send, runner), daemon=True)
+    proc = ctx.Process(target=_child, args=(case, send, runner, os.getpid()), daemon=True)
     t0 = time.perf_counter()
     out = None
     try:
