@@ -88,6 +88,15 @@ def sheet_dofs(surface: TriMesh, settings: FESettings, levels: int,
     return ready if prepared else min(raw, ready)
 
 
+def _prepared_flag(body: FEBody, prepare: str) -> bool | None:
+    """Whether the FE meshes `body`'s sheet prepared (``fe.prepare``): 'auto' prepares
+    only a mesh sheet that does not extrude (None: not known before trying); generated
+    plateaus always extrude."""
+    if prepare in ("on", "off"):
+        return prepare == "on"
+    return None if body.tibial_surface.startswith("mesh:") else False
+
+
 def fe_estimate(bodies: Sequence[FEBody], refine: int, levels: int,
                 settings: FESettings | None = None,
                 prepared: Sequence[bool | None] | None = None) -> budget.Estimate:
@@ -101,7 +110,7 @@ def fe_estimate(bodies: Sequence[FEBody], refine: int, levels: int,
     else:
         s = replace(settings, refine=refine)
         flags = prepared if prepared is not None else [
-            {"off": False, "on": True}.get(settings.prepare) for _ in bodies]
+            _prepared_flag(b, settings.prepare) for b in bodies]
         counts = [sheet_dofs(b.surface, s, levels, p)
                   for b, p in zip(bodies, flags, strict=True)]
     dofs = np.array(counts, dtype=float)
