@@ -188,7 +188,7 @@ def _ef_icosphere(level: int, depth_mm: float, rotation: np.ndarray | None = Non
 
 def ef_icosphere(level: int, quantity: str, depth_mm: float = 0.955) -> Sample:
     """EF force or area of the icosphere against the cap closed form:
-    F = k·πd²(R − d/3), A = π(2Rd − d²))."""
+    F = k·πd²(R − d/3), A = π(2Rd − d²)."""
     r = _ef_icosphere(level, depth_mm)
     k = column_stiffness(E_MPA, 0.3, 6.0)
     d = depth_mm
