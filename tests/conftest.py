@@ -10,7 +10,6 @@ machine, and the functional part of such a check stays an unmarked test.
 from __future__ import annotations
 
 import os
-import sys
 from pathlib import Path
 
 import pytest
@@ -22,8 +21,6 @@ KNEE_DIR = Path(os.environ.get("FECHECK_KNEE_DIR",
                                REPO / "fecheck" / "data" / "knee" / "lenhart2015"))
 """The scanned knee the tests read: the one packaged with fecheck, or $FECHECK_KNEE_DIR."""
 os.environ.setdefault("FECHECK_KNEE_DIR", str(KNEE_DIR))
-# the validation scripts' helpers (validation/lenhart.py: the shipped data set's files)
-sys.path.insert(0, str(REPO / "validation"))
 
 
 @pytest.fixture(autouse=True)

@@ -4,7 +4,8 @@ reaching into another module's private names.
 Pipeline order (each package may import only itself and the packages before it):
 scene → reference → contact → laws → statics → model → fe → io → studies → cli, with
 `fecheck.errors` and the `geometry` package below all of them; `geometry` imports nothing
-of `fecheck`.
+of `fecheck`. The `validation` package (the scripts) sits above the pipeline: it imports
+`fecheck`, `geometry` and its own modules by their package name, and nothing imports it.
 """
 
 from __future__ import annotations
@@ -57,6 +58,21 @@ def _stage(module: str) -> str | None:
 
 
 MODULES = _modules("fecheck") | _modules("geometry")
+SCRIPTS = _modules("validation")
+SIBLINGS = {m.rsplit(".", 1)[-1] for m in SCRIPTS if "." in m} | {"tests", "conftest", "scripts"}
+"""Names a validation module may reach only through a `sys.path` edit: its siblings' bare
+names (``import report`` for ``validation.report``), the tests and the repository scripts."""
+
+
+def _validation_violations(module: str, path: Path) -> list[str]:
+    """The imports of `path` that break the validation package's rules: a pipeline module
+    (fecheck, geometry) importing validation, or a validation module importing a sibling by
+    its bare name or the tests."""
+    top = [(t.split(".")[0], line) for t, _, _, line in _imports(path, module)]
+    if module.split(".")[0] == "validation":
+        return [f"{module}:{line} imports {t} by its bare name" for t, line in top
+                if t in SIBLINGS]
+    return [f"{module}:{line} imports validation" for t, line in top if t == "validation"]
 
 
 def _resolve(target: str, names: tuple[str, ...]) -> list[str]:
@@ -128,3 +144,30 @@ def test_the_checker_sees_a_backward_import(tmp_path):
     targets = [t for t, *_ in _imports(fake, "fecheck.model.fake")]
     assert targets == ["fecheck.cli"]
     assert RANK[_stage(targets[0])] > RANK[_stage("fecheck.model.fake")]
+
+
+def test_nothing_of_the_pipeline_imports_validation():
+    bad = [v for m, p in MODULES.items() for v in _validation_violations(m, p)]
+    assert not bad, bad
+
+
+def test_validation_imports_its_siblings_through_the_package():
+    assert {"validation", "validation.report", "validation.row_rigid"} <= set(SCRIPTS)
+    bad = [v for m, p in SCRIPTS.items() for v in _validation_violations(m, p)]
+    assert not bad, bad
+
+
+@pytest.mark.parametrize("module, line, expected", [
+    ("fecheck.model.fake", "def f():\n    from validation import report\n",
+     ["fecheck.model.fake:2 imports validation"]),
+    ("geometry.fake", "import validation.lenhart\n", ["geometry.fake:1 imports validation"]),
+    ("validation.fake", "import thesis_values as tv\n",
+     ["validation.fake:1 imports thesis_values by its bare name"]),
+    ("validation.fake", "from knee_synthetic import write_mesh\n",
+     ["validation.fake:1 imports knee_synthetic by its bare name"]),
+    ("validation.fake", "from validation.report import Row\nfrom fecheck import laws\n", []),
+])
+def test_the_checker_sees_a_forbidden_validation_import(tmp_path, module, line, expected):
+    fake = tmp_path / "fake.py"
+    fake.write_text(line)
+    assert _validation_violations(module, fake) == expected

@@ -53,11 +53,8 @@ def test_compiled_candidate_selection_matches_numpy_reference():
 
 
 def _measure():
-    sys.path.insert(0, str(VALIDATION))
-    try:
-        import bench_evaluation
-    finally:
-        sys.path.remove(str(VALIDATION))
+    from validation import bench_evaluation
+
     return bench_evaluation, bench_evaluation.measure(0.05, thesis=False)
 
 

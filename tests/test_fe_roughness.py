@@ -226,10 +226,10 @@ def test_fe_on_a_terraced_knee_warns_and_its_json_carries_the_measures(tmp_path,
     # 10.6 MPa beside the EF's 6.2 and 5.5, smoothed 6.5 and 5.3) and both warn
     import json
 
-    from knee_synthetic import tibia_compartment, write_mesh
     from test_own_knee import write_scene
 
     from fecheck.cli import main
+    from validation.knee_synthetic import tibia_compartment, write_mesh
 
     path = write_scene(tmp_path, "stl", "mm", "two-files")
     for name in ("medial", "lateral"):

@@ -10,15 +10,6 @@ import io
 
 import numpy as np
 import pytest
-from knee_synthetic import (
-    CONDYLES,
-    PATCH_HALF_MM,
-    femur_mesh,
-    tibia_compartment,
-    tibia_mesh,
-    write_mesh,
-)
-from knee_voxel import voxel_knee, write_voxel_knee
 
 from fecheck.cli import main as cli
 from fecheck.errors import FecheckError
@@ -29,6 +20,15 @@ from fecheck.fe.press import build_layers
 from fecheck.fe.settings import FESettings
 from fecheck.scene import load_scene
 from geometry.mesh import TriMesh
+from validation.knee_synthetic import (
+    CONDYLES,
+    PATCH_HALF_MM,
+    femur_mesh,
+    tibia_compartment,
+    tibia_mesh,
+    write_mesh,
+)
+from validation.knee_voxel import voxel_knee, write_voxel_knee
 
 SPACING_MM = 0.6
 SIZE_MM = 2.0

@@ -41,10 +41,11 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-from knee_synthetic import COMPARTMENTS, CONDYLES, femur_height, femur_mesh, write_knee
-from knee_synthetic import tibia_compartment as synthetic_tibia
 from scipy.optimize import brentq
 from scipy.spatial import cKDTree
+
+from validation.knee_synthetic import COMPARTMENTS, CONDYLES, femur_height, femur_mesh, write_knee
+from validation.knee_synthetic import tibia_compartment as synthetic_tibia
 
 LOAD_N = 800.0
 E_MPA, NU, H_MM = 20.0, 0.3, 6.0

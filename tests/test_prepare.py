@@ -5,12 +5,12 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-from knee_synthetic import CONDYLES, plateau_height, tibia_compartment
-from knee_voxel import voxel_knee
 
 from geometry.errors import FecheckError
 from geometry.mesh import TriMesh
 from geometry.prepare import MAX_TILT_DEG, plane_interpolation, prepare_sheet
+from validation.knee_synthetic import CONDYLES, plateau_height, tibia_compartment
+from validation.knee_voxel import voxel_knee
 
 SPACING_MM = 0.6
 

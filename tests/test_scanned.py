@@ -1,10 +1,8 @@
 """The shipped scanned knee's data (landmarks, bundles), decimation and open-sheet contact."""
 
 import json
-import sys
 from pathlib import Path
 
-import lenhart
 import numpy as np
 import pytest
 import tomllib
@@ -14,6 +12,7 @@ from fecheck.errors import FecheckError
 from fecheck.statics.ligaments import SpringLigament
 from geometry.decimate import decimate
 from geometry.mesh import TriMesh
+from validation import lenhart
 
 SCENES = REPO / "validation" / "scenes"
 
@@ -51,11 +50,8 @@ def test_bundle_springs_reproduce_the_models_forces_at_rest():
 def test_scene_landmarks_and_plateaus_come_from_the_scanned_knee():
     require_knee_data()
     table = lenhart.knee_landmarks_table()
-    sys.path.insert(0, str(REPO / "validation"))
-    try:
-        import knee_fits
-    finally:
-        sys.path.pop(0)
+    from validation import knee_fits
+
     plateau = knee_fits.plateau_values()
     for path in sorted(SCENES.glob("*.toml")):
         data = tomllib.loads(path.read_text())
@@ -155,11 +151,8 @@ def test_knee_fits_follow_the_thesis_trends(tmp_path):
     """Thesis §2.2.3 on the scanned knee: outlier removal and a free plane lower the plane
     error; the polynomial errors fall with the degree (Tables 2.1, 2.4, 2.5)."""
     require_knee_data()
-    sys.path.insert(0, str(REPO / "validation"))
-    try:
-        import knee_fits
-    finally:
-        sys.path.pop(0)
+    from validation import knee_fits
+
     assert knee_fits.main(["--quick", "--out", str(tmp_path)]) == 0
     t21 = knee_fits.table_2_1()
     for side in ("medial", "lateral"):

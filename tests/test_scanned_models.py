@@ -9,7 +9,6 @@ bundles' Blankevoort forces (straight paths) are summed by hand.
 
 from pathlib import Path
 
-import lenhart
 import numpy as np
 import pytest
 import trimesh
@@ -21,6 +20,7 @@ from fecheck.model.run import run_scene
 from fecheck.model.scanned import build_compartments, slave_thickness
 from fecheck.scene import load_scene
 from fecheck.statics.newton import pose
+from validation import lenhart
 
 SCENES = REPO / "validation" / "scenes"
 DECIMATED = "scanned.decimate_faces=1500"

@@ -115,7 +115,7 @@ def test_a_failing_script_becomes_a_failed_row_and_the_report_is_written(tmp_pat
         shutil.copy(default_validation_dir() / name, vdir / name)
     (vdir / "row_broken.py").write_text("def rows(quick, out):\n    raise ValueError('boom')\n")
     (vdir / "row_missing.py").write_text(
-        "from report import guarded, require\n"
+        "from validation.report import guarded, require\n"
         "def rows(quick, out):\n"
         "    return [guarded('x', 'needs a module', 'Fig. 0', out,\n"
         "                    lambda: require('no_such_package', 'an optional extra'))]\n")

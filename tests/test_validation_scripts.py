@@ -1,8 +1,10 @@
 """Every validation script runs to the end in its ``--quick`` mode.
 
 The scripts are found by globbing ``validation/*.py``, so a new one is run without
-editing this file; each runs in a subprocess from a temporary folder, with its output
-options (``--out``, ``--json``, ``--plot``, as its ``--help`` lists them) pointed there.
+editing this file; each runs as a file (``python validation/x.py``) in a subprocess from a
+temporary folder, with its output options (``--out``, ``--json``, ``--plot``, as its
+``--help`` lists them) pointed there, and answers ``--help`` as a module of the package
+(``python -m validation.x`` from the repository root).
 """
 
 from __future__ import annotations
@@ -20,6 +22,9 @@ NOT_SCRIPTS = {
     "thesis_values.py": "the thesis's numbers: data that the rows import, not a script",
     "report.py": "the layout helper that the rows share, not a script",
     "lenhart.py": "the shipped scanned knee's files and landmarks, that the scripts import",
+    "knee_synthetic.py": "the knee built from formulas, that fe_segmented and the tests import",
+    "knee_voxel.py": "knee_synthetic's knee voxelized, that fe_segmented and the tests import",
+    "__init__.py": "the package file (the scripts import one another as validation.x)",
 }
 SCRIPTS = sorted(p for p in VALIDATION.glob("*.py") if p.name not in NOT_SCRIPTS)
 OUTPUT_OPTIONS = {"--out": ".", "--json": "result.json", "--plot": "."}
@@ -46,6 +51,14 @@ def output_args(script: Path, out: Path) -> list[str]:
 
 def test_the_files_left_out_are_there():
     assert {p.name for p in VALIDATION.glob("*.py")} >= set(NOT_SCRIPTS)
+
+
+@pytest.mark.parametrize("script", SCRIPTS, ids=lambda p: p.stem)
+def test_runs_as_a_module_of_the_package(script):
+    # `python -m validation.x` from the repository root finds the same script and its siblings
+    usage = _run(["-m", f"validation.{script.stem}", "--help"], VALIDATION.parent)
+    assert usage.returncode == 0, usage.stderr[-3000:]
+    assert "usage:" in usage.stdout
 
 
 @pytest.mark.parametrize("script", SCRIPTS, ids=lambda p: p.stem)

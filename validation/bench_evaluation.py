@@ -39,7 +39,11 @@ import time
 from pathlib import Path
 
 import numpy as np
-from report import Missing, require
+
+if __name__ == "__main__" and not __package__:  # python validation/x.py: as python -m
+    sys.path[0] = str(Path(__file__).resolve().parents[1])
+
+from validation.report import Missing, require
 
 R_SLAVE_MM = 25.5
 DEPTH_MM = 1.0

@@ -33,8 +33,6 @@ import time
 from pathlib import Path
 
 import numpy as np
-from fe_scenes import CASES, SCENES, Case
-from report import Missing, require_knee_data, save_figure
 
 from fecheck.errors import FecheckError
 from fecheck.fe.crosscheck import cross_check, ef_metrics
@@ -42,6 +40,12 @@ from fecheck.model.run import run_scene
 from fecheck.scene import load_scene, with_values
 from fecheck.statics.newton import pose
 from fecheck.studies.calibrate import calibrate, write
+
+if __name__ == "__main__" and not __package__:  # python validation/x.py: as python -m
+    sys.path[0] = str(Path(__file__).resolve().parents[1])
+
+from validation.fe_scenes import CASES, SCENES, Case
+from validation.report import Missing, require_knee_data, save_figure
 
 COMPARTMENTS = ("medial", "lateral")
 FIT_FACTORS = (0.6, 1.4)

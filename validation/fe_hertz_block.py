@@ -19,17 +19,22 @@ from __future__ import annotations
 
 import argparse
 import csv
+import sys
 import time
 from pathlib import Path
 
 import numpy as np
-from report import save_figure
 
 from fecheck.fe.axisym import axisym_sphere_on_layer
 from fecheck.fe.settings import FESettings
 from fecheck.fe.sphere_layer import sphere_on_flat_layer
 from fecheck.reference.closed_forms import hertz_sphere_on_plane
 from fecheck.scene import load_scene
+
+if __name__ == "__main__" and not __package__:  # python validation/x.py: as python -m
+    sys.path[0] = str(Path(__file__).resolve().parents[1])
+
+from validation.report import save_figure
 
 SCENE = Path(__file__).resolve().parent / "scenes" / "fe_hertz_block.toml"
 TOLERANCE = 0.03

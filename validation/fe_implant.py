@@ -26,11 +26,11 @@ from __future__ import annotations
 import argparse
 import csv
 import math
+import sys
 import time
 from pathlib import Path
 
 import numpy as np
-from implant_pair import cylinder_solid, write_implant
 
 from fecheck.fe.axisym import axisym_sphere_on_layer
 from fecheck.fe.crosscheck import cross_check
@@ -42,6 +42,11 @@ from fecheck.fe.volume import TibiaSolid, solid_layers
 from fecheck.reference.closed_forms import hertz_sphere_on_plane
 from fecheck.scene import load_scene, surfaces
 from fecheck.scene.tibia_solid import up_facing
+
+if __name__ == "__main__" and not __package__:  # python validation/x.py: as python -m
+    sys.path[0] = str(Path(__file__).resolve().parents[1])
+
+from validation.implant_pair import cylinder_solid, write_implant
 
 R, E, NU, F, RC, H = 25.5, 20.0, 0.3, 18.0, 15.0, 15.0
 UP = np.array([0.0, 0.0, 1.0])

@@ -56,11 +56,15 @@ import time
 from pathlib import Path
 
 import numpy as np
-from report import knee_script_args, save_figure
 
 from fecheck.errors import FecheckError
 from fecheck.fe.crosscheck import cross_check
 from fecheck.scene import load_scene
+
+if __name__ == "__main__" and not __package__:  # python validation/x.py: as python -m
+    sys.path[0] = str(Path(__file__).resolve().parents[1])
+
+from validation.report import knee_script_args, save_figure
 
 SCENE = Path(__file__).resolve().parent / "scenes" / "femur_tibia.toml"
 COMPARTMENTS = ("medial", "lateral")

@@ -45,12 +45,16 @@ from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
-from report import Missing, require_knee_data, save_figure
 
 from fecheck.errors import FecheckError
 from fecheck.fe.crosscheck import cross_check
 from fecheck.model.run import run_scene
 from fecheck.scene import load_scene
+
+if __name__ == "__main__" and not __package__:  # python validation/x.py: as python -m
+    sys.path[0] = str(Path(__file__).resolve().parents[1])
+
+from validation.report import Missing, require_knee_data, save_figure
 
 SCENES = Path(__file__).resolve().parent / "scenes"
 COMPARTMENTS = ("medial", "lateral")

@@ -29,7 +29,10 @@ import tempfile
 import time
 from pathlib import Path
 
-from report import Missing, require
+if __name__ == "__main__" and not __package__:  # python validation/x.py: as python -m
+    sys.path[0] = str(Path(__file__).resolve().parents[1])
+
+from validation.report import Missing, require
 
 RADIUS_MM, LOAD_N, PENALTY = 25.5, 323.71, 1e4   # penalty N/mm³: 4 MPa -> 0.4 µm overlap
 

@@ -19,15 +19,21 @@ without it that line is skipped.
 from __future__ import annotations
 
 import argparse
+import sys
 import time
+from pathlib import Path
 
 import numpy as np
 import scipy.sparse as sp
-from report import Missing, require
 
 from fecheck.fe.contact import condensed_compliance
 from fecheck.fe.press import rigid_gaps
 from fecheck.fe.sphere_layer import candidate_margin, flat_layer
+
+if __name__ == "__main__" and not __package__:  # python validation/x.py: as python -m
+    sys.path[0] = str(Path(__file__).resolve().parents[1])
+
+from validation.report import Missing, require
 
 LOAD_N, RADIUS_MM, E_MPA, NU, H_MM = 323.71, 25.5, 20.0, 0.3, 6.0
 

@@ -19,16 +19,21 @@ test compares them with).
 from __future__ import annotations
 
 import csv
+import sys
 from pathlib import Path
 
-import lenhart
 import numpy as np
-import thesis_values as tv
-from report import knee_script_args
 
 from fecheck.model.condyles import condyle_faces
 from fecheck.scene.constants import COMPARTMENTS as SIDES
 from geometry.fits import fit_plane, fit_polynomial_surface, fit_sphere, fit_spherical_polynomial
+
+if __name__ == "__main__" and not __package__:  # python validation/x.py: as python -m
+    sys.path[0] = str(Path(__file__).resolve().parents[1])
+
+from validation import lenhart
+from validation import thesis_values as tv
+from validation.report import knee_script_args
 
 POLY_DEGREE = 3
 """Degree of the polynomial plateaus (thesis Table 5.10)."""

@@ -147,7 +147,7 @@ def require(module: str, owner: str):
 def require_knee_data():
     """The scanned-knee folder (`lenhart.knee_dir`), or raise `Missing` saying where it
     was looked for (the packaged one, or $FECHECK_KNEE_DIR)."""
-    import lenhart
+    from validation import lenhart
 
     try:
         return lenhart.knee_dir()

@@ -11,11 +11,16 @@ fecheck's detections, in one run (times are compared as ratios and slopes).
 
 from __future__ import annotations
 
+import sys
 from pathlib import Path
 
 import numpy as np
-import thesis_values as tv
-from report import (
+
+if __name__ == "__main__" and not __package__:  # python validation/x.py: as python -m
+    sys.path[0] = str(Path(__file__).resolve().parents[1])
+
+from validation import thesis_values as tv
+from validation.report import (
     DEVIATES,
     REPRODUCED,
     Line,

@@ -12,13 +12,18 @@ geometry with menisci).
 
 from __future__ import annotations
 
+import sys
 from pathlib import Path
 
 import numpy as np
-import thesis_values as tv
-from report import DEVIATES, Line, Row, figure, guarded, main_for, save_figure, table_row
-from row_rigid import run
-from row_sphere_plane import WHOLE_FACE
+
+if __name__ == "__main__" and not __package__:  # python validation/x.py: as python -m
+    sys.path[0] = str(Path(__file__).resolve().parents[1])
+
+from validation import thesis_values as tv
+from validation.report import DEVIATES, Line, Row, figure, guarded, main_for, save_figure, table_row
+from validation.row_rigid import run
+from validation.row_sphere_plane import WHOLE_FACE
 
 #: icosphere level whose edge (≈ 1.05·R/2ⁿ: 3.3, 1.7, 0.8 mm at R = 25.5) stands for the
 #: thesis's 5, 2 and 1 mm element sizes

@@ -9,11 +9,16 @@ scanned data are absent.
 
 from __future__ import annotations
 
+import sys
 from itertools import pairwise
 from pathlib import Path
 
 import numpy as np
-from report import (
+
+if __name__ == "__main__" and not __package__:  # python validation/x.py: as python -m
+    sys.path[0] = str(Path(__file__).resolve().parents[1])
+
+from validation.report import (
     CANNOT,
     DEVIATES,
     Line,
@@ -33,7 +38,7 @@ SUBJECT_NOTE = ("The thesis fitted its own subject's scan (not published); feche
 
 def _fits():
     require_knee_data()
-    import knee_fits
+    from validation import knee_fits
 
     return knee_fits
 

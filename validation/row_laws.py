@@ -11,12 +11,24 @@ pressure field, which are compared with the closed forms and the thesis's slopes
 from __future__ import annotations
 
 import math
+import sys
 import warnings
 from pathlib import Path
 
 import numpy as np
-import thesis_values as tv
-from report import (
+
+from fecheck.reference.closed_forms import (
+    column_stiffness,
+    ef_cap_depth,
+    ef_sphere_plane,
+    hertz_sphere_on_plane,
+)
+
+if __name__ == "__main__" and not __package__:  # python validation/x.py: as python -m
+    sys.path[0] = str(Path(__file__).resolve().parents[1])
+
+from validation import thesis_values as tv
+from validation.report import (
     DEVIATES,
     REPRODUCED,
     Line,
@@ -27,13 +39,6 @@ from report import (
     save_figure,
     table_row,
     write_data_csv,
-)
-
-from fecheck.reference.closed_forms import (
-    column_stiffness,
-    ef_cap_depth,
-    ef_sphere_plane,
-    hertz_sphere_on_plane,
 )
 
 RADIUS_MM = 31.8

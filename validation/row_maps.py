@@ -8,12 +8,17 @@ the baseline sphere-plane model for comparison.
 from __future__ import annotations
 
 import os
+import sys
 from pathlib import Path
 
 import numpy as np
-import thesis_values as tv
-from report import CANNOT, DEVIATES, Line, Row, guarded, knee_scene, main_for, table_row
-from row_rigid import run, scene
+
+if __name__ == "__main__" and not __package__:  # python validation/x.py: as python -m
+    sys.path[0] = str(Path(__file__).resolve().parents[1])
+
+from validation import thesis_values as tv
+from validation.report import CANNOT, DEVIATES, Line, Row, guarded, knee_scene, main_for, table_row
+from validation.row_rigid import run, scene
 
 SHIFTS_MM = (-8.0, 0.0, 8.0)
 P_MAX_FORMAT = "%.2f"

@@ -9,11 +9,16 @@ but only +7.9 mm reproduces its Table 5.1: the printed sign is an error).
 
 from __future__ import annotations
 
+import sys
 from pathlib import Path
 
 import numpy as np
-import thesis_values as tv
-from report import (
+
+if __name__ == "__main__" and not __package__:  # python validation/x.py: as python -m
+    sys.path[0] = str(Path(__file__).resolve().parents[1])
+
+from validation import thesis_values as tv
+from validation.report import (
     CANNOT,
     DEVIATES,
     REPRODUCED,

@@ -11,12 +11,20 @@ the plateau counted whole: its Fig. 3.20).
 
 from __future__ import annotations
 
+import sys
 from functools import cache
 from pathlib import Path
 
 import numpy as np
-import thesis_values as tv
-from report import (
+
+from fecheck.reference.closed_forms import hertz_sphere_on_plane
+from fecheck.scene.constants import COMPARTMENTS
+
+if __name__ == "__main__" and not __package__:  # python validation/x.py: as python -m
+    sys.path[0] = str(Path(__file__).resolve().parents[1])
+
+from validation import thesis_values as tv
+from validation.report import (
     DEVIATES,
     Line,
     Missing,
@@ -28,10 +36,7 @@ from report import (
     save_figure,
     table_row,
 )
-from row_rigid import run
-
-from fecheck.reference.closed_forms import hertz_sphere_on_plane
-from fecheck.scene.constants import COMPARTMENTS
+from validation.row_rigid import run
 
 #: icosphere levels standing for the thesis's ≈5,000 and ≈13,700 faces per sphere
 LEVEL_OF_FACES = {5000: 4, 13700: 5}

@@ -10,12 +10,20 @@ N·mm (y component about the tibial origin: + abduction), shifts mm.
 from __future__ import annotations
 
 import re
+import sys
 from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
-import thesis_values as tv
-from report import (
+
+from fecheck.errors import FecheckError
+from fecheck.scene.constants import COMPARTMENTS
+
+if __name__ == "__main__" and not __package__:  # python validation/x.py: as python -m
+    sys.path[0] = str(Path(__file__).resolve().parents[1])
+
+from validation import thesis_values as tv
+from validation.report import (
     CANNOT,
     DEVIATES,
     REPRODUCED,
@@ -29,10 +37,7 @@ from report import (
     table_row,
     write_data_csv,
 )
-from row_rigid import equal_force_shift, forces_along, scene, shifts_mm
-
-from fecheck.errors import FecheckError
-from fecheck.scene.constants import COMPARTMENTS
+from validation.row_rigid import equal_force_shift, forces_along, scene, shifts_mm
 
 
 @dataclass(frozen=True)

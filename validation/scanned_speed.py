@@ -17,17 +17,22 @@ ratios, not the absolute values.
 from __future__ import annotations
 
 import csv
+import sys
 import time
 from pathlib import Path
 
 import numpy as np
-from report import knee_script_args
 
 from fecheck.model.assembly import ContactModel
 from fecheck.model.run import run_scene
 from fecheck.model.scanned import build_compartments
 from fecheck.scene import load_scene
 from fecheck.statics.newton import pose
+
+if __name__ == "__main__" and not __package__:  # python validation/x.py: as python -m
+    sys.path[0] = str(Path(__file__).resolve().parents[1])
+
+from validation.report import knee_script_args
 
 SCENE = Path(__file__).resolve().parent / "scenes" / "femur_tibia.toml"
 REPEATS = 5

@@ -30,18 +30,23 @@ from __future__ import annotations
 
 import csv
 import os
+import sys
 from pathlib import Path
 
-import lenhart
 import numpy as np
-import thesis_values as tv
-from report import knee_script_args
 
 from fecheck.model.assembly import ContactModel
 from fecheck.model.run import run_scene
 from fecheck.model.scanned import build_compartments, bundle_springs
 from fecheck.scene import apply_overrides, load_scene, surfaces
 from fecheck.statics.newton import pose
+
+if __name__ == "__main__" and not __package__:  # python validation/x.py: as python -m
+    sys.path[0] = str(Path(__file__).resolve().parents[1])
+
+from validation import lenhart
+from validation import thesis_values as tv
+from validation.report import knee_script_args
 
 SCENES = Path(__file__).resolve().parent / "scenes"
 NAMES = ("inclined", "polynomial", "sphere_tibia", "femur_tibia")

@@ -2,7 +2,8 @@
 
 Each row script exposes ``rows(quick: bool, out: Path) -> list[Row]`` (see
 ``validation/report.py``). `run_validation` imports the scripts from the validation
-folder (next to the package's repository root, or given), runs the selected ones, times
+folder (next to the package's repository root, or given) as modules of the package
+``validation`` (they import one another so), runs the selected ones, times
 them, prints progress on stderr, and writes ``OUT/report.md`` with the conventions, a
 summary and one section per row. A script that fails to import or raises becomes a
 "failed" row; the report is always written.
@@ -10,6 +11,9 @@ summary and one section per row. A script that fails to import or raises becomes
 
 from __future__ import annotations
 
+import contextlib
+import importlib
+import importlib.machinery
 import importlib.util
 import re
 import sys
@@ -86,22 +90,38 @@ def select(scripts: dict[str, Path], only: Sequence[str] | None) -> dict[str, Pa
     return {n: scripts[n] for n in scripts if n in only}
 
 
-def _load(vdir: Path, path: Path):
-    """Import a row script under its own name (row scripts may import each other)."""
-    if str(vdir) not in sys.path:
-        sys.path.insert(0, str(vdir))
-    known = sys.modules.get(path.stem)
-    if known is not None and Path(getattr(known, "__file__", "")).resolve() == path.resolve():
-        return known
-    spec = importlib.util.spec_from_file_location(path.stem, path)
-    module = importlib.util.module_from_spec(spec)
-    sys.modules[path.stem] = module
+PACKAGE = "validation"
+"""The row scripts import one another as modules of this package (``from validation import
+report``)."""
+
+
+@contextlib.contextmanager
+def _package(vdir: Path):
+    """`PACKAGE` names the folder `vdir` while the block runs; the modules it named before
+    (another checkout's validation/, or none) are put back afterwards."""
+    def ours(name: str) -> bool:
+        return name == PACKAGE or name.startswith(PACKAGE + ".")
+
+    saved = {n: m for n, m in sys.modules.items() if ours(n)}
+    for name in saved:
+        del sys.modules[name]
+    init = vdir / "__init__.py"
+    if init.is_file():
+        spec = importlib.util.spec_from_file_location(PACKAGE, init,
+                                                      submodule_search_locations=[str(vdir)])
+    else:                                   # a folder of scripts without the package file
+        spec = importlib.machinery.ModuleSpec(PACKAGE, None, is_package=True)
+        spec.submodule_search_locations = [str(vdir)]
+    package = importlib.util.module_from_spec(spec)
+    sys.modules[PACKAGE] = package
     try:
-        spec.loader.exec_module(module)
-    except BaseException:
-        del sys.modules[path.stem]
-        raise
-    return module
+        if init.is_file():
+            spec.loader.exec_module(package)
+        yield package
+    finally:
+        for name in [n for n in sys.modules if ours(n)]:
+            del sys.modules[name]
+        sys.modules.update(saved)
 
 
 def run_validation(out: Path, quick: bool = False, only: Sequence[str] | None = None,
@@ -117,32 +137,36 @@ def run_validation(out: Path, quick: bool = False, only: Sequence[str] | None = 
         out.mkdir(parents=True, exist_ok=True)
     except OSError as err:
         raise FecheckError(f"cannot create the output folder {out}: {err.strerror}") from None
-    if str(vdir) not in sys.path:
-        sys.path.insert(0, str(vdir))
-    from report import Row, row_markdown  # validation/report.py
+    with _package(vdir):
+        report_module = importlib.import_module(f"{PACKAGE}.report")  # validation/report.py
+        rows, total = _run_rows(scripts, quick, out, report_module.Row, log)
+        text = render(rows, quick, total, report_module.row_markdown, out)
+    report = out / "report.md"
+    write_output(report, lambda tmp: tmp.write_text(text, encoding="utf-8"))
+    print(f"wrote {report} ({len(rows)} rows, {total:.0f} s)", file=log, flush=True)
+    return report, rows
 
+
+def _run_rows(scripts: dict[str, Path], quick: bool, out: Path, row_type, log
+              ) -> tuple[list, float]:
+    """Each script's rows (a failing one becomes a "failed" row) and the total time, s."""
     rows = []
     t_all = time.perf_counter()
     for i, (name, path) in enumerate(scripts.items(), 1):
         print(f"[{i}/{len(scripts)}] {name} ...", file=log, flush=True)
         t0 = time.perf_counter()
         try:
-            got = list(_load(vdir, path).rows(quick, out))
+            got = list(importlib.import_module(f"{PACKAGE}.{path.stem}").rows(quick, out))
         except Exception as err:  # noqa: BLE001 - one failing script must not stop the report
-            got = [Row(name, f"script {path.name}", path.name,
-                       f"failed: {type(err).__name__}: {err}")]
+            got = [row_type(name, f"script {path.name}", path.name,
+                            f"failed: {type(err).__name__}: {err}")]
         dt = time.perf_counter() - t0
         for r in got:
             print(f"    {r.reference:24s} {r.status[:70]}  ({r.seconds:.1f} s)", file=log,
                   flush=True)
         print(f"    {name} done in {dt:.1f} s", file=log, flush=True)
         rows.extend(got)
-    total = time.perf_counter() - t_all
-    report = out / "report.md"
-    text = render(rows, quick, total, row_markdown, out)
-    write_output(report, lambda tmp: tmp.write_text(text, encoding="utf-8"))
-    print(f"wrote {report} ({len(rows)} rows, {total:.0f} s)", file=log, flush=True)
-    return report, rows
+    return rows, time.perf_counter() - t_all
 
 
 def thesis_order(reference: str) -> tuple[int, int, int]:

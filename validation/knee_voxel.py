@@ -27,11 +27,11 @@ from __future__ import annotations
 from pathlib import Path
 
 import numpy as np
-from knee_synthetic import CAP_RHO, COMPARTMENTS, CONDYLES, PATCH_HALF_MM, plateau_height
-from knee_synthetic import write_mesh as _write
 from scipy import ndimage
 
 from geometry.mesh import TriMesh
+from validation.knee_synthetic import CAP_RHO, COMPARTMENTS, CONDYLES, PATCH_HALF_MM, plateau_height
+from validation.knee_synthetic import write_mesh as _write
 
 CARTILAGE_MM = 2.0
 Z_MIN, Z_MAX = -8.0, 24.0
