@@ -1,5 +1,5 @@
 """User-facing errors and warnings (see `geometry.errors`)."""
 
-from geometry.errors import FecheckError
+from geometry.errors import FecheckError, ImplausibleInput
 
-__all__ = ["FecheckError"]
+__all__ = ["FecheckError", "ImplausibleInput"]

@@ -1,4 +1,4 @@
-"""The one exception type for problems a user can fix."""
+"""The one exception type for problems a user can fix, and the warning on an implausible value."""
 
 
 class FecheckError(Exception):
@@ -8,3 +8,7 @@ class FecheckError(Exception):
     and exits non-zero. `geometry` defines it so that both packages share one type
     (`fecheck.errors` re-exports it).
     """
+
+
+class ImplausibleInput(UserWarning):
+    """A value outside the range of a knee model: most often a unit typed wrong."""

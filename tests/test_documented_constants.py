@@ -14,8 +14,7 @@ import pytest
 from fecheck.cli import main
 from fecheck.laws import ef_stiffness
 from fecheck.laws.calibrated import SOFT_DEPTH_MM, Calibration, calibrated_pressure
-from fecheck.model import plausibility
-from fecheck.scene import SCHEMA, load_scene
+from fecheck.scene import SCHEMA, load_scene, unit_hints
 from fecheck.scene.constants import GRAVITY_MPS2
 from fecheck.statics.ligaments import blankevoort_tension
 
@@ -95,7 +94,7 @@ def test_gravity_is_the_documented_one(capsys):
     (g,) = _numbers(r"tibia\.mass_kg × " + NUMBER + r" N", _keys_text(capsys, "gravity"))
     assert GRAVITY_MPS2 == g
     scene = load_scene(overrides=["tibia.mass_kg=3.5"])
-    assert plausibility.tibia_weight_N(scene) == pytest.approx(3.5 * g, rel=1e-12)
+    assert unit_hints.tibia_weight_N(scene) == pytest.approx(3.5 * g, rel=1e-12)
 
 
 def test_blankevoort_transition_is_the_documented_strain(capsys):
@@ -139,19 +138,19 @@ def test_the_importer_s_uniform_layer_is_the_scene_default():
 # ----------------------------------------------------------------- the README's limits
 def test_knee_load_range_is_the_readme_s():
     (low, high) = _numbers(r"a load outside " + NUMBER + r" N-" + NUMBER + r" kN", _readme())
-    assert plausibility.KNEE_LOAD_N == (low, 1000 * high)
+    assert unit_hints.KNEE_LOAD_N == (low, 1000 * high)
     for inside in (low, 1000 * high):
-        assert plausibility.load_warning(inside) == ""
+        assert unit_hints.load_warning(inside) == ""
     for outside in (0.99 * low, 1010 * high):
-        assert plausibility.load_warning(outside) != ""
+        assert unit_hints.load_warning(outside) != ""
 
 
 def test_absurd_modulus_bounds_are_the_readme_s():
     (low, high) = _numbers(r"a modulus under " + NUMBER + r" or from " + NUMBER + r" MPa",
                            _readme())
-    assert plausibility.ABSURD_E_MPA == (low, high)
-    assert plausibility.modulus_error(0.99 * low) and plausibility.modulus_error(high)
-    assert not plausibility.modulus_error(low) and not plausibility.modulus_error(0.99 * high)
+    assert unit_hints.ABSURD_E_MPA == (low, high)
+    assert unit_hints.modulus_error(0.99 * low) and unit_hints.modulus_error(high)
+    assert not unit_hints.modulus_error(low) and not unit_hints.modulus_error(0.99 * high)
 
 
 def test_sweep_checkpoint_period_is_the_readme_s():

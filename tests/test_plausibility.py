@@ -1,6 +1,7 @@
-"""Plausibility rules (`fecheck.model.plausibility`): each rule fires on the implausible
-value it guards, names the likely unit mistake, and stays silent on the shipped scenes and
-the scanned knee."""
+"""Plausibility rules (`fecheck.scene.unit_hints` on the inputs, `fecheck.model.plausibility`
+on the assembled sheets and the results): each rule fires on the implausible value it
+guards, names the likely unit mistake, and stays silent on the shipped scenes. The contact
+sheets' own checks: tests/test_sheet_checks.py."""
 
 from __future__ import annotations
 
@@ -11,13 +12,12 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from conftest import require_knee_data
 
-from fecheck.errors import FecheckError
+from fecheck.errors import FecheckError, ImplausibleInput
 from fecheck.model import plausibility as pl
 from fecheck.model.run import run_scene
 from fecheck.scene import load_scene
-from geometry.mesh import TriMesh
+from fecheck.scene import unit_hints as uh
 from geometry.plateau import plane_patch
 
 SCENES = Path(__file__).resolve().parents[1] / "validation" / "scenes"
@@ -26,7 +26,7 @@ SHIPPED = ("baseline", "hertz", "volumetric", "rigid", "rigid_ligaments", "sprin
 
 
 def _implausible(record) -> list[str]:
-    return [str(w.message) for w in record if issubclass(w.category, pl.ImplausibleInput)]
+    return [str(w.message) for w in record if issubclass(w.category, ImplausibleInput)]
 
 
 @pytest.fixture(scope="module")
@@ -35,31 +35,25 @@ def baseline():
     return scene, run_scene(scene)
 
 
-@pytest.fixture(scope="module")
-def patch() -> TriMesh:
-    """A flat tibial sheet, 28 mm across, normals up."""
-    return plane_patch((0.0, 0.0, 0.0), (0.0, 0.0, 1.0), radius=14.0, size=1.0)
-
-
 # ----------------------------------------------------------------------- inputs
 @pytest.mark.parametrize("e, words", [
     (2e7, ["Pa typed as MPa", "UHMWPE"]), (0.05, ["GPa typed as MPa"]),
     (0.1, []), (20.0, []), (1000.0, []), (5000.0, []),
 ])
 def test_modulus_outside_knee_materials_names_the_unit_mistake(e, words):
-    text = pl.modulus_warning(e)
+    text = uh.modulus_warning(e)
     assert all(w in text for w in words) and bool(text) == bool(words)
 
 
 def test_load_below_the_weight_is_warned_and_hinted(baseline):
     # 15 N is a knee load but does not lift the 2 kg tibia (2 · 9.81 = 19.62 N)
     scene = load_scene(overrides=["load.force_N=15"])
-    hints = pl.input_warnings(scene)
+    hints = uh.input_warnings(scene)
     assert len(hints) == 1 and "kN typed as N" in hints[0] and "19.62 N" in hints[0]
-    assert pl.load_hint(baseline[0]) == ""
-    assert pl.load_hint(load_scene(overrides=["load.force_N=0.8", "gravity=false"])) == ""
+    assert uh.load_hint(baseline[0]) == ""
+    assert uh.load_hint(load_scene(overrides=["load.force_N=0.8", "gravity=false"])) == ""
     held = load_scene(SCENES / "springs.toml", ["load.force_N=15"])     # ligaments hold it
-    assert pl.load_hint(held) == ""
+    assert uh.load_hint(held) == ""
 
 
 @pytest.mark.parametrize("force, words", [
@@ -76,7 +70,7 @@ def test_load_below_the_weight_is_warned_and_hinted(baseline):
 def test_a_load_outside_knee_loads_names_the_unit_with_or_without_gravity(force, words,
                                                                           gravity):
     scene = load_scene(overrides=[f"load.force_N={force}", f"gravity={str(gravity).lower()}"])
-    found = pl.input_warnings(scene)
+    found = uh.input_warnings(scene)
     if words:                            # one warning: the weight hint would say it again
         assert len(found) == 1 and all(w in found[0] for w in words), found
     else:                                # 10 N under the 19.62 N weight: only that hint
@@ -114,13 +108,13 @@ def test_a_zero_load_is_its_own_error_before_the_solve(monkeypatch, overrides, w
 ], ids=["springs", "driven-z", "rigid"])
 def test_a_zero_load_something_else_holds_is_no_input_error(path, overrides):
     scene = load_scene(path, ["load.force_N=0", *overrides])
-    assert pl.input_errors(scene) == [] and pl.input_warnings(scene) == []
+    assert uh.input_errors(scene) == [] and uh.input_warnings(scene) == []
 
 
 def test_a_ligament_scene_without_load_that_finds_no_contact_says_why():
     scene = load_scene(SCENES / "springs.toml", ["load.force_N=0"])
-    assert "only the ligaments and the tibia's weight act" in pl.no_equilibrium_hint(scene)
-    assert pl.no_equilibrium_hint(load_scene(SCENES / "springs.toml")) == ""
+    assert "only the ligaments and the tibia's weight act" in uh.no_equilibrium_hint(scene)
+    assert uh.no_equilibrium_hint(load_scene(SCENES / "springs.toml")) == ""
 
 
 @pytest.mark.parametrize("overrides, words", [
@@ -155,8 +149,8 @@ def test_an_absurd_material_is_an_error_naming_key_and_unit_before_the_solve(
 ])
 def test_a_modulus_a_unit_slip_explains_only_warns(overrides, words):
     scene = load_scene(overrides=overrides)
-    assert pl.input_errors(scene) == []
-    found = pl.input_warnings(scene)
+    assert uh.input_errors(scene) == []
+    found = uh.input_warnings(scene)
     assert len(found) == int(bool(words)) and all(w in "".join(found) for w in words), found
 
 
@@ -183,6 +177,26 @@ def test_tibial_sheets_on_the_wrong_sides_for_knee_side_are_an_error():
     assert "as in a left knee" in text and "geometry.tibia_lateral" in text
     # a disc's area-weighted centre is its centre (symmetric triangulation: to a tenth)
     assert "at x = +25.0 mm and the lateral at -20.0 mm" in text
+
+
+@pytest.mark.parametrize("lift_mm", [10.0, 30.0])
+def test_a_condyle_sphere_far_from_its_tibial_sheet_is_an_error(lift_mm):
+    from types import SimpleNamespace
+
+    from fecheck.contact import ContactPair, Sphere
+
+    scene = load_scene()                  # the baseline's check pose: the identity
+    sheet = plane_patch((0.0, 0.0, 0.0), (0.0, 0.0, 1.0), radius=14.0, size=1.0)
+    # the sphere's lowest point lift_mm above the sheet's centre (R 25.5 mm); the nearest
+    # vertex lies within a face of the centre: the gap is lift_mm + r²/(2·55.5) < lift + 0.01
+    comp = SimpleNamespace(name="medial", slave_is_tibia=True, pair=ContactPair(
+        sheet, Sphere(np.array([0.0, 0.0, 25.5 + lift_mm]), 25.5)))
+    if lift_mm < pl.LANDMARK_GAP_MM:
+        pl.check_landmarks(scene, comp)
+        return
+    with pytest.raises(FecheckError, match=r"medial: the condyle sphere is 30\.0 mm from the "
+                                           r"tibial sheet at the start pose \(more than 20 mm\)"):
+        pl.check_landmarks(scene, comp)
 
 
 @pytest.mark.parametrize("name", SHIPPED)
@@ -222,106 +236,18 @@ def test_a_contact_on_two_faces_is_warned(baseline):
     scene, result = baseline
     comps = dict(result.compartments)
     comps["lateral"] = dataclasses.replace(comps["lateral"], n_contact_faces=2)
-    with pytest.warns(pl.ImplausibleInput, match="spans only 2 face"):
+    with pytest.warns(ImplausibleInput, match="spans only 2 face"):
         pl.after_solve(scene, dataclasses.replace(result, compartments=comps))
 
 
 def test_baseline_result_passes(baseline):
     with warnings.catch_warnings():
-        warnings.simplefilter("error", pl.ImplausibleInput)
+        warnings.simplefilter("error", ImplausibleInput)
         pl.after_solve(*baseline)
 
 
 def test_rigid_balls_pulling_under_a_load_below_the_weight_is_an_error():
     scene = load_scene(SCENES / "rigid.toml", ["load.force_N=0.8"])
-    with pytest.warns(pl.ImplausibleInput), pytest.raises(FecheckError) as err:
+    with pytest.warns(ImplausibleInput), pytest.raises(FecheckError) as err:
         run_scene(scene)
     assert "tensile contact force" in str(err.value) and "kN typed as N" in str(err.value)
-
-
-# ----------------------------------------------------------------------- meshes
-def test_mesh_extents_name_metres_and_scaling(patch):
-    pl.check_extent(patch, "sheet")
-    with pytest.raises(FecheckError, match="0.028 mm across.*mesh in metres"):
-        pl.check_extent(TriMesh(patch.points * 1e-3, patch.faces), "sheet")
-    with pytest.warns(pl.ImplausibleInput, match="28,000 mm across"):
-        pl.check_extent(TriMesh(patch.points * 1e3, patch.faces), "sheet")
-
-
-def test_winding_checks_tell_flipped_from_mixed(patch):
-    pl.check_winding(patch, "sheet")
-    with pytest.raises(FecheckError, match="normals point down.*n_z = -1.00"):
-        pl.check_winding(TriMesh(patch.points, patch.faces[:, ::-1]), "sheet")
-    faces = patch.faces.copy()
-    left = patch.face_centroids[:, 0] < -5.0
-    faces[left] = faces[left][:, ::-1]
-    with pytest.raises(FecheckError, match=r"mixed winding: \d+ edges.*around \(x, y\) = \(-"):
-        pl.check_winding(TriMesh(patch.points, faces), "sheet")
-
-
-def _folded(patch):
-    """The patch's points with x > 6 mm folded back over the sheet, 10° up; the flap."""
-    p = patch.points.copy()
-    flap = p[:, 0] > 6.0
-    u = p[flap, 0] - 6.0
-    p[flap, 0] = 6.0 - u * np.cos(np.radians(10.0))
-    p[flap, 2] = u * np.sin(np.radians(10.0)) + 0.2
-    return p, flap
-
-
-def test_folds_are_found_where_they_are(patch):
-    assert not pl.fold_faces(patch).any()
-    p, flap = _folded(patch)
-    folded = pl.fold_faces(TriMesh(p, patch.faces))
-    in_flap = flap[patch.faces].all(axis=1)
-    assert in_flap.sum() > 50 and folded[in_flap].all()      # the flap faces down
-    reach = patch.points[patch.faces][folded][:, :, 0].max(axis=1)
-    assert np.all(reach > 6.0 - 2.0)                         # nothing away from the crease
-    with pytest.warns(pl.ImplausibleInput, match=r"folds back over itself: \d+ of"):
-        pl.check_folds(TriMesh(p, patch.faces), "sheet")
-
-
-def test_a_sheet_is_analysed_once_and_still_warns_and_raises_every_time(patch):
-    """A sweep checks the same sheet at every point: its edges, folds and extent are
-    computed once per mesh, but every check still gives its warning or error."""
-    folded = TriMesh(_folded(patch)[0], patch.faces)
-    flipped = TriMesh(patch.points, patch.faces[:, ::-1])
-    for _ in range(3):
-        with pytest.warns(pl.ImplausibleInput, match="folds back over itself"):
-            pl.check_sheet(folded, "sheet")
-        with pytest.raises(FecheckError, match="normals point down"):
-            pl.check_sheet(flipped, "sheet")
-    for mesh in (folded, flipped):
-        assert pl.edge_neighbours(mesh) is pl.edge_neighbours(mesh)
-        assert pl.area_mean_normal(mesh) is pl.area_mean_normal(mesh)
-    assert pl.extent_mm(folded) is pl.extent_mm(folded)
-    with pytest.raises(ValueError, match="read-only"):
-        pl.fold_faces(folded)[0] = False
-    other = TriMesh(patch.points, patch.faces)                   # the same arrays, new mesh
-    assert not pl.fold_faces(other).any() and pl.fold_faces(folded).any()
-
-
-def test_scanned_tibial_sheets_pass_every_mesh_check():
-    from validation import lenhart
-
-    require_knee_data()
-    for c in ("medial", "lateral"):
-        sheet = lenhart.mesh(f"tibia_cartilage_{c}")
-        pl.check_extent(sheet, c)
-        pl.check_winding(sheet, c)
-        assert not pl.fold_faces(sheet).any()
-
-
-def test_a_non_manifold_sheet_is_an_error_with_its_place(patch):
-    # a fin: a new vertex above an inner edge, joined to it (three faces on that edge)
-    i = int(np.argmin(np.linalg.norm(patch.face_centroids[:, :2] - [3.0, -2.0], axis=1)))
-    edge = patch.faces[i, :2]
-    points = np.vstack([patch.points, patch.points[edge].mean(axis=0) + [0.0, 0.0, 1.0]])
-    fin = TriMesh(points, np.vstack([patch.faces, [*edge, len(points) - 1]]))
-    x, y = patch.points[edge, :2].mean(axis=0)
-    with warnings.catch_warnings():
-        warnings.simplefilter("error")                     # no numpy warning on the way
-        with pytest.raises(FecheckError, match=rf"1 edges shared by three or more faces "
-                                               rf"\(non-manifold\), around \(x, y\) = "
-                                               rf"\({x:.1f}, {y:.1f}\) mm"):
-            pl.check_winding(fin, "sheet")

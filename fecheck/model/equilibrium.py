@@ -21,9 +21,10 @@ from fecheck.model.assembly import (
     start_pose,
     wrench_parts,
 )
-from fecheck.model.plausibility import before_solve, no_equilibrium_hint
+from fecheck.model.plausibility import before_solve
 from fecheck.model.results import CompartmentResult
 from fecheck.scene import Scene
+from fecheck.scene.unit_hints import no_equilibrium_hint
 from fecheck.statics.newton import (
     ConstraintFn,
     NoEquilibrium,

@@ -287,7 +287,7 @@ def _one_piece(mesh: TriMesh, path: Path) -> TriMesh:
 def tibial_compartments(scene: Scene) -> dict[str, TriMesh]:
     """{medial, lateral}: the tibial articular surface split into its compartments (mm,
     thesis frame; their winding is checked with the other sheet checks before the
-    solve, `fecheck.model.plausibility.check_winding`). Without ``geometry.tibia`` but
+    solve, `geometry.sheet_checks.check_winding`). Without ``geometry.tibia`` but
     with a closed ``geometry.tibia_solid``: the solid's up-facing part
     (`fecheck.scene.tibia_solid.articular_sheets`)."""
     if file_path(scene, "tibia") is None and file_path(scene, "tibia_solid") is not None:
