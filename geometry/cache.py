@@ -1,4 +1,5 @@
-"""On-disk mesh cache keyed by builder name and version, canonical parameters and gmsh.
+"""On-disk mesh cache keyed by builder name and version, canonical parameters and gmsh;
+and the in-process memo of what is derived from one mesh object (`per_mesh`).
 
 Entries are ``.npz`` files under ``$FECHECK_CACHE_DIR`` (default ``~/.cache/fecheck``),
 named by the sha256 of a JSON document holding the builder name, the builder's own
@@ -12,6 +13,10 @@ type) is removed and rebuilt, with a one-line warning naming it.
 
 >>> cache_key("box", {"x": 1.0}, version=2) != cache_key("box", {"x": 1.0}, version=3)
 True
+
+`per_mesh` keeps ``fn(mesh, *args)`` for each `TriMesh` object (frozen: its arrays never
+change) while that mesh lives, beside it rather than in it (a pickled mesh carries none of
+it); for values that do not hold the mesh itself (a tree over the mesh would keep it alive).
 """
 
 from __future__ import annotations
@@ -22,17 +27,20 @@ import importlib.metadata
 import json
 import os
 import warnings
+import weakref
 import zipfile
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any
+from typing import Any, TypeVar
 
 import numpy as np
 
 from geometry.errors import FecheckError
 from geometry.files import write_output
 from geometry.mesh import TetMesh, TriMesh
+
+T = TypeVar("T")
 
 #: Bump when the stored layout changes (a builder's output: its own `cached_build` version).
 FORMAT_VERSION = 1
@@ -271,3 +279,23 @@ def cached_arrays(name: str, inputs: list[TriMesh | np.ndarray],
     if path is not None:
         _store(path, {f"value_{i}": a for i, a in enumerate(out)})
     return out
+
+
+def per_mesh(fn: Callable[..., T]) -> Callable[..., T]:
+    """`fn(mesh, *args)` computed once per `TriMesh` object and hashable `args`, kept while
+    the mesh lives (a sweep reads the same sheets at every point; a mesh that is dropped
+    takes its values with it). The value is shared by every caller: it must not hold
+    `mesh` (that would keep it alive; `mesh` itself as the value is not kept) and is not
+    to be changed (return read-only arrays)."""
+    memo: weakref.WeakKeyDictionary = weakref.WeakKeyDictionary()
+
+    @functools.wraps(fn)
+    def cached(mesh: TriMesh, *args) -> T:
+        values = memo.setdefault(mesh, {})
+        if args in values:
+            return values[args]
+        value = fn(mesh, *args)
+        if value is not mesh:
+            values[args] = value
+        return value
+    return cached

@@ -33,10 +33,10 @@ Units: mm. Vectorised: the neighbourhoods are the pairs of a k-d tree within L.
 from __future__ import annotations
 
 from dataclasses import dataclass
-from functools import lru_cache
 
 import numpy as np
 
+from geometry.cache import per_mesh
 from geometry.mesh import TriMesh
 
 SLIVER_QUALITY = 0.1
@@ -164,7 +164,7 @@ def smooth(mesh: TriMesh, radius_mm: float) -> TriMesh:
     return TriMesh(mesh.points + offset[:, None] * normal, mesh.faces)
 
 
-@lru_cache(maxsize=8)
+@per_mesh
 def smooth_sheet(mesh: TriMesh, radius_mm: float) -> TriMesh:
     """`smooth`, kept per mesh object and radius (a scene's sheets are read once)."""
     return smooth(mesh, radius_mm)

@@ -5,7 +5,7 @@ scaled twice (a warning, `ImplausibleInput`); a tibial sheet with mixed winding,
 shared by three or more faces or normals pointing down is an error, one that folds back
 over itself a warning. The topology each check reads (face pairs across edges, the mean
 normal, the folded faces, the extent, the mean x) is computed once per `TriMesh` and kept
-while the mesh lives (`once_per_mesh`): a sweep checks the same sheets at every point.
+while the mesh lives (`geometry.cache.per_mesh`): a sweep checks the same sheets at every point.
 No mechanics here. Units mm.
 """
 
@@ -13,14 +13,11 @@ from __future__ import annotations
 
 import math
 import warnings
-import weakref
-from collections.abc import Callable
 from dataclasses import dataclass
-from functools import wraps
-from typing import TypeVar
 
 import numpy as np
 
+from geometry.cache import per_mesh
 from geometry.errors import FecheckError, ImplausibleInput
 from geometry.mesh import TriMesh
 
@@ -38,29 +35,12 @@ def _warn(message: str) -> None:
     warnings.warn(message, ImplausibleInput, stacklevel=3)
 
 
-T = TypeVar("T")
-
-
-def once_per_mesh(fn: Callable[[TriMesh], T]) -> Callable[[TriMesh], T]:
-    """`fn(mesh)` computed once per `TriMesh` (frozen: its arrays never change) and kept
-    while the mesh lives: a sweep checks the same sheets at every point. Arrays come back
-    read-only, shared by every caller."""
-    memo: weakref.WeakKeyDictionary = weakref.WeakKeyDictionary()
-
-    @wraps(fn)
-    def cached(mesh: TriMesh) -> T:
-        if mesh not in memo:
-            memo[mesh] = fn(mesh)
-        return memo[mesh]
-    return cached
-
-
 def _read_only(*arrays: np.ndarray) -> None:
     for a in arrays:
         a.setflags(write=False)
 
 
-@once_per_mesh
+@per_mesh
 def extent_mm(mesh: TriMesh) -> float:
     """Largest bounding-box side of the mesh's used vertices, mm."""
     used = np.zeros(mesh.n_points, dtype=bool)
@@ -105,7 +85,7 @@ class EdgeNeighbours:
         return bool(self.consistent.all()) and self.non_manifold == 0
 
 
-@once_per_mesh
+@per_mesh
 def edge_neighbours(mesh: TriMesh) -> EdgeNeighbours:
     """Face pairs across the shared edges of `mesh`, from its `geometry.mesh.EdgeTable`
     (`geometry.checks.mesh_report` answers the same winding question with every other
@@ -127,7 +107,7 @@ def _where(points_xy: np.ndarray) -> str:
     return f"around (x, y) = ({x:.1f}, {y:.1f}) mm"
 
 
-@once_per_mesh
+@per_mesh
 def area_mean_normal(mesh: TriMesh) -> np.ndarray:
     """(3,) the faces' normals averaged by area: |·| 1 for a flat sheet, less as it
     curves; its z says which way the sheet faces."""
@@ -167,7 +147,7 @@ def check_winding(mesh: TriMesh, what: str) -> None:
                            "every face (flip the normals) in the mesh file")
 
 
-@once_per_mesh
+@per_mesh
 def fold_faces(mesh: TriMesh) -> np.ndarray:
     """(n_faces,) True for faces of a consistently wound sheet that fold back: across an
     edge their normal turns more than 120° from the neighbour's, or they face more than
@@ -204,7 +184,7 @@ def check_sheet(mesh: TriMesh, what: str) -> None:
     check_folds(mesh, what)
 
 
-@once_per_mesh
+@per_mesh
 def mean_x_mm(mesh: TriMesh) -> float:
     """Area-weighted mean x of the mesh's faces, mm (0 for a mesh without area)."""
     area = mesh.face_areas

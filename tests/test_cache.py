@@ -235,3 +235,40 @@ def test_parallel_writers_leave_one_valid_entry_and_no_temp_files(fresh_cache):
     assert not [f for f in files if f.startswith(".")]           # no temporary left
     back = cached_build("par", {}, lambda: pytest.fail("should not rebuild"))
     np.testing.assert_array_equal(back.faces, mesh.faces)
+
+
+# ------------------------------------------------------------------ per mesh object
+def _triangle() -> TriMesh:
+    return TriMesh(np.array([[0.0, 0, 0], [1, 0, 0], [0, 1, 0]]), np.array([[0, 1, 2]]))
+
+
+def test_per_mesh_computes_once_per_mesh_object_and_arguments():
+    calls = []
+
+    @cache.per_mesh
+    def scaled_area(mesh: TriMesh, factor: float) -> float:
+        calls.append((id(mesh), factor))
+        return factor * float(mesh.area)
+
+    mesh = _triangle()
+    assert scaled_area(mesh, 2.0) == scaled_area(mesh, 2.0) == 1.0     # ½ · 2, computed once
+    assert scaled_area(mesh, 3.0) == 1.5 and len(calls) == 2            # other arguments
+    twin = TriMesh(mesh.points, mesh.faces)                             # same arrays, new mesh
+    assert scaled_area(twin, 2.0) == 1.0 and len(calls) == 3
+
+
+@pytest.mark.parametrize("returns_the_mesh", [False, True])
+def test_per_mesh_lets_a_dropped_mesh_go(returns_the_mesh):
+    import gc
+    import weakref
+
+    @cache.per_mesh
+    def derived(mesh: TriMesh):
+        return mesh if returns_the_mesh else np.zeros(3)
+
+    mesh = _triangle()
+    derived(mesh)
+    alive = weakref.ref(mesh)
+    del mesh
+    gc.collect()
+    assert alive() is None

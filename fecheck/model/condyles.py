@@ -12,14 +12,13 @@ point of each condyle is the lowest point of its sphere. Units: mm, thesis frame
 
 from __future__ import annotations
 
-from functools import lru_cache
-
 import numpy as np
 
 from fecheck.errors import FecheckError
 from fecheck.scene import Scene, surfaces
 from fecheck.scene.constants import COMPARTMENTS
 from fecheck.scene.knee import Knee
+from geometry.cache import per_mesh
 from geometry.fits import fit_sphere
 from geometry.mesh import TriMesh
 
@@ -43,7 +42,7 @@ def condyle_faces(femur: TriMesh, compartment: str, side: str) -> np.ndarray:
     return np.flatnonzero(keep)
 
 
-@lru_cache(maxsize=8)
+@per_mesh
 def fitted_knee(femur: TriMesh, side: str, name: str = "the femoral surface") -> Knee:
     """A knee whose condyle spheres are fitted to `femur` (no ligament attachments);
     fitted once per femur mesh object (a scene's surfaces are read once per process)."""
