@@ -352,7 +352,7 @@ class _System:
         for b, q in zip(self.p.bodies, self.q_of(z), strict=True):
             r, t, axes = _frame(q)
             poses.append((r, t))
-            bases.append(_basis(t, axes)[:, list(b.free)])
+            bases.append(np.ascontiguousarray(_basis(t, axes)[:, list(b.free)]))
             frames.append((t, axes))
         return poses, bases, frames
 
