@@ -133,7 +133,7 @@ def pose(q: np.ndarray, theta_x: float = 0.0) -> BodyPose:
 
 def twist_basis(q: np.ndarray, theta_x: float = 0.0) -> np.ndarray:
     """B (6, 5) of the tibia's q = (x, y, z, θy, θz) (mm, rad)."""
-    return body_basis(tibia_coordinates(q, theta_x))[:, TIBIA_COORDINATES]
+    return np.ascontiguousarray(body_basis(tibia_coordinates(q, theta_x))[:, TIBIA_COORDINATES])
 
 
 def geometric_tangent(q: np.ndarray, wrench: np.ndarray, theta_x: float = 0.0) -> np.ndarray:
