@@ -3,6 +3,7 @@ springs and rods between bodies, against hand statics and finite differences."""
 
 from __future__ import annotations
 
+import dataclasses
 import math
 
 import numpy as np
@@ -10,6 +11,7 @@ import pytest
 
 from fecheck.contact.analytic import Sphere
 from fecheck.contact.pair import ContactPair
+from fecheck.errors import FecheckError
 from fecheck.laws.fused import linear_law
 from fecheck.reference.closed_forms import column_stiffness, ef_cap_depth
 from fecheck.statics.interfaces import Interface
@@ -123,6 +125,20 @@ def test_a_free_plate_between_two_spheres_meets_the_hand_statics(stack):
     assert np.linalg.norm(np.cross(on_plate_low[:3], n)) <= 1e-9 * force
     # the lower body: its contact force (minus the plate's) carries the load vertically
     assert -on_plate_low[2] + LOAD_N == pytest.approx(0.0, abs=1e-7 * LOAD_N)
+
+
+def test_a_sliding_middle_body_is_named_with_the_key_that_drives_it(stack):
+    # The plate free along y too: frictionless flat faces do not resist the slide, and the
+    # stacked null space names that one DOF of that one body, with its body's key.
+    problem = _stack_problem(stack, (1, 2, 3, 4), (2,))
+    plate = dataclasses.replace(problem.bodies[PLATE], free_key="bodies.plate.free",
+                                start_keys="bodies.plate.*_mm/_deg")
+    bodies = problem.bodies[:PLATE] + (plate,) + problem.bodies[PLATE + 1:]
+    with pytest.raises(FecheckError, match=r"^the DOFs plate y have no stiffness .*setting "
+                                           r"bodies\.plate\.free = \['z', 'flexion', "
+                                           r"'abduction'\] \(their values come from "
+                                           r"bodies\.plate\.\*_mm/_deg\)"):
+        solve(dataclasses.replace(problem, bodies=bodies))
 
 
 def test_block_tangent_matches_central_differences_of_the_stacked_residual(stack):

@@ -214,12 +214,14 @@ class Body:
         `free` stay at their value (driven, or fixed)
     free : indices of the free coordinates in `BODY_DOFS` (empty: a fixed body)
     free_key : the scene key that lists the free DOFs (for messages)
+    start_keys : the scene keys the start coordinates come from (for messages)
     """
 
     name: str
     q_start: np.ndarray
     free: tuple[int, ...]
     free_key: str = "dofs.free"
+    start_keys: str = "dofs.*_mm/_deg"
 
 
 def tibia_body(q: np.ndarray, free: Sequence[int], theta_x: float = 0.0) -> Body:
@@ -497,16 +499,17 @@ def _no_stiffness_message(p: Problem, null: np.ndarray) -> str:
         return (f"the {len(p.constraints)} constraints (ligament rods) over-constrain the free "
                 f"DOFs {_labels(p)}: their forces are indeterminate; free more DOFs "
                 f"({_keys(p)}) or use ligaments.model = 'spring'")
-    drive = []
+    drive, keys = [], []
     for body in p.bodies:
         held = [dof for name, dof in names if name == body.name and (name, dof) not in loose]
         if len(held) < len(body.free):
             drive.append(f"{body.free_key} = {held!r}")
+            keys.append(body.start_keys)
     who = f"the {p.bodies[0].name} DOFs" if len(p.bodies) == 1 else "the DOFs"
     return (f"{who} {', '.join(_labels(p, loose))} have no stiffness (nothing resists "
             f"them, e.g. sliding on frictionless plateaus): drive them by setting "
-            f"{' and '.join(drive)} (their values come from the start pose, dofs.*_mm/_deg "
-            f"for the tibia), or add ligaments")
+            f"{' and '.join(drive)} (their values come from {', '.join(keys)}), or add "
+            f"ligaments")
 
 
 MAX_STEP_MM = 5.0
