@@ -219,3 +219,10 @@ def test_spring_wrenches_are_equal_and_opposite_at_rotated_poses():
     tension = float(blankevoort_tension((length - 20.0) / 20.0, STIFF_2, TOE)[0])
     assert tension > 0
     np.testing.assert_allclose(w[6:9], tension * (x_a - x_b) / length, rtol=1e-12)
+
+
+def test_two_bodies_of_one_name_are_refused():
+    # messages name a DOF by its body's name: two bodies of one name would be ambiguous
+    with pytest.raises(FecheckError, match=r"share a name"):
+        Problem((Body("meniscus", np.zeros(6), (2,)), Body("meniscus", np.zeros(6), (2,))),
+                lambda poses: [])

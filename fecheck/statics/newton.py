@@ -276,6 +276,11 @@ class Problem:
     touching: Callable[[], bool] | None = None
     """After a `wrench` call: whether any contact was active (None: always)."""
 
+    def __post_init__(self) -> None:
+        names = [b.name for b in self.bodies]
+        if len(set(names)) < len(names):
+            raise FecheckError(f"bodies {names} share a name: give each body its own")
+
     @property
     def n_free(self) -> int:
         """Number of free coordinates of all bodies."""
