@@ -311,6 +311,14 @@ def _scatter(parts: Sequence[Part], n_bodies: int
     w = [np.zeros(6) for _ in range(n_bodies)]
     dw: dict[tuple[int, int], np.ndarray] = {}
     for bodies, wp, dp in parts:
+        if len(bodies) == 1:                       # a load or a spring to the world
+            b = bodies[0]
+            w[b] += wp
+            if (b, b) in dw:
+                dw[b, b] += dp
+            else:
+                dw[b, b] = dp.copy()
+            continue
         for i, b in enumerate(bodies):
             w[b] += wp[6 * i:6 * i + 6]
             for j, c in enumerate(bodies):
