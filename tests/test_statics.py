@@ -20,10 +20,13 @@ from fecheck.statics.ligaments import rod_constraint, spring_wrench
 from fecheck.statics.newton import (
     Problem,
     _System,
+    constraint_on_body,
     geometric_tangent,
+    on_body,
     point_force,
     pose,
     solve,
+    tibia_body,
     twist_basis,
 )
 from fecheck.statics.rigid import solve_rigid
@@ -123,7 +126,8 @@ def test_newton_jacobian_with_rod_multipliers_matches_fd():
         return [point_force(rot @ x_body + t, np.array([30.0, -20.0, 200.0]))]
 
     q = np.array([0.8, -1.2, 0.5, math.radians(4.0), math.radians(-7.0)])
-    system = _System(Problem(q, (0, 1, 2, 3, 4), wrench, constraints=_rods(("ACL", "MCL"))))
+    rods = [constraint_on_body(c) for c in _rods(("ACL", "MCL"))]
+    system = _System(Problem((tibia_body(q, (0, 1, 2, 3, 4)),), on_body(wrench), rods))
     z = np.concatenate([q * system.sq, [300.0, 150.0]])
     _, jac = system(z)
     fd = _fd_jacobian(lambda zz: system(zz)[0], z, h=1e-5)
@@ -145,8 +149,7 @@ def test_assembled_jacobian_through_contact_pairs_matches_fd(master, law):
         return contact(rot, t) + [load(rot, t)]
 
     q = np.array([0.2, -0.3, 1.1, math.radians(0.3), math.radians(0.5)])
-    problem = Problem(q, (0, 1, 2, 3, 4), wrench)
-    system = _System(problem)
+    system = _System(Problem((tibia_body(q, (0, 1, 2, 3, 4)),), on_body(wrench)))
     z = q * system.sq
     _, jac = system(z)
     fd = _fd_jacobian(lambda zz: system(zz)[0], z, h=1e-6)
@@ -347,6 +350,6 @@ def test_negative_stiffness_start_reaches_the_stable_equilibrium_not_the_saddle(
     def wrench(rot, t):
         return [dome(t), spring(t)]
 
-    sol = solve(Problem(np.zeros(5), (1,), wrench, tolerance=1e-10))
+    sol = solve(Problem((tibia_body(np.zeros(5), (1,)),), on_body(wrench), tolerance=1e-10))
     assert sol.converged
-    assert sol.q[1] == pytest.approx((b + k * s) / (k - a), abs=1e-9)
+    assert sol.q[0][1] == pytest.approx((b + k * s) / (k - a), abs=1e-9)

@@ -26,8 +26,7 @@ from fecheck.model.results import Pose
 from fecheck.scene import Scene
 from fecheck.scene.constants import COMPARTMENTS, DOF_NAMES, GRAVITY_MPS2, LIGAMENTS
 from fecheck.scene.knee import plane_normal
-from fecheck.statics.frames import skew
-from fecheck.statics.newton import point_force
+from fecheck.statics.newton import master_tangent, point_force
 
 Part = tuple[np.ndarray, np.ndarray]
 """(W (6,), dW/dξ (6, 6)): one part of the tibia's wrench and its tangent."""
@@ -136,13 +135,8 @@ class Compartment:
         from the law's wrench [F, M] (6,) on the slave and its tangent."""
         if self.slave_is_tibia:
             return wrench, tangent
-        # the femur is the slave: minus the wrench on it, for the tibia's twist
-        fs = skew(wrench[:3])
-        dw = tangent.copy()
-        dw[:3, 3:] += fs
-        dw[3:, :3] += fs
-        dw[3:, 3:] += skew(wrench[3:])
-        return -wrench, dw
+        # the femur is the slave: minus the wrench on it, for the tibia's (master's) twist
+        return -wrench, master_tangent(wrench, tangent)
 
     def evaluate(self, rot: np.ndarray, t: np.ndarray
                  ) -> tuple[laws.LawResult, np.ndarray, np.ndarray]:

@@ -26,25 +26,30 @@ from fecheck.model.results import CompartmentResult
 from fecheck.scene import Scene
 from fecheck.scene.unit_hints import no_equilibrium_hint
 from fecheck.statics.newton import (
-    ConstraintFn,
+    TIBIA_COORDINATES,
     NoEquilibrium,
     Problem,
     Solution,
+    body_pose,
+    constraint_on_body,
     cross3,
-    pose,
+    on_body,
     solve,
+    tibia_body,
 )
 
 
 @dataclass(frozen=True, eq=False)
 class Equilibrium:
-    """A solved equilibrium: the Newton solution, the tibia's pose (R, t), and each
-    compartment's law result and contact wrench on the tibia (6,) at that pose.
+    """A solved equilibrium: the Newton solution, the tibia's q = (x, y, z mm, θy, θz rad)
+    and pose (R, t), and each compartment's law result and contact wrench on the tibia (6,)
+    at that pose.
 
     seconds : wall time of the Newton solve, s
     """
 
     solution: Solution
+    q: np.ndarray
     rot: np.ndarray
     t: np.ndarray
     results: list[LawResult]
@@ -55,11 +60,14 @@ class Equilibrium:
 
 def solve_equilibrium(scene: Scene, comps: Sequence[Compartment],
                       springs: Sequence[Callable] = (),
-                      constraints: Sequence[ConstraintFn] = (),
+                      constraints: Sequence[Callable] = (),
                       warm_start: np.ndarray | None = None) -> Equilibrium:
     """Newton statics of the scene's tibia with contact in `comps`, the scene's load and
     gravity, ligament `springs` (wrench parts) and `constraints` (rods, equal forces).
 
+    The tibia is the one body of the solve (the femur is fixed); `springs` are its wrench
+    parts at its pose (R, t) and `constraints` functions (R, t, parts) → (g, w, ∂w/∂ξ)
+    (`fecheck.statics.newton.constraint_on_body`).
     `warm_start` (5,) = (x, y, z mm, θy, θz rad) starts the solve there (sweeps). The
     scene and meshes are checked first (`fecheck.model.plausibility.before_solve`); a
     failure to find any equilibrium names a load below the tibia's weight.
@@ -68,18 +76,20 @@ def solve_equilibrium(scene: Scene, comps: Sequence[Compartment],
     contact = ContactModel(comps)
     parts = wrench_parts(contact, applied_load(scene), *springs)
     q0 = start_pose(scene) if warm_start is None else np.asarray(warm_start, dtype=float)
-    problem = Problem(q0, free_indices(scene), parts, tuple(constraints),
-                      math.radians(scene["dofs.flexion_deg"]), force_scale(scene),
+    tibia = tibia_body(q0, free_indices(scene), math.radians(scene["dofs.flexion_deg"]))
+    problem = Problem((tibia,), on_body(parts),
+                      tuple(constraint_on_body(c) for c in constraints), force_scale(scene),
                       tolerance=scene["solver.tolerance"],
                       max_iterations=scene["solver.max_iterations"],
                       touching=lambda: contact.touching)
     t0 = time.perf_counter()
     sol = _solve(scene, problem)
     seconds = time.perf_counter() - t0
-    rot, t = pose(sol.q, problem.theta_x)
+    rot, t = body_pose(sol.q[0])
     evaluated = contact.evaluate(rot, t)              # at the solution, for the report
-    return Equilibrium(sol, rot, t, [res for res, _, _ in evaluated],
-                       [w for _, w, _ in evaluated], contact, seconds)
+    return Equilibrium(sol, sol.q[0][list(TIBIA_COORDINATES)], rot, t,
+                       [res for res, _, _ in evaluated], [w for _, w, _ in evaluated], contact,
+                       seconds)
 
 
 def _solve(scene: Scene, problem: Problem) -> Solution:

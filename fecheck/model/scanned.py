@@ -208,5 +208,5 @@ def run_scanned(scene: Scene, warm_start: np.ndarray | None = None) -> RunResult
               "per_evaluation_us": 1e6 * contact.contact_seconds / max(contact.evaluations, 1)}
     return RunResult(scene["name"] or scene.source, scene["model.kind"], scene["contact.law"],
                      sol.converged, sol.iterations, sol.residual_norm,
-                     Pose.of(sol.q, math.radians(scene["dofs.flexion_deg"])), compartments,
+                     Pose.of(eq.q, math.radians(scene["dofs.flexion_deg"])), compartments,
                      ligaments, timing, {}, tuple(notes), record)

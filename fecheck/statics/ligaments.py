@@ -1,4 +1,6 @@
-"""Ligaments between a femur point P (fixed, mm) and a tibia point Q (tibia frame, mm).
+"""Ligaments between a femur point P (fixed, mm) and a tibia point Q (tibia frame, mm),
+or between points of any two bodies of a `fecheck.statics.newton.Problem` (`BodySpring`,
+`body_rod`; each point in its body's frame).
 
 * Rods of constant length (thesis eq. 1.7, Lagrange multipliers): the constraint
   g = |P − x_Q| − L = 0; its multiplier is the rod tension (N, + pulls the tibia toward
@@ -14,12 +16,13 @@
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from dataclasses import dataclass
 
 import numpy as np
 
 from fecheck.errors import FecheckError
-from fecheck.statics.newton import point_force
+from fecheck.statics.newton import BodyPose, ConstraintFn, Part, point_force, two_point_force
 
 
 def _direction(femur_point: np.ndarray, x: np.ndarray) -> tuple[np.ndarray, float]:
@@ -32,7 +35,8 @@ def _direction(femur_point: np.ndarray, x: np.ndarray) -> tuple[np.ndarray, floa
 
 
 def rod_constraint(femur_point: np.ndarray, tibia_point: np.ndarray, length_mm: float):
-    """Constraint g = |P − x_Q| − L (mm) for `fecheck.statics.newton.Problem.constraints`.
+    """Constraint g = |P − x_Q| − L (mm) on the tibia (`fecheck.statics.newton.
+    constraint_on_body` makes it one of `Problem.constraints`).
 
     Returns a function (R, t, parts) → (g, w, dw/dξ) with w = −∂g/∂ξ the wrench of a unit
     tension on the tibia (the wrench `parts` of the evaluation are not needed).
@@ -85,13 +89,66 @@ class SpringLigament:
 
     def __call__(self, rot: np.ndarray, t: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         x = rot @ self.tibia_point + t
-        u, length = _direction(self.femur_point, x)
-        l0 = self.slack_length_mm
-        f, df = blankevoort_tension((length - l0) / l0, self.stiffness_N,
-                                    self.transition_strain)
-        f, dfdl = float(f), float(df) / l0
-        jac = -dfdl * np.outer(u, u) - (f / length) * (np.eye(3) - np.outer(u, u))
-        return point_force(x, f * u, jac)
+        return point_force(x, *_pull(self, self.femur_point, x))
+
+
+def _pull(spring, a: np.ndarray, x: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """The force (3,) of a Blankevoort `spring` (its slack length, stiffness and
+    transition strain) on its end at x toward its end at a (mm, world), and its
+    derivative (3, 3) with x."""
+    u, length = _direction(a, x)
+    l0 = spring.slack_length_mm
+    f, df = blankevoort_tension((length - l0) / l0, spring.stiffness_N,
+                                spring.transition_strain)
+    f, dfdl = float(f), float(df) / l0
+    jac = -dfdl * np.outer(u, u) - (f / length) * (np.eye(3) - np.outer(u, u))
+    return f * u, jac
+
+
+@dataclass(frozen=True)
+class BodySpring:
+    """A Blankevoort 1991 spring between `point_a` of body `body_a` and `point_b` of body
+    `body_b` (each in its body's frame, mm; bodies are indices into `Problem.bodies`).
+    Called with the poses of all bodies, it gives its `Part`: the pull on both ends."""
+
+    body_a: int
+    point_a: np.ndarray
+    body_b: int
+    point_b: np.ndarray
+    slack_length_mm: float
+    stiffness_N: float
+    transition_strain: float
+
+    def ends(self, poses: Sequence[BodyPose]) -> tuple[np.ndarray, np.ndarray]:
+        """World positions (mm) of the two attachments."""
+        (ra, ta), (rb, tb) = poses[self.body_a], poses[self.body_b]
+        return ra @ self.point_a + ta, rb @ self.point_b + tb
+
+    def tension(self, poses: Sequence[BodyPose]) -> float:
+        """Spring force at the poses, N (+ tension)."""
+        x_a, x_b = self.ends(poses)
+        return float(np.linalg.norm(_pull(self, x_a, x_b)[0]))
+
+    def __call__(self, poses: Sequence[BodyPose]) -> Part:
+        x_a, x_b = self.ends(poses)
+        w, dw = two_point_force(x_a, x_b, *_pull(self, x_a, x_b))
+        return (self.body_a, self.body_b), w, dw
+
+
+def body_rod(body_a: int, point_a: np.ndarray, body_b: int, point_b: np.ndarray,
+             length_mm: float) -> ConstraintFn:
+    """Rod of constant length between two bodies' points (each in its body's frame, mm):
+    the constraint g = |x_a − x_b| − L (mm); its multiplier is the rod tension (N)."""
+    pa, pb = np.asarray(point_a, dtype=float), np.asarray(point_b, dtype=float)
+
+    def constraint(poses: Sequence[BodyPose], parts=()):
+        (ra, ta), (rb, tb) = poses[body_a], poses[body_b]
+        x_a, x_b = ra @ pa + ta, rb @ pb + tb
+        u, length = _direction(x_a, x_b)
+        w, dw = two_point_force(x_a, x_b, u, -(np.eye(3) - np.outer(u, u)) / length)
+        return length - length_mm, (body_a, body_b), w, dw
+
+    return constraint
 
 
 def spring_wrench(femur_point: np.ndarray, tibia_point: np.ndarray, reference_length_mm: float,

@@ -1,20 +1,30 @@
-"""Static equilibrium of the tibia (femur fixed) by safeguarded Newton-Raphson.
+"""Static equilibrium of rigid bodies by safeguarded block Newton-Raphson.
 
-Generalised coordinates (thesis §1.3, eq. 1.14): q = (x, y, z, θy, θz) in mm and rad,
-the tibia pose x_world = R·X + t with R = Rx(θx)·Ry(θy)·Rz(θz), t = (x, y, z); θx is
-driven. Loads are wrenches W = (F, M) on the tibia, M about the world origin (N, N·mm);
-a small tibia motion is the twist ξ = (v, ω) with δx = v + ω × x, and ξ = B(q)·δq. The
-generalised force is Q = Bᵀ·W and its exact tangent dQ/dq = Bᵀ·(dW/dξ)·B + Σ_k
-(∂B/∂q_k)ᵀ·W e_kᵀ.
+Each body's pose is x_world = R·X + t with generalised coordinates
+q = (x, y, z, θx, θy, θz) (mm, rad; `BODY_DOFS`), R = Rx(θx)·Ry(θy)·Rz(θz), t = (x, y, z);
+every coordinate is free (solved) or held at its start value (driven or fixed). A small
+motion of a body is the twist ξ = (v, ω) about the world origin, δx = v + ω × x, and
+ξ = B(q)·δq with B = [[I, t × a_x, t × a_y, t × a_z], [0, a_x, a_y, a_z]], a_x = e_x,
+a_y = Rx e_y, a_z = Rx Ry e_z the rotation axes (world). Loads are wrenches W = (F, M),
+M about the world origin (N, N·mm). The generalised force on body b is Q_b = B_bᵀ·W_b;
+its exact tangent is dQ_b/dq_c = B_bᵀ·(dW_b/dξ_c)·B_c + δ_bc Σ_k (∂B_b/∂q_k)ᵀ·W_b e_kᵀ
+(thesis §1.3, eq. 1.14, for one body).
 
-Constraints g(q) = 0 (ligament rods) add multipliers λ whose wrench is λ·w with
-w = -∂g/∂ξ (for a rod, λ is its tension, N). Newton solves
-[Q + Σ λ_i Bᵀ w_i = 0, g = 0] with a backtracking line search on the residual norm;
-where the stiffness is indefinite because the wrench's parts cancel (no constraints) it
-takes energy-descent steps instead (`_descent_step`), so it reaches stable equilibria; a
-start without contact (no stiffness along the load) is handled by a growing step along
-the unbalanced load until contact is made. DOFs with no stiffness and no load are
-reported as a `FecheckError` telling the scene to drive them.
+The wrench comes in parts (`Part`): a load or a spring to the world acts on one body; a
+contact interface or a spring between two bodies acts on both, with the tangent blocks of
+both bodies' twists (`interface_part`). Constraints g = 0 (ligament rods) add
+multipliers λ whose wrench is λ·w with w = -∂g/∂ξ (for a rod, λ is its tension, N).
+Newton solves [Q + Σ λ_i Bᵀ w_i = 0, g = 0] for the stacked free coordinates of every
+body with a backtracking line search on the residual norm; where the stiffness is
+indefinite because the wrench's parts cancel (no constraints) it takes energy-descent
+steps instead (`_descent_step`), so it reaches stable equilibria; a start without
+contact (no stiffness along the load) is handled by a growing step along the unbalanced
+load until contact is made. DOFs with no stiffness and no load are reported as a
+`FecheckError` telling the scene to drive them.
+
+The tibia under a fixed femur is the one body of the knee models: its q = (x, y, z, θy,
+θz) (`fecheck.scene.constants.DOF_NAMES`) with θx driven; `pose`, `twist_basis` and
+`geometric_tangent` are its 5-coordinate forms and `tibia_body` its `Body`.
 """
 
 from __future__ import annotations
@@ -25,26 +35,35 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from fecheck.errors import FecheckError
-from fecheck.scene.constants import DOF_NAMES
 from fecheck.statics.frames import rot_x, rot_y, rot_z, skew
 
-E_Y = np.array([0.0, 1.0, 0.0])
-E_Z = np.array([0.0, 0.0, 1.0])
+E_X = np.array([1.0, 0.0, 0.0])
 
-Part = tuple[np.ndarray, np.ndarray]
-"""(W (6,), dW/dξ (6, 6)): one part of the wrench on the tibia and its tangent."""
+BODY_DOFS = ("x", "y", "z", "flexion", "abduction", "internal")
+"""A body's generalised coordinates q (6,): translations (mm), then θx, θy, θz (rad)."""
 
-WrenchFn = Callable[[np.ndarray, np.ndarray], Sequence[Part]]
-"""(R, t) → the parts of the wrench on the tibia (contact, load, springs), summed here."""
+TIBIA_COORDINATES = (0, 1, 2, 4, 5)
+"""Where the tibia's q = (x, y, z, θy, θz) sits in its body coordinates (θx driven)."""
 
-ConstraintFn = Callable[[np.ndarray, np.ndarray, Sequence[Part]],
-                        tuple[float, np.ndarray, np.ndarray]]
-"""(R, t, parts of this evaluation) → (g, w = -∂g/∂ξ (6,), ∂w/∂ξ (6, 6)): a scalar
-constraint g = 0."""
+BodyPose = tuple[np.ndarray, np.ndarray]
+"""(R (3, 3), t (3,) mm): x_world = R·X + t."""
+
+Part = tuple[tuple[int, ...], np.ndarray, np.ndarray]
+"""(bodies, W (6k,), dW/dξ (6k, 6k)): one part of the wrench (a load, a spring, a contact
+interface) on k bodies (indices into `Problem.bodies`), the wrenches on each stacked, and
+their tangent for the stacked twists of those bodies."""
+
+WrenchFn = Callable[[Sequence[BodyPose]], Sequence[Part]]
+"""(pose of every body) → the parts of the wrench, summed per body here."""
+
+ConstraintFn = Callable[[Sequence[BodyPose], Sequence[Part]],
+                        tuple[float, tuple[int, ...], np.ndarray, np.ndarray]]
+"""(poses, parts of this evaluation) → (g, bodies, w = -∂g/∂ξ (6k,), ∂w/∂ξ (6k, 6k)):
+a scalar constraint g = 0 between k bodies."""
 
 
 class NoEquilibrium(FecheckError):
-    """The unbalanced load moved the tibia without meeting an equilibrium: no contact
+    """The unbalanced load moved the bodies without meeting an equilibrium: no contact
     along the load within 1 m, or none with a lower residual. The model adds what it
     knows of the cause (e.g. a load below the tibia's weight)."""
 
@@ -55,52 +74,77 @@ def cross3(a: np.ndarray, b: np.ndarray) -> np.ndarray:
                      a[0] * b[1] - a[1] * b[0]])
 
 
-def pose(q: np.ndarray, theta_x: float = 0.0) -> tuple[np.ndarray, np.ndarray]:
-    """Rotation R and translation t (mm) of the tibia for q = (x, y, z, θy, θz)."""
-    return rot_x(theta_x) @ rot_y(q[3]) @ rot_z(q[4]), np.asarray(q[:3], dtype=float)
+def _frame(q: np.ndarray) -> tuple[np.ndarray, np.ndarray, tuple[np.ndarray, ...]]:
+    """R, t (mm) and the rotation axes (a_x, a_y, a_z) (world) of body coordinates q."""
+    rx = rot_x(q[3])
+    rxy = rx @ rot_y(q[4])
+    return rxy @ rot_z(q[5]), np.asarray(q[:3], dtype=float), (E_X, rx[:, 1], rxy[:, 2])
 
 
-def _axes(q: np.ndarray, theta_x: float) -> tuple[np.ndarray, np.ndarray]:
-    rx = rot_x(theta_x)
-    return rx @ E_Y, rx @ rot_y(q[3]) @ E_Z
+def body_pose(q: np.ndarray) -> BodyPose:
+    """Rotation R and translation t (mm) of a body at q = (x, y, z, θx, θy, θz)."""
+    return _frame(q)[:2]
 
 
-def _basis(q: np.ndarray, a_y: np.ndarray, a_z: np.ndarray) -> np.ndarray:
-    """B (6, 5) from the abduction and internal-rotation axes a_y, a_z (world)."""
-    b = np.zeros((6, 5))
+def _basis(t: np.ndarray, axes: Sequence[np.ndarray]) -> np.ndarray:
+    b = np.zeros((6, 6))
     b[0, 0] = b[1, 1] = b[2, 2] = 1.0
-    b[:3, 3] = cross3(q[:3], a_y)
-    b[:3, 4] = cross3(q[:3], a_z)
-    b[3:, 3] = a_y
-    b[3:, 4] = a_z
+    for i, a in enumerate(axes):
+        b[:3, 3 + i] = cross3(t, a)
+        b[3:, 3 + i] = a
     return b
 
 
-def _geometric(q: np.ndarray, wrench: np.ndarray, a_y: np.ndarray, a_z: np.ndarray
-               ) -> np.ndarray:
-    """Σ_k (∂B/∂q_k)ᵀ·W e_kᵀ (5, 5) from the axes a_y, a_z (world)."""
+def _geometric(t: np.ndarray, wrench: np.ndarray, axes: Sequence[np.ndarray]) -> np.ndarray:
+    """Σ_k (∂B/∂q_k)ᵀ·W e_kᵀ (6, 6): row j, column k is (∂B_j/∂q_k)·W. A rotation
+    column B_j = (t × a_j, a_j) changes with t_k by (e_k × a_j, 0), and with an earlier
+    angle θ_k of the chain Rx·Ry·Rz by (t × b, b), b = ∂a_j/∂θ_k = a_k × a_j."""
     f, m = wrench[:3], wrench[3:]
-    k = np.zeros((5, 5))
-    k[3, :3] = cross3(a_y, f)              # row k of (F × e_k)·a = (a × F)_k
-    k[4, :3] = cross3(a_z, f)
-    b = cross3(a_y, a_z)
-    k[4, 3] = cross3(q[:3], b) @ f + b @ m
+    k = np.zeros((6, 6))
+    for j in range(3):
+        k[3 + j, :3] = cross3(axes[j], f)          # (e_k × a)·F = (a × F)_k
+        for i in range(j):
+            b = cross3(axes[i], axes[j])
+            k[3 + j, 3 + i] = cross3(t, b) @ f + b @ m
     return k
 
 
+def body_basis(q: np.ndarray) -> np.ndarray:
+    """B (6, 6): the twist ξ = (v, ω) about the world origin for δq (mm, rad)."""
+    _, t, axes = _frame(q)
+    return _basis(t, axes)
+
+
+def body_geometric(q: np.ndarray, wrench: np.ndarray) -> np.ndarray:
+    """Σ_k (∂B/∂q_k)ᵀ·W e_kᵀ (6, 6): the tangent part from B's dependence on q."""
+    _, t, axes = _frame(q)
+    return _geometric(t, wrench, axes)
+
+
+def tibia_coordinates(q: np.ndarray, theta_x: float = 0.0) -> np.ndarray:
+    """Body coordinates (6,) of the tibia's q = (x, y, z, θy, θz) at flexion θx (rad)."""
+    return np.array([q[0], q[1], q[2], theta_x, q[3], q[4]], dtype=float)
+
+
+def pose(q: np.ndarray, theta_x: float = 0.0) -> BodyPose:
+    """Rotation R and translation t (mm) of the tibia for q = (x, y, z, θy, θz)."""
+    return body_pose(tibia_coordinates(q, theta_x))
+
+
 def twist_basis(q: np.ndarray, theta_x: float = 0.0) -> np.ndarray:
-    """B (6, 5): the twist ξ = (v, ω) about the world origin for δq (mm, rad)."""
-    return _basis(q, *_axes(q, theta_x))
+    """B (6, 5) of the tibia's q = (x, y, z, θy, θz) (mm, rad)."""
+    return np.ascontiguousarray(body_basis(tibia_coordinates(q, theta_x))[:, TIBIA_COORDINATES])
 
 
 def geometric_tangent(q: np.ndarray, wrench: np.ndarray, theta_x: float = 0.0) -> np.ndarray:
-    """Σ_k (∂B/∂q_k)ᵀ·W e_kᵀ (5, 5): the tangent part from B's dependence on q."""
-    return _geometric(q, wrench, *_axes(q, theta_x))
+    """Σ_k (∂B/∂q_k)ᵀ·W e_kᵀ (5, 5) of the tibia's q = (x, y, z, θy, θz)."""
+    k = body_geometric(tibia_coordinates(q, theta_x), wrench)
+    return k[np.ix_(TIBIA_COORDINATES, TIBIA_COORDINATES)]
 
 
 def point_force(x: np.ndarray, f: np.ndarray, df_dx: np.ndarray | None = None
                 ) -> tuple[np.ndarray, np.ndarray]:
-    """Wrench (6,) of force `f` (N) at tibia point `x` (mm, world) and dW/dξ (6, 6).
+    """Wrench (6,) of force `f` (N) at a body point `x` (mm, world) and dW/dξ (6, 6).
 
     `df_dx` (3, 3) is how the force changes as the point moves (None: constant force).
     """
@@ -116,24 +160,115 @@ def point_force(x: np.ndarray, f: np.ndarray, df_dx: np.ndarray | None = None
     return w, np.vstack([dfx, -sf @ dx + skew(x) @ dfx])
 
 
+def carried(wrench: np.ndarray) -> np.ndarray:
+    """C(W) (6, 6): how a wrench W (about the world origin) between two bodies changes when
+    both move by the same twist ξ, dW = C(W)·ξ (it moves with them: δF = ω × F,
+    δM = v × F + ω × M)."""
+    out = np.zeros((6, 6))
+    sf = skew(wrench[:3])
+    out[:3, 3:] = -sf
+    out[3:, :3] = -sf
+    out[3:, 3:] = -skew(wrench[3:])
+    return out
+
+
+def master_tangent(wrench: np.ndarray, tangent: np.ndarray) -> np.ndarray:
+    """d(-W)/dξ_m (6, 6): the tangent of the wrench on the master body, -W, for the
+    master's twist, from the contact wrench W on the slave and K = dW/dξ_s (slave's twist,
+    master held). W depends on the relative pose only, so dW/dξ_s + dW/dξ_m = C(W)
+    (`carried`) and d(-W)/dξ_m = K - C(W)."""
+    return tangent - carried(wrench)
+
+
+def interface_part(slave: int, master: int, wrench: np.ndarray, tangent: np.ndarray) -> Part:
+    """The `Part` of a contact interface: W on the slave body, -W on the master, with the
+    blocks [[K, C - K], [-K, K - C]] (K = dW/dξ_s, C = `carried`(W))."""
+    c = carried(wrench)
+    dw = np.block([[tangent, c - tangent], [-tangent, tangent - c]])
+    return (slave, master), np.concatenate([wrench, -wrench]), dw
+
+
+def two_point_force(x_a: np.ndarray, x_b: np.ndarray, f: np.ndarray, df_dx: np.ndarray
+                    ) -> tuple[np.ndarray, np.ndarray]:
+    """Wrenches (12,) of force `f` (N) on body b at its point x_b and -f on body a at x_a
+    (mm, world), f depending on x_b - x_a with ∂f/∂x_b = `df_dx` (3, 3), and their tangent
+    (12, 12) for the twists (ξ_a, ξ_b): a spring or a rod between two bodies."""
+    da = np.hstack([np.eye(3), -skew(x_a)])        # δx_a = da @ ξ_a
+    db = np.hstack([np.eye(3), -skew(x_b)])
+    dfa, dfb = -df_dx @ da, df_dx @ db             # δf = dfa ξ_a + dfb ξ_b
+    sf, sxa, sxb = skew(f), skew(x_a), skew(x_b)
+    w = np.concatenate([-f, cross3(x_a, -f), f, cross3(x_b, f)])
+    dw = np.block([[-dfa, -dfb],
+                   [sf @ da - sxa @ dfa, -sxa @ dfb],
+                   [dfa, dfb],
+                   [sxb @ dfa, -sf @ db + sxb @ dfb]])
+    return w, dw
+
+
+@dataclass(frozen=True)
+class Body:
+    """A rigid body of a `Problem`.
+
+    name : how messages name it ("tibia", "medial meniscus")
+    q_start : (6,) start coordinates (x, y, z mm, θx, θy, θz rad); the coordinates not in
+        `free` stay at their value (driven, or fixed)
+    free : indices of the free coordinates in `BODY_DOFS` (empty: a fixed body)
+    free_key : the scene key that lists the free DOFs (for messages)
+    start_keys : the scene keys the start coordinates come from (for messages)
+    """
+
+    name: str
+    q_start: np.ndarray
+    free: tuple[int, ...]
+    free_key: str = "dofs.free"
+    start_keys: str = "dofs.*_mm/_deg"
+
+
+def tibia_body(q: np.ndarray, free: Sequence[int], theta_x: float = 0.0) -> Body:
+    """The tibia as a `Body`: its q = (x, y, z, θy, θz) with θx driven, and the indices
+    `free` of its free DOFs in (x, y, z, θy, θz)."""
+    return Body("tibia", tibia_coordinates(q, theta_x),
+                tuple(TIBIA_COORDINATES[i] for i in free))
+
+
+def on_body(parts: Callable[[np.ndarray, np.ndarray], Sequence[tuple[np.ndarray, np.ndarray]]],
+            body: int = 0) -> WrenchFn:
+    """A `WrenchFn` from wrench parts (W (6,), dW/dξ (6, 6)) on one body at its pose."""
+    index = (body,)
+
+    def wrench(poses: Sequence[BodyPose]) -> list[Part]:
+        return [(index, w, dw) for w, dw in parts(*poses[body])]
+
+    return wrench
+
+
+def constraint_on_body(con: Callable, body: int = 0) -> ConstraintFn:
+    """A `ConstraintFn` from a one-body constraint (R, t, [(W, dW/dξ)]) → (g, w, ∂w/∂ξ)
+    (the parts passed on are this evaluation's, without their body indices)."""
+    index = (body,)
+
+    def constraint(poses: Sequence[BodyPose], parts: Sequence[Part]):
+        g, w, dw = con(*poses[body], [(wp, dp) for _, wp, dp in parts])
+        return g, index, w, dw
+
+    return constraint
+
+
 @dataclass(frozen=True)
 class Problem:
     """An equilibrium problem.
 
-    q_start : (5,) start pose; driven DOFs stay at their value
-    free : indices of the free DOFs in (x, y, z, θy, θz)
-    wrench : the parts of the wrench on the tibia (contact, load, gravity, springs); their
-        sum is balanced, and each part's stiffness tells parts that cancel from none
+    bodies : the rigid bodies; their free coordinates are solved all at once
+    wrench : the parts of the wrench (contact, load, gravity, springs); their sum on each
+        body is balanced, and each part's stiffness tells parts that cancel from none
     constraints : scalar constraints with multipliers (rods, equal forces)
     force_scale_N : load magnitude the tolerance is relative to
     length_scale_mm : converts rotations and moments to mm and N in the residual norm
     """
 
-    q_start: np.ndarray
-    free: tuple[int, ...]
+    bodies: tuple[Body, ...]
     wrench: WrenchFn
     constraints: Sequence[ConstraintFn] = ()
-    theta_x: float = 0.0
     force_scale_N: float = 1.0
     length_scale_mm: float = 50.0
     tolerance: float = 1e-8
@@ -141,12 +276,27 @@ class Problem:
     touching: Callable[[], bool] | None = None
     """After a `wrench` call: whether any contact was active (None: always)."""
 
+    def __post_init__(self) -> None:
+        names = [b.name for b in self.bodies]
+        if len(set(names)) < len(names):
+            raise FecheckError(f"bodies {names} share a name: give each body its own")
+
+    @property
+    def n_free(self) -> int:
+        """Number of free coordinates of all bodies."""
+        return sum(len(b.free) for b in self.bodies)
+
+    def free_names(self) -> list[tuple[str, str]]:
+        """(body name, DOF name) of every free coordinate, in the stacked order."""
+        return [(b.name, BODY_DOFS[i]) for b in self.bodies for i in b.free]
+
 
 @dataclass(frozen=True)
 class Solution:
-    """Newton result: pose q (5,), multipliers (one per constraint), convergence data."""
+    """Newton result: coordinates q (6,) of every body, multipliers (one per constraint),
+    convergence data."""
 
-    q: np.ndarray
+    q: tuple[np.ndarray, ...]
     multipliers: np.ndarray
     converged: bool
     iterations: int
@@ -155,75 +305,126 @@ class Solution:
     history: tuple[float, ...] = field(default=())
 
 
+def _scatter(parts: Sequence[Part], n_bodies: int
+             ) -> tuple[list[np.ndarray], dict[tuple[int, int], np.ndarray]]:
+    """Sum the parts per body: W_b (6,) and the tangent blocks dW_b/dξ_c (6, 6)."""
+    w = [np.zeros(6) for _ in range(n_bodies)]
+    dw: dict[tuple[int, int], np.ndarray] = {}
+    for bodies, wp, dp in parts:
+        if len(bodies) == 1:                       # a load or a spring to the world
+            b = bodies[0]
+            w[b] += wp
+            if (b, b) in dw:
+                dw[b, b] += dp
+            else:
+                dw[b, b] = dp.copy()
+            continue
+        for i, b in enumerate(bodies):
+            w[b] += wp[6 * i:6 * i + 6]
+            for j, c in enumerate(bodies):
+                block = dp[6 * i:6 * i + 6, 6 * j:6 * j + 6]
+                if (b, c) in dw:
+                    dw[b, c] += block
+                else:
+                    dw[b, c] = block.copy()
+    return w, dw
+
+
 class _System:
     """Residual and Jacobian of the augmented system in scaled units."""
 
     def __init__(self, p: Problem):
         self.p = p
-        self.nf = len(p.free)
+        self.nf = p.n_free
         self.nc = len(p.constraints)
-        s = np.ones(5)
-        s[3:] = p.length_scale_mm
-        self.free = list(p.free)
-        self.sq = s[self.free]                 # scaled δq = sq · δq_true (mm)
-        self.block = np.ix_(self.free, self.free)
-        self.sq2 = np.outer(self.sq, self.sq)
-        self.rx = rot_x(p.theta_x)
-        self.a_y = self.rx @ E_Y
+        self.slices, start = [], 0
+        for b in p.bodies:
+            self.slices.append(slice(start, start + len(b.free)))
+            start += len(b.free)
+        self.sq = np.concatenate([np.where(np.array(b.free, dtype=int) >= 3,
+                                           p.length_scale_mm, 1.0) for b in p.bodies])
+        self.sq2 = np.outer(self.sq, self.sq)   # scaled δq = sq · δq_true (mm)
         self.evaluations = 0
         self.touching = True
         self.parts: Sequence[Part] = ()
 
-    def q_of(self, z: np.ndarray) -> np.ndarray:
-        q = np.array(self.p.q_start, dtype=float)
-        q[self.free] = z[:self.nf] / self.sq
-        return q
+    def z_of(self, qs: Sequence[np.ndarray]) -> np.ndarray:
+        """Scaled free coordinates (nf,) of the body coordinates `qs`."""
+        return np.concatenate([np.asarray(q, dtype=float)[list(b.free)]
+                               for b, q in zip(self.p.bodies, qs, strict=True)]) * self.sq
+
+    def q_of(self, z: np.ndarray) -> list[np.ndarray]:
+        out = []
+        for b, s in zip(self.p.bodies, self.slices, strict=True):
+            q = np.array(b.q_start, dtype=float)
+            q[list(b.free)] = z[s] / self.sq[s]
+            out.append(q)
+        return out
+
+    def _frames(self, z: np.ndarray) -> tuple[list[BodyPose], list[np.ndarray], list]:
+        """Poses, twist bases of the free coordinates (6, nf_b) and frames at z."""
+        poses, bases, frames = [], [], []
+        for b, q in zip(self.p.bodies, self.q_of(z), strict=True):
+            r, t, axes = _frame(q)
+            poses.append((r, t))
+            bases.append(np.ascontiguousarray(_basis(t, axes)[:, list(b.free)]))
+            frames.append((t, axes))
+        return poses, bases, frames
+
+    def _tangent(self, bases: list[np.ndarray], dw: dict[tuple[int, int], np.ndarray]
+                 ) -> np.ndarray:
+        """Σ B_bᵀ·(dW_b/dξ_c)·B_c over the blocks (b, c) of `dw`, (nf, nf), unscaled."""
+        k = np.zeros((self.nf, self.nf))
+        for (b, c), block in dw.items():
+            k[self.slices[b], self.slices[c]] += bases[b].T @ block @ bases[c]
+        return k
+
+    def _geometric(self, frames: list, w: list[np.ndarray]) -> np.ndarray:
+        """The geometric part Σ_k (∂B_b/∂q_k)ᵀ·W_b e_kᵀ of every body, (nf, nf), unscaled."""
+        k = np.zeros((self.nf, self.nf))
+        for i, body in enumerate(self.p.bodies):
+            free = list(body.free)
+            t, axes = frames[i]
+            k[self.slices[i], self.slices[i]] = _geometric(t, w[i], axes)[np.ix_(free, free)]
+        return k
 
     def __call__(self, z: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        p, nf, free = self.p, self.nf, self.free
-        q = self.q_of(z)
+        p, nf = self.p, self.nf
         lam = z[nf:]
-        rxy = self.rx @ rot_y(q[3])
-        r, t = rxy @ rot_z(q[4]), q[:3]             # `pose`
-        a_z = rxy[:, 2].copy()                      # rx ry e_z
-        b = _basis(q, self.a_y, a_z)                # `twist_basis`
-        parts = p.wrench(r, t)
-        w, dw = np.zeros(6), np.zeros((6, 6))
-        for wp, dp in parts:
-            w += wp
-            dw += dp
+        poses, bases, frames = self._frames(z)
+        parts = p.wrench(poses)
+        w, dw = _scatter(parts, len(p.bodies))
         self.evaluations += 1
         self.touching = True if p.touching is None else bool(p.touching())
         self.parts = parts
-        k_full = b.T @ dw @ b
-        w_tot = w.copy()
+        k = self._tangent(bases, dw)
         res = np.empty(nf + self.nc)
         jac = np.zeros((nf + self.nc, nf + self.nc))
-        cols = []
         for i, con in enumerate(p.constraints):
-            g, wc, dwc = con(r, t, parts)
-            w_tot += lam[i] * wc
-            k_full += lam[i] * (b.T @ dwc @ b)
-            qc = (b.T @ wc)[free]
-            cols.append(qc)
+            g, bodies, wc, dwc = con(poses, parts)
+            wcs, dwcs = _scatter([(bodies, wc, dwc)], len(p.bodies))
+            k += lam[i] * self._tangent(bases, dwcs)
+            for b in bodies:
+                w[b] = w[b] + lam[i] * wcs[b]
+                qc = bases[b].T @ wcs[b] / self.sq[self.slices[b]]
+                jac[self.slices[b], nf + i] = qc
+                jac[nf + i, self.slices[b]] = -qc
             res[nf + i] = g
-        k_full += _geometric(q, w_tot, self.a_y, a_z)
-        res[:nf] = (b.T @ w_tot)[free] / self.sq   # forces N, moments / L
-        jac[:nf, :nf] = k_full[self.block] / self.sq2
-        for i, qc in enumerate(cols):
-            jac[:nf, nf + i] = qc / self.sq
-            jac[nf + i, :nf] = -qc / self.sq
+        k += self._geometric(frames, w)
+        for i, s in enumerate(self.slices):
+            res[s] = bases[i].T @ w[i] / self.sq[s]  # forces N, moments / L
+        jac[:nf, :nf] = k / self.sq2
         return res, jac
 
     def gross_stiffness(self, z: np.ndarray, v: np.ndarray) -> float:
         """Σ over the wrench's parts of |vᵀ·K_part·v| at z (the last evaluation), for a
         unit direction v of the free DOFs (scaled, N/mm): the stiffness acting along v
         before the parts cancel."""
-        q = self.q_of(z)
-        b = twist_basis(q, self.p.theta_x)
+        _, bases, frames = self._frames(z)
         total = 0.0
-        for w, dw in self.parts:
-            k = (b.T @ dw @ b + geometric_tangent(q, w, self.p.theta_x))[self.block] / self.sq2
+        for part in self.parts:
+            w, dw = _scatter([part], len(self.p.bodies))
+            k = (self._tangent(bases, dw) + self._geometric(frames, w)) / self.sq2
             total += abs(float(v @ k @ v))
         return total
 
@@ -233,12 +434,6 @@ def _null_space(jac: np.ndarray, rtol: float = 1e-4) -> np.ndarray:
     if s[0] == 0.0:
         return np.eye(len(s))
     return vt[s <= rtol * s[0]].T
-
-
-def _dof_names(p: Problem, basis: np.ndarray) -> list[str]:
-    nf = len(p.free)
-    weight = np.linalg.norm(basis[:nf], axis=1)
-    return [DOF_NAMES[p.free[i]] for i in range(nf) if weight[i] > 0.1]
 
 
 STEP_TOL_MM = 1e-5
@@ -253,15 +448,15 @@ def solve(p: Problem) -> Solution:
     below `STEP_TOL_MM`. Raises `FecheckError` when free DOFs have neither stiffness
     nor load, or when the constraints leave no motion.
     """
-    if p.constraints and len(p.constraints) >= len(p.free):
+    if p.constraints and len(p.constraints) >= p.n_free:
         raise FecheckError(f"{len(p.constraints)} constraints (ligament rods, equal forces) on "
-                           f"{len(p.free)} free DOFs {[DOF_NAMES[i] for i in p.free]} leave "
-                           f"no motion for the contact: the system is over-constrained; free "
-                           f"more DOFs (dofs.free) or use ligaments.model = 'spring'")
+                           f"{p.n_free} free DOFs {_labels(p)} leave no motion for the "
+                           f"contact: the system is over-constrained; free more DOFs "
+                           f"({_keys(p)}) or use ligaments.model = 'spring'")
     sysm = _System(p)
     nf = sysm.nf
     z = np.zeros(nf + sysm.nc)
-    z[:nf] = np.asarray(p.q_start)[list(p.free)] * sysm.sq
+    z[:nf] = sysm.z_of([b.q_start for b in p.bodies])
     f_tol = p.tolerance * p.force_scale_N
 
     def merit(res: np.ndarray) -> float:
@@ -288,7 +483,7 @@ def solve(p: Problem) -> Solution:
     null = _null_space(jac)
     if null.shape[1] and (converged or sysm.touching):
         raise FecheckError(_no_stiffness_message(p, null))
-    return Solution(sysm.q_of(z), z[nf:].copy(), converged, it, phi, sysm.evaluations,
+    return Solution(tuple(sysm.q_of(z)), z[nf:].copy(), converged, it, phi, sysm.evaluations,
                     tuple(history))
 
 
@@ -297,16 +492,37 @@ def _converged(res: np.ndarray, nf: int, f_tol: float, p: Problem) -> bool:
             and bool(np.all(np.abs(res[nf:]) <= p.tolerance * p.length_scale_mm)))
 
 
+def _labels(p: Problem, names: Sequence[tuple[str, str]] | None = None) -> list[str]:
+    """The free DOFs `names` (all by default) as DOF names, prefixed by the body's name
+    where the problem has more than one body."""
+    names = p.free_names() if names is None else names
+    return [dof if len(p.bodies) == 1 else f"{body} {dof}" for body, dof in names]
+
+
+def _keys(p: Problem) -> str:
+    return ", ".join(dict.fromkeys(b.free_key for b in p.bodies if b.free))
+
+
 def _no_stiffness_message(p: Problem, null: np.ndarray) -> str:
-    names = _dof_names(p, null)
-    if not names:
+    nf = p.n_free
+    weight = np.linalg.norm(null[:nf], axis=1)
+    names = p.free_names()
+    loose = [names[i] for i in range(nf) if weight[i] > 0.1]
+    if not loose:
         return (f"the {len(p.constraints)} constraints (ligament rods) over-constrain the free "
-                f"DOFs {[DOF_NAMES[i] for i in p.free]}: their forces are indeterminate; free "
-                f"more DOFs (dofs.free) or use ligaments.model = 'spring'")
-    driven = [DOF_NAMES[i] for i in p.free if DOF_NAMES[i] not in names]
-    return (f"the tibia DOFs {', '.join(names)} have no stiffness (nothing resists them, "
-            f"e.g. sliding on frictionless plateaus): drive them by setting dofs.free = "
-            f"{driven!r} (their values come from dofs.*_mm/_deg), or add ligaments")
+                f"DOFs {_labels(p)}: their forces are indeterminate; free more DOFs "
+                f"({_keys(p)}) or use ligaments.model = 'spring'")
+    drive, keys = [], []
+    for body in p.bodies:
+        held = [dof for name, dof in names if name == body.name and (name, dof) not in loose]
+        if len(held) < len(body.free):
+            drive.append(f"{body.free_key} = {held!r}")
+            keys.append(body.start_keys)
+    who = f"the {p.bodies[0].name} DOFs" if len(p.bodies) == 1 else "the DOFs"
+    return (f"{who} {', '.join(_labels(p, loose))} have no stiffness (nothing resists "
+            f"them, e.g. sliding on frictionless plateaus): drive them by setting "
+            f"{' and '.join(drive)} (their values come from {', '.join(keys)}), or add "
+            f"ligaments")
 
 
 MAX_STEP_MM = 5.0
