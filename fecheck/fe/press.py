@@ -26,7 +26,7 @@ import scipy.sparse as sp
 from fecheck.errors import FecheckError
 from fecheck.fe.bodies import FEBody
 from fecheck.fe.budget import guard_layers
-from fecheck.fe.indenter import MeshIndenter
+from fecheck.fe.indenter import MeshIndenter, barycentric
 from fecheck.fe.joint import ContactLayer, JointContact, JointSolution
 from fecheck.fe.settings import FESettings
 from fecheck.fe.solid import LayerSolid, layer_solid, release_freed_heap
@@ -90,27 +90,11 @@ def _refined(coarse: TriMesh, thickness: np.ndarray, times: int, offsets: np.nda
     out[:coarse.n_points] = values
     if times:
         corners = coarse.points[coarse.faces[parent]]                     # (m, 3, 3)
-        bary = _barycentric(corners, surface.points[surface.faces])       # (m, 3, 3)
+        bary = barycentric(corners, surface.points[surface.faces])       # (m, 3, 3)
         inner = np.einsum("mkj,mjc->mkc", bary, values[coarse.faces[parent]])
         out[surface.faces.ravel()] = inner.reshape(-1, 4)
         out[:coarse.n_points] = values
     return surface, parent, out[:, 0], out[:, 1:]
-
-
-def _barycentric(tri: np.ndarray, pts: np.ndarray) -> np.ndarray:
-    """Barycentric coordinates (m, k, 3) of points pts (m, k, 3) in triangles (m, 3, 3)."""
-    a, b, c = tri[:, 0], tri[:, 1], tri[:, 2]
-    v0, v1 = b - a, c - a
-    d00 = np.einsum("ij,ij->i", v0, v0)
-    d01 = np.einsum("ij,ij->i", v0, v1)
-    d11 = np.einsum("ij,ij->i", v1, v1)
-    den = d00 * d11 - d01 * d01
-    v2 = pts - a[:, None]
-    d20 = np.einsum("mkj,mj->mk", v2, v0)
-    d21 = np.einsum("mkj,mj->mk", v2, v1)
-    v = (d11[:, None] * d20 - d01[:, None] * d21) / den[:, None]
-    w = (d00[:, None] * d21 - d01[:, None] * d20) / den[:, None]
-    return np.stack([1.0 - v - w, v, w], axis=2)
 
 
 def build_layers(bodies: Sequence[FEBody], youngs_MPa: float, poisson: float,

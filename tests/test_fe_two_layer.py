@@ -1,0 +1,85 @@
+"""Two deformable cartilage layers in the FE (``fe.cartilage = "two-layer"``): the
+femoral layer's give joins the joint contact solve.
+
+References: Hertz for two elastic bodies (1/E* = (1-ν₁²)/E₁ + (1-ν₂²)/E₂, Johnson 1985
+§4.2) for a large sphere with a thick bonded layer on a thick block; the mirror symmetry
+of two equal layers (each takes half of the approach); the scene's load and weight.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+from fecheck.fe.indenter import MeshIndenter
+from fecheck.fe.joint import ContactLayer, FemoralLayer, JointContact
+from fecheck.fe.recovery import zero_contour_area
+from fecheck.fe.solid import layer_solid
+from fecheck.reference.closed_forms import (
+    hertz_contact_radius,
+    hertz_effective_modulus,
+    hertz_peak_pressure,
+)
+from geometry.mesh import TriMesh
+from geometry.plateau import plane_patch
+
+E, NU = 20.0, 0.3
+UP = np.array([0.0, 0.0, 1.0])
+
+
+def _cap(radius_mm: float, disc_mm: float, size: float, refine: float, refine_radius: float,
+         down: bool, turn_deg: float = 0.0) -> TriMesh:
+    """A spherical cap of `radius_mm` over a disc of `disc_mm` touching the origin: bulging
+    up with normals up, or (`down`) its mirror image bulging down with normals down,
+    turned `turn_deg` about z (so two caps' meshes do not match)."""
+    disc = plane_patch((0.0, 0.0, 0.0), UP, radius=disc_mm, size=size,
+                       refine_point=(0.0, 0.0, 0.0), refine_size=refine,
+                       refine_radius=refine_radius)
+    p = disc.points.copy()
+    r2 = p[:, 0] ** 2 + p[:, 1] ** 2
+    sag = radius_mm - np.sqrt(radius_mm ** 2 - r2) if math.isfinite(radius_mm) else 0 * r2
+    p[:, 2] = sag if down else -sag
+    faces = disc.faces[:, ::-1] if down else disc.faces
+    c, s = math.cos(math.radians(turn_deg)), math.sin(math.radians(turn_deg))
+    return TriMesh(p @ np.array([[c, -s, 0.0], [s, c, 0.0], [0.0, 0.0, 1.0]]).T, faces)
+
+
+def _press(tibial: TriMesh, h_t: float, femoral: TriMesh, h_f: float, force: float, *,
+           levels: int = 2, grading: float = 1.6, margin: float = 1.0):
+    """The tibial layer pushed up with `force` (N) against the femoral layer, both
+    deformable: (tibial solid, femoral solid, solution, contact)."""
+    tib = layer_solid(tibial, h_t, E, NU, layers=levels, ratio=grading)
+    fem = layer_solid(femoral, h_f, E, NU, layers=levels, ratio=grading)
+    indenter = MeshIndenter(femoral)
+    gap, face, _ = indenter.hits(tibial.points, tib.normals)
+    cand = np.flatnonzero(gap.gap_mm < margin)
+    hit = np.unique(femoral.faces[face[cand]])
+    femur = FemoralLayer("femur", fem, hit)
+    joint = JointContact([ContactLayer("tibia", tib, indenter, cand, femur)])
+    sol = joint.solve(lambda q: (np.eye(3), q[0] * UP),
+                      lambda q: np.concatenate([UP, np.zeros(3)])[:, None],
+                      lambda q: np.array([force]), np.zeros(1))
+    return tib, fem, sol, sol.layers[0]
+
+
+def test_equal_layers_split_the_approach_equally():
+    """Two equal layers, mirror images (R 30 mm caps, 3 mm thick, meshes turned 17 deg
+    apart): at the touch point each layer gives half of the approach."""
+    tibial = _cap(30.0, 9.0, 0.6, 0.4, 4.0, down=False)
+    femoral = _cap(30.0, 9.0, 0.6, 0.4, 4.0, down=True, turn_deg=17.0)
+    tib, fem, sol, lc = _press(tibial, 3.0, femoral, 3.0, 40.0)
+    approach = float(sol.q[0])
+    centre_t = int(np.argmin(np.linalg.norm(tibial.points, axis=1)))
+    centre_f = int(np.argmin(np.linalg.norm(femoral.points, axis=1)))
+    tibial_give = -(tib.normal_rows @ lc.u)[centre_t]              # down, into its bone
+    femoral_give = -(fem.normal_rows @ lc.femoral_u)[centre_f]     # up, into its bone
+    assert approach > 0.05
+    assert lc.active[centre_t]
+    assert tibial_give / approach == pytest.approx(0.5, abs=0.01)
+    assert femoral_give / approach == pytest.approx(0.5, abs=0.01)
+    # the contact forces balance the load, none pulls, no vertex penetrates
+    assert lc.force_N @ tib.normals[:, 2] == pytest.approx(40.0, rel=1e-10)
+    assert lc.force_N.min() >= 0.0
+    assert lc.gap_mm.min() >= -1e-9
