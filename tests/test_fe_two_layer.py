@@ -83,3 +83,24 @@ def test_equal_layers_split_the_approach_equally():
     assert lc.force_N @ tib.normals[:, 2] == pytest.approx(40.0, rel=1e-10)
     assert lc.force_N.min() >= 0.0
     assert lc.gap_mm.min() >= -1e-9
+
+
+def test_a_sphere_with_a_thick_layer_on_a_thick_block_matches_two_body_hertz():
+    """A sphere of R 200 mm carrying a 60 mm layer pressed with 2 N on a 60 mm block, both
+    of E 20 MPa, ν 0.3, bonded at their bases: Hertz with the combined modulus
+    E* = E / (2 (1 - ν²)) (contact radius 3.0 mm, 0.05 of either thickness) within 3 %
+    on p_max and the contact radius (Hertz with the block alone deforming is 26 % off
+    on the radius)."""
+    radius, force = 200.0, 2.0
+    tibial = _cap(math.inf, 80.0, 16.0, 0.5, 5.0, down=False)
+    femoral = _cap(radius, 80.0, 16.0, 0.5, 5.0, down=True, turn_deg=11.0)
+    tib, _, _, lc = _press(tibial, 60.0, femoral, 60.0, force, levels=5, grading=3.0,
+                           margin=0.1)
+    e_star = hertz_effective_modulus(E, NU, E, NU)
+    a_ref = hertz_contact_radius(force, radius, e_star)
+    pressure = lc.force_N / tib.tributary_mm2
+    area = zero_contour_area(tibial.points, tibial.faces, pressure, lc.active)
+    a = math.sqrt(area / math.pi)
+    print(a, a_ref, pressure.max(), hertz_peak_pressure(force, a_ref))
+    assert a == pytest.approx(a_ref, rel=0.03)
+    assert pressure.max() == pytest.approx(hertz_peak_pressure(force, a_ref), rel=0.03)

@@ -16,9 +16,11 @@ materials and load, compared on the same tibial faces.
    layer the axisymmetric FE, the EF closed form and Hertz at the FE's compartment force
    are added (the axisymmetric answer is then the 3D discretisation reference).
 
-The FE models one deformable layer (the tibial side) under a rigid femoral surface;
-with ``scanned.thickness = "bone-distance"`` that layer has the EF's series thickness
-(tibial + femoral cartilage). Units: mm, N, MPa; tibia frame for centres of pressure.
+``fe.cartilage = "series"`` (default): the FE models one deformable layer (the tibial
+side) under a rigid femoral surface; with ``scanned.thickness = "bone-distance"`` that
+layer has the EF's series thickness (tibial + femoral cartilage). ``"two-layer"``: each
+cartilage its own layer on its own bone, in frictionless contact (`fecheck.fe.femoral`).
+Units: mm, N, MPa; tibia frame for centres of pressure.
 """
 
 from __future__ import annotations
@@ -357,6 +359,21 @@ def _expected_depth(scene: Scene, run: RunResult) -> float:
     return deepest
 
 
+def _femoral(scene: Scene, layers: Sequence[FELayer], settings: FESettings,
+             log: Callable[[str], None]) -> Callable | None:
+    """The femoral layers' builder of ``fe.cartilage = "two-layer"`` (None: series)."""
+    from fecheck.fe.femoral import femoral_builder, femoral_sheet
+
+    if settings.cartilage != "two-layer":
+        return None
+    prepared = [lay.body.name for lay in layers if lay.to_ef is not None]
+    if prepared:
+        raise FecheckError(f"fe.cartilage = 'two-layer' meshes the sheets as read, but the "
+                           f"{' and '.join(prepared)} tibial sheet needs preparing to extrude "
+                           "(fe.prepare): use fe.cartilage = 'series'")
+    return femoral_builder(femoral_sheet(scene, layers[0].body.indenter.mesh), settings, log)
+
+
 def _solve(scene: Scene, layers: Sequence[FELayer], run: RunResult, settings: FESettings,
            log: Callable[[str], None]) -> tuple[dict, np.ndarray, float]:
     """FE solve(s) of the mode: {compartment: (layer, contact, worst penetration, (R, t)
@@ -366,9 +383,10 @@ def _solve(scene: Scene, layers: Sequence[FELayer], run: RunResult, settings: FE
 
     q_ef = np.asarray(run.pose.q, dtype=float)
     margin = settings.candidate_gap_mm + _expected_depth(scene, run)
+    femoral = _femoral(scene, layers, settings, log)
     if settings.mode == "joint":
         drive = joint_drive(scene, q_ef, ligament_springs(scene))
-        sol, condense, _, worst = solve_pressed(layers, drive, margin, settings, log)
+        sol, condense, _, worst = solve_pressed(layers, drive, margin, settings, log, femoral)
         at = drive.pose(sol.q)
         out = {lay.body.name: (lay, lc, worst, at) for lay, lc in zip(layers, sol.layers,
                                                                         strict=True)}
@@ -378,7 +396,7 @@ def _solve(scene: Scene, layers: Sequence[FELayer], run: RunResult, settings: FE
     for lay in layers:
         force = run.compartments[lay.body.name].force_vector_N
         drive = push_drive(rot, t, np.asarray(force, dtype=float))
-        sol, seconds, _, worst = solve_pressed([lay], drive, margin, settings, log)
+        sol, seconds, _, worst = solve_pressed([lay], drive, margin, settings, log, femoral)
         out[lay.body.name] = (lay, sol.layers[0], worst, drive.pose(sol.q))
         condense += seconds
     return out, q_ef, condense
@@ -398,9 +416,12 @@ def cross_check(scene: Scene, *, mode: str | None = None, refine: int | None = N
         an unloaded compartment), or an FE answer that is not physical.
     """
     say = log or (lambda message: None)
+    from fecheck.fe.femoral import refuse_two_layer
+
     settings = FESettings.from_scene(scene, mode=mode, refine=refine)
     refuse_rigid(scene)
     _refuse_constraints(scene, settings)
+    refuse_two_layer(scene, settings)
     E, nu = scene["contact.youngs_MPa"], scene["contact.poisson"]
     t0 = time.perf_counter()
     bodies = scene_bodies(scene)
@@ -431,8 +452,15 @@ def cross_check(scene: Scene, *, mode: str | None = None, refine: int | None = N
     for text in alerts:
         warnings.warn(text, stacklevel=2)
     t4 = time.perf_counter()
-    dofs = sum(sol.n_dofs for sol in _solids(layers))
-    geometry = _geometry(layers, dofs)
+    femurs = list({id(lc.femur): lc.femur for _, lc, _, _ in solved.values()
+                   if lc.femur is not None}.values())
+    dofs = sum(sol.n_dofs for sol in _solids(layers)) + sum(f.solid.n_dofs for f in femurs)
+    geometry = _geometry(layers, dofs) | {"cartilage": settings.cartilage}
+    if femurs:
+        geometry |= {"deformable_layers": 2,
+                     "elements": geometry["elements"] + int(sum(len(f.solid.mesh.tets)
+                                                                for f in femurs)),
+                     "nodes": geometry["nodes"] + int(sum(f.solid.n_nodes for f in femurs))}
     timing = {"ef_equilibrium": ef_seconds, "fe_build": t2 - t1, "fe_condense": condense,
               "fe_contact": t3 - t2 - condense, "references": t4 - t3, "total": t4 - t0,
               "fe": t3 - t1}
@@ -448,7 +476,12 @@ def cross_check(scene: Scene, *, mode: str | None = None, refine: int | None = N
     if geometry["thickness_source"] in ("solid", "solid-distance"):
         notes[:0] = [SOLID_NOTE, LAYER_NOTE] if geometry["thickness_source"] == "solid" \
             else [LAYER_NOTE]
-    if geometry["thickness_source"] == "bone-distance":
+    if femurs:
+        notes.insert(0, "two deformable layers (fe.cartilage = 'two-layer'): the tibial and "
+                        "the femoral cartilage each extruded toward its own bone by its own "
+                        f"thickness ({geometry['thickness_source']}) and bonded there, "
+                        "frictionless node-to-surface contact between them")
+    elif geometry["thickness_source"] == "bone-distance":
         notes.insert(0, "one deformable layer on the tibia with the EF's series thickness "
                         "(tibial + femoral cartilage, from the bone distances) under a rigid "
                         "femoral surface: two deformable layers in contact are not modelled")
