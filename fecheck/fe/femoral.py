@@ -5,8 +5,8 @@ faces within `CROP_MM` of the points where the tibial contact candidates' rays m
 extruded toward the femoral bone by its thickness (the distance to ``geometry.femur_bone``
 with ``scanned.thickness = "bone-distance"``, else half of ``contact.thickness_mm``: the
 series model's total shared equally) and bonded there, with the same levels, grading and
-material as the tibial layers; its cut walls are free. The vertices within `RING_MM` of
-those points are condensed in three dofs for the node-to-surface contact
+material as the tibial layers; its cut walls are free. The vertices of the faces hit and
+those within `RING_MM` of the hit points are condensed in three dofs for the node-to-surface contact
 (`fecheck.fe.joint.FemoralLayer`).
 
 Units: mm, N, MPa.
@@ -29,13 +29,14 @@ from fecheck.scene import Scene, surfaces
 from geometry.extrude import ExtrusionError, densest, extrusion_directions, extrusion_offsets
 from geometry.mesh import TriMesh
 
-CROP_MM = 10.0
+CROP_MM = 6.0
 """The femoral layer covers the femoral faces whose centroid lies within this distance of
 a point a tibial candidate's ray hits, mm (several cartilage thicknesses beyond the
 contact: its free cut walls barely change the compliance under the contact)."""
-RING_MM = 1.5
-"""Femoral vertices within this distance of a hit point are condensed (three dofs each):
-every face a candidate's ray can hit as the pose settles, mm."""
+RING_MM = 0.5
+"""The vertices of the faces the candidates' rays hit, and those within this distance of a
+hit point, are condensed (three dofs each): the faces a ray can hit as the pose settles
+from the EF pose, mm (a ray that moves further is refused, not left unpaired)."""
 
 
 @dataclass(frozen=True, eq=False)
@@ -81,18 +82,21 @@ def femoral_sheet(scene: Scene, femur: TriMesh) -> FemoralSheet:
                         float(scene["contact.poisson"]))
 
 
-def _crop(mesh: TriMesh, faces: np.ndarray) -> tuple[TriMesh, np.ndarray]:
-    """The sub-mesh of `faces` and its vertices' indices in `mesh`."""
+def _crop(mesh: TriMesh, faces: np.ndarray) -> tuple[TriMesh, np.ndarray, np.ndarray]:
+    """The sub-mesh of `faces`, its vertices' indices in `mesh` and each `mesh` vertex's
+    index in it (-1: not in it)."""
     used = np.unique(mesh.faces[faces])
     remap = np.full(mesh.n_points, -1)
     remap[used] = np.arange(len(used))
-    return TriMesh(mesh.points[used], remap[mesh.faces[faces]]), used
+    return TriMesh(mesh.points[used], remap[mesh.faces[faces]]), used, remap
 
 
 def femoral_layer(sheet: FemoralSheet, name: str, hit_points: np.ndarray,
-                  settings: FESettings, log: Callable[[str], None]) -> FemoralLayer:
+                  hit_faces: np.ndarray, settings: FESettings, log: Callable[[str], None]
+                  ) -> FemoralLayer:
     """The femoral layer under the points `hit_points` (k, 3) (world, mm) where a
-    compartment's tibial candidates' rays meet the sheet (module docstring)."""
+    compartment's tibial candidates' rays meet the sheet, on its faces `hit_faces` (k,)
+    (module docstring)."""
     from scipy.spatial import cKDTree
 
     if len(hit_points) == 0:
@@ -100,7 +104,7 @@ def femoral_layer(sheet: FemoralSheet, name: str, hit_points: np.ndarray,
                            "sheet: nothing for the femoral layer to carry")
     tree = cKDTree(hit_points)
     near, _ = tree.query(sheet.mesh.face_centroids, distance_upper_bound=CROP_MM)
-    crop, used = _crop(sheet.mesh, np.flatnonzero(np.isfinite(near)))
+    crop, used, remap = _crop(sheet.mesh, np.flatnonzero(np.isfinite(near)))
     h = sheet.thickness_mm[used]
     levels = settings.levels(sheet.poisson)
     try:
@@ -117,7 +121,8 @@ def femoral_layer(sheet: FemoralSheet, name: str, hit_points: np.ndarray,
                         formulation=settings.formulation_for(sheet.poisson))
     release_freed_heap()
     ring, _ = tree.query(crop.points, distance_upper_bound=RING_MM)
-    candidates = np.flatnonzero(np.isfinite(ring))
+    candidates = np.union1d(np.flatnonzero(np.isfinite(ring)),
+                            remap[sheet.mesh.faces[hit_faces]].ravel())
     log(f"{name} femoral layer: {crop.n_faces} faces within {CROP_MM:g} mm of the contact, "
         f"{len(solid.mesh.tets)} quadratic tetrahedra, {solid.n_dofs} dofs, thickness "
         f"{h.min():.2f}-{h.max():.2f} mm ({sheet.source})"
@@ -140,7 +145,7 @@ def femoral_builder(sheet: FemoralSheet, settings: FESettings, log: Callable[[st
             gap, face, _ = indenter.hits(pts, nrm)
             hit = face >= 0
             y = pts[hit] + gap.gap_mm[hit, None] * nrm[hit]
-            out.append(femoral_layer(sheet, lay.body.name, y, settings, log))
+            out.append(femoral_layer(sheet, lay.body.name, y, face[hit], settings, log))
         return out
 
     return build
