@@ -14,6 +14,7 @@ Units: mm, N, MPa.
 
 from __future__ import annotations
 
+import time
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 
@@ -130,22 +131,28 @@ def femoral_layer(sheet: FemoralSheet, name: str, hit_points: np.ndarray,
     return FemoralLayer(f"{name} femoral", solid, candidates)
 
 
-def femoral_builder(sheet: FemoralSheet, settings: FESettings, log: Callable[[str], None]
-                    ) -> Callable[..., list[FemoralLayer]]:
+class FemoralBuilder:
     """(layers, candidates, R, t) → the femoral layer of every tibial layer, under the
-    points where its candidates' rays (tibia pose R, t) meet the femoral sheet."""
-    indenter = MeshIndenter(sheet.mesh)
+    points where its candidates' rays (tibia pose R, t) meet the femoral sheet; `seconds`
+    the time spent building them."""
 
-    def build(layers: Sequence, candidates: Sequence[np.ndarray], rot: np.ndarray,
-              t: np.ndarray) -> list[FemoralLayer]:
+    def __init__(self, sheet: FemoralSheet, settings: FESettings,
+                 log: Callable[[str], None]):
+        self.sheet, self.settings, self.log = sheet, settings, log
+        self.indenter = MeshIndenter(sheet.mesh)
+        self.seconds = 0.0
+
+    def __call__(self, layers: Sequence, candidates: Sequence[np.ndarray], rot: np.ndarray,
+                 t: np.ndarray) -> list[FemoralLayer]:
+        t0 = time.perf_counter()
         out = []
         for lay, cand in zip(layers, candidates, strict=True):
             pts = lay.surface.points[cand] @ rot.T + t
             nrm = lay.solid.normals[cand] @ rot.T
-            gap, face, _ = indenter.hits(pts, nrm)
+            gap, face, _ = self.indenter.hits(pts, nrm)
             hit = face >= 0
             y = pts[hit] + gap.gap_mm[hit, None] * nrm[hit]
-            out.append(femoral_layer(sheet, lay.body.name, y, face[hit], settings, log))
+            out.append(femoral_layer(self.sheet, lay.body.name, y, face[hit], self.settings,
+                                     self.log))
+        self.seconds += time.perf_counter() - t0
         return out
-
-    return build
