@@ -15,6 +15,11 @@ a shared machine.
 
 --quick: the surfaces decimated to about 1,500 tibial faces. Skipped (exit 0) when the
 scanned knee data is absent. Writes DIR/fe_two_layer.csv.
+
+Measured at full resolution (two-layer against series): face-averaged p_max -3.2 %
+medial, -3.4 % lateral; vertex p_max -4.5 / -4.0 %; area +9.4 / +10.3 %; split within
+0.03 points; centres of pressure 0.06 / 0.10 mm apart; both balance to 5e-15 of the load
+and penetrate less than 1e-12 mm; 357k dofs and 2.6 GB peak against 197k and 1.6 GB.
 """
 
 from __future__ import annotations
