@@ -56,9 +56,10 @@ def _cap(radius_mm: float, disc_mm: float, size: float, refine: float, refine_ra
 
 
 def _press(tibial: TriMesh, h_t: float, femoral: TriMesh, h_f: float, force: float, *,
-           levels: int = 2, grading: float = 1.6, margin: float = 1.0):
-    """The tibial layer pushed up with `force` (N) against the femoral layer, both
-    deformable: (tibial solid, femoral solid, solution, contact)."""
+           levels: int = 2, grading: float = 1.6, margin: float = 1.0,
+           direction: np.ndarray = UP):
+    """The tibial layer pushed along `direction` (default up) with `force` (N) against the
+    femoral layer, both deformable: (tibial solid, femoral solid, solution, contact)."""
     tib = layer_solid(tibial, h_t, E, NU, layers=levels, ratio=grading)
     fem = layer_solid(femoral, h_f, E, NU, layers=levels, ratio=grading)
     indenter = MeshIndenter(femoral)
@@ -67,8 +68,8 @@ def _press(tibial: TriMesh, h_t: float, femoral: TriMesh, h_f: float, force: flo
     hit = np.unique(femoral.faces[face[cand]])
     femur = FemoralLayer("femur", fem, hit)
     joint = JointContact([ContactLayer("tibia", tib, indenter, cand, femur)])
-    sol = joint.solve(lambda q: (np.eye(3), q[0] * UP),
-                      lambda q: np.concatenate([UP, np.zeros(3)])[:, None],
+    sol = joint.solve(lambda q: (np.eye(3), q[0] * direction),
+                      lambda q: np.concatenate([direction, np.zeros(3)])[:, None],
                       lambda q: np.array([force]), np.zeros(1))
     return tib, fem, sol, sol.layers[0]
 
@@ -92,6 +93,21 @@ def test_equal_layers_split_the_approach_equally():
     assert lc.force_N @ tib.normals[:, 2] == pytest.approx(40.0, rel=1e-10)
     assert lc.force_N.min() >= 0.0
     assert lc.gap_mm.min() >= -1e-9
+
+
+def test_the_pairing_follows_the_pose():
+    """The tibial layer pushed along a line 30 deg off the axis slides 0.2 mm across the
+    femoral mesh on its way to equilibrium: re-paired at the solution's pose, every
+    vertex in contact has zero gap there (1e-9 mm), none penetrates, and the contact
+    forces carry the load along that line."""
+    tibial = _cap(30.0, 9.0, 0.6, 0.4, 4.0, down=False)
+    femoral = _cap(30.0, 9.0, 0.6, 0.4, 4.0, down=True, turn_deg=17.0)
+    d = np.array([math.sin(math.radians(30.0)), 0.0, math.cos(math.radians(30.0))])
+    tib, _, sol, lc = _press(tibial, 3.0, femoral, 3.0, 40.0, direction=d, margin=1.5)
+    assert sol.q[0] * d[0] > 0.2
+    assert np.abs(lc.gap_mm[lc.active]).max() < 1e-9
+    assert lc.gap_mm.min() > -1e-9
+    assert lc.force_N @ tib.normals @ d == pytest.approx(40.0, rel=1e-10)
 
 
 def test_a_sphere_with_a_thick_layer_on_a_thick_block_matches_two_body_hertz():
