@@ -117,7 +117,7 @@ def test_a_sphere_with_a_thick_layer_on_a_thick_block_matches_two_body_hertz():
     on p_max and the contact radius (measured +0.1 % and +1.2 %; Hertz with the block
     alone deforming, E* = E / (1 - ν²), is 26 % off on the radius). The two surfaces are
     meshed alike (each block vertex meets a sphere vertex): on meshes turned 11 deg apart
-    the radius stays within 0.1 % but the node-to-surface vertex p_max is 3.6 % high."""
+    the radius stays within 0.3 % but the node-to-surface vertex p_max is 3.6 % high."""
     radius, force = 200.0, 2.0
     tibial = _cap(math.inf, 80.0, 16.0, 0.5, 5.0, down=False)
     femoral = _cap(radius, 80.0, 16.0, 0.5, 5.0, down=True)
