@@ -57,15 +57,18 @@ def _cap(radius_mm: float, disc_mm: float, size: float, refine: float, refine_ra
 
 def _press(tibial: TriMesh, h_t: float, femoral: TriMesh, h_f: float, force: float, *,
            levels: int = 2, grading: float = 1.6, margin: float = 1.0,
-           direction: np.ndarray = UP):
+           direction: np.ndarray = UP, femoral_radius: float = math.inf):
     """The tibial layer pushed along `direction` (default up) with `force` (N) against the
-    femoral layer, both deformable: (tibial solid, femoral solid, solution, contact)."""
+    femoral layer, both deformable, the femoral vertices of the faces the candidates hit
+    (within `femoral_radius` mm of the z axis) condensed: (tibial solid, femoral solid,
+    solution, contact)."""
     tib = layer_solid(tibial, h_t, E, NU, layers=levels, ratio=grading)
     fem = layer_solid(femoral, h_f, E, NU, layers=levels, ratio=grading)
     indenter = MeshIndenter(femoral)
     gap, face, _ = indenter.hits(tibial.points, tib.normals)
     cand = np.flatnonzero(gap.gap_mm < margin)
     hit = np.unique(femoral.faces[face[cand]])
+    hit = hit[np.linalg.norm(femoral.points[hit, :2], axis=1) < femoral_radius]
     femur = FemoralLayer("femur", fem, hit)
     joint = JointContact([ContactLayer("tibia", tib, indenter, cand, femur)])
     sol = joint.solve(lambda q: (np.eye(3), q[0] * direction),
@@ -108,6 +111,15 @@ def test_the_pairing_follows_the_pose():
     assert np.abs(lc.gap_mm[lc.active]).max() < 1e-9
     assert lc.gap_mm.min() > -1e-9
     assert lc.force_N @ tib.normals @ d == pytest.approx(40.0, rel=1e-10)
+
+
+def test_a_contact_beyond_the_condensed_femoral_vertices_is_refused():
+    """Femoral vertices condensed only within 1 mm of the axis, under a contact about 3 mm
+    wide: refused, naming the vertex, instead of a contact with no femoral give there."""
+    tibial = _cap(30.0, 9.0, 0.6, 0.4, 4.0, down=False)
+    femoral = _cap(30.0, 9.0, 0.6, 0.4, 4.0, down=True, turn_deg=17.0)
+    with pytest.raises(FecheckError, match=r"tibial vertex at \(.*\) mm .*condensed"):
+        _press(tibial, 3.0, femoral, 3.0, 40.0, femoral_radius=1.0)
 
 
 def test_a_sphere_with_a_thick_layer_on_a_thick_block_matches_two_body_hertz():

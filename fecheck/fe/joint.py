@@ -269,8 +269,13 @@ class JointContact:
         g0, _, _, hits = _linearised_gaps(self.layers, pose, basis, q)
         C, pairs, unpaired = self._paired(hits)
         if np.any(unpaired & (lam > 0)):
-            raise FecheckError("a tibial vertex in contact meets the femoral layer outside "
-                               "its condensed vertices; raise fe.candidate_gap_mm")
+            k = int(np.flatnonzero(unpaired & (lam > 0))[0])
+            i = int(np.searchsorted(self.offsets, k, side="right")) - 1
+            layer = self.layers[i]
+            x, y, z = layer.solid.surface.points[layer.candidates[k - self.offsets[i]]]
+            raise FecheckError(f"the {layer.name} tibial vertex at ({x:.1f}, {y:.1f}, {z:.1f}) "
+                               "mm (tibia frame) touches the femoral layer outside its "
+                               "condensed vertices; raise fe.candidate_gap_mm")
         femoral_u = {id(fc.femur): fc.solve(_pair_load(fc, P, lam))
                      for fc, P in zip(self.femoral, pairs, strict=True)}
         u = {}
