@@ -203,10 +203,12 @@ def summary_lines(check) -> list[str]:
     out.append(f"pose FE - EF ({check.settings.mode} mode): "
                + ", ".join(f"{k} {fe[k] - ef[k]:+.4f}" for k in fe))
     g = check.geometry
+    two = g["deformable_layers"] == 2
     out.append(f"FE geometry: tibial {g['tibial_surface']}, femoral {g['femoral_surface']} "
-               f"(rigid); thickness {g['thickness_source']}; {g['deformable_layers']} "
-               f"deformable layer; {g['elements']} elements, {g['dofs']} dofs, smallest "
-               f"surface edge {g['smallest_size_mm']:.2f} mm")
+               f"({'deformable' if two else 'rigid'}); thickness {g['thickness_source']}; "
+               f"{g['deformable_layers']} deformable layer{'s' if two else ''} (fe.cartilage "
+               f"{g.get('cartilage', 'series')}); {g['elements']} elements, {g['dofs']} dofs, "
+               f"smallest surface edge {g['smallest_size_mm']:.2f} mm")
     for name, chk in check.compartments.items():
         dev = chk.deviation()
         if dev:

@@ -9,9 +9,11 @@ used, its thickness and the femoral surface that presses it.
   with ``scanned.thickness = "bone-distance"`` the EF run's per-face foundation
   thickness (tibial plus femoral cartilage in series) averaged onto the vertices.
   The FE then models that total thickness as one deformable layer on the tibia under a
-  rigid femoral surface — the EF's own assumption; two deformable layers in contact are
-  not modelled, and every report says so. With ``geometry.tibia_solid`` and ``fe.body``
-  "layer": the solid's own thickness map (`fecheck.fe.volume.solid_thickness`).
+  rigid femoral surface — the EF's own assumption (``fe.cartilage = "series"``). With
+  ``fe.cartilage = "two-layer"`` the tibial cartilage alone: its bone distance, or half of
+  ``contact.thickness_mm`` (the femoral layer, `fecheck.fe.femoral`, takes the rest).
+  With ``geometry.tibia_solid`` and ``fe.body`` "layer": the solid's own thickness map
+  (`fecheck.fe.volume.solid_thickness`).
 - Tibial solid (``fe.body`` "solid", or "auto" with ``geometry.tibia_solid``): the closed
   solid itself (`fecheck.fe.volume`), each compartment's articular face the part of its
   boundary on that compartment's sheet (`fecheck.scene.tibia_solid.on_sheet`).
@@ -115,6 +117,8 @@ def _scanned_bodies(scene: Scene) -> list[FEBody]:
         surface = slaves[c]
         if solid is not None:
             h = solid_thickness(solid, surface)
+        elif scene["fe.cartilage"] == "two-layer":
+            h = _tibial_thickness(scene, surface)
         elif source == "uniform":
             h = np.full(surface.n_points, float(scene["contact.thickness_mm"]))
         else:
@@ -127,6 +131,17 @@ def _scanned_bodies(scene: Scene) -> list[FEBody]:
             out.append(FEBody(c, surface, h, indenter, f"mesh:{tibia_name[c]}", femoral,
                               "solid-distance" if solid is not None else source))
     return out
+
+
+def _tibial_thickness(scene: Scene, surface: TriMesh) -> np.ndarray:
+    """The tibial cartilage's own thickness at the vertices of `surface` (two layers):
+    the distance to geometry.tibia_bone, or half of contact.thickness_mm, mm."""
+    from fecheck.laws.layer import bone_distance_thickness
+
+    if scene["scanned.thickness"] == "bone-distance":
+        return vertex_values(surface, bone_distance_thickness(surface,
+                                                              surfaces.bone(scene, "tibia")))
+    return np.full(surface.n_points, 0.5 * float(scene["contact.thickness_mm"]))
 
 
 def _tibial_body(scene: Scene) -> str:

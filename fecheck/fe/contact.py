@@ -141,6 +141,45 @@ def condensed_compliance(K: sp.spmatrix, dofs: np.ndarray, directions: np.ndarra
     return C, _interruptible(solve)
 
 
+def nodal_compliance(K: sp.spmatrix, dofs: np.ndarray
+                     ) -> tuple[np.ndarray, Callable[[np.ndarray], np.ndarray]]:
+    """C (3m, 3m) = (K⁻¹) restricted to the node dof triplets `dofs` (m, 3, distinct),
+    in their order (node-major), mm/N, and a solver of K.
+
+    As `condensed_compliance` with all three dofs of every node ordered last: the trailing
+    block L₂₂ of the CHOLMOD factor holds the Schur complement S = L₂₂ L₂₂ᵀ, and
+    C = S⁻¹ from L₂₂ (LAPACK ``potri``), one factorization and no solve per node.
+    """
+    from scipy.linalg import lapack
+    from sksparse.cholmod import CholmodNotPositiveDefiniteError, analyze, cholesky
+
+    K = sp.csc_matrix(K)
+    last = np.asarray(dofs, dtype=np.int64).ravel()
+    n, m = K.shape[0], len(last)
+    inner = np.setdiff1d(np.arange(n), last)
+    with interruptible():
+        order = inner[analyze(K[inner][:, inner], ordering_method="metis").P()]
+    perm = np.concatenate([order, last])
+    try:
+        with interruptible():
+            factor = cholesky(sp.csc_matrix(K[perm][:, perm]), ordering_method="natural")
+    except CholmodNotPositiveDefiniteError as err:
+        raise FecheckError("the layer's stiffness is not positive definite: check its "
+                           "supports and material (0 < E, -1 < ν < 0.5)") from err
+    with interruptible():
+        inv, info = lapack.dpotri(factor.L()[n - m:, n - m:].toarray(), lower=1)
+    if info != 0:
+        raise FecheckError("the layer's condensed stiffness is singular: check its supports")
+    C = np.tril(inv) + np.tril(inv, -1).T
+    inverse = np.empty(n, dtype=np.int64)
+    inverse[perm] = np.arange(n)
+
+    def solve(b: np.ndarray) -> np.ndarray:
+        return factor.solve_A(np.asarray(b)[perm])[inverse]
+
+    return C, _interruptible(solve)
+
+
 def _frames(n: int, dofs: np.ndarray, directions: np.ndarray) -> sp.csr_matrix:
     """Orthogonal Q (n, n): identity, except on each triplet dofs_k, whose new first dof is
     along directions_k and the other two complete a right-handed frame."""

@@ -16,9 +16,11 @@ materials and load, compared on the same tibial faces.
    layer the axisymmetric FE, the EF closed form and Hertz at the FE's compartment force
    are added (the axisymmetric answer is then the 3D discretisation reference).
 
-The FE models one deformable layer (the tibial side) under a rigid femoral surface;
-with ``scanned.thickness = "bone-distance"`` that layer has the EF's series thickness
-(tibial + femoral cartilage). Units: mm, N, MPa; tibia frame for centres of pressure.
+``fe.cartilage = "series"`` (default): the FE models one deformable layer (the tibial
+side) under a rigid femoral surface; with ``scanned.thickness = "bone-distance"`` that
+layer has the EF's series thickness (tibial + femoral cartilage). ``"two-layer"``: each
+cartilage its own layer on its own bone, in frictionless contact (`fecheck.fe.femoral`).
+Units: mm, N, MPa; tibia frame for centres of pressure.
 """
 
 from __future__ import annotations
@@ -79,6 +81,12 @@ LAYER_NOTE = ("when a layer is good enough for an implant (validation/fe_implant
               "area and 0.1 mm on the centre of pressure; a uniform layer of the dwells' "
               "thickness was 12 % off on p_max and area. Near walls, posts or undercuts, or "
               "where the base is not parallel to the surface, mesh the solid")
+SERIES_VS_TWO_LAYER = ("on the scanned knee (validation/fe_two_layer.py, full resolution, "
+                       "800 N) the one-layer series model came within 3.4 % of the two-layer "
+                       "FE on the face-averaged p_max (4.5 % on the vertex p_max), 0.03 "
+                       "points on the medial/lateral split and 0.1 mm on the centres of "
+                       "pressure, but its contact areas were 9-10 % smaller: good enough for "
+                       "forces, split and where the load sits, not for the contact area")
 DONAHUE_NOTE = ("* Donahue 2002 is another knee under another load (800 N, whole joint with "
                 "menisci): a scale for the numbers, not a reference for this scene")
 
@@ -357,31 +365,48 @@ def _expected_depth(scene: Scene, run: RunResult) -> float:
     return deepest
 
 
+def _femoral(scene: Scene, layers: Sequence[FELayer], settings: FESettings,
+             log: Callable[[str], None]) -> Callable | None:
+    """The femoral layers' builder of ``fe.cartilage = "two-layer"`` (None: series)."""
+    from fecheck.fe.femoral import FemoralBuilder, femoral_sheet
+
+    if settings.cartilage != "two-layer":
+        return None
+    prepared = [lay.body.name for lay in layers if lay.to_ef is not None]
+    if prepared:
+        raise FecheckError(f"fe.cartilage = 'two-layer' meshes the sheets as read, but the "
+                           f"{' and '.join(prepared)} tibial sheet needs preparing to extrude "
+                           "(fe.prepare): use fe.cartilage = 'series'")
+    return FemoralBuilder(femoral_sheet(scene, layers[0].body.indenter.mesh), settings, log)
+
+
 def _solve(scene: Scene, layers: Sequence[FELayer], run: RunResult, settings: FESettings,
-           log: Callable[[str], None]) -> tuple[dict, np.ndarray, float]:
+           log: Callable[[str], None]) -> tuple[dict, np.ndarray, float, float]:
     """FE solve(s) of the mode: {compartment: (layer, contact, worst penetration, (R, t)
     the tibia pose of that compartment's solution)}, the FE pose q (5,) (the EF pose in
-    compartment mode) and the condensation time."""
+    compartment mode), the condensation time and the femoral layers' build time (s; 0
+    for the series model)."""
     from fecheck.model.run import ligament_springs
 
     q_ef = np.asarray(run.pose.q, dtype=float)
     margin = settings.candidate_gap_mm + _expected_depth(scene, run)
+    femoral = _femoral(scene, layers, settings, log)
     if settings.mode == "joint":
         drive = joint_drive(scene, q_ef, ligament_springs(scene))
-        sol, condense, _, worst = solve_pressed(layers, drive, margin, settings, log)
+        sol, condense, _, worst = solve_pressed(layers, drive, margin, settings, log, femoral)
         at = drive.pose(sol.q)
         out = {lay.body.name: (lay, lc, worst, at) for lay, lc in zip(layers, sol.layers,
                                                                         strict=True)}
-        return out, drive.full(sol.q), condense
+        return out, drive.full(sol.q), condense, getattr(femoral, "seconds", 0.0)
     rot, t = pose(q_ef, math.radians(scene["dofs.flexion_deg"]))
     out, condense = {}, 0.0
     for lay in layers:
         force = run.compartments[lay.body.name].force_vector_N
         drive = push_drive(rot, t, np.asarray(force, dtype=float))
-        sol, seconds, _, worst = solve_pressed([lay], drive, margin, settings, log)
+        sol, seconds, _, worst = solve_pressed([lay], drive, margin, settings, log, femoral)
         out[lay.body.name] = (lay, sol.layers[0], worst, drive.pose(sol.q))
         condense += seconds
-    return out, q_ef, condense
+    return out, q_ef, condense, getattr(femoral, "seconds", 0.0)
 
 
 def cross_check(scene: Scene, *, mode: str | None = None, refine: int | None = None,
@@ -398,9 +423,12 @@ def cross_check(scene: Scene, *, mode: str | None = None, refine: int | None = N
         an unloaded compartment), or an FE answer that is not physical.
     """
     say = log or (lambda message: None)
+    from fecheck.fe.femoral import refuse_two_layer
+
     settings = FESettings.from_scene(scene, mode=mode, refine=refine)
     refuse_rigid(scene)
     _refuse_constraints(scene, settings)
+    refuse_two_layer(scene, settings)
     E, nu = scene["contact.youngs_MPa"], scene["contact.poisson"]
     t0 = time.perf_counter()
     bodies = scene_bodies(scene)
@@ -409,7 +437,7 @@ def cross_check(scene: Scene, *, mode: str | None = None, refine: int | None = N
     t1 = time.perf_counter()
     layers = build_layers(bodies, E, nu, settings, say)
     t2 = time.perf_counter()
-    solved, q_fe, condense = _solve(scene, layers, run, settings, say)
+    solved, q_fe, condense, femoral_s = _solve(scene, layers, run, settings, say)
     t3 = time.perf_counter()
     theta = math.radians(scene["dofs.flexion_deg"])
     rot_ef, t_ef = pose(np.asarray(run.pose.q, dtype=float), theta)
@@ -431,11 +459,17 @@ def cross_check(scene: Scene, *, mode: str | None = None, refine: int | None = N
     for text in alerts:
         warnings.warn(text, stacklevel=2)
     t4 = time.perf_counter()
-    dofs = sum(sol.n_dofs for sol in _solids(layers))
-    geometry = _geometry(layers, dofs)
-    timing = {"ef_equilibrium": ef_seconds, "fe_build": t2 - t1, "fe_condense": condense,
-              "fe_contact": t3 - t2 - condense, "references": t4 - t3, "total": t4 - t0,
-              "fe": t3 - t1}
+    femurs = _femurs(solved)
+    dofs = sum(sol.n_dofs for sol in _solids(layers)) + sum(f.solid.n_dofs for f in femurs)
+    geometry = _geometry(layers, dofs) | {"cartilage": settings.cartilage}
+    if femurs:
+        geometry |= {"deformable_layers": 2,
+                     "elements": geometry["elements"] + int(sum(len(f.solid.mesh.tets)
+                                                                for f in femurs)),
+                     "nodes": geometry["nodes"] + int(sum(f.solid.n_nodes for f in femurs))}
+    timing = {"ef_equilibrium": ef_seconds, "fe_build": t2 - t1 + femoral_s,
+              "fe_condense": condense, "fe_contact": t3 - t2 - condense - femoral_s,
+              "references": t4 - t3, "total": t4 - t0, "fe": t3 - t1}
     timing["ef_over_fe"] = ef_seconds / timing["fe"]
     notes = [DONAHUE_NOTE]
     prepared = [lay.body.name for lay in layers if lay.to_ef is not None]
@@ -448,7 +482,13 @@ def cross_check(scene: Scene, *, mode: str | None = None, refine: int | None = N
     if geometry["thickness_source"] in ("solid", "solid-distance"):
         notes[:0] = [SOLID_NOTE, LAYER_NOTE] if geometry["thickness_source"] == "solid" \
             else [LAYER_NOTE]
-    if geometry["thickness_source"] == "bone-distance":
+    if femurs:
+        notes.insert(0, "two deformable layers (fe.cartilage = 'two-layer'): the tibial and "
+                        "the femoral cartilage each extruded toward its own bone by its own "
+                        f"thickness ({geometry['thickness_source']}) and bonded there, "
+                        "frictionless node-to-surface contact between them; "
+                        + SERIES_VS_TWO_LAYER)
+    elif geometry["thickness_source"] == "bone-distance":
         notes.insert(0, "one deformable layer on the tibia with the EF's series thickness "
                         "(tibial + femoral cartilage, from the bone distances) under a rigid "
                         "femoral surface: two deformable layers in contact are not modelled")
@@ -467,12 +507,20 @@ def fe_level(scene: Scene, bodies: Sequence[FEBody], run: RunResult, settings: F
     E, nu = scene["contact.youngs_MPa"], scene["contact.poisson"]
     t0 = time.perf_counter()
     layers = build_layers(bodies, E, nu, settings, log)
-    solved, _, _ = _solve(scene, layers, run, settings, log)
+    solved, _, _, _ = _solve(scene, layers, run, settings, log)
     out = {}
     for name, (lay, lc, _, (rot, t)) in solved.items():
         out[name] = (lay, *_fe_metrics(lay, lc.force_N, lc.active, rigid_gaps(lay, rot, t),
                                        rot))
-    return out, sum(sol.n_dofs for sol in _solids(layers)), time.perf_counter() - t0
+    dofs = sum(sol.n_dofs for sol in _solids(layers)) + sum(f.solid.n_dofs
+                                                            for f in _femurs(solved))
+    return out, dofs, time.perf_counter() - t0
+
+
+def _femurs(solved: dict) -> list:
+    """The distinct deformable femoral layers of the solved compartments (none: series)."""
+    return list({id(lc.femur): lc.femur for _, lc, _, _ in solved.values()
+                 if lc.femur is not None}.values())
 
 
 def on_ef_faces(layer: FELayer, pressure: np.ndarray) -> np.ndarray:

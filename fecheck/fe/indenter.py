@@ -84,6 +84,12 @@ class MeshIndenter:
 
     def gap(self, points: np.ndarray, normals: np.ndarray) -> Gap:
         """Gap along `normals` from `points` to the mesh."""
+        return self.hits(points, normals)[0]
+
+    def hits(self, points: np.ndarray, normals: np.ndarray
+             ) -> tuple[Gap, np.ndarray, np.ndarray]:
+        """The `gap`, the face each ray hits (m,) (-1: a miss) and the hit point's
+        barycentric weights (m, 3) on that face's vertices (zero on a miss)."""
         fn = self.mesh.face_normals
         ahead, face_a = ray_hits(points, normals, self.mesh, facing=-normals)
         behind, face_b = ray_hits(points, -normals, self.mesh, facing=-normals)
@@ -93,4 +99,24 @@ class MeshIndenter:
         hit = face >= 0
         if not np.all(np.isfinite(s)):
             raise FecheckError("indenter gaps are not finite: check the femoral mesh")
-        return Gap(s, _twist_rows(points, normals, s, fn[np.maximum(face, 0)], hit))
+        corners = self.mesh.points[self.mesh.faces[np.maximum(face, 0)]]
+        y = points + s[:, None] * normals
+        weights = barycentric(corners, y[:, None, :])[:, 0] * hit[:, None]
+        return (Gap(s, _twist_rows(points, normals, s, fn[np.maximum(face, 0)], hit)), face,
+                weights)
+
+
+def barycentric(tri: np.ndarray, pts: np.ndarray) -> np.ndarray:
+    """Barycentric coordinates (m, k, 3) of points pts (m, k, 3) in triangles (m, 3, 3)."""
+    a, b, c = tri[:, 0], tri[:, 1], tri[:, 2]
+    v0, v1 = b - a, c - a
+    d00 = np.einsum("ij,ij->i", v0, v0)
+    d01 = np.einsum("ij,ij->i", v0, v1)
+    d11 = np.einsum("ij,ij->i", v1, v1)
+    den = d00 * d11 - d01 * d01
+    v2 = pts - a[:, None]
+    d20 = np.einsum("mkj,mj->mk", v2, v0)
+    d21 = np.einsum("mkj,mj->mk", v2, v1)
+    v = (d11[:, None] * d20 - d01[:, None] * d21) / den[:, None]
+    w = (d00[:, None] * d21 - d01[:, None] * d20) / den[:, None]
+    return np.stack([1.0 - v - w, v, w], axis=2)

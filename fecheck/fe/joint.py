@@ -22,6 +22,17 @@ changing (Hintermüller-Ito-Kunisch). The outer loop re-linearises g0, J and G a
 new pose (rotations are finite) until the pose stops moving: the
 equilibrium is exact, with no penalty and no tolerance on penetration beyond round-off.
 
+Two deformable layers (``fe.cartilage = "two-layer"``): the femoral surface is a layer of
+its own (world frame, bonded to the femoral bone, `FemoralLayer`). Contact is
+node-to-surface: tibial candidate i's ray along n_i hits a femoral face at barycentric
+weights w; the femoral layer takes the force λ_i along +n_i there (the pair load
+Pᵀλ, P (m, 3 m_f) with row i = w_a n_iᵀ on the dofs of the face's vertices a), and the gap
+gains the femoral layer's give along n_i, (P C_f Pᵀ λ)_i, where C_f = (K_f⁻¹) at the
+femoral candidate vertices in three dofs (one factorization, `nodal_compliance`). The
+pairing P is formed again at every pose update (C_f is not), so the contact at the
+solution is paired at the solution's pose. The femoral give is read along the tibial
+normal n_i; the rigid part of the gap (g0, J) along the ray as before.
+
 The same solve serves a single compartment pushed along one direction with a given
 force (``mode = "compartment"``: one DOF, the translation along the load) and the whole
 joint (``mode = "joint"``: the scene's free DOFs, both compartments at once, so the FE
@@ -38,7 +49,7 @@ import numpy as np
 import scipy.sparse as sp
 
 from fecheck.errors import FecheckError
-from fecheck.fe.contact import active_set, condensed_compliance, factorize
+from fecheck.fe.contact import active_set, condensed_compliance, factorize, nodal_compliance
 from fecheck.fe.solid import LayerSolid
 
 POSE_TOL = 1e-9
@@ -46,14 +57,27 @@ POSE_TOL = 1e-9
 
 
 @dataclass(frozen=True, eq=False)
+class FemoralLayer:
+    """A deformable femoral layer (world frame, bonded to the femoral bone): its solid,
+    whose surface the tibial layers it presses hit, and the surface vertices condensed in
+    three dofs (the vertices the tibial candidates' rays may hit)."""
+
+    name: str
+    solid: LayerSolid
+    candidates: np.ndarray
+
+
+@dataclass(frozen=True, eq=False)
 class ContactLayer:
     """One layer (in the tibia's frame) with its indenter (in the world) and the surface
-    vertices that may touch (indices into the layer's surface)."""
+    vertices that may touch (indices into the layer's surface); with `femur` the
+    indenter is that deformable layer's surface (a `MeshIndenter` of it)."""
 
     name: str
     solid: LayerSolid
     indenter: object
     candidates: np.ndarray
+    femur: FemoralLayer | None = None
 
 
 @dataclass(frozen=True, eq=False)
@@ -63,6 +87,8 @@ class LayerContact:
     force_N : (s,) contact force at every surface vertex (0 off contact), N
     gap_mm : (s,) final gap along the normal (≥ 0 up to round-off; FAR where the ray misses)
     u : the layer's kept-dof displacements, mm
+    femur, femoral_u : the deformable femoral layer it presses and that layer's kept-dof
+        displacements (mm), or None (a rigid femoral surface)
     """
 
     name: str
@@ -70,6 +96,8 @@ class LayerContact:
     gap_mm: np.ndarray
     active: np.ndarray
     u: np.ndarray
+    femur: FemoralLayer | None = None
+    femoral_u: np.ndarray | None = None
 
 
 @dataclass(frozen=True, eq=False)
@@ -106,6 +134,43 @@ class _Compliance:
                 stop = min(start + block, m)
                 C[:, start:stop] = rows @ self.solve(rhs_all[:, start:stop].toarray())
         self.C = 0.5 * (C + C.T)
+
+
+class _FemoralCompliance:
+    """The femoral layer's factorized stiffness and its compliance C_f (3 m_f, 3 m_f) at
+    its candidate vertices (node-major x, y, z), and each surface vertex's candidate slot
+    (-1: not condensed)."""
+
+    def __init__(self, femur: FemoralLayer):
+        self.femur = femur
+        self.dofs = femur.solid.vertex_dofs[femur.candidates]
+        self.C, self.solve = nodal_compliance(femur.solid.K, self.dofs)
+        self.slot = np.full(femur.solid.surface.n_points, -1)
+        self.slot[femur.candidates] = np.arange(len(femur.candidates))
+
+    def pair_rows(self, face: np.ndarray, weights: np.ndarray, normals: np.ndarray
+                  ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+        """For rays that hit faces `face` (m,) at `weights` (m, 3) along world `normals`
+        (m, 3): the paired rows, their columns (3 m_f) and values of P, and the rays that
+        hit a face with a vertex outside the candidates (unpaired)."""
+        slot = self.slot[self.femur.solid.surface.faces[np.maximum(face, 0)]]   # (m, 3)
+        hit = face >= 0
+        inside = hit & (slot >= 0).all(axis=1)
+        rows = np.repeat(np.flatnonzero(inside), 9)
+        cols = (3 * slot[inside][:, :, None] + np.arange(3)).ravel()
+        vals = (weights[inside][:, :, None] * normals[inside][:, None, :]).ravel()
+        return rows, cols, vals, hit & ~inside
+
+
+def femoral_shift(femur: FemoralLayer, u: np.ndarray, face: np.ndarray, weights: np.ndarray,
+                  normals: np.ndarray) -> np.ndarray:
+    """(m,) the give of the femoral layer (kept-dof displacements `u`, mm) at the points
+    rays along world `normals` hit (faces `face`, -1 a miss, barycentric `weights`),
+    along those normals, mm: what it adds to each gap."""
+    disp = u[femur.solid.vertex_dofs]                                     # (s_f, 3)
+    at = np.einsum("mk,mkc->mc", weights,
+                   disp[femur.solid.surface.faces[np.maximum(face, 0)]])
+    return np.where(face >= 0, np.einsum("mc,mc->m", at, normals), 0.0)
 
 
 def _shared_solids(layers: Sequence[ContactLayer]) -> tuple[list[ContactLayer], list[list[int]]]:
@@ -151,6 +216,12 @@ class JointContact:
                                   for i in members])
             self.group_rows.append(idx)
             self.C[np.ix_(idx, idx)] = self.compliance[-1].C
+        femurs = {id(lay.femur): lay.femur for lay in self.layers if lay.femur is not None}
+        self.femoral = []
+        for femur in femurs.values():
+            log(f"FE {femur.name}: factorizing {femur.solid.n_dofs} dofs, condensing "
+                f"{len(femur.candidates)} femoral vertices in 3 dofs")
+            self.femoral.append(_FemoralCompliance(femur))
         self.seconds = time.perf_counter() - t0
         self.log = log
 
@@ -177,11 +248,12 @@ class JointContact:
         active = None
         inner = 0
         for outer in range(1, max_outer + 1):
-            g0, J, G = _linearised_gaps(self.layers, pose, basis, q)
+            g0, J, G, hits = _linearised_gaps(self.layers, pose, basis, q)
+            C, _, _ = self._paired(hits)
             if active is None:
                 active = g0 <= np.sort(g0)[min(len(g0) - 1, 3)]
             dQ = np.zeros((len(q), len(q))) if stiffness is None else stiffness(q)
-            lam, dq, active, it = active_set(self.C, g0, J, G, load(q), dQ, active,
+            lam, dq, active, it = active_set(C, g0, J, G, load(q), dQ, active,
                                              max_active, "refine the layer under the "
                                              "contact or check the load")
             inner += it
@@ -194,7 +266,18 @@ class JointContact:
         else:
             raise FecheckError(f"the FE joint equilibrium did not settle in {max_outer} pose "
                                "updates; check the load and the free DOFs")
-        g0, _, _ = _linearised_gaps(self.layers, pose, basis, q)
+        g0, _, _, hits = _linearised_gaps(self.layers, pose, basis, q)
+        C, pairs, unpaired = self._paired(hits)
+        if np.any(unpaired & (lam > 0)):
+            k = int(np.flatnonzero(unpaired & (lam > 0))[0])
+            i = int(np.searchsorted(self.offsets, k, side="right")) - 1
+            layer = self.layers[i]
+            x, y, z = layer.solid.surface.points[layer.candidates[k - self.offsets[i]]]
+            raise FecheckError(f"the {layer.name} tibial vertex at ({x:.1f}, {y:.1f}, {z:.1f}) "
+                               "mm (tibia frame) touches the femoral layer outside its "
+                               "condensed vertices; raise fe.candidate_gap_mm")
+        femoral_u = {id(fc.femur): fc.solve(_pair_load(fc, P, lam))
+                     for fc, P in zip(self.femoral, pairs, strict=True)}
         u = {}
         for members, c, idx in zip(self.groups, self.compliance, self.group_rows,
                                    strict=True):
@@ -206,25 +289,69 @@ class JointContact:
             force = np.zeros(s)
             force[layer.candidates] = lam[block]
             gap = np.full(s, np.inf)
-            gap[layer.candidates] = g0[block] + self.C[block] @ lam
-            out.append(LayerContact(layer.name, force, gap, force > 0, u[i]))
+            gap[layer.candidates] = g0[block] + C[block] @ lam
+            out.append(LayerContact(layer.name, force, gap, force > 0, u[i], layer.femur,
+                                    femoral_u.get(id(layer.femur))))
         timing = {"condense": self.seconds, "contact": time.perf_counter() - t0}
         return JointSolution(q, out, outer, inner, timing)
 
 
+    def _paired(self, hits: list) -> tuple[np.ndarray, list[sp.csr_matrix], np.ndarray]:
+        """The compliance at the candidates with the femoral layers' give at the faces the
+        candidates' rays hit now (`hits`: per layer None or (face, weights, normals)): C +
+        Σ P C_f Pᵀ; the pair matrices P (m, 3 m_f) per femoral layer; the candidates whose
+        face lies outside the condensed femoral vertices."""
+        m = self.offsets[-1]
+        unpaired = np.zeros(m, dtype=bool)
+        if not self.femoral:
+            return self.C, [], unpaired
+        C = self.C.copy()
+        pairs = []
+        for fc in self.femoral:
+            rows, cols, vals = [], [], []
+            for i, layer in enumerate(self.layers):
+                if layer.femur is not fc.femur:
+                    continue
+                r, c, v, out = fc.pair_rows(*hits[i])
+                rows.append(r + self.offsets[i])
+                cols.append(c)
+                vals.append(v)
+                unpaired[self.offsets[i]:self.offsets[i + 1]] |= out
+            P = sp.csr_matrix((np.concatenate(vals), (np.concatenate(rows), np.concatenate(cols))),
+                              shape=(m, fc.C.shape[0]))
+            C += P @ (P @ fc.C).T
+            pairs.append(P)
+        return 0.5 * (C + C.T), pairs, unpaired
+
+
+def _pair_load(fc: _FemoralCompliance, P: sp.csr_matrix, lam: np.ndarray) -> np.ndarray:
+    """The femoral layer's kept-dof load Pᵀλ (N): each contact force along +n_i at its
+    hit point, shared by the barycentric weights."""
+    f = np.zeros(fc.femur.solid.n_dofs)
+    f[fc.dofs.ravel()] = P.T @ lam
+    return f
+
+
 def _linearised_gaps(layers: Sequence[ContactLayer], pose, basis, q: np.ndarray
-                     ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """At pose q, for the candidates of all layers: gaps g0 (m,), J (m, k) = ∂g0/∂q, and
+                     ) -> tuple[np.ndarray, np.ndarray, np.ndarray, list]:
+    """At pose q, for the candidates of all layers: gaps g0 (m,), J (m, k) = ∂g0/∂q,
     G (m, k), the generalised force on the unknowns of a unit contact force at each
-    candidate (acting on the tibia along minus its surface normal, at the vertex)."""
+    candidate (acting on the tibia along minus its surface normal, at the vertex), and
+    per layer None or, for a layer pressed by a deformable femoral layer, the faces its
+    candidates' rays hit, the barycentric weights and the world normals."""
     rot, t = pose(q)
     b = basis(q)
-    gaps, rows, forces = [], [], []
+    gaps, rows, forces, hits = [], [], [], []
     for layer in layers:
         pts = layer.solid.surface.points[layer.candidates] @ rot.T + t
         nrm = layer.solid.normals[layer.candidates] @ rot.T
-        g = layer.indenter.gap(pts, nrm)
+        if layer.femur is None:
+            g = layer.indenter.gap(pts, nrm)
+            hits.append(None)
+        else:
+            g, face, weights = layer.indenter.hits(pts, nrm)
+            hits.append((face, weights, nrm))
         gaps.append(g.gap_mm)
         rows.append(g.twist @ b)
         forces.append(-np.hstack([nrm, np.cross(pts, nrm)]) @ b)
-    return np.concatenate(gaps), np.concatenate(rows), np.concatenate(forces)
+    return np.concatenate(gaps), np.concatenate(rows), np.concatenate(forces), hits

@@ -26,8 +26,8 @@ import scipy.sparse as sp
 from fecheck.errors import FecheckError
 from fecheck.fe.bodies import FEBody
 from fecheck.fe.budget import guard_layers
-from fecheck.fe.indenter import MeshIndenter
-from fecheck.fe.joint import ContactLayer, JointContact, JointSolution
+from fecheck.fe.indenter import MeshIndenter, barycentric
+from fecheck.fe.joint import ContactLayer, JointContact, JointSolution, femoral_shift
 from fecheck.fe.settings import FESettings
 from fecheck.fe.solid import LayerSolid, layer_solid, release_freed_heap
 from fecheck.model.assembly import applied_load, free_indices
@@ -90,27 +90,11 @@ def _refined(coarse: TriMesh, thickness: np.ndarray, times: int, offsets: np.nda
     out[:coarse.n_points] = values
     if times:
         corners = coarse.points[coarse.faces[parent]]                     # (m, 3, 3)
-        bary = _barycentric(corners, surface.points[surface.faces])       # (m, 3, 3)
+        bary = barycentric(corners, surface.points[surface.faces])       # (m, 3, 3)
         inner = np.einsum("mkj,mjc->mkc", bary, values[coarse.faces[parent]])
         out[surface.faces.ravel()] = inner.reshape(-1, 4)
         out[:coarse.n_points] = values
     return surface, parent, out[:, 0], out[:, 1:]
-
-
-def _barycentric(tri: np.ndarray, pts: np.ndarray) -> np.ndarray:
-    """Barycentric coordinates (m, k, 3) of points pts (m, k, 3) in triangles (m, 3, 3)."""
-    a, b, c = tri[:, 0], tri[:, 1], tri[:, 2]
-    v0, v1 = b - a, c - a
-    d00 = np.einsum("ij,ij->i", v0, v0)
-    d01 = np.einsum("ij,ij->i", v0, v1)
-    d11 = np.einsum("ij,ij->i", v1, v1)
-    den = d00 * d11 - d01 * d01
-    v2 = pts - a[:, None]
-    d20 = np.einsum("mkj,mj->mk", v2, v0)
-    d21 = np.einsum("mkj,mj->mk", v2, v1)
-    v = (d11[:, None] * d20 - d01[:, None] * d21) / den[:, None]
-    w = (d00[:, None] * d21 - d01[:, None] * d20) / den[:, None]
-    return np.stack([1.0 - v - w, v, w], axis=2)
 
 
 def build_layers(bodies: Sequence[FEBody], youngs_MPa: float, poisson: float,
@@ -318,11 +302,26 @@ def rigid_gaps(layer: FELayer, rot: np.ndarray, t: np.ndarray, idx: np.ndarray |
     return layer.indenter.gap(pts @ rot.T + t, nrm @ rot.T).gap_mm
 
 
+def femoral_give(layer: FELayer, contact, rot: np.ndarray, t: np.ndarray) -> np.ndarray:
+    """(s,) the give of the deformable femoral layer `contact` pressed (0 for a rigid
+    femoral surface) along the normal of every surface vertex of `layer` at tibia pose
+    (R, t), mm: what it adds to their gaps."""
+    if contact.femur is None:
+        return np.zeros(layer.surface.n_points)
+    nrm = layer.solid.normals @ rot.T
+    _, face, weights = MeshIndenter(contact.femur.solid.surface).hits(
+        layer.surface.points @ rot.T + t, nrm)
+    return femoral_shift(contact.femur, contact.femoral_u, face, weights, nrm)
+
+
 def solve_pressed(layers: Sequence[FELayer], drive: Drive, margin_mm: float,
-                           settings: FESettings, log: Callable[[str], None]
+                           settings: FESettings, log: Callable[[str], None],
+                           femoral: Callable | None = None
                            ) -> tuple[JointSolution, float, list[np.ndarray], float]:
     """Condense onto the vertices within `margin_mm` of the femoral surface at the start
-    pose, solve, and widen the candidates while a vertex outside them penetrates.
+    pose, solve, and widen the candidates while a vertex outside them penetrates;
+    `femoral` ((layers, candidates, R, t) → their femoral layers, or None: rigid femoral
+    surfaces) builds deformable femoral layers under the candidates.
 
     Returns the solution, the condensation time (s), every layer's final gaps at all its
     surface vertices (mm) and the worst penetration found (mm, ≥ 0)."""
@@ -341,14 +340,19 @@ def solve_pressed(layers: Sequence[FELayer], drive: Drive, margin_mm: float,
                                f"than the {MAX_CANDIDATES} the dense contact solve takes: "
                                "coarsen the surface (fe.refine, scanned.decimate_faces) or "
                                "lower fe.candidate_gap_mm")
+        femurs = [None] * len(layers) if femoral is None else femoral(layers, cands, rot, t)
         joint = JointContact([ContactLayer(lay.body.name, lay.solid, lay.indenter, c)
-                              for lay, c in zip(layers, cands, strict=True)],
+                              if f is None else
+                              ContactLayer(lay.body.name, lay.solid,
+                                           MeshIndenter(f.solid.surface), c, f)
+                              for lay, c, f in zip(layers, cands, femurs, strict=True)],
                              solver=settings.solver, log=log)
         condense += joint.seconds
         sol = joint.solve(drive.pose, drive.basis, drive.load, drive.x0,
                           stiffness=drive.stiffness)
         rot, t = drive.pose(sol.q)
         gaps = [rigid_gaps(lay, rot, t) - lay.solid.normal_rows @ lc.u
+                + femoral_give(lay, lc, rot, t)
                 for lay, lc in zip(layers, sol.layers, strict=True)]
         worst = max(float(max(0.0, -g.min())) for g in gaps)
         if worst <= PENETRATION_TOL_MM:

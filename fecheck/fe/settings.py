@@ -12,6 +12,7 @@ from fecheck.scene import Scene
 
 MODES = ("joint", "compartment")
 PREPARE = ("auto", "on", "off")
+CARTILAGE = ("series", "two-layer")
 NEARLY_INCOMPRESSIBLE = 0.45
 """Poisson's ratio from which the automatic level count is 3 instead of 2."""
 
@@ -33,6 +34,7 @@ class FESettings:
     smooth_mm: float = 4.0
     body: str = "auto"
     solid_base_deg: float = 45.0
+    cartilage: str = "series"
 
     @classmethod
     def from_scene(cls, scene: Scene, **overrides: Any) -> FESettings:
@@ -53,6 +55,9 @@ class FESettings:
         if self.prepare not in PREPARE:
             raise FecheckError(f"fe.prepare must be one of {', '.join(PREPARE)}, got "
                                f"{self.prepare!r}")
+        if self.cartilage not in CARTILAGE:
+            raise FecheckError(f"fe.cartilage must be one of {', '.join(CARTILAGE)}, got "
+                               f"{self.cartilage!r}")
         if not (self.size_mm > 0 and math.isfinite(self.size_mm)):
             raise FecheckError("fe.size_mm must be a positive number of mm")
         if not (self.smooth_mm >= 0 and math.isfinite(self.smooth_mm)):

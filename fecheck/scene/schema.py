@@ -495,6 +495,16 @@ SCHEMA: dict[str, Key] = {
                    "distance from each sheet vertex along its inward normal to the solid's "
                    "far side); 'auto' = 'solid' when geometry.tibia_solid is given, else "
                    "'layer'.", choices=("auto", "solid", "layer")),
+    "fe.cartilage": Key("str", "series", _FE + "the cartilage model: 'series' = one "
+                        "deformable layer on the tibia with both cartilages' thickness in "
+                        "series under a rigid femoral surface (the EF's own assumption); "
+                        "'two-layer' = the femoral cartilage a deformable layer of its own, "
+                        "extruded toward the femoral bone (its thickness the distance to "
+                        "geometry.femur_bone with scanned.thickness = 'bone-distance', else "
+                        "half of contact.thickness_mm, as the tibial one) and bonded there, "
+                        "frictionless contact between the two layers, both of the contact "
+                        "material (model.kind = 'femur-tibia' sheets that extrude as read).",
+                        choices=("series", "two-layer")),
     "fe.solid_base_deg": Key("float", 45.0, _FE + "the fixed base of geometry.tibia_solid: "
                              "the boundary faces whose outward normal is within this angle of "
                              "-z (pointing away from the femur), all their nodes fixed; every "

@@ -1,0 +1,191 @@
+"""Two deformable cartilage layers in the FE (``fe.cartilage = "two-layer"``): the
+femoral layer's give joins the joint contact solve.
+
+References: Hertz for two elastic bodies (1/E* = (1-ν₁²)/E₁ + (1-ν₂²)/E₂, Johnson 1985
+§4.2) for a large sphere with a thick bonded layer on a thick block; the mirror symmetry
+of two equal layers (each takes half of the approach); the scene's load and weight.
+"""
+
+from __future__ import annotations
+
+import math
+from pathlib import Path
+
+import numpy as np
+import pytest
+from conftest import require_knee_data
+
+from fecheck.errors import FecheckError
+from fecheck.fe import crosscheck
+from fecheck.fe.crosscheck import cross_check
+from fecheck.fe.indenter import MeshIndenter
+from fecheck.fe.joint import ContactLayer, FemoralLayer, JointContact
+from fecheck.fe.recovery import zero_contour_area
+from fecheck.fe.solid import layer_solid
+from fecheck.model.assembly import applied_load, free_indices
+from fecheck.reference.closed_forms import (
+    hertz_contact_radius,
+    hertz_effective_modulus,
+    hertz_peak_pressure,
+)
+from fecheck.scene import load_scene
+from fecheck.statics.newton import pose, twist_basis
+from geometry.mesh import TriMesh
+from geometry.plateau import plane_patch
+
+E, NU = 20.0, 0.3
+SCENES = Path(__file__).resolve().parents[1] / "validation" / "scenes"
+UP = np.array([0.0, 0.0, 1.0])
+
+
+def _cap(radius_mm: float, disc_mm: float, size: float, refine: float, refine_radius: float,
+         down: bool, turn_deg: float = 0.0) -> TriMesh:
+    """A spherical cap of `radius_mm` over a disc of `disc_mm` touching the origin: bulging
+    up with normals up, or (`down`) its mirror image bulging down with normals down,
+    turned `turn_deg` about z (so two caps' meshes do not match)."""
+    disc = plane_patch((0.0, 0.0, 0.0), UP, radius=disc_mm, size=size,
+                       refine_point=(0.0, 0.0, 0.0), refine_size=refine,
+                       refine_radius=refine_radius)
+    p = disc.points.copy()
+    r2 = p[:, 0] ** 2 + p[:, 1] ** 2
+    sag = radius_mm - np.sqrt(radius_mm ** 2 - r2) if math.isfinite(radius_mm) else 0 * r2
+    p[:, 2] = sag if down else -sag
+    faces = disc.faces[:, ::-1] if down else disc.faces
+    c, s = math.cos(math.radians(turn_deg)), math.sin(math.radians(turn_deg))
+    return TriMesh(p @ np.array([[c, -s, 0.0], [s, c, 0.0], [0.0, 0.0, 1.0]]).T, faces)
+
+
+def _press(tibial: TriMesh, h_t: float, femoral: TriMesh, h_f: float, force: float, *,
+           levels: int = 2, grading: float = 1.6, margin: float = 1.0,
+           direction: np.ndarray = UP, femoral_radius: float = math.inf):
+    """The tibial layer pushed along `direction` (default up) with `force` (N) against the
+    femoral layer, both deformable, the femoral vertices of the faces the candidates hit
+    (within `femoral_radius` mm of the z axis) condensed: (tibial solid, femoral solid,
+    solution, contact)."""
+    tib = layer_solid(tibial, h_t, E, NU, layers=levels, ratio=grading)
+    fem = layer_solid(femoral, h_f, E, NU, layers=levels, ratio=grading)
+    indenter = MeshIndenter(femoral)
+    gap, face, _ = indenter.hits(tibial.points, tib.normals)
+    cand = np.flatnonzero(gap.gap_mm < margin)
+    hit = np.unique(femoral.faces[face[cand]])
+    hit = hit[np.linalg.norm(femoral.points[hit, :2], axis=1) < femoral_radius]
+    femur = FemoralLayer("femur", fem, hit)
+    joint = JointContact([ContactLayer("tibia", tib, indenter, cand, femur)])
+    sol = joint.solve(lambda q: (np.eye(3), q[0] * direction),
+                      lambda q: np.concatenate([direction, np.zeros(3)])[:, None],
+                      lambda q: np.array([force]), np.zeros(1))
+    return tib, fem, sol, sol.layers[0]
+
+
+def test_equal_layers_split_the_approach_equally():
+    """Two equal layers, mirror images (R 30 mm caps, 3 mm thick, meshes turned 17 deg
+    apart): at the touch point each layer gives half of the approach."""
+    tibial = _cap(30.0, 9.0, 0.6, 0.4, 4.0, down=False)
+    femoral = _cap(30.0, 9.0, 0.6, 0.4, 4.0, down=True, turn_deg=17.0)
+    tib, fem, sol, lc = _press(tibial, 3.0, femoral, 3.0, 40.0)
+    approach = float(sol.q[0])
+    centre_t = int(np.argmin(np.linalg.norm(tibial.points, axis=1)))
+    centre_f = int(np.argmin(np.linalg.norm(femoral.points, axis=1)))
+    tibial_give = -(tib.normal_rows @ lc.u)[centre_t]              # down, into its bone
+    femoral_give = -(fem.normal_rows @ lc.femoral_u)[centre_f]     # up, into its bone
+    assert approach > 0.05
+    assert lc.active[centre_t]
+    assert tibial_give / approach == pytest.approx(0.5, abs=0.01)
+    assert femoral_give / approach == pytest.approx(0.5, abs=0.01)
+    # the contact forces balance the load, none pulls, no vertex penetrates
+    assert lc.force_N @ tib.normals[:, 2] == pytest.approx(40.0, rel=1e-10)
+    assert lc.force_N.min() >= 0.0
+    assert lc.gap_mm.min() >= -1e-9
+
+
+def test_the_pairing_follows_the_pose():
+    """The tibial layer pushed along a line 30 deg off the axis slides 0.2 mm across the
+    femoral mesh on its way to equilibrium: re-paired at the solution's pose, every
+    vertex in contact has zero gap there (1e-9 mm), none penetrates, and the contact
+    forces carry the load along that line."""
+    tibial = _cap(30.0, 9.0, 0.6, 0.4, 4.0, down=False)
+    femoral = _cap(30.0, 9.0, 0.6, 0.4, 4.0, down=True, turn_deg=17.0)
+    d = np.array([math.sin(math.radians(30.0)), 0.0, math.cos(math.radians(30.0))])
+    tib, _, sol, lc = _press(tibial, 3.0, femoral, 3.0, 40.0, direction=d, margin=1.5)
+    assert sol.q[0] * d[0] > 0.2
+    assert np.abs(lc.gap_mm[lc.active]).max() < 1e-9
+    assert lc.gap_mm.min() > -1e-9
+    assert lc.force_N @ tib.normals @ d == pytest.approx(40.0, rel=1e-10)
+
+
+def test_a_contact_beyond_the_condensed_femoral_vertices_is_refused():
+    """Femoral vertices condensed only within 1 mm of the axis, under a contact about 3 mm
+    wide: refused, naming the vertex, instead of a contact with no femoral give there."""
+    tibial = _cap(30.0, 9.0, 0.6, 0.4, 4.0, down=False)
+    femoral = _cap(30.0, 9.0, 0.6, 0.4, 4.0, down=True, turn_deg=17.0)
+    with pytest.raises(FecheckError, match=r"tibial vertex at \(.*\) mm .*condensed"):
+        _press(tibial, 3.0, femoral, 3.0, 40.0, femoral_radius=1.0)
+
+
+def test_a_sphere_with_a_thick_layer_on_a_thick_block_matches_two_body_hertz():
+    """A sphere of R 200 mm carrying a 60 mm layer pressed with 2 N on a 60 mm block, both
+    of E 20 MPa, ν 0.3, bonded at their bases: Hertz with the combined modulus
+    E* = E / (2 (1 - ν²)) (contact radius 3.0 mm, 0.05 of either thickness) within 3 %
+    on p_max and the contact radius (measured +0.1 % and +1.2 %; Hertz with the block
+    alone deforming, E* = E / (1 - ν²), is 26 % off on the radius). The two surfaces are
+    meshed alike (each block vertex meets a sphere vertex): on meshes turned 11 deg apart
+    the radius stays within 0.3 % but the node-to-surface vertex p_max is 3.6 % high."""
+    radius, force = 200.0, 2.0
+    tibial = _cap(math.inf, 80.0, 16.0, 0.5, 5.0, down=False)
+    femoral = _cap(radius, 80.0, 16.0, 0.5, 5.0, down=True)
+    tib, _, _, lc = _press(tibial, 60.0, femoral, 60.0, force, levels=5, grading=3.0,
+                           margin=0.1)
+    a_ref = hertz_contact_radius(force, radius, hertz_effective_modulus(E, NU, E, NU))
+    pressure = lc.force_N / tib.tributary_mm2
+    area = zero_contour_area(tibial.points, tibial.faces, pressure, lc.active)
+    assert math.sqrt(area / math.pi) == pytest.approx(a_ref, rel=0.03)
+    assert pressure.max() == pytest.approx(hertz_peak_pressure(force, a_ref), rel=0.03)
+
+
+def _free_residual(scene, check) -> np.ndarray:
+    """Generalised force on the scene's free DOFs at the FE pose: load, gravity and the FE
+    contact forces on the tibia (N, N·mm); zero at equilibrium."""
+    p = check.pose["fe"]
+    q = np.array([p["x_mm"], p["y_mm"], p["z_mm"], math.radians(p["abduction_deg"]),
+                  math.radians(p["internal_deg"])])
+    theta = math.radians(scene["dofs.flexion_deg"])
+    rot, t = pose(q, theta)
+    total = applied_load(scene)(rot, t)[0]
+    for chk in check.compartments.values():
+        x = chk.layer.surface.points @ rot.T + t
+        f = -chk.fe_force_N[:, None] * (chk.layer.solid.normals @ rot.T)
+        total = total + np.concatenate([f.sum(axis=0), np.cross(x, f).sum(axis=0)])
+    return (twist_basis(q, theta).T @ total)[list(free_indices(scene))]
+
+
+def test_the_scanned_knee_two_layer_fe_balances_and_does_not_penetrate():
+    """The scanned knee (decimated to 1,500 tibial faces) with both cartilages deformable:
+    the free DOFs balance to 1e-8 of the load, no vertex penetrates beyond 1e-6 mm, and
+    the femoral layer gives (its surface moves toward its bone under the contact)."""
+    require_knee_data()
+    scene = load_scene(SCENES / "femur_tibia.toml",
+                       ["scanned.decimate_faces=1500", "fe.cartilage='two-layer'"])
+    check = cross_check(scene, log=None)
+    assert check.geometry["deformable_layers"] == 2
+    assert check.geometry["cartilage"] == "two-layer"
+    assert any("two deformable layers" in note for note in check.notes)
+    residual = _free_residual(scene, check)
+    assert np.abs(residual).max() < 1e-8 * scene["load.force_N"]
+    for chk in check.compartments.values():
+        assert chk.max_penetration_mm <= 1e-6
+        assert chk.fe_force_N.min() >= 0.0 and chk.fe.area_mm2 > 0
+
+
+@pytest.mark.parametrize("name, overrides, message", [
+    ("baseline.toml", [], "model.kind = 'femur-tibia'"),
+    ("femur_tibia.toml", ["fe.prepare='on'"], "fe.prepare"),
+])
+def test_scenes_the_two_layer_fe_does_not_model_are_refused_before_the_ef_run(
+        monkeypatch, name, overrides, message):
+    def no_ef_run(*args, **kwargs):
+        raise AssertionError("the EF run started before the refusal")
+
+    monkeypatch.setattr(crosscheck, "_ef_run", no_ef_run)
+    scene = load_scene(SCENES / name, [*overrides, "fe.cartilage='two-layer'"])
+    with pytest.raises(FecheckError, match=message):
+        crosscheck.cross_check(scene, log=None)
