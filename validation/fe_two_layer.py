@@ -32,13 +32,17 @@ import time
 from pathlib import Path
 
 import numpy as np
-from report import knee_scene, knee_script_args
 
 from fecheck.fe.crosscheck import cross_check
 from fecheck.model.assembly import applied_load, free_indices
 from fecheck.model.run import run_scene
 from fecheck.scene import load_scene
 from fecheck.statics.newton import pose, twist_basis
+
+if __name__ == "__main__" and not __package__:  # python validation/x.py: as python -m
+    sys.path[0] = str(Path(__file__).resolve().parents[1])
+
+from validation.report import knee_scene, knee_script_args
 
 SCENE = Path(__file__).resolve().parent / "scenes" / "femur_tibia.toml"
 MODELS = ("series", "two-layer")
