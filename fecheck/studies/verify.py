@@ -5,7 +5,8 @@ checked against a stated expectation.
 A case is judged in one of three ways:
 
 * against a closed form, order from the errors: p = ln(e1/e2)/ln(h1/h2) of the last two
-  levels (manufactured solutions, the EF on meshes, the thin-layer limit);
+  levels (manufactured solutions, the EF on meshes, the thin-layer limits of a sphere
+  and a flat punch);
 * against a closed form for the error, order from the values (three levels, Richardson:
   `fecheck.studies.gci`), where the model error does not vanish with h (a 60 mm block is
   not a half-space: the Hertz case);
