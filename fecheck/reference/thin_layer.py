@@ -22,8 +22,9 @@ With β² = 3μ / (M h²) (β h → 0 as ν → 1/2):
   P = 2π(M/h)(a⁴/R)[1/8 − I₀(x)/(2x I₁(x)) + 1/x²];
   the column law (x → ∞: p = (M/h)(δ − r²/2R), δ = a²/2R) and the incompressible
   limit (x → 0: p = 3μ(a² − r²)² / (32 R h³), δ = a²/4R, P = πμ a⁶ / (32 R h³)) are its
-  ends. Both neglect terms of relative order h/a (the punch's edge) or (h/a)² (the
-  sphere's smooth edge).
+  ends. Both neglect terms of relative order h/a (the punch's stiffness, the sphere's
+  contact radius) or (h/a)² (the sphere's p₀ and approach), as the FE against them
+  shows (`fecheck verify`, thin-punch-*, thin-sphere-*).
 
 Units: mm, N, MPa.
 """
