@@ -56,6 +56,20 @@ def test_element_means_of_div_integrate_an_affine_field_exactly():
     assert volume.sum() == pytest.approx(layer.volume, rel=1e-12)
 
 
+def test_mixed_element_condensation_equals_the_sparse_mean_dilatation_form():
+    # p2_elasticity adds (λ/|T|) d dᵀ inside each element matrix; it must equal the μ part
+    # (the displacement form at ν 0 with E/(1+ν): the same μ, λ 0) plus Dᵀ diag(λ/|T|) D
+    # of scikit-fem's own basis (`dilatation_matrix`, the quadrature over div φ)
+    from fecheck.fe.elasticity import lame, mean_dilatation_stiffness
+
+    nu = 0.49
+    layer = extrude_layer(_sheet(), 2.0, layers=2, ratio=1.5)
+    _, basis, K_mixed = p2_elasticity(layer, E, nu, formulation="mixed")
+    _, _, K_mu = p2_elasticity(layer, E / (1 + nu), 0.0, formulation="displacement")
+    K_ref = K_mu + mean_dilatation_stiffness(*dilatation_matrix(basis), lame(E, nu)[0])
+    assert abs(K_mixed - K_ref).max() < 1e-12 * abs(K_ref).max()
+
+
 def test_mixed_and_displacement_stiffness_agree_where_div_u_is_constant():
     # Patch test: for an affine u the element mean of div u is div u itself, so
     # v·K_mixed u = v·K_displacement u for every v (K u equal). For q = (x², yz, z²),

@@ -16,9 +16,10 @@ def add_parser(subparsers) -> None:
         "verify", help="code verification: observed orders against exact solutions",
         description="Solve each verification case (manufactured solutions, patch tests, "
         "load scaling, EF mesh independence and invariance, Hertz, the axisymmetric layer "
-        "at several Poisson's ratios, the thin-layer limit) at 2-3 levels; print the error "
-        "at the finest level, the observed order and pass/fail against the expected order "
-        "and tolerance. Exit code 1 if a case fails (a known, stated limitation does not).")
+        "at several Poisson's ratios, the thin-layer limit, a flat punch and a sphere on a "
+        "thin layer) at 2-3 levels; print the error at the finest level, the observed order "
+        "and pass/fail against the expected order and tolerance. Exit code 1 if a case "
+        "fails (a known, stated limitation does not).")
     p.add_argument("--quick", action="store_true", help="cheaper levels, for CI (~1-2 min)")
     p.add_argument("--only", nargs="+", metavar="TEXT",
                    help="run only the cases whose name or group contains TEXT")

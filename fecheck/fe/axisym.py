@@ -49,7 +49,8 @@ def axisym_sphere_on_layer(load_N: float, radius_mm: float, E_MPa: float, nu: fl
                            thickness_mm: float, *, layer_radius_mm: float = 30.0,
                            size_mm: float = 0.05, gap: str = "reference",
                            solver: str = "cholmod",
-                           formulation: str = "auto") -> FEContactResult:
+                           formulation: str = "auto",
+                           reach_mm: float | None = None) -> FEContactResult:
     """Rigid sphere (radius R) pressed with `load_N` on a bonded axisymmetric disc layer.
 
     Parameters
@@ -65,6 +66,9 @@ def axisym_sphere_on_layer(load_N: float, radius_mm: float, E_MPa: float, nu: fl
     solver : sparse factorization, "cholmod" or "superlu"
     formulation : "displacement", "mixed" (an element-constant pressure condensed per
         element, `fecheck.fe.elasticity`) or "auto" (mixed for nearly incompressible ν)
+    reach_mm : radius of the fine mesh and the contact candidates, mm (default 1.3 × the
+        Hertz contact radius, an upper bound on a bonded layer; a thin layer's contact is
+        far smaller)
 
     Returns
     -------
@@ -80,7 +84,7 @@ def axisym_sphere_on_layer(load_N: float, radius_mm: float, E_MPa: float, nu: fl
     if not (0 < size_mm < thickness_mm):
         raise FecheckError(f"FE element size must be in (0, h={thickness_mm}) mm, got {size_mm}")
     hertz = hertz_sphere_on_plane(load_N, radius_mm, E_MPa, nu)
-    a_max = np.sqrt(hertz.area_mm2 / np.pi)
+    a_max = np.sqrt(hertz.area_mm2 / np.pi) if reach_mm is None else reach_mm / 1.3
     if 1.3 * a_max >= layer_radius_mm:
         raise FecheckError(f"the contact (radius up to {a_max:.1f} mm) does not fit on a "
                            f"{layer_radius_mm} mm layer: enlarge the layer or lower the load")
@@ -138,6 +142,42 @@ def axisym_sphere_on_layer(load_N: float, radius_mm: float, E_MPa: float, nu: fl
                            iterations=sol.iterations, timing_s=timing,
                            max_penetration_mm=float(max(0.0, -sol.gap_mm.min())),
                            node_area_mm2=area)
+
+
+def axisym_flat_punch(depth_mm: float, punch_radius_mm: float, E_MPa: float, nu: float,
+                      thickness_mm: float, *, layer_radius_mm: float = 60.0,
+                      size_mm: float = 0.05, formulation: str = "auto") -> float:
+    """Force (N) of a rigid frictionless flat punch (radius a) pressed `depth_mm` into the
+    bonded axisymmetric disc layer of `axisym_sphere_on_layer` (same mesh grading,
+    `size_mm` out to a + h): u_z = −δ on the top nodes r ≤ a, u_r free; the force is the
+    sum of their reactions. Linear: no contact iteration (the pressure under a flat punch
+    on a bonded layer is compressive throughout)."""
+    import scipy.sparse.linalg as sla
+    from skfem import Basis, ElementTriP2, ElementVector, MeshTri
+
+    if formulation not in FORMULATIONS:
+        raise FecheckError(f"formulation must be one of {', '.join(FORMULATIONS)}, "
+                           f"got {formulation!r}")
+    a, h = punch_radius_mm, thickness_mm
+    if not (0 < size_mm < h and 0 < a < layer_radius_mm - 2 * h):
+        raise FecheckError(f"flat punch: element size must be in (0, h={h}) mm and the punch "
+                           f"(a {a} mm) inside the {layer_radius_mm} mm layer less 2h")
+    r = np.unique(np.concatenate([_graded(a, size_mm, a, 1.0, size_mm),
+                                  a + _graded(h, size_mm, layer_radius_mm - a, 1.15, 4 * h)]))
+    z = -_graded(0.0, size_mm, h, 1.2, h / 6)[::-1]
+    basis = Basis(MeshTri.init_tensor(r, z), ElementVector(ElementTriP2()))
+    K = axisym_stiffness(basis, E_MPa, nu, resolve(formulation, nu)).tocsr()
+    ir, iz = basis.split_indices()
+    loc = basis.doflocs
+    punched = iz[np.isclose(loc[1, iz], 0.0) & (loc[0, iz] <= a * (1 + 1e-12))]
+    fixed = np.concatenate([ir[np.isclose(loc[0, ir], 0.0)],
+                            ir[np.isclose(loc[1, ir], -h)], iz[np.isclose(loc[1, iz], -h)],
+                            punched])
+    free = np.setdiff1d(np.arange(basis.N), fixed)
+    u = np.zeros(basis.N)
+    u[punched] = -depth_mm
+    u[free] = sla.spsolve(K[free][:, free].tocsc(), -(K[free][:, punched] @ u[punched]))
+    return float(-(K[punched] @ u).sum())
 
 
 def axisym_stiffness(basis, E_MPa: float, nu: float, formulation: str = "displacement"):

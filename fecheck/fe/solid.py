@@ -29,7 +29,7 @@ import numpy as np
 import scipy.sparse as sp
 
 from fecheck.errors import FecheckError
-from fecheck.fe.elasticity import dilatation_matrix, lame, mean_dilatation_stiffness
+from fecheck.fe.elasticity import lame
 from fecheck.fe.recovery import tributary_areas
 from geometry.extrude import extrude_layer
 from geometry.mesh import TetMesh, TriMesh
@@ -121,7 +121,9 @@ def p2_elasticity(layer: TetMesh, youngs_MPa: float, poisson: float, chunk: int 
     """(skfem mesh, basis, K): isotropic small-strain elasticity on quadratic tetrahedra
     (degree-2 quadrature, exact for affine P2), stiffness K in N/mm; `formulation`
     'mixed' condenses an element-constant pressure (`fecheck.fe.elasticity`: the λ term
-    on the element means of div u, for nearly incompressible layers).
+    on the element means of div u, for nearly incompressible layers) inside each element
+    matrix, (λ/|T|) d dᵀ with d_(ia) = ∫_T ∂_a φ_i (no second sparse assembly; the
+    same matrix as `fecheck.fe.elasticity.mean_dilatation_stiffness` to round-off).
 
     The element matrices are formed at once from the scalar P2 gradients,
     K_(ia)(jb) = ∫ λ ∂_a φ_i ∂_b φ_j + μ (δ_ab ∇φ_i·∇φ_j + ∂_b φ_i ∂_a φ_j) dx, in chunks
@@ -146,12 +148,14 @@ def p2_elasticity(layer: TetMesh, youngs_MPa: float, poisson: float, chunk: int 
         ke = lam_point * a + mu * np.swapaxes(a, 3, 4)
         ke += mu * np.einsum("eijcc->eij", a)[..., None, None] * np.eye(3)
         ke = ke.transpose(0, 1, 3, 2, 4).reshape(-1, 30, 30)
+        if formulation == "mixed":                  # + d dᵀ λ/|T|, d = ∫_T div φ (P0 pressure)
+            d = np.einsum("iaeq,eq->eia", grads[:, :, part], scalar.dx[part]).reshape(-1, 30)
+            ke += (lam / scalar.dx[part].sum(axis=1))[:, None, None] * d[:, :, None] \
+                * d[:, None, :]
         dofs = basis.element_dofs[:, part].T.astype(np.int32)           # (e, 30)
         K = K + sp.csr_matrix((ke.ravel(), (np.repeat(dofs, 30, axis=1).ravel(),
                                             np.tile(dofs, (1, 30)).ravel())),
                               shape=(basis.N, basis.N))
-    if formulation == "mixed":
-        K = K + mean_dilatation_stiffness(*dilatation_matrix(basis), lam)
     return mesh, basis, K
 
 

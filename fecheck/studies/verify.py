@@ -5,7 +5,8 @@ checked against a stated expectation.
 A case is judged in one of three ways:
 
 * against a closed form, order from the errors: p = ln(e1/e2)/ln(h1/h2) of the last two
-  levels (manufactured solutions, the EF on meshes, the thin-layer limit);
+  levels (manufactured solutions, the EF on meshes, the thin-layer limits of a sphere
+  and a flat punch);
 * against a closed form for the error, order from the values (three levels, Richardson:
   `fecheck.studies.gci`), where the model error does not vanish with h (a 60 mm block is
   not a half-space: the Hertz case);
@@ -308,6 +309,44 @@ def cases() -> list[Case]:
              "depth (h: h/a)", (0.2, 0.1, 0.05), (0.2, 0.1),
              partial(lambda h, q: vp.thin_layer(h, q), q="depth"), 1.5, (1.2, 2.0), 0.002),
     ]
+    out += _thin_layer_cases()
+    return out
+
+
+def _thin_layer_cases() -> list[Case]:
+    """A rigid flat punch and a rigid sphere on a thin bonded layer against the thin-layer
+    asymptotes (`fecheck.reference.thin_layer`), h/a → 0: each asymptote neglects terms
+    of relative order h/a (a punch's edge, the sphere's contact radius) or (h/a)² (the
+    sphere's p₀ and approach), the order the FE's error must show (its own error at h/8
+    elements is far smaller: p₀ moves 0.03 % from h/8 to h/16 at h/a 0.1)."""
+    punch = {0.3: "column law P/δ = Mπa²/h, M = (1−ν)E/((1+ν)(1−2ν)): the leading term "
+                  "for a compressible layer (Jaffar 1989)",
+             0.4999: "thin-layer punch P/δ = (Mπa²/h)(1 − 2I₁(βa)/(βa I₀(βa))), "
+                     "β² = 3μ/(Mh²) (Jaffar 1989; → 3πμa⁴/(8h³) as ν → 1/2)"}
+    sphere = ("thin-layer sphere (Jaffar 1989; ν → 1/2: p = 3μ(a² − r²)²/(32Rh³), "
+              "δ = a²/4R, Chadwick 2002), a 10 mm, R 100 mm")
+    out = []
+    for nu, levels, quick, tol in ((0.3, (0.2, 0.1, 0.05), (0.1, 0.05), 0.02),
+                                   (0.4999, (0.1, 0.05, 0.025), (0.05, 0.025), 0.16)):
+        out.append(Case(f"thin-punch-nu{nu}", "thin layer", f"axisymmetric FE of a rigid "
+                        f"flat punch (a 10 mm) on a bonded layer, ν {nu}, tends to the "
+                        "thin-layer asymptote; edge-limited: error O(h/a)", punch[nu],
+                        "stiffness P/δ (h: h/a)", levels, quick,
+                        partial(lambda h, n: vp.thin_punch(h, n, n < 0.45), n=nu), 1.0,
+                        (0.8, 1.4), tol))
+    for nu in (0.49, 0.4999):
+        for quantity, expected, band, tol in (("p_max", 2.0, (1.7, 2.6), 0.02),
+                                              ("depth", 2.0, (1.6, 3.0), 0.02),
+                                              ("radius", 1.0, (0.8, 1.3), 0.08)):
+            if nu > 0.49 and quantity != "p_max":
+                continue
+            out.append(Case(f"thin-sphere-{quantity}-nu{nu}", "thin layer",
+                            f"axisymmetric FE of a rigid sphere on a bonded layer, ν {nu} "
+                            f"(mixed), tends to the thin-layer asymptote: {quantity}, error "
+                            f"O((h/a)^{expected:g})", sphere, f"{quantity} (h: h/a)",
+                            (0.1, 0.05, 0.025), (0.1, 0.05),
+                            partial(lambda h, n, q: vp.thin_sphere(h, n, q), n=nu,
+                                    q=quantity), expected, band, tol))
     return out
 
 

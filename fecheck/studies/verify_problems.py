@@ -415,3 +415,55 @@ def fe3d_invariance(tilt_deg: float, spin_deg: float, load_N: float = 100.0) -> 
     a = _pressed_layer(flat, up, load_N, settings)
     b = _pressed_layer(TriMesh(flat.points @ rot.T, flat.faces), rot @ up, load_N, settings)
     return float(np.max(np.abs(b / a - 1)))
+
+
+# ---------------------------------------------------------------- thin bonded layers
+THIN_A_MM, THIN_R_MM = 10.0, 100.0
+"""Punch radius and sphere contact radius a (mm), sphere radius R (mm) of the thin-layer
+cases; the layer's thickness is a·(h/a)."""
+
+
+def thin_punch(h_over_a: float, nu: float, column: bool) -> Sample:
+    """Stiffness P/δ (N/mm) of the axisymmetric FE (`fecheck.fe.axisym.axisym_flat_punch`,
+    element h/8, formulation per ν) of a rigid flat punch (a 10 mm) on a bonded layer of
+    thickness a·`h_over_a`, against the column law Mπa²/h (`column`: the leading term
+    for a compressible layer, βa ≫ 1) or the thin-layer asymptote
+    (`fecheck.reference.thin_layer.flat_punch_stiffness`: the leading term when βa is
+    of order 1, ν near 1/2)."""
+    from fecheck.fe.axisym import axisym_flat_punch
+    from fecheck.reference.thin_layer import flat_punch_stiffness
+
+    h = THIN_A_MM * h_over_a
+    depth = 0.01 * h
+    force = axisym_flat_punch(depth, THIN_A_MM, E_MPA, nu, h, size_mm=h / 8)
+    if column:
+        return force / depth, column_stiffness(E_MPA, nu, h) * math.pi * THIN_A_MM ** 2
+    return force / depth, flat_punch_stiffness(E_MPA, nu, h, THIN_A_MM)
+
+
+def thin_sphere(h_over_a: float, nu: float, quantity: str) -> Sample:
+    """The axisymmetric FE (element h/8, formulation per ν) of a rigid sphere (R 100 mm)
+    on a bonded layer of thickness a·`h_over_a`, at the load that gives the thin-layer
+    asymptote (`fecheck.reference.thin_layer.sphere_at_radius`) a contact radius a of
+    10 mm: p_max ("p_max"), the approach ("depth") or the contact radius ("radius")
+    against the asymptote's."""
+    res, ref = _thin_sphere(h_over_a, nu)
+    m = res.metrics
+    if quantity == "p_max":
+        return m.max_pressure_MPa, ref.max_pressure_MPa
+    if quantity == "depth":
+        return m.depth_mm, ref.depth_mm
+    return math.sqrt(m.area_mm2 / math.pi), ref.radius_mm
+
+
+@lru_cache(maxsize=8)
+def _thin_sphere(h_over_a: float, nu: float):
+    """(FE result, thin-layer answer) of `thin_sphere`."""
+    from fecheck.fe.axisym import axisym_sphere_on_layer
+    from fecheck.reference.thin_layer import sphere_at_radius
+
+    h = THIN_A_MM * h_over_a
+    ref = sphere_at_radius(THIN_A_MM, THIN_R_MM, E_MPA, nu, h)
+    res = axisym_sphere_on_layer(ref.load_N, THIN_R_MM, E_MPA, nu, h, layer_radius_mm=60.0,
+                                 size_mm=h / 8, reach_mm=1.3 * THIN_A_MM)
+    return res, ref
