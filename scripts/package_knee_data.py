@@ -48,20 +48,19 @@ changes made to the originals), licence and NOTICE. Not packaged: the whole (unc
 bones, the unsplit tibial cartilage and preview.png, which no packaged scene reads."""
 MENISCI = "smith2019_menisci"
 MENISCI_FILES = (
-    "smith2019_R_meniscus_medial_superior.stl",
-    "smith2019_R_meniscus_medial_inferior.stl",
-    "smith2019_R_meniscus_lateral_superior.stl",
-    "smith2019_R_meniscus_lateral_inferior.stl",
+    "smith2019_R_meniscus_medial.stl",
+    "smith2019_R_meniscus_lateral.stl",
     "meniscal_ligaments.json",
     "menisci.json",
     "README.md",
     "LICENSE",
     "NOTICE-opensim-core",
 )
-"""The menisci files the scene key ``menisci.dir`` reads (`fecheck.model.menisci`): the four
-articular surfaces, the meniscal ligaments and contact parameters, menisci.json (the
-femur's smith2019 pose, the files' sha256), README, licence and NOTICE. Not packaged: the
-volumes, the regions and preview.png, which the rigid-body model does not read."""
+"""The menisci files the scene key ``menisci.dir`` reads (`fecheck.model.menisci`): the two
+closed volumes (their contact surfaces), the meniscal ligaments and contact parameters,
+menisci.json (the femur's smith2019 pose, the files' sha256), README, licence and NOTICE.
+Not packaged: the separate articular surfaces, the regions and preview.png, which the
+rigid-body model does not read."""
 
 
 def sha256(path: Path) -> str:

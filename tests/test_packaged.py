@@ -70,7 +70,7 @@ def test_packaged_menisci_are_the_data_sets_own_files():
     for name in listed:
         if name in recorded:
             assert _sha256(MENISCI / name) == recorded[name]["sha256"], name
-    assert sum(name in recorded for name in listed) == 7     # 4 meshes, json, LICENSE, NOTICE
+    assert sum(name in recorded for name in listed) == 5     # 2 volumes, json, LICENSE, NOTICE
     assert "Apache License" in (MENISCI / "LICENSE").read_text()
 
 
