@@ -8,13 +8,18 @@ import math
 
 import numpy as np
 import pytest
+from contact_helpers import box
 
+from fecheck.contact.pair import ContactPair
+from fecheck.laws.fused import linear_law
 from fecheck.model import menisci
 from fecheck.model.run import run_scene
 from fecheck.scene import load_scene
 from fecheck.scene.constants import GRAVITY_MPS2
 from fecheck.statics.frames import rot_y
-from fecheck.statics.newton import body_pose
+from fecheck.statics.interfaces import Interface
+from fecheck.statics.newton import Body, Problem, body_pose, point_force, solve
+from geometry.plateau import plane_patch
 
 LOAD_N = 800.0
 TIBIA_KG = 2.65207          # femur_tibia_menisci.toml [tibia]
@@ -23,8 +28,6 @@ TIBIA_KG = 2.65207          # femur_tibia_menisci.toml [tibia]
 @pytest.fixture(scope="module")
 def intact():
     """(scene, problem, interfaces, springs, solution) of the packaged scene."""
-    from fecheck.statics.newton import solve
-
     scene = load_scene("femur_tibia_menisci")
     problem, interfaces, springs, _, _ = menisci.build_problem(scene)
     return scene, problem, interfaces, springs, solve(problem)
@@ -137,3 +140,69 @@ def test_meniscus_interface_stiffness_is_the_two_layers_in_series():
     # = 8.974359 N/mm³; in series 1/(1/1.264368 + 1/8.974359) = 1.108233 N/mm³.
     law = menisci.meniscus_law(load_scene("femur_tibia_menisci"))
     assert law.params[0] == pytest.approx(1.108233, rel=1e-6)
+
+
+K_MEN, K_CART, P_N = 1.1, 9.0, 300.0       # N/mm³, N/mm³, N
+MEN = 2                                      # the reduced case's meniscus body
+
+
+def _disc(x: float, y: float, z: float, normal_z: float):
+    return plane_patch((x, y, z), (0.0, 0.0, normal_z), radius=4.0, size=1.0)
+
+
+def test_reduced_knee_share_meets_the_hand_statics():
+    # A flat "knee": the tibia (z free) pushed up by 300 N; medially a cartilage disc under
+    # a femoral block (gap 0.1 mm) and a meniscus block (z free) between a femoral disc
+    # (0.02 mm into its top at z_m = 0) and a tibial disc; laterally a cartilage disc
+    # under a block 0.2 mm above. Cartilage sheets are the slaves and blocks (closed) the
+    # masters, as in the knee. Flat faces with a uniform depth: F = k·A·d exactly, so with
+    # z_t, z_m the tibia's and meniscus's rise: meniscus k_m A (z_m + 0.02) = k_m A (z_t -
+    # z_m), tibia k_m A (z_t - z_m) + k_c A (z_t - 0.1) + k_c A (z_t - 0.2) = P; the
+    # shares follow. Tolerance: rounding (measured ~1e-12) and the solver's 1e-8.
+    femur, tibia = 0, 1
+    pairs = {
+        "medial": (ContactPair(_disc(-20, 15, 0.0, 1.0), box((-30, 8, 0.1), (-10, 22, 5))),
+                   K_CART, tibia, femur),
+        "lateral": (ContactPair(_disc(20, 0, 0.0, 1.0), box((10, -7, 0.2), (30, 7, 5))),
+                    K_CART, tibia, femur),
+        "medial femur-meniscus": (ContactPair(_disc(-20, -15, 1.98, -1.0),
+                                              box((-30, -22, 0.0), (-10, -8, 2.0))),
+                                  K_MEN, femur, MEN),
+        "medial meniscus-tibia": (ContactPair(_disc(-20, -15, 0.0, 1.0),
+                                              box((-30, -22, 0.0), (-10, -8, 2.0))),
+                                  K_MEN, tibia, MEN),
+    }
+    interfaces = [Interface(n, pair, linear_law(k), s, m) for n, (pair, k, s, m) in
+                  pairs.items()]
+    # a start with every interface touching: the system is linear from there
+    bodies = (Body("femur", np.zeros(6), ()), Body("tibia", np.array([0, 0, 0.25, 0, 0, 0]),
+                                                   (2,)),
+              Body("meniscus", np.array([0, 0, 0.1, 0, 0, 0]), (2,)))
+
+    def wrench(poses):
+        push = point_force(poses[tibia][1], np.array([0.0, 0.0, P_N]))
+        return [i(poses) for i in interfaces] + [((tibia,), *push)]
+
+    sol = solve(Problem(bodies, wrench, force_scale_N=P_N,
+                        touching=lambda: any(i.max_depth_mm > 0 for i in interfaces)))
+    assert sol.converged
+    area = {n: float(pair.slave.face_areas.sum()) for n, (pair, *_) in pairs.items()}
+    a_ft, a_tm = area["medial femur-meniscus"], area["medial meniscus-tibia"]
+    a_cm, a_cl = area["medial"], area["lateral"]
+    # unknowns (z_t, z_m): the two balances above, linear
+    mat = np.array([[-K_MEN * a_tm, K_MEN * (a_ft + a_tm)],
+                    [K_MEN * a_tm + K_CART * (a_cm + a_cl), -K_MEN * a_tm]])
+    rhs = np.array([-0.02 * K_MEN * a_ft, P_N + K_CART * (0.1 * a_cm + 0.2 * a_cl)])
+    z_t, z_m = np.linalg.solve(mat, rhs)
+    assert z_t > 0.2 and z_t > z_m > -0.02                     # every interface touches
+    assert sol.q[tibia][2] == pytest.approx(z_t, abs=1e-9)
+    assert sol.q[MEN][2] == pytest.approx(z_m, abs=1e-9)
+    rows = menisci._shares(interfaces, [body_pose(q) for q in sol.q], ("medial",))
+    f_men, f_cm = K_MEN * a_tm * (z_t - z_m), K_CART * a_cm * (z_t - 0.1)
+    assert rows["medial"]["meniscus_N"] == pytest.approx(f_men, rel=1e-8)
+    assert rows["medial"]["femur_on_meniscus_N"] == pytest.approx(f_men, rel=1e-8)
+    assert rows["medial"]["cartilage_N"] == pytest.approx(f_cm, rel=1e-8)
+    assert rows["medial"]["meniscal_share"] == pytest.approx(f_men / (f_men + f_cm), rel=1e-8)
+    assert rows["lateral"]["meniscal_share"] == 0.0
+    assert rows["lateral"]["cartilage_N"] == pytest.approx(K_CART * a_cl * (z_t - 0.2),
+                                                           rel=1e-8)
