@@ -3,8 +3,8 @@
 ``menisci.dir`` (a folder, or ``"fecheck:knee/smith2019_menisci"``) adds the menisci of the
 smith2019 model (OpenSim-JAM; Smith, Brandon & Thelen 2019, J. Biomech. 82:124-133) to a
 femur-tibia scene. Bodies of the block Newton (`fecheck.statics.newton`): the femur (fixed,
-the world frame), the tibia (the scene's free DOFs) and each meniscus (all six coordinates
-free). Contact, each an EF interface (`fecheck.statics.interfaces.Interface`) per
+the world frame), the tibia (the scene's free DOFs) and each meniscus (menisci.free: all six
+coordinates by default). Contact, each an EF interface (`fecheck.statics.interfaces.Interface`) per
 compartment:
 
 * femoral ↔ tibial cartilage: the femur-tibia scene's own pairs and laws;
@@ -62,6 +62,7 @@ from fecheck.statics.frames import rot_y
 from fecheck.statics.interfaces import Interface
 from fecheck.statics.ligaments import BodySpring
 from fecheck.statics.newton import (
+    BODY_DOFS,
     TIBIA_COORDINATES,
     Body,
     Problem,
@@ -221,11 +222,12 @@ def build_problem(scene: Scene):
     before_solve(scene, comps)
     q0 = start_coordinates(scene, theta_g, t_g)
     index = {s: 2 + i for i, s in enumerate(sides)}
+    free = tuple(i for i, d in enumerate(BODY_DOFS) if d in scene["menisci.free"])
     bodies = (Body("femur", np.zeros(6), ()),
               Body("tibia", q0, tibia_body(q0[list(TIBIA_COORDINATES)],
                                            free_indices(scene)).free),
-              *(Body(f"{s} meniscus", q0.copy(), tuple(range(6)), "menisci.sides",
-                     "the tibia's start") for s in sides))
+              *(Body(f"{s} meniscus", q0.copy(), free, "menisci.free", "the tibia's start")
+                for s in sides))
     interfaces = _interfaces(scene, folder, comps, index)
     springs = dict(_springs(folder, index))
     load = on_body(lambda r, t: [applied_load(scene)(r, t)], TIBIA)

@@ -456,6 +456,12 @@ SCHEMA: dict[str, Key] = {
         "The menisci present with menisci.dir: ['lateral'] = a medial meniscectomy, [] = "
         "both removed (the ligaments of a removed meniscus go with it).",
         choices=("medial", "lateral")),
+    "menisci.free": Key(
+        "strings", ["x", "y", "z", "flexion", "abduction", "internal"],
+        "Degrees of freedom of each meniscus solved for (translations x, y, z and rotations "
+        "flexion θx, abduction θy, internal θz about the tibial origin); the others stay "
+        "where the meniscus starts, riding on the tibia's start pose.",
+        choices=("x", "y", "z", "flexion", "abduction", "internal")),
     "menisci.youngs_MPa": Key(
         "float", 1.0, "Young's modulus of the meniscus layer of a meniscus EF interface, "
         "MPa (smith2019: 1 MPa); in series with one cartilage layer of the contact "
