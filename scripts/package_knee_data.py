@@ -1,16 +1,18 @@
-"""Rebuild or check the scanned knee packaged with fecheck (fecheck/data/knee/lenhart2015).
+"""Rebuild or check the scanned knee packaged with fecheck (fecheck/data/knee/lenhart2015,
+and its menisci, fecheck/data/knee/smith2019_menisci).
 
-The package holds, byte for byte, the files of the lenhart2015 data set that the packaged
-scenes, the knee presets and the validation read, with the data set's licence, NOTICE
-and README. The data set itself lives beside the repository, in
-../shared/data/knee/lenhart2015 (docs/data.md); it is the source of the package data.
+The package holds, byte for byte, the files of the lenhart2015 and smith2019_menisci data
+sets that the packaged scenes, the knee presets and the validation read, with each data
+set's licence, NOTICE and README. The data sets themselves live beside the repository, in
+../shared/data/knee/ (docs/data.md); they are the source of the package data.
 
     python scripts/package_knee_data.py            # copy the files, write SHA256SUMS
     python scripts/package_knee_data.py --check    # verify, change nothing
 
 ``--check`` exits 1 (one line per problem) when a packaged file differs from SHA256SUMS,
 a file is missing or unlisted, or, where the source folder is present, the source no
-longer has the hashes the package was built from. The source is ``--source``, else
+longer has the hashes the package was built from. The source is ``--source`` (the
+lenhart2015 folder; its menisci are read from ``smith2019_menisci`` beside it), else
 ``$FECHECK_SHARED_DATA/knee/lenhart2015`` (as for the tests), else the folder above.
 """
 
@@ -44,6 +46,21 @@ FILES = (
 validation's landmarks come from, and the data set's README (its provenance and the
 changes made to the originals), licence and NOTICE. Not packaged: the whole (uncropped)
 bones, the unsplit tibial cartilage and preview.png, which no packaged scene reads."""
+MENISCI = "smith2019_menisci"
+MENISCI_FILES = (
+    "smith2019_R_meniscus_medial.stl",
+    "smith2019_R_meniscus_lateral.stl",
+    "meniscal_ligaments.json",
+    "menisci.json",
+    "README.md",
+    "LICENSE",
+    "NOTICE-opensim-core",
+)
+"""The menisci files the scene key ``menisci.dir`` reads (`fecheck.model.menisci`): the two
+closed volumes (their contact surfaces), the meniscal ligaments and contact parameters,
+menisci.json (the femur's smith2019 pose, the files' sha256), README, licence and NOTICE.
+Not packaged: the separate articular surfaces, the regions and preview.png, which the
+rigid-body model does not read."""
 
 
 def sha256(path: Path) -> str:
@@ -58,25 +75,25 @@ def read_manifest(folder: Path) -> dict[str, str]:
                                                           if line.strip())}
 
 
-def build(source: Path, target: Path) -> None:
-    """Copy `FILES` from `source` to `target` and write their SHA256SUMS."""
-    missing = [name for name in FILES if not (source / name).is_file()]
+def build(source: Path, target: Path, files: tuple[str, ...] = FILES) -> None:
+    """Copy `files` from `source` to `target` and write their SHA256SUMS."""
+    missing = [name for name in files if not (source / name).is_file()]
     if missing:
         sys.exit(f"package_knee_data: {source} lacks {', '.join(missing)}")
     target.mkdir(parents=True, exist_ok=True)
-    for stale in set(p.name for p in target.iterdir()) - set(FILES) - {MANIFEST}:
+    for stale in set(p.name for p in target.iterdir()) - set(files) - {MANIFEST}:
         (target / stale).unlink()
-    for name in FILES:
+    for name in files:
         shutil.copyfile(source / name, target / name)
-    (target / MANIFEST).write_text("".join(f"{sha256(target / n)}  {n}\n" for n in FILES),
+    (target / MANIFEST).write_text("".join(f"{sha256(target / n)}  {n}\n" for n in files),
                                    encoding="utf-8")
-    print(f"package_knee_data: {len(FILES)} files copied from {source} to {target}")
+    print(f"package_knee_data: {len(files)} files copied from {source} to {target}")
 
 
-def problems(target: Path, source: Path | None) -> list[str]:
-    """What is wrong with the packaged files (and the source, when given)."""
+def problems(target: Path, source: Path | None, files: tuple[str, ...] = FILES) -> list[str]:
+    """What is wrong with the packaged `files` (and the source, when given)."""
     manifest = read_manifest(target)
-    out = [f"{name}: listed in {MANIFEST} but not a packaged file" for name in FILES
+    out = [f"{name}: listed in {MANIFEST} but not a packaged file" for name in files
            if name not in manifest]
     present = {p.name for p in target.iterdir()} - {MANIFEST}
     out += [f"{name}: in {target} but not listed in {MANIFEST}" for name in
@@ -101,16 +118,21 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--source", type=Path, default=SOURCE,
                         help=f"the lenhart2015 data set folder (default {SOURCE})")
     args = parser.parse_args(argv)
-    if not args.check:
-        build(args.source, TARGET)
-    found = problems(TARGET, args.source if args.source.is_dir() else None)
-    for line in found:
-        print(f"package_knee_data: {line}", file=sys.stderr)
-    where = "package and source" if args.source.is_dir() else "package (no source beside it)"
-    if not found:
-        print(f"package_knee_data: {where}: {len(read_manifest(TARGET))} files match "
-              f"{MANIFEST}")
-    return 1 if found else 0
+    sets = ((args.source, TARGET, FILES),
+            (args.source.parent / MENISCI, TARGET.parent / MENISCI, MENISCI_FILES))
+    failed = False
+    for source, target, files in sets:
+        if not args.check:
+            build(source, target, files)
+        found = problems(target, source if source.is_dir() else None, files)
+        for line in found:
+            print(f"package_knee_data: {line}", file=sys.stderr)
+        where = "package and source" if source.is_dir() else "package (no source beside it)"
+        if not found:
+            print(f"package_knee_data: {target.name}: {where}: {len(read_manifest(target))} "
+                  f"files match {MANIFEST}")
+        failed = failed or bool(found)
+    return 1 if failed else 0
 
 
 if __name__ == "__main__":

@@ -25,6 +25,8 @@ import package_knee_data  # noqa: E402  (scripts/ is not a package)
 
 PACKAGED = REPO / "fecheck" / "data" / "knee" / "lenhart2015"
 SOURCE = SHARED_DATA / "knee" / "lenhart2015"
+MENISCI = REPO / "fecheck" / "data" / "knee" / "smith2019_menisci"
+MENISCI_SOURCE = SHARED_DATA / "knee" / "smith2019_menisci"
 SCANNED = ("femur_tibia", "femur_tibia_ligaments", "sphere_tibia", "sphere_tibia_ligaments",
            "inclined_ligaments", "polynomial_ligaments")
 """The packaged scenes that read the scanned knee's files."""
@@ -54,6 +56,28 @@ def test_packaged_meshes_are_the_data_sets_own_files():
         assert _sha256(PACKAGED / name) == record[name]["sha256"], name
     assert "Apache License" in (PACKAGED / "LICENSE").read_text()
     assert "OpenSim" in (PACKAGED / "NOTICE-opensim-core").read_text()
+
+
+def test_packaged_menisci_are_the_data_sets_own_files():
+    """The menisci package holds exactly its manifest, each file with the sha256 the data
+    set's own menisci.json records for it, with its licence."""
+    listed = package_knee_data.read_manifest(MENISCI)
+    assert sorted(listed) == sorted(package_knee_data.MENISCI_FILES)
+    assert {p.name for p in MENISCI.iterdir()} == set(listed) | {"SHA256SUMS"}
+    assert package_knee_data.problems(MENISCI, None, package_knee_data.MENISCI_FILES) == []
+    record = json.loads((MENISCI / "menisci.json").read_text())
+    recorded = {**record["meshes"], **record["other_files"]}
+    for name in listed:
+        if name in recorded:
+            assert _sha256(MENISCI / name) == recorded[name]["sha256"], name
+    assert sum(name in recorded for name in listed) == 5     # 2 volumes, json, LICENSE, NOTICE
+    assert "Apache License" in (MENISCI / "LICENSE").read_text()
+
+
+@pytest.mark.skipif(not MENISCI_SOURCE.is_dir(), reason=f"no data set at {MENISCI_SOURCE}")
+def test_the_menisci_source_still_has_the_packaged_hashes():
+    assert package_knee_data.problems(MENISCI, MENISCI_SOURCE,
+                                      package_knee_data.MENISCI_FILES) == []
 
 
 def test_the_check_reports_a_changed_file(tmp_path):
@@ -91,7 +115,8 @@ def test_pyproject_packages_every_data_file_and_scene():
     globs = tomllib.loads((REPO / "pyproject.toml").read_text())["tool"]["setuptools"][
         "package-data"]["fecheck"]
     shipped = [p.relative_to(REPO / "fecheck").as_posix()
-               for p in [*PACKAGED.iterdir(), *(REPO / "fecheck" / "scenes").glob("*.toml")]]
+               for p in [*PACKAGED.iterdir(), *MENISCI.iterdir(),
+                         *(REPO / "fecheck" / "scenes").glob("*.toml")]]
     missing = [f for f in shipped if not any(fnmatch.fnmatch(f, g) for g in globs)]
     assert not missing
 
@@ -107,7 +132,8 @@ def test_validation_scenes_are_links_to_the_packaged_scenes():
 
 def test_unknown_packaged_data_set_is_refused_when_the_scene_loads():
     with pytest.raises(FecheckError, match=r"geometry.dir = 'fecheck:knee/nope' names no data "
-                       r"set packaged with fecheck \(packaged: fecheck:knee/lenhart2015\)"):
+                       r"set packaged with fecheck \(packaged: fecheck:knee/lenhart2015, "
+                       r"fecheck:knee/smith2019_menisci\)"):
         load_scene("femur_tibia", ["geometry.dir='fecheck:knee/nope'"])
 
 

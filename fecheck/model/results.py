@@ -195,6 +195,9 @@ class RunResult:
     exact : closed-form references and deviations (sphere-plane EF), else {}
     record : the Newton solve's record (`SolveRecord`); None for the rigid model, which
         solves one linear system
+    menisci : with menisci (`fecheck.model.menisci`): per compartment the axial load into
+        the tibia through meniscus and cartilage and the meniscal share, each body's balance
+        and pose, the meniscal ligament forces; else {}
 
     `pose` is the tibia's; the femur is the fixed frame. `poses` maps every moving body's
     name to its `Pose` (today only the tibia moves).
@@ -213,6 +216,7 @@ class RunResult:
     exact: Mapping[str, Any] = field(default_factory=dict)
     notes: tuple[str, ...] = ()
     record: SolveRecord | None = None
+    menisci: Mapping[str, Any] = field(default_factory=dict)
 
     @property
     def poses(self) -> dict[str, Pose]:
@@ -231,6 +235,7 @@ class RunResult:
             "timing_s": {k: _num(v) for k, v in self.timing_s.items()},
             "exact": _jsonable(self.exact), "notes": list(self.notes),
             "extra": {} if self.record is None else self.record.as_dict(self.pose),
+            **({"menisci": _jsonable(self.menisci)} if self.menisci else {}),
         }
 
     def write_json(self, path: str | Path) -> None:
@@ -286,12 +291,32 @@ class RunResult:
                              f"A {ref['area_mm2']:.2f} mm², p_max "
                              f"{ref['max_pressure_MPa']:.3f} MPa; deviation % "
                              + ", ".join(f"{k} {v:+.2f}" for k, v in dev.items()))
+        lines.extend(_menisci_lines(self.menisci))
         lines.append("force: |F| is the magnitude of the compartment's contact force on the "
                      "tibia; axial force its component along the tibia's long axis "
                      "(+ compressive)")
         lines.extend(f"note: {n}" for n in self.notes)
         lines.append("time s: " + "  ".join(f"{k} {v:.4f}" for k, v in self.timing_s.items()))
         return "\n".join(lines)
+
+
+def _menisci_lines(menisci: Mapping[str, Any]) -> list[str]:
+    """The table's lines of a run with menisci (none without)."""
+    if not menisci:
+        return []
+    out = [f"{'menisci':20s}" + "".join(f"{n:>12s}" for n in menisci["compartments"])]
+    for label, key, fmt in (("through meniscus N", "meniscus_N", "{:.2f}"),
+                            ("through cartilage N", "cartilage_N", "{:.2f}"),
+                            ("meniscal share", "meniscal_share", "{:.3f}")):
+        vals = [row[key] for row in menisci["compartments"].values()]
+        out.append(f"{label:20s}" + "".join(
+            f"{'-' if math.isnan(v) else fmt.format(v):>12s}" for v in vals))
+    out.append("balance N (free DOFs): " + "  ".join(
+        f"{k} {v:.2g}" for k, v in menisci["balance_N"].items()))
+    for name, pose in menisci["poses"].items():
+        out.append(f"pose {name}: q " + " ".join(f"{v:+.4f}" for v in pose["q"])
+                   + " (x y z mm, θx θy θz rad)")
+    return out
 
 
 def _num(x: Any) -> float | None:

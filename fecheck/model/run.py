@@ -36,7 +36,11 @@ def run_scene(scene: Scene, warm_start: np.ndarray | None = None) -> RunResult:
     raises `FecheckError` (`fecheck.model.plausibility`).
     """
     kind = scene["model.kind"]
-    if scene["scanned.ligaments"] != "none":
+    if scene["menisci.dir"]:
+        from fecheck.model.menisci import run_menisci
+
+        runner = run_menisci
+    elif scene["scanned.ligaments"] != "none":
         runner = run_scanned
     elif kind in MODEL_RUNNERS:
         runner = MODEL_RUNNERS[kind]

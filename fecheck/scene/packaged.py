@@ -9,7 +9,8 @@ comment.
 Data sets: ``geometry.dir = "fecheck:knee/lenhart2015"`` names the folder
 ``fecheck/data/knee/lenhart2015`` of the installed package (the lenhart2015 scanned knee,
 Apache-2.0; docs/data.md), so the packaged scenes find their meshes wherever fecheck is
-installed.
+installed; ``menisci.dir = "fecheck:knee/smith2019_menisci"`` names the menisci of the
+same knee (smith2019, Apache-2.0).
 
 >>> scene_path("scanned-knee").name
 'femur_tibia.toml'
@@ -27,7 +28,7 @@ from fecheck.errors import FecheckError
 
 PACKAGE_PREFIX = "fecheck:"
 """A ``geometry.dir`` value starting so names a data set packaged with fecheck."""
-DATA_SETS = ("knee/lenhart2015",)
+DATA_SETS = ("knee/lenhart2015", "knee/smith2019_menisci")
 """The data sets packaged in ``fecheck/data`` (``geometry.dir = "fecheck:NAME"``)."""
 ALIASES = {"scanned-knee": "femur_tibia"}
 """Friendly scene names → packaged scene: the scanned femur on the scanned tibia."""
@@ -96,12 +97,12 @@ def description(path: Path) -> str:
     return text[:DESCRIPTION_CHARS].rsplit(" ", 1)[0].rstrip(",;:") + " …"
 
 
-def data_dir(value: str) -> Path:
-    """The folder a ``geometry.dir`` of the form ``fecheck:NAME`` names; `FecheckError`
-    listing the packaged data sets when NAME is not one."""
+def data_dir(value: str, key: str = "geometry.dir") -> Path:
+    """The folder a ``geometry.dir`` (or another folder `key`) of the form ``fecheck:NAME``
+    names; `FecheckError` listing the packaged data sets when NAME is not one."""
     name = value[len(PACKAGE_PREFIX):].strip("/")
     if name not in DATA_SETS:
         known = ", ".join(PACKAGE_PREFIX + n for n in DATA_SETS)
-        raise FecheckError(f"geometry.dir = {value!r} names no data set packaged with fecheck "
+        raise FecheckError(f"{key} = {value!r} names no data set packaged with fecheck "
                            f"(packaged: {known}); give one of those or a folder path")
     return _package() / "data" / name

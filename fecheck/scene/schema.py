@@ -81,6 +81,7 @@ SECTIONS: dict[str, str] = {
     "geometry": "Knee surfaces from mesh files: sphere-tibia and femur-tibia models",
     "scanned": "Sphere-tibia and femur-tibia models: thickness, decimation, condyles, "
                "ligament bundles",
+    "menisci": "Femur-tibia model with menisci (rigid bodies between the cartilages)",
     "fe": "FE cross-check (`fecheck fe`)",
 }
 """Section (first part of a dotted key; "" for top-level keys) → its title."""
@@ -440,6 +441,37 @@ SCHEMA: dict[str, Key] = {
         "'bundles' adds the scanned knee's 55 ligament bundles (Lenhart et al. 2015, "
         "Blankevoort 1991 springs) to any contact model; ligaments.model must then be "
         "'none'. 'none' = no bundles.", choices=("none", "bundles")),
+    "menisci.dir": Key(
+        "str", "",
+        "Femur-tibia model with menisci: the folder of the smith2019 menisci of the scanned "
+        "knee ('fecheck:knee/smith2019_menisci' = the copy packaged with fecheck; a path is "
+        "relative to the scene file's folder); '' = no menisci. Each meniscus is a rigid "
+        "body with six free DOFs, in EF contact with the femoral and the tibial cartilage "
+        "and held by its 15 meniscal ligaments (Blankevoort 1991 springs); the femur "
+        "starts at smith2019's default knee pose (the data set's matrix G) and the scene's "
+        "dofs.* start pose is taken relative to it. Needs contact.law = 'ef'.",
+        example="fecheck:knee/smith2019_menisci"),
+    "menisci.sides": Key(
+        "strings", ["medial", "lateral"],
+        "The menisci present with menisci.dir: ['lateral'] = a medial meniscectomy, [] = "
+        "both removed (the ligaments of a removed meniscus go with it).",
+        choices=("medial", "lateral")),
+    "menisci.free": Key(
+        "strings", ["x", "y", "z", "flexion", "abduction", "internal"],
+        "Degrees of freedom of each meniscus solved for (translations x, y, z and rotations "
+        "flexion θx, abduction θy, internal θz about the tibial origin); the others stay "
+        "where the meniscus starts, riding on the tibia's start pose.",
+        choices=("x", "y", "z", "flexion", "abduction", "internal")),
+    "menisci.youngs_MPa": Key(
+        "float", 1.0, "Young's modulus of the meniscus layer of a meniscus EF interface, "
+        "MPa (smith2019: 1 MPa); in series with one cartilage layer of the contact "
+        "material, contact.thickness_mm / 2 thick.", low=0.0, low_open=True),
+    "menisci.poisson": Key(
+        "float", 0.45, "Poisson's ratio of the meniscus layer (smith2019: 0.45).", low=0.0,
+        high=0.5, high_open=True, unit=DIMENSIONLESS),
+    "menisci.thickness_mm": Key(
+        "float", 3.0, "Thickness of the meniscus layer of a meniscus EF interface, mm "
+        "(smith2019: 3 mm, constant).", low=0.0, low_open=True),
     "fe.mode": Key("str", "joint", _FE + "'joint' = the tibia's free DOFs are FE unknowns "
                    "under the scene's load, gravity and ligament springs, so the FE finds its "
                    "own medial/lateral split and pose; 'compartment' = each compartment is "

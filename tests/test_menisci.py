@@ -1,0 +1,208 @@
+"""The scanned knee with menisci (issue 28): free rigid menisci between the cartilages, at
+smith2019's femur pose, against statics computed here from the contact interfaces and
+springs, and the pose composition and interface stiffness by hand."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+from contact_helpers import box
+
+from fecheck.contact.pair import ContactPair
+from fecheck.laws.fused import linear_law
+from fecheck.model import menisci
+from fecheck.model.run import run_scene
+from fecheck.scene import load_scene
+from fecheck.scene.constants import GRAVITY_MPS2
+from fecheck.statics.frames import rot_y
+from fecheck.statics.interfaces import Interface
+from fecheck.statics.newton import Body, Problem, body_pose, point_force, solve
+from geometry.plateau import plane_patch
+
+LOAD_N = 800.0
+TIBIA_KG = 2.65207          # femur_tibia_menisci.toml [tibia]
+
+
+@pytest.fixture(scope="module")
+def intact():
+    """(scene, problem, interfaces, springs, solution) of the packaged scene."""
+    scene = load_scene("femur_tibia_menisci")
+    problem, interfaces, springs, _, _ = menisci.build_problem(scene)
+    return scene, problem, interfaces, springs, solve(problem)
+
+
+@pytest.fixture(scope="module")
+def results():
+    """The run of the intact knee and of the knee without its medial meniscus."""
+    return (run_scene(load_scene("femur_tibia_menisci")),
+            run_scene(load_scene("femur_tibia_menisci", ["menisci.sides=['lateral']"])))
+
+
+def _forces_on(body: int, interfaces, springs, poses) -> np.ndarray:
+    """Σ of the contact and spring forces (3,) on `body`, N, summed here from each
+    interface's wrench on its slave (minus it on its master) and each spring's ends."""
+    total = np.zeros(3)
+    for i in interfaces:
+        w = i.wrench_on_slave(poses)[:3]
+        total += w * (i.slave == body) - w * (i.master == body)
+    for s in springs.values():
+        x_a, x_b = s.ends(poses)
+        pull = s.tension(poses) * (x_a - x_b) / np.linalg.norm(x_a - x_b)   # on end b
+        total += pull * (s.body_b == body) - pull * (s.body_a == body)
+    return total
+
+
+def test_tibia_and_menisci_balance_at_800_N(intact):
+    # Each meniscus (all six DOFs free) carries no net force: femur, tibia and its
+    # ligaments balance to 1e-8 of the load; the tibia (z free) balances the 800 N and its
+    # weight along z. Forces are summed here from the interfaces and springs (not the
+    # solver's sum); the solver stops at 1e-8 of the load in its scaled norm.
+    scene, problem, interfaces, springs, sol = intact
+    assert sol.converged
+    poses = [body_pose(q) for q in sol.q]
+    for body in (2, 3):                                      # medial, lateral meniscus
+        assert np.abs(_forces_on(body, interfaces, springs, poses)).max() <= 1e-8 * LOAD_N
+    on_tibia = _forces_on(menisci.TIBIA, interfaces, springs, poses)
+    assert on_tibia[2] + LOAD_N - TIBIA_KG * GRAVITY_MPS2 == pytest.approx(0.0,
+                                                                          abs=1e-8 * LOAD_N)
+    assert max(menisci.balance(problem, sol.q).values()) <= 1e-8 * LOAD_N
+    assert all(i.max_depth_mm > 0 for i in interfaces)       # every interface in contact
+
+
+def test_meniscal_share_splits_each_compartments_load(intact, results):
+    # Per compartment the meniscus and cartilage-cartilage loads into the tibia are both
+    # compressive and the share is their ratio; with the ligaments' small vertical pull,
+    # the four loads add up to the load less the tibia's weight (1e-8, the balance)
+    # plus the ligaments' z pull on the tibia (computed here).
+    _, _, interfaces, springs, sol = intact
+    rows = results[0].menisci["compartments"]
+    poses = [body_pose(q) for q in sol.q]
+    lig_z = 0.0
+    for s in springs.values():
+        if menisci.TIBIA in (s.body_a, s.body_b):
+            x_a, x_b = s.ends(poses)
+            lig_z += -s.tension(poses) * (x_b - x_a)[2] / np.linalg.norm(x_a - x_b)
+    carried = sum(r["meniscus_N"] + r["cartilage_N"] for r in rows.values())
+    rot = poses[menisci.TIBIA][0]
+    assert abs(rot[2, 2] - 1.0) < 1e-4                         # axial ≈ z: ~0.3° tilt
+    assert carried * rot[2, 2] == pytest.approx(LOAD_N - TIBIA_KG * GRAVITY_MPS2 + lig_z,
+                                                rel=2e-4)
+    for r in rows.values():
+        assert r["meniscus_N"] > 0 and r["cartilage_N"] > 0
+        assert 0 < r["meniscal_share"] < 1
+        assert r["meniscal_share"] == pytest.approx(
+            r["meniscus_N"] / (r["meniscus_N"] + r["cartilage_N"]), rel=1e-12)
+        # the meniscus passes the femur's load on to the tibia (ligaments: a few N)
+        assert r["femur_on_meniscus_N"] == pytest.approx(r["meniscus_N"], abs=2.0)
+
+
+def test_removing_the_medial_meniscus_loads_the_medial_cartilage_more(results):
+    # A medial meniscectomy: the medial compartment's whole load goes through the
+    # cartilages, so its cartilage force rises above the intact knee's; nothing passes a
+    # removed meniscus, and the lateral meniscus still carries load.
+    whole, removed = (r.menisci["compartments"] for r in results)
+    assert removed["medial"]["meniscus_N"] == 0.0 and removed["medial"]["meniscal_share"] == 0
+    assert removed["medial"]["cartilage_N"] > whole["medial"]["cartilage_N"] + 10.0
+    assert removed["lateral"]["meniscus_N"] > 0
+    assert "medial meniscus" not in results[1].menisci["poses"]
+    assert results[1].converged
+
+
+def test_tibia_starts_at_the_inverse_of_G_composed_with_the_scene_pose():
+    # The femur at G = [Ry(θ), t_G] relative to a tibia at the scene's start pose S is the
+    # femur at identity with the tibia at G⁻¹·S: check G·T_start = S as 4×4 matrices.
+    scene = load_scene("femur_tibia_menisci", ["dofs.x_mm=0.7", "dofs.y_mm=-1.2",
+                                               "dofs.abduction_deg=2", "dofs.internal_deg=3"])
+    theta, t_g = menisci.femur_pose(menisci.menisci_dir(scene))
+    assert math.degrees(theta) == pytest.approx(1.0, abs=1e-4)  # README: rotated 1° about y
+    np.testing.assert_allclose(t_g, [-0.336609, -2.0, 2.972278], atol=1e-6)
+    q = menisci.start_coordinates(scene, theta, t_g)
+
+    def matrix(rot, t):
+        out = np.eye(4)
+        out[:3, :3], out[:3, 3] = rot, t
+        return out
+
+    g = matrix(rot_y(theta), t_g)
+    s_rot = rot_y(math.radians(2.0)) @ np.array([[math.cos(math.radians(3)),
+                                                  -math.sin(math.radians(3)), 0],
+                                                 [math.sin(math.radians(3)),
+                                                  math.cos(math.radians(3)), 0], [0, 0, 1]])
+    s = matrix(s_rot, [0.7, -1.2, -scene["solver.start_gap_mm"]])
+    np.testing.assert_allclose(g @ matrix(*body_pose(q)), s, atol=1e-12)
+
+
+def test_meniscus_interface_stiffness_is_the_two_layers_in_series():
+    # 1 MPa, ν 0.45, 3 mm meniscus: k = (1-ν)E/((1+ν)(1-2ν)h) = 0.55/(1.45·0.1·3)
+    # = 1.264368 N/mm³; one cartilage layer 20 MPa, ν 0.3, 6/2 mm: 14/(1.3·0.4·3)
+    # = 8.974359 N/mm³; in series 1/(1/1.264368 + 1/8.974359) = 1.108233 N/mm³.
+    law = menisci.meniscus_law(load_scene("femur_tibia_menisci"))
+    assert law.params[0] == pytest.approx(1.108233, rel=1e-6)
+
+
+K_MEN, K_CART, P_N = 1.1, 9.0, 300.0       # N/mm³, N/mm³, N
+MEN = 2                                      # the reduced case's meniscus body
+
+
+def _disc(x: float, y: float, z: float, normal_z: float):
+    return plane_patch((x, y, z), (0.0, 0.0, normal_z), radius=4.0, size=1.0)
+
+
+def test_reduced_knee_share_meets_the_hand_statics():
+    # A flat "knee": the tibia (z free) pushed up by 300 N; medially a cartilage disc under
+    # a femoral block (gap 0.1 mm) and a meniscus block (z free) between a femoral disc
+    # (0.02 mm into its top at z_m = 0) and a tibial disc; laterally a cartilage disc
+    # under a block 0.2 mm above. Cartilage sheets are the slaves and blocks (closed) the
+    # masters, as in the knee. Flat faces with a uniform depth: F = k·A·d exactly, so with
+    # z_t, z_m the tibia's and meniscus's rise: meniscus k_m A (z_m + 0.02) = k_m A (z_t -
+    # z_m), tibia k_m A (z_t - z_m) + k_c A (z_t - 0.1) + k_c A (z_t - 0.2) = P; the
+    # shares follow. Tolerance: rounding (measured ~1e-12) and the solver's 1e-8.
+    femur, tibia = 0, 1
+    pairs = {
+        "medial": (ContactPair(_disc(-20, 15, 0.0, 1.0), box((-30, 8, 0.1), (-10, 22, 5))),
+                   K_CART, tibia, femur),
+        "lateral": (ContactPair(_disc(20, 0, 0.0, 1.0), box((10, -7, 0.2), (30, 7, 5))),
+                    K_CART, tibia, femur),
+        "medial femur-meniscus": (ContactPair(_disc(-20, -15, 1.98, -1.0),
+                                              box((-30, -22, 0.0), (-10, -8, 2.0))),
+                                  K_MEN, femur, MEN),
+        "medial meniscus-tibia": (ContactPair(_disc(-20, -15, 0.0, 1.0),
+                                              box((-30, -22, 0.0), (-10, -8, 2.0))),
+                                  K_MEN, tibia, MEN),
+    }
+    interfaces = [Interface(n, pair, linear_law(k), s, m) for n, (pair, k, s, m) in
+                  pairs.items()]
+    # a start with every interface touching: the system is linear from there
+    bodies = (Body("femur", np.zeros(6), ()), Body("tibia", np.array([0, 0, 0.25, 0, 0, 0]),
+                                                   (2,)),
+              Body("meniscus", np.array([0, 0, 0.1, 0, 0, 0]), (2,)))
+
+    def wrench(poses):
+        push = point_force(poses[tibia][1], np.array([0.0, 0.0, P_N]))
+        return [i(poses) for i in interfaces] + [((tibia,), *push)]
+
+    sol = solve(Problem(bodies, wrench, force_scale_N=P_N,
+                        touching=lambda: any(i.max_depth_mm > 0 for i in interfaces)))
+    assert sol.converged
+    area = {n: float(pair.slave.face_areas.sum()) for n, (pair, *_) in pairs.items()}
+    a_ft, a_tm = area["medial femur-meniscus"], area["medial meniscus-tibia"]
+    a_cm, a_cl = area["medial"], area["lateral"]
+    # unknowns (z_t, z_m): the two balances above, linear
+    mat = np.array([[-K_MEN * a_tm, K_MEN * (a_ft + a_tm)],
+                    [K_MEN * a_tm + K_CART * (a_cm + a_cl), -K_MEN * a_tm]])
+    rhs = np.array([-0.02 * K_MEN * a_ft, P_N + K_CART * (0.1 * a_cm + 0.2 * a_cl)])
+    z_t, z_m = np.linalg.solve(mat, rhs)
+    assert z_t > 0.2 and z_t > z_m > -0.02                     # every interface touches
+    assert sol.q[tibia][2] == pytest.approx(z_t, abs=1e-9)
+    assert sol.q[MEN][2] == pytest.approx(z_m, abs=1e-9)
+    rows = menisci._shares(interfaces, [body_pose(q) for q in sol.q], ("medial",))
+    f_men, f_cm = K_MEN * a_tm * (z_t - z_m), K_CART * a_cm * (z_t - 0.1)
+    assert rows["medial"]["meniscus_N"] == pytest.approx(f_men, rel=1e-8)
+    assert rows["medial"]["femur_on_meniscus_N"] == pytest.approx(f_men, rel=1e-8)
+    assert rows["medial"]["cartilage_N"] == pytest.approx(f_cm, rel=1e-8)
+    assert rows["medial"]["meniscal_share"] == pytest.approx(f_men / (f_men + f_cm), rel=1e-8)
+    assert rows["lateral"]["meniscal_share"] == 0.0
+    assert rows["lateral"]["cartilage_N"] == pytest.approx(K_CART * a_cl * (z_t - 0.2),
+                                                           rel=1e-8)
