@@ -37,6 +37,10 @@ NOTCH_MM = 8.0
 POSTERIOR_Y_MM = 15.0
 """Faces anterior of this y (the trochlea) are not fitted, mm."""
 
+EDGE_MM = 5.0
+"""A failing angle whose last contact was this close to the femoral surface's edge is
+reported as past the cartilage, mm."""
+
 LIGAMENT_GROUPS = ("ACL", "PCL", "MCL", "LCL", "PFL", "pCAP")
 """Bundle-name prefixes summed per ligament in the reports."""
 
@@ -200,14 +204,13 @@ def scene_axis(scene: Scene) -> FlexionAxis:
     return condyle_axis(surfaces.femoral_surface(scene))
 
 
-def _cop(slave: TriMesh, pressure: np.ndarray, area: np.ndarray) -> tuple[float, float]:
-    """Centre of pressure (x, y) mm of one compartment in the tibia frame (NaN: none)."""
+def _cop(slave: TriMesh, pressure: np.ndarray, area: np.ndarray) -> np.ndarray:
+    """Centre of pressure (3,) mm of one compartment in the tibia frame (NaN: none)."""
     w = pressure * area
     total = float(w.sum())
     if total <= 0.0:
-        return math.nan, math.nan
-    c = w @ slave.face_centroids / total
-    return float(c[0]), float(c[1])
+        return np.full(3, math.nan)
+    return w @ slave.face_centroids / total
 
 
 def _warm(axis: FlexionAxis, q_rot: np.ndarray, phi: float, ab: float, ie: float,
@@ -249,13 +252,14 @@ def run_flex(scene: Scene, angles: Sequence[float], axis: FlexionAxis,
             run.stopped = f"interrupted at flexion {phi_deg:g}°"
             return run
         except FecheckError as err:
-            run.stopped = f"flexion {phi_deg:g}°: {err}"
+            run.stopped = f"flexion {phi_deg:g}°: {err}{_edge_note(scene, run.points)}"
             return run
         point = _point(scene, comps, eq, compartment_results(comps, eq), names, springs,
                        axis, q_rot, phi_deg, sign)
         lost = [c for c, v in point.compartments.items() if v["force_N"] <= 0.0]
         if not eq.solution.converged or lost:
-            run.stopped = _stop_reason(phi_deg, eq, lost, run.points)
+            run.stopped = (_stop_reason(phi_deg, eq, lost, run.points)
+                           + _edge_note(scene, run.points))
             return run
         run.points.append(point)
         ab, ie = float(eq.q[3]), float(eq.q[4])
@@ -281,6 +285,36 @@ def _stop_reason(phi_deg: float, eq, lost: list[str], done: list[FlexPoint]) -> 
             "solver.max_iterations")
 
 
+def _edge_note(scene: Scene, done: list[FlexPoint]) -> str:
+    """Where the last solved angle's contact was nearest the femoral surface's edge: ``;
+    at A° the C centre of pressure was D mm from the edge of the femoral surface (x, y, z
+    mm)`` ('' for none solved or a closed femoral surface)."""
+    from scipy.spatial import cKDTree
+
+    from fecheck.contact.pair import boundary_vertices
+    from fecheck.model.scanned import femoral_master
+
+    if not done:
+        return ""
+    femur = femoral_master(scene)
+    edge = femur.points[boundary_vertices(femur)]
+    if not len(edge):
+        return ""
+    last = done[-1]
+    best = (math.inf, "", np.zeros(3))
+    for name, c in last.compartments.items():
+        x = last.rot @ np.array([c["cop_x_mm"], c["cop_y_mm"], c["cop_z_mm"]]) + last.t
+        dist, i = cKDTree(edge).query(x)
+        if np.isfinite(dist) and dist < best[0]:
+            best = (float(dist), name, edge[i])
+    dist, name, at = best
+    if not name:
+        return ""
+    out = (f"; at {last.flexion_deg:g}° the {name} centre of pressure was {dist:.1f} mm "
+           f"from the edge of the femoral surface (at {at[0]:.1f}, {at[1]:.1f}, {at[2]:.1f} mm)")
+    return out + (": the femoral cartilage runs out there" if dist < EDGE_MM else "")
+
+
 def _point(scene: Scene, comps, eq, results: dict, names, springs, axis: FlexionAxis,
            q_rot: np.ndarray, phi_deg: float, sign: float) -> FlexPoint:
     """The `FlexPoint` of one equilibrium."""
@@ -288,10 +322,11 @@ def _point(scene: Scene, comps, eq, results: dict, names, springs, axis: Flexion
     compartments, fields = {}, {}
     for c in comps:
         r = results[c.name]
-        x, y = _cop(c.pair.slave, r.face_pressure_MPa, r.face_area_mm2)
+        x, y, z = _cop(c.pair.slave, r.face_pressure_MPa, r.face_area_mm2)
         compartments[c.name] = {"force_N": r.force_N, "axial_force_N": r.axial_force_N,
                                 "area_mm2": r.area_mm2, "max_pressure_MPa": r.max_pressure_MPa,
-                                "cop_x_mm": x, "cop_y_mm": y}
+                                "cop_x_mm": float(x), "cop_y_mm": float(y),
+                                "cop_z_mm": float(z)}
         fields[c.name] = np.asarray(r.face_pressure_MPa, dtype=float)
     ligaments = {}
     for name, spring in zip(names, springs, strict=True):
