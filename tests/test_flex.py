@@ -144,3 +144,67 @@ def test_neighbouring_angles_do_not_jump(knee_range):
                        ("lateral_cop_y_mm", 2.0)):
         steps = np.abs(np.diff([r[key] for r in rows]))
         assert steps.max() < bound, key
+
+
+KNEE = ["femur_tibia_ligaments", "--set", "scanned.decimate_faces=3000"]
+
+
+def _main(argv):
+    from fecheck.cli import main
+
+    return main(["flex", *KNEE, *argv])
+
+
+def test_cli_writes_one_row_per_angle_and_progress_on_stderr(tmp_path, capsys):
+    import json
+
+    code = _main(["--angles", "0:2:1", "--csv", "-", "--json", str(tmp_path / "f.json")])
+    out, err = capsys.readouterr()
+    assert code == 0
+    lines = out.strip().splitlines()
+    assert lines[0].startswith("flexion_deg,abduction_deg,internal_deg,ml_mm,ap_mm,si_mm")
+    assert [float(line.split(",")[0]) for line in lines[1:]] == [0.0, 1.0, 2.0]
+    assert "flex [3/3] 2°" in err and "flexion axis: point" in err
+    doc = json.loads((tmp_path / "f.json").read_text())
+    assert [a["flexion_deg"] for a in doc["angles"]] == [0.0, 1.0, 2.0]
+    assert len(doc["angles"][0]["ligaments_N"]) == 55
+
+
+def test_cli_refuses_bad_angles_before_building_anything(monkeypatch, capsys):
+    import fecheck.model.scanned as scanned
+
+    def never(scene):
+        raise AssertionError("built")
+
+    monkeypatch.setattr(scanned, "build_compartments", never)
+    assert _main(["--angles", "30:10:1"]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "--angles '30:10:1'" in err[0]
+
+
+def test_ctrl_c_keeps_the_finished_angles(tmp_path, monkeypatch, capsys):
+    import fecheck.model.equilibrium as equilibrium
+
+    real, calls = equilibrium.solve_equilibrium, []
+
+    def interrupted(*args):
+        calls.append(1)
+        if len(calls) == 3:
+            raise KeyboardInterrupt
+        return real(*args)
+
+    monkeypatch.setattr(equilibrium, "solve_equilibrium", interrupted)
+    assert _main(["--angles", "0:4:1", "--csv", str(tmp_path / "f.csv")]) == 130
+    rows = (tmp_path / "f.csv").read_text().strip().splitlines()
+    assert len(rows) == 3                              # header and the angles 0° and 1°
+    assert "interrupted at flexion 2°" in capsys.readouterr().err
+
+
+def test_past_the_cartilage_stops_with_one_line_naming_the_angle(tmp_path, capsys):
+    # decimated knee: 140° solves with the lateral contact 4.3 mm from the posterior edge
+    # of the femoral cartilage; 145° finds no equilibrium
+    assert _main(["--angles", "140,145", "--csv", str(tmp_path / "f.csv")]) == 1
+    err = capsys.readouterr().err.strip().splitlines()[-1]
+    assert err.startswith("fecheck: error: flexion 145°: no equilibrium")
+    assert "the femoral cartilage runs out there" in err
+    assert len((tmp_path / "f.csv").read_text().strip().splitlines()) == 2
