@@ -134,16 +134,22 @@ def test_the_driven_angle_is_turned_about_the_axis_and_the_others_solved(knee_ra
 
 
 def test_neighbouring_angles_do_not_jump(knee_range):
-    # 1° apart on this range the contact stays on the same condyle region: the measured
-    # changes are below 0.2° and 0.5 mm per degree (scanned-knee full range: largest
-    # 2.1° and 4 mm per degree at 6-8°, where the medial contact moves 5 mm anterior).
+    # 1° apart on this range the contact stays on the same condyle region: measured steps
+    # are at most 0.05° (rotations), 0.10 mm (translations of the tibial point at the axis
+    # point), 0.17 mm (centres of pressure) and 0.9 % (compartment forces) per degree; the
+    # bounds are 3-4 times those. A jump of the contact (the scanned knee's full range has
+    # one at 6-8°: 2.1° and 4 mm per degree) or the hinge's own arc reported as a
+    # translation (26.5 mm · 1° = 0.46 mm) exceeds them.
     _, run = knee_range
     rows = [p.row() for p in run.points]
-    for key, bound in (("internal_deg", 0.5), ("abduction_deg", 0.5), ("ap_mm", 1.0),
-                       ("ml_mm", 1.0), ("si_mm", 1.0), ("medial_cop_y_mm", 2.0),
-                       ("lateral_cop_y_mm", 2.0)):
+    for key, bound in (("internal_deg", 0.2), ("abduction_deg", 0.2), ("ap_mm", 0.3),
+                       ("ml_mm", 0.3), ("si_mm", 0.3), ("medial_cop_y_mm", 0.5),
+                       ("lateral_cop_y_mm", 0.5)):
         steps = np.abs(np.diff([r[key] for r in rows]))
         assert steps.max() < bound, key
+    for c in ("medial", "lateral"):
+        force = np.array([r[f"{c}_force_N"] for r in rows])
+        assert np.abs(np.diff(force)).max() < 0.03 * force.mean()
 
 
 KNEE = ["femur_tibia_ligaments", "--set", "scanned.decimate_faces=3000"]
