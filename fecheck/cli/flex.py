@@ -118,7 +118,8 @@ def run(args: argparse.Namespace) -> int:
     result = flex.run_flex(scene, angles, axis, _progress(len(angles), err))
     solve = sum(p.seconds for p in result.points)
     print(f"{len(result.points)} of {len(angles)} angles solved; build {result.build_seconds:.2f}"
-          f" s, solves {solve:.2f} s", file=err)
+          f" s, then {result.sweep_seconds:.2f} s wall for the angles (Newton {solve:.2f} s)",
+          file=err)
     _write_outputs(args, result, err)
     if result.stopped is None:
         return 0

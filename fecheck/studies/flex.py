@@ -183,14 +183,16 @@ class FlexPoint:
 
 @dataclass
 class FlexRun:
-    """A flexion run: axis, solved points, build time (s) and how it ended (`stopped`:
-    None when every angle was solved, else the one-line reason)."""
+    """A flexion run: axis, solved points, build time and wall time of the angles after
+    it (s), and how it ended (`stopped`: None when every angle was solved, else the
+    one-line reason)."""
 
     axis: FlexionAxis
     points: list[FlexPoint]
     build_seconds: float
     slaves: dict
     stopped: str | None = None
+    sweep_seconds: float = 0.0
 
 
 def scene_axis(scene: Scene) -> FlexionAxis:
@@ -232,13 +234,29 @@ def run_flex(scene: Scene, angles: Sequence[float], axis: FlexionAxis,
     the femoral cartilage ran out) stops the run with `stopped` naming the angle; Ctrl-C
     stops it with the finished angles kept (`stopped` says so).
     """
-    from fecheck.model.equilibrium import compartment_results, solve_equilibrium
     from fecheck.model.scanned import build_compartments, bundle_springs
 
     t0 = time.perf_counter()
     comps = build_compartments(scene)
     names, springs = bundle_springs(scene)
     run = FlexRun(axis, [], time.perf_counter() - t0, {c.name: c.pair.slave for c in comps})
+    t_built = time.perf_counter()
+    try:
+        _sweep(scene, angles, axis, run, comps, (names, springs), progress)
+    except KeyboardInterrupt:
+        run.stopped = f"interrupted at flexion {angles[len(run.points)]:g}°"
+    finally:
+        run.sweep_seconds = time.perf_counter() - t_built
+    return run
+
+
+def _sweep(scene: Scene, angles: Sequence[float], axis: FlexionAxis, run: FlexRun, comps,
+           bundles: tuple, progress: Callable[[int, FlexPoint], None] | None) -> None:
+    """The angles of `run_flex` in turn, appended to `run.points` (`run.stopped` set
+    where they stop)."""
+    from fecheck.model.equilibrium import compartment_results, solve_equilibrium
+
+    names, springs = bundles
     q_rot = axis_rotation(axis.direction)
     sign = 1.0 if scene["knee.side"] == "right" else -1.0
     warm, ab, ie, d = None, 0.0, 0.0, np.zeros(3)
@@ -248,25 +266,21 @@ def run_flex(scene: Scene, angles: Sequence[float], axis: FlexionAxis,
             warm = _warm(axis, q_rot, phi, ab, ie, d)
         try:
             eq = solve_equilibrium(scene, comps, springs, (), warm, (-phi, q_rot))
-        except KeyboardInterrupt:
-            run.stopped = f"interrupted at flexion {phi_deg:g}°"
-            return run
         except FecheckError as err:
             run.stopped = f"flexion {phi_deg:g}°: {err}{_edge_note(scene, run.points)}"
-            return run
+            return
         point = _point(scene, comps, eq, compartment_results(comps, eq), names, springs,
                        axis, q_rot, phi_deg, sign)
         lost = [c for c, v in point.compartments.items() if v["force_N"] <= 0.0]
         if not eq.solution.converged or lost:
             run.stopped = (_stop_reason(phi_deg, eq, lost, run.points)
                            + _edge_note(scene, run.points))
-            return run
+            return
         run.points.append(point)
         ab, ie = float(eq.q[3]), float(eq.q[4])
         d = eq.rot @ axis.point + eq.t - axis.point
         if progress is not None:
             progress(i, point)
-    return run
 
 
 def _stop_reason(phi_deg: float, eq, lost: list[str], done: list[FlexPoint]) -> str:
