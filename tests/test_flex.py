@@ -38,6 +38,21 @@ def test_the_axis_of_two_sphere_condyles_is_the_line_through_their_centres():
     assert axis.spheres["x<0"][1] == pytest.approx(27.0, abs=0.05)
 
 
+def test_the_scene_keys_give_the_axis_turned_towards_plus_x():
+    from fecheck.errors import FecheckError
+    from fecheck.scene import load_scene
+
+    scene = load_scene("femur_tibia_ligaments", ["flexion.axis_point_mm=[1.0, 2.0, 25.0]",
+                                                 "flexion.axis_dir=[-3.0, 0.0, 4.0]"])
+    axis = flex.scene_axis(scene)
+    assert axis.point.tolist() == [1.0, 2.0, 25.0]
+    assert np.allclose(axis.direction, [0.6, 0.0, -0.8]) and "flexion.axis" in axis.source
+    with pytest.raises(FecheckError, match="set both flexion.axis_point_mm"):
+        flex.scene_axis(load_scene("femur_tibia_ligaments", ["flexion.axis_dir=[1, 0, 0]"]))
+    with pytest.raises(FecheckError, match="more than 78° from the medio-lateral x axis"):
+        flex.given_axis([0.0, 0.0, 0.0], [0.1, 1.0, 0.0])
+
+
 def test_a_base_rotation_turns_the_flexion_angle_about_its_first_axis():
     # R = Q·Rx(θ)·Qᵀ is the rotation by θ about Q e_x (scipy's rotation vector).
     e = np.array([0.95, -0.2, 0.24]) / np.linalg.norm([0.95, -0.2, 0.24])

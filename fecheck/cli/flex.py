@@ -1,9 +1,10 @@
 """`fecheck flex SCENE --angles A:B:STEP`: driven knee flexion of a femur-tibia scene.
 
-The tibia is turned about the knee's flexion axis (fitted through the centres of spheres
-fitted to the posterior condyles of the femoral surface, or given with ``--axis-point``
-and ``--axis-dir``) and its other DOFs solved at each angle under the scene's load,
-ligaments and gravity, each angle from the last (`fecheck.studies.flex`). Progress goes
+The tibia is turned about the knee's flexion axis (``--axis-point`` and ``--axis-dir``, or
+the scene's flexion.axis_point_mm and flexion.axis_dir, or else the axis through the
+centres of spheres fitted to the posterior condyles of the femoral surface) and its other
+DOFs solved at each angle under the scene's load, ligaments and gravity, each angle from
+the last (`fecheck.studies.flex`). Progress goes
 to standard error; Ctrl-C, or an angle that does not solve, stops the run and the angles
 solved so far are written.
 """
@@ -29,7 +30,8 @@ def add_parser(subparsers) -> None:
                    help="knee flexion angles, deg: START:STOP:STEP (inclusive) or a comma "
                         "list (default 0:120:1)")
     p.add_argument("--axis-point", metavar="X,Y,Z",
-                   help="a point of the flexion axis, mm (with --axis-dir; default: fitted)")
+                   help="a point of the flexion axis, mm (with --axis-dir; default: the scene's "
+                        "flexion.axis_point_mm, else fitted)")
     p.add_argument("--axis-dir", metavar="X,Y,Z",
                    help="the flexion axis direction (with --axis-point)")
     p.add_argument("--csv", metavar="PATH", help="one row per angle ('-': stdout)")
@@ -64,6 +66,7 @@ def _axis(args: argparse.Namespace, scene):
     if (point is None) != (direction is None):
         raise FecheckError("give both --axis-point and --axis-dir, or neither (fitted axis)")
     if point is not None:
+        flex.check_kind(scene)
         return flex.given_axis(point, direction)
     return flex.scene_axis(scene)
 

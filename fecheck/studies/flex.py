@@ -76,20 +76,20 @@ def axis_rotation(direction: np.ndarray) -> np.ndarray:
     return np.eye(3) + k + k @ k / (1.0 + c)
 
 
-def given_axis(point: Sequence[float], direction: Sequence[float]) -> FlexionAxis:
-    """An axis given by the user (`--axis-point`, `--axis-dir`), direction made +x."""
+def given_axis(point: Sequence[float], direction: Sequence[float],
+               where: str = "--axis-dir") -> FlexionAxis:
+    """An axis given by the user (`where` names the option or key), direction made +x."""
     e = np.asarray(direction, dtype=float)
     norm = float(np.linalg.norm(e))
     if not np.all(np.isfinite(e)) or norm == 0.0:
-        raise FecheckError(f"--axis-dir {list(direction)} is not a direction: give three "
+        raise FecheckError(f"{where} {list(direction)} is not a direction: give three "
                            "finite numbers, not all zero")
     e = e / norm
-    if e[0] <= 0.2:
-        if e[0] >= -0.2:
-            raise FecheckError(f"--axis-dir {list(direction)} is more than 78° from the "
-                               "medio-lateral x axis: give the knee's flexion axis")
-        e = -e
-    return FlexionAxis(np.asarray(point, dtype=float), e, "given")
+    if abs(e[0]) < 0.2:
+        raise FecheckError(f"{where} {list(direction)} is more than 78° from the "
+                           "medio-lateral x axis: give the knee's flexion axis")
+    return FlexionAxis(np.asarray(point, dtype=float), np.sign(e[0]) * e,
+                       f"given by {where.removesuffix('-dir').removesuffix('_dir')}")
 
 
 def condyle_axis(femur: TriMesh) -> FlexionAxis:
@@ -196,14 +196,26 @@ class FlexRun:
 
 
 def scene_axis(scene: Scene) -> FlexionAxis:
-    """The axis fitted from the scene's femoral articular surface."""
+    """The flexion axis of a femur-tibia scene: flexion.axis_point_mm and flexion.axis_dir
+    if set, else fitted from its femoral articular surface."""
     from fecheck.scene import surfaces
 
+    point, direction = scene["flexion.axis_point_mm"], scene["flexion.axis_dir"]
+    if (point is None) != (direction is None):
+        raise FecheckError("set both flexion.axis_point_mm and flexion.axis_dir, or neither "
+                           "(the axis fitted to the posterior condyles)")
+    check_kind(scene)
+    if point is not None:
+        return given_axis(point, direction, "flexion.axis_dir")
+    return condyle_axis(surfaces.femoral_surface(scene))
+
+
+def check_kind(scene: Scene) -> None:
+    """Refuse a scene that is not a femur-tibia model (flexion turns a femoral surface)."""
     if scene["model.kind"] != "femur-tibia":
         raise FecheckError(f"fecheck flex needs a femur-tibia scene (a femoral surface to "
-                           f"turn about its condyles), not model.kind = "
-                           f"{scene['model.kind']!r}")
-    return condyle_axis(surfaces.femoral_surface(scene))
+                           f"roll over the plateaus), not model.kind = "
+                           f"{scene['model.kind']!r}: set model.kind = 'femur-tibia'")
 
 
 def _cop(slave: TriMesh, pressure: np.ndarray, area: np.ndarray) -> np.ndarray:
@@ -236,6 +248,7 @@ def run_flex(scene: Scene, angles: Sequence[float], axis: FlexionAxis,
     """
     from fecheck.model.scanned import build_compartments, bundle_springs
 
+    check_kind(scene)
     t0 = time.perf_counter()
     comps = build_compartments(scene)
     names, springs = bundle_springs(scene)
