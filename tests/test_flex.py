@@ -208,11 +208,11 @@ def test_ctrl_c_keeps_the_finished_angles(tmp_path, monkeypatch, capsys):
 
     real, calls = equilibrium.solve_equilibrium, []
 
-    def interrupted(*args):
+    def interrupted(*args, **kwargs):
         calls.append(1)
         if len(calls) == 3:
             raise KeyboardInterrupt
-        return real(*args)
+        return real(*args, **kwargs)
 
     monkeypatch.setattr(equilibrium, "solve_equilibrium", interrupted)
     assert _main(["--angles", "0:4:1", "--csv", str(tmp_path / "f.csv")]) == 130

@@ -62,7 +62,8 @@ def solve_equilibrium(scene: Scene, comps: Sequence[Compartment],
                       springs: Sequence[Callable] = (),
                       constraints: Sequence[Callable] = (),
                       warm_start: np.ndarray | None = None,
-                      flexion: tuple[float, np.ndarray] | None = None) -> Equilibrium:
+                      flexion: tuple[float, np.ndarray] | None = None,
+                      check: bool = True) -> Equilibrium:
     """Newton statics of the scene's tibia with contact in `comps`, the scene's load and
     gravity, ligament `springs` (wrench parts) and `constraints` (rods, equal forces).
 
@@ -72,10 +73,12 @@ def solve_equilibrium(scene: Scene, comps: Sequence[Compartment],
     `warm_start` (5,) = (x, y, z mm, θy, θz rad) starts the solve there (sweeps).
     `flexion` = (θx rad, Q (3, 3)) drives θx about Q's first column instead of
     dofs.flexion_deg about world x (`fecheck.statics.newton.Body`'s base). The
-    scene and meshes are checked first (`fecheck.model.plausibility.before_solve`); a
+    scene and meshes are checked first (`fecheck.model.plausibility.before_solve`; not
+    with `check` False: a later angle of checked parts); a
     failure to find any equilibrium names a load below the tibia's weight.
     """
-    before_solve(scene, comps)
+    if check:
+        before_solve(scene, comps)
     contact = ContactModel(comps)
     parts = wrench_parts(contact, applied_load(scene), *springs)
     q0 = start_pose(scene) if warm_start is None else np.asarray(warm_start, dtype=float)

@@ -278,7 +278,8 @@ def _sweep(scene: Scene, angles: Sequence[float], axis: FlexionAxis, run: FlexRu
         if run.points:
             warm = _warm(axis, q_rot, phi, ab, ie, d)
         try:
-            eq = solve_equilibrium(scene, comps, springs, (), warm, (-phi, q_rot))
+            eq = solve_equilibrium(scene, comps, springs, (), warm, (-phi, q_rot),
+                                   check=i == 0)
         except FecheckError as err:
             run.stopped = f"flexion {phi_deg:g}°: {err}{_edge_note(scene, run.points)}"
             return
