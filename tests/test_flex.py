@@ -167,6 +167,32 @@ def test_neighbouring_angles_do_not_jump(knee_range):
         assert np.abs(np.diff(force)).max() < 0.03 * force.mean()
 
 
+def test_each_angle_starts_from_the_last_equilibrium_turned_about_the_axis(monkeypatch):
+    # The start of angle i+1: the last equilibrium's rotation turned by the 1° step about
+    # the axis (scipy rotation vector), the tibial point at the axis point left where the
+    # last equilibrium put it.
+    import fecheck.model.equilibrium as equilibrium
+    from fecheck.scene import load_scene
+    from fecheck.statics.newton import body_pose
+
+    real, starts = equilibrium.solve_equilibrium, []
+
+    def recorded(scene, comps, springs, constraints, warm, flexion, **kwargs):
+        starts.append((warm, flexion))
+        return real(scene, comps, springs, constraints, warm, flexion, **kwargs)
+
+    monkeypatch.setattr(equilibrium, "solve_equilibrium", recorded)
+    scene = load_scene("femur_tibia_ligaments", ["scanned.decimate_faces=3000"])
+    axis = flex.scene_axis(scene)
+    run = flex.run_flex(scene, [20.0, 21.0, 22.0], axis)
+    c, step = axis.point, Rotation.from_rotvec(-math.radians(1.0) * axis.direction)
+    assert starts[0][0] is None
+    for last, (warm, (theta, base)) in zip(run.points, starts[1:], strict=False):
+        rot, t = body_pose(np.array([*warm[:3], theta, *warm[3:]]), base)
+        assert np.allclose(rot, step.as_matrix() @ last.rot, atol=1e-12)
+        assert np.allclose(rot @ c + t, last.rot @ c + last.t, atol=1e-9)
+
+
 KNEE = ["femur_tibia_ligaments", "--set", "scanned.decimate_faces=3000"]
 
 
