@@ -61,22 +61,29 @@ class Equilibrium:
 def solve_equilibrium(scene: Scene, comps: Sequence[Compartment],
                       springs: Sequence[Callable] = (),
                       constraints: Sequence[Callable] = (),
-                      warm_start: np.ndarray | None = None) -> Equilibrium:
+                      warm_start: np.ndarray | None = None,
+                      flexion: tuple[float, np.ndarray] | None = None,
+                      check: bool = True) -> Equilibrium:
     """Newton statics of the scene's tibia with contact in `comps`, the scene's load and
     gravity, ligament `springs` (wrench parts) and `constraints` (rods, equal forces).
 
     The tibia is the one body of the solve (the femur is fixed); `springs` are its wrench
     parts at its pose (R, t) and `constraints` functions (R, t, parts) → (g, w, ∂w/∂ξ)
     (`fecheck.statics.newton.constraint_on_body`).
-    `warm_start` (5,) = (x, y, z mm, θy, θz rad) starts the solve there (sweeps). The
-    scene and meshes are checked first (`fecheck.model.plausibility.before_solve`); a
+    `warm_start` (5,) = (x, y, z mm, θy, θz rad) starts the solve there (sweeps).
+    `flexion` = (θx rad, Q (3, 3)) drives θx about Q's first column instead of
+    dofs.flexion_deg about world x (`fecheck.statics.newton.Body`'s base). The
+    scene and meshes are checked first (`fecheck.model.plausibility.before_solve`; not
+    with `check` False: a later angle of checked parts); a
     failure to find any equilibrium names a load below the tibia's weight.
     """
-    before_solve(scene, comps)
+    if check:
+        before_solve(scene, comps)
     contact = ContactModel(comps)
     parts = wrench_parts(contact, applied_load(scene), *springs)
     q0 = start_pose(scene) if warm_start is None else np.asarray(warm_start, dtype=float)
-    tibia = tibia_body(q0, free_indices(scene), math.radians(scene["dofs.flexion_deg"]))
+    theta, base = flexion or (math.radians(scene["dofs.flexion_deg"]), None)
+    tibia = tibia_body(q0, free_indices(scene), theta, base)
     problem = Problem((tibia,), on_body(parts),
                       tuple(constraint_on_body(c) for c in constraints), force_scale(scene),
                       tolerance=scene["solver.tolerance"],
@@ -85,7 +92,7 @@ def solve_equilibrium(scene: Scene, comps: Sequence[Compartment],
     t0 = time.perf_counter()
     sol = _solve(scene, problem)
     seconds = time.perf_counter() - t0
-    rot, t = body_pose(sol.q[0])
+    rot, t = body_pose(sol.q[0], base)
     evaluated = contact.evaluate(rot, t)              # at the solution, for the report
     return Equilibrium(sol, sol.q[0][list(TIBIA_COORDINATES)], rot, t,
                        [res for res, _, _ in evaluated], [w for _, w, _ in evaluated], contact,

@@ -83,6 +83,7 @@ SECTIONS: dict[str, str] = {
                "ligament bundles",
     "menisci": "Femur-tibia model with menisci (rigid bodies between the cartilages)",
     "fe": "FE cross-check (`fecheck fe`)",
+    "flexion": "Driven flexion (`fecheck flex`)",
 }
 """Section (first part of a dotted key; "" for top-level keys) → its title."""
 
@@ -329,6 +330,17 @@ SCHEMA: dict[str, Key] = {
                              low=-45.0, high=45.0),
     "dofs.flexion_deg": Key("float", 0.0, "Tibia flexion angle θx, deg; always driven.",
                             low=-45.0, high=45.0),
+    "flexion.axis_point_mm": Key(
+        "vec3", None,
+        "A point of the knee flexion axis `fecheck flex` turns the tibia about, mm, femur "
+        "frame (with flexion.axis_dir); unset: the axis through the centres of spheres "
+        "fitted to the posterior condyles of the femoral surface.",
+        example=[-0.48, 3.14, 26.47]),
+    "flexion.axis_dir": Key(
+        "vec3", None,
+        "Direction of that flexion axis (with flexion.axis_point_mm), normalised and turned "
+        "towards +x on use; within 78° of x.", unit=DIMENSIONLESS,
+        example=[0.9982, -0.0599, -0.0033]),
     "constraints.equal_forces": Key("bool", False, "Constrain the medial and lateral contact "
                                     "forces to be equal (thesis Fig. 5.12); not available "
                                     "in the scanned models."),

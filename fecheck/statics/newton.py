@@ -74,16 +74,22 @@ def cross3(a: np.ndarray, b: np.ndarray) -> np.ndarray:
                      a[0] * b[1] - a[1] * b[0]])
 
 
-def _frame(q: np.ndarray) -> tuple[np.ndarray, np.ndarray, tuple[np.ndarray, ...]]:
-    """R, t (mm) and the rotation axes (a_x, a_y, a_z) (world) of body coordinates q."""
+def _frame(q: np.ndarray, base: np.ndarray | None = None
+           ) -> tuple[np.ndarray, np.ndarray, tuple[np.ndarray, ...]]:
+    """R, t (mm) and the rotation axes (a_x, a_y, a_z) (world) of body coordinates q; with
+    a `base` rotation Q the angles turn about Q's axes: R = Q·Rx·Ry·Rz·Qᵀ."""
     rx = rot_x(q[3])
     rxy = rx @ rot_y(q[4])
-    return rxy @ rot_z(q[5]), np.asarray(q[:3], dtype=float), (E_X, rx[:, 1], rxy[:, 2])
+    rot, t = rxy @ rot_z(q[5]), np.asarray(q[:3], dtype=float)
+    if base is None:
+        return rot, t, (E_X, rx[:, 1], rxy[:, 2])
+    return base @ rot @ base.T, t, (base[:, 0], base @ rx[:, 1], base @ rxy[:, 2])
 
 
-def body_pose(q: np.ndarray) -> BodyPose:
-    """Rotation R and translation t (mm) of a body at q = (x, y, z, θx, θy, θz)."""
-    return _frame(q)[:2]
+def body_pose(q: np.ndarray, base: np.ndarray | None = None) -> BodyPose:
+    """Rotation R and translation t (mm) of a body at q = (x, y, z, θx, θy, θz) (`Body`'s
+    `base`: the axes the angles turn about)."""
+    return _frame(q, base)[:2]
 
 
 def _basis(t: np.ndarray, axes: Sequence[np.ndarray]) -> np.ndarray:
@@ -215,6 +221,8 @@ class Body:
     free : indices of the free coordinates in `BODY_DOFS` (empty: a fixed body)
     free_key : the scene key that lists the free DOFs (for messages)
     start_keys : the scene keys the start coordinates come from (for messages)
+    base : (3, 3) rotation Q whose columns are the axes θx, θy, θz turn about at q = 0
+        (R = Q·Rx·Ry·Rz·Qᵀ; a flexion axis off world x); None: the world axes
     """
 
     name: str
@@ -222,13 +230,15 @@ class Body:
     free: tuple[int, ...]
     free_key: str = "dofs.free"
     start_keys: str = "dofs.*_mm/_deg"
+    base: np.ndarray | None = None
 
 
-def tibia_body(q: np.ndarray, free: Sequence[int], theta_x: float = 0.0) -> Body:
+def tibia_body(q: np.ndarray, free: Sequence[int], theta_x: float = 0.0,
+               base: np.ndarray | None = None) -> Body:
     """The tibia as a `Body`: its q = (x, y, z, θy, θz) with θx driven, and the indices
-    `free` of its free DOFs in (x, y, z, θy, θz)."""
+    `free` of its free DOFs in (x, y, z, θy, θz); `base` as in `Body`."""
     return Body("tibia", tibia_coordinates(q, theta_x),
-                tuple(TIBIA_COORDINATES[i] for i in free))
+                tuple(TIBIA_COORDINATES[i] for i in free), base=base)
 
 
 def on_body(parts: Callable[[np.ndarray, np.ndarray], Sequence[tuple[np.ndarray, np.ndarray]]],
@@ -365,7 +375,7 @@ class _System:
         """Poses, twist bases of the free coordinates (6, nf_b) and frames at z."""
         poses, bases, frames = [], [], []
         for b, q in zip(self.p.bodies, self.q_of(z), strict=True):
-            r, t, axes = _frame(q)
+            r, t, axes = _frame(q, b.base)
             poses.append((r, t))
             bases.append(np.ascontiguousarray(_basis(t, axes)[:, list(b.free)]))
             frames.append((t, axes))

@@ -1,0 +1,133 @@
+"""`fecheck flex SCENE --angles A:B:STEP`: driven knee flexion of a femur-tibia scene.
+
+The tibia is turned about the knee's flexion axis (``--axis-point`` and ``--axis-dir``, or
+the scene's flexion.axis_point_mm and flexion.axis_dir, or else the axis through the
+centres of spheres fitted to the posterior condyles of the femoral surface) and its other
+DOFs solved at each angle under the scene's load, ligaments and gravity, each angle from
+the last (`fecheck.studies.flex`). Progress goes
+to standard error; Ctrl-C, or an angle that does not solve, stops the run and the angles
+solved so far are written.
+"""
+
+from __future__ import annotations
+
+import argparse
+import sys
+from pathlib import Path
+
+from fecheck.cli import add_scene_arguments
+
+
+def add_parser(subparsers) -> None:
+    p = subparsers.add_parser(
+        "flex", help="driven knee flexion: secondary kinematics, contact and ligaments",
+        description="Turn the tibia about the knee flexion axis through a range of angles, "
+                    "solving its other DOFs at each, and report the secondary kinematics, "
+                    "compartment forces, centres of pressure, contact areas and ligament "
+                    "forces per angle.")
+    add_scene_arguments(p, "override a scene key, value as a TOML literal")
+    p.add_argument("--angles", default="0:120:1", metavar="A:B:STEP",
+                   help="knee flexion angles, deg: START:STOP:STEP (inclusive) or a comma "
+                        "list (default 0:120:1)")
+    p.add_argument("--axis-point", metavar="X,Y,Z",
+                   help="a point of the flexion axis, mm (with --axis-dir; default: the scene's "
+                        "flexion.axis_point_mm, else fitted)")
+    p.add_argument("--axis-dir", metavar="X,Y,Z",
+                   help="the flexion axis direction (with --axis-point)")
+    p.add_argument("--csv", metavar="PATH", help="one row per angle ('-': stdout)")
+    p.add_argument("--json", metavar="PATH", help="axis and every angle ('-': stdout)")
+    p.add_argument("--plot", type=Path, metavar="DIR",
+                   help="write DIR/kinematics.png and DIR/contact_paths.png")
+    p.add_argument("--vtk", type=Path, metavar="DIR",
+                   help="write DIR/flex.pvd (ParaView time series) and one .vtu per angle")
+    p.set_defaults(run=run)
+
+
+def _vector(text: str | None, option: str) -> list[float] | None:
+    from fecheck.errors import FecheckError
+
+    if text is None:
+        return None
+    try:
+        values = [float(v) for v in text.split(",")]
+    except ValueError:
+        values = []
+    if len(values) != 3:
+        raise FecheckError(f"{option} {text!r}: give three numbers X,Y,Z")
+    return values
+
+
+def _axis(args: argparse.Namespace, scene):
+    from fecheck.errors import FecheckError
+    from fecheck.studies import flex
+
+    point, direction = _vector(args.axis_point, "--axis-point"), _vector(args.axis_dir,
+                                                                           "--axis-dir")
+    if (point is None) != (direction is None):
+        raise FecheckError("give both --axis-point and --axis-dir, or neither (fitted axis)")
+    if point is not None:
+        flex.check_kind(scene)
+        return flex.given_axis(point, direction)
+    return flex.scene_axis(scene)
+
+
+def _progress(total: int, out):
+    def show(i: int, p) -> None:
+        c = p.compartments
+        forces = "  ".join(f"{k} {v['force_N']:.0f} N" for k, v in c.items())
+        print(f"flex [{i + 1}/{total}] {p.flexion_deg:g}°: internal {p.internal_deg:.2f}°, "
+              f"abduction {p.abduction_deg:.2f}°, {forces} ({p.seconds:.2f} s)",
+              file=out, flush=True)
+    return show
+
+
+def _write_outputs(args: argparse.Namespace, run_, out) -> None:
+    from fecheck.io.outputs import write_text
+    from fecheck.studies import flex_outputs
+
+    if not run_.points:
+        print("no angle solved: nothing written", file=out)
+        return
+    for path, text in ((args.csv, flex_outputs.csv_text), (args.json, flex_outputs.json_text)):
+        if path is not None:
+            write_text(path, text(run_))
+            if str(path) != "-":
+                print(f"wrote {path}", file=out)
+    if args.vtk is not None:
+        print(f"wrote {flex_outputs.write_vtk_series(run_, args.vtk)}", file=out)
+    if args.plot is not None:
+        for path in flex_outputs.write_plots(run_, args.plot):
+            print(f"wrote {path}", file=out)
+
+
+def run(args: argparse.Namespace) -> int:
+    from fecheck.io.outputs import check_output
+    from fecheck.scene import load_scene
+    from fecheck.studies import flex
+
+    angles = flex.parse_angles(args.angles)
+    for attr in ("csv", "json"):
+        check_output(getattr(args, attr))
+    for attr in ("plot", "vtk"):
+        check_output(getattr(args, attr), directory=True)
+    if str(args.csv) == "-" and str(args.json) == "-":
+        from fecheck.errors import FecheckError
+
+        raise FecheckError("only one output can go to standard output ('-'): --csv or --json")
+    scene = load_scene(args.scene, args.overrides)
+    axis = _axis(args, scene)
+    err = sys.stderr
+    print(axis.describe(), file=err, flush=True)
+    result = flex.run_flex(scene, angles, axis, _progress(len(angles), err))
+    solve = sum(p.seconds for p in result.points)
+    print(f"{len(result.points)} of {len(angles)} angles solved; build {result.build_seconds:.2f}"
+          f" s, then {result.sweep_seconds:.2f} s wall for the angles (Newton {solve:.2f} s)",
+          file=err)
+    _write_outputs(args, result, err)
+    if result.stopped is None:
+        return 0
+    if result.stopped.startswith("interrupted"):
+        print(f"fecheck: {result.stopped}; the finished angles were written", file=err)
+        return 130
+    print(f"fecheck: error: {result.stopped}", file=err)
+    return 1

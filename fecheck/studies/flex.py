@@ -1,0 +1,366 @@
+"""Driven knee flexion: the tibia turned about a stated flexion axis, the other DOFs solved.
+
+The flexion axis is a line fixed in the femur: a point c (mm) and a unit direction e
+pointing to the subject's right (+x side), either given or fitted from the femoral
+articular surface: a sphere fitted to the posterior-distal faces of each condyle (the
+selection of the lenhart2015 data README: outward normal between distal and posterior,
+-10° < atan2(-n_y, -n_z) < 100°, |n_x| < 0.5, centroid y < 15 mm and |x| > 8 mm, medial
+and lateral by the sign of x), the axis through the two centres (a cylinder fit of the
+posterior condyles, close to the transepicondylar axis).
+
+At knee flexion φ (deg, + flexed: the ankle moves posterior) the tibia's rotation is
+R = Q·Rx(-φ)·Ry(θy)·Rz(θz)·Qᵀ with Q the smallest rotation taking e_x to e: θy
+(abduction) and θz (internal rotation, right knee; its sign flipped for a left knee) are
+the Cardan angles about the floating and the tibial axis, as in the fixed-axis models.
+The translation reported is that of the tibial point at c at the rest pose, d = R·c + t - c,
+in the axis frame (Qᵀ·d: x along the axis, y anterior, z superior): zero for a pure hinge.
+Each angle starts from the last equilibrium with the same θy, θz and d.
+"""
+
+from __future__ import annotations
+
+import math
+import re
+import time
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from fecheck.errors import FecheckError
+from fecheck.scene import Scene
+from geometry.mesh import TriMesh
+
+NOTCH_MM = 8.0
+"""Faces within this distance of x = 0 (the intercondylar notch) are not fitted, mm."""
+
+POSTERIOR_Y_MM = 15.0
+"""Faces anterior of this y (the trochlea) are not fitted, mm."""
+
+EDGE_MM = 5.0
+"""A failing angle whose last contact was this close to the femoral surface's edge is
+reported as past the cartilage, mm."""
+
+LIGAMENT_GROUPS = ("ACL", "PCL", "MCL", "LCL", "PFL", "pCAP")
+"""Bundle-name prefixes summed per ligament in the reports."""
+
+
+@dataclass(frozen=True)
+class FlexionAxis:
+    """The knee flexion axis: point (3,) mm, unit direction (3,) (+x side), source text,
+    and the two condyle sphere fits (centre mm, radius mm) when fitted."""
+
+    point: np.ndarray
+    direction: np.ndarray
+    source: str
+    spheres: dict = field(default_factory=dict)
+
+    def describe(self) -> str:
+        """One line: the axis and where it comes from."""
+        p, e = self.point, self.direction
+        return (f"flexion axis: point ({p[0]:.2f}, {p[1]:.2f}, {p[2]:.2f}) mm, direction "
+                f"({e[0]:.4f}, {e[1]:.4f}, {e[2]:.4f}) ({self.source})")
+
+
+def axis_rotation(direction: np.ndarray) -> np.ndarray:
+    """Q (3, 3): the smallest rotation taking e_x to the unit `direction` (x > 0).
+
+    >>> bool(np.allclose(axis_rotation(np.array([0.0, 1.0, 1.0])) @ [1.0, 0.0, 0.0],
+    ...                  [0.0, 0.7071068, 0.7071068]))
+    True
+    """
+    e = np.asarray(direction, dtype=float) / np.linalg.norm(direction)
+    v = np.cross([1.0, 0.0, 0.0], e)
+    c = float(e[0])
+    k = np.array([[0.0, -v[2], v[1]], [v[2], 0.0, -v[0]], [-v[1], v[0], 0.0]])
+    return np.eye(3) + k + k @ k / (1.0 + c)
+
+
+def given_axis(point: Sequence[float], direction: Sequence[float],
+               where: str = "--axis-dir") -> FlexionAxis:
+    """An axis given by the user (`where` names the option or key), direction made +x."""
+    e = np.asarray(direction, dtype=float)
+    norm = float(np.linalg.norm(e))
+    if not np.all(np.isfinite(e)) or norm == 0.0:
+        raise FecheckError(f"{where} {list(direction)} is not a direction: give three "
+                           "finite numbers, not all zero")
+    e = e / norm
+    if abs(e[0]) < 0.2:
+        raise FecheckError(f"{where} {list(direction)} is more than 78° from the "
+                           "medio-lateral x axis: give the knee's flexion axis")
+    return FlexionAxis(np.asarray(point, dtype=float), np.sign(e[0]) * e,
+                       f"given by {where.removesuffix('-dir').removesuffix('_dir')}")
+
+
+def condyle_axis(femur: TriMesh) -> FlexionAxis:
+    """The axis through the centres of spheres fitted to the posterior-distal faces of the
+    two femoral condyles (module docstring), from the femoral articular surface (mm)."""
+    from geometry.fits import fit_sphere
+
+    n = femur.face_normals
+    cen = femur.face_centroids
+    angle = np.degrees(np.arctan2(-n[:, 1], -n[:, 2]))
+    keep = (angle > -10.0) & (angle < 100.0) & (np.abs(n[:, 0]) < 0.5) \
+        & (cen[:, 1] < POSTERIOR_Y_MM)
+    fits = {}
+    for name, side in (("x<0", cen[:, 0] < -NOTCH_MM), ("x>0", cen[:, 0] > NOTCH_MM)):
+        sel = keep & side
+        if np.count_nonzero(sel) < 20:
+            raise FecheckError(f"the femoral surface has {np.count_nonzero(sel)} "
+                               f"posterior-distal faces at {name} (|x| > {NOTCH_MM} mm, "
+                               f"y < {POSTERIOR_Y_MM} mm): no condyle to fit a flexion "
+                               "axis; give it with --axis-point and --axis-dir")
+        fit = fit_sphere(cen[sel], weights=femur.face_areas[sel])
+        fits[name] = (fit.center, fit.radius_mm)
+    a, b = fits["x<0"][0], fits["x>0"][0]
+    e = (b - a) / np.linalg.norm(b - a)
+    return FlexionAxis((a + b) / 2.0, e, "fitted: through the centres of spheres fitted to "
+                       "the posterior condyles", fits)
+
+
+def parse_angles(text: str) -> np.ndarray:
+    """Flexion angles (deg) from ``A:B:STEP`` (A to B inclusive) or ``A,B,C``.
+
+    >>> parse_angles("0:10:5").tolist()
+    [0.0, 5.0, 10.0]
+    """
+    try:
+        if ":" in text:
+            a, b, step = (float(v) for v in text.split(":"))
+            if step <= 0 or b < a:
+                raise ValueError
+            out = a + step * np.arange(int(math.floor((b - a) / step + 1e-9)) + 1)
+        else:
+            out = np.array([float(v) for v in re.split(r"[,\s]+", text.strip())])
+    except ValueError:
+        raise FecheckError(f"--angles {text!r}: give START:STOP:STEP (STEP > 0, STOP >= "
+                           "START) or a comma list, degrees") from None
+    if not np.all(np.isfinite(out)) or np.any(out < -30.0) or np.any(out > 160.0):
+        raise FecheckError(f"--angles {text!r}: flexion angles go from -30 to 160 degrees")
+    return out
+
+
+@dataclass
+class FlexPoint:
+    """One solved flexion angle.
+
+    flexion_deg : driven knee flexion, deg
+    abduction_deg, internal_deg : secondary rotations (module docstring), deg
+    translation_mm : (3,) d in the axis frame, mm
+    compartments : {name: dict of force_N, axial_force_N, area_mm2, max_pressure_MPa,
+        cop_x_mm, cop_y_mm (centre of pressure, tibia frame)}
+    ligaments : {bundle: tension N}
+    rot, t : the tibia's pose; fields : {compartment: face pressure MPa (n_faces,)}
+    iterations, seconds : Newton iterations and wall time of this angle
+    """
+
+    flexion_deg: float
+    abduction_deg: float
+    internal_deg: float
+    translation_mm: np.ndarray
+    compartments: dict
+    ligaments: dict
+    rot: np.ndarray
+    t: np.ndarray
+    fields: dict
+    iterations: int
+    seconds: float
+
+    def row(self) -> dict:
+        """Flat CSV row: kinematics, compartments, ligament groups (N)."""
+        d = self.translation_mm
+        out = {"flexion_deg": self.flexion_deg, "abduction_deg": self.abduction_deg,
+               "internal_deg": self.internal_deg, "ml_mm": d[0], "ap_mm": d[1],
+               "si_mm": d[2]}
+        for name, c in self.compartments.items():
+            out.update({f"{name}_{k}": v for k, v in c.items()})
+        for group in LIGAMENT_GROUPS:
+            out[f"{group}_N"] = sum(v for k, v in self.ligaments.items()
+                                    if k.startswith(group))
+        out.update(iterations=self.iterations, seconds=self.seconds)
+        return out
+
+
+@dataclass
+class FlexRun:
+    """A flexion run: axis, solved points, build time and wall time of the angles after
+    it (s), and how it ended (`stopped`: None when every angle was solved, else the
+    one-line reason)."""
+
+    axis: FlexionAxis
+    points: list[FlexPoint]
+    build_seconds: float
+    slaves: dict
+    stopped: str | None = None
+    sweep_seconds: float = 0.0
+
+
+def scene_axis(scene: Scene) -> FlexionAxis:
+    """The flexion axis of a femur-tibia scene: flexion.axis_point_mm and flexion.axis_dir
+    if set, else fitted from its femoral articular surface."""
+    from fecheck.scene import surfaces
+
+    point, direction = scene["flexion.axis_point_mm"], scene["flexion.axis_dir"]
+    if (point is None) != (direction is None):
+        raise FecheckError("set both flexion.axis_point_mm and flexion.axis_dir, or neither "
+                           "(the axis fitted to the posterior condyles)")
+    check_kind(scene)
+    if point is not None:
+        return given_axis(point, direction, "flexion.axis_dir")
+    return condyle_axis(surfaces.femoral_surface(scene))
+
+
+def check_kind(scene: Scene) -> None:
+    """Refuse a scene that is not a femur-tibia model (flexion turns a femoral surface)."""
+    if scene["model.kind"] != "femur-tibia":
+        raise FecheckError(f"fecheck flex needs a femur-tibia scene (a femoral surface to "
+                           f"roll over the plateaus), not model.kind = "
+                           f"{scene['model.kind']!r}: set model.kind = 'femur-tibia'")
+
+
+def _cop(slave: TriMesh, pressure: np.ndarray, area: np.ndarray) -> np.ndarray:
+    """Centre of pressure (3,) mm of one compartment in the tibia frame (NaN: none)."""
+    w = pressure * area
+    total = float(w.sum())
+    if total <= 0.0:
+        return np.full(3, math.nan)
+    return w @ slave.face_centroids / total
+
+
+def _warm(axis: FlexionAxis, q_rot: np.ndarray, phi: float, ab: float, ie: float,
+          d: np.ndarray) -> np.ndarray:
+    """q (5,) at flexion `phi` (rad) with rotations ab, ie (rad) and axis-point
+    displacement d (world, mm): t = c + d - R·c."""
+    from fecheck.statics.newton import body_pose
+
+    rot, _ = body_pose(np.array([0.0, 0.0, 0.0, -phi, ab, ie]), q_rot)
+    t = axis.point + d - rot @ axis.point
+    return np.array([t[0], t[1], t[2], ab, ie])
+
+
+def run_flex(scene: Scene, angles: Sequence[float], axis: FlexionAxis,
+             progress: Callable[[int, FlexPoint], None] | None = None) -> FlexRun:
+    """Solve the scene at every flexion angle (deg) in turn, each from the last.
+
+    A failure at an angle (no equilibrium, no convergence, contact lost in a compartment:
+    the femoral cartilage ran out) stops the run with `stopped` naming the angle; Ctrl-C
+    stops it with the finished angles kept (`stopped` says so).
+    """
+    from fecheck.model.scanned import build_compartments, bundle_springs
+
+    check_kind(scene)
+    t0 = time.perf_counter()
+    comps = build_compartments(scene)
+    names, springs = bundle_springs(scene)
+    run = FlexRun(axis, [], time.perf_counter() - t0, {c.name: c.pair.slave for c in comps})
+    t_built = time.perf_counter()
+    try:
+        _sweep(scene, angles, axis, run, comps, (names, springs), progress)
+    except KeyboardInterrupt:
+        run.stopped = f"interrupted at flexion {angles[len(run.points)]:g}°"
+    finally:
+        run.sweep_seconds = time.perf_counter() - t_built
+    return run
+
+
+def _sweep(scene: Scene, angles: Sequence[float], axis: FlexionAxis, run: FlexRun, comps,
+           bundles: tuple, progress: Callable[[int, FlexPoint], None] | None) -> None:
+    """The angles of `run_flex` in turn, appended to `run.points` (`run.stopped` set
+    where they stop)."""
+    from fecheck.model.equilibrium import compartment_results, solve_equilibrium
+
+    names, springs = bundles
+    q_rot = axis_rotation(axis.direction)
+    sign = 1.0 if scene["knee.side"] == "right" else -1.0
+    warm, ab, ie, d = None, 0.0, 0.0, np.zeros(3)
+    for i, phi_deg in enumerate(angles):
+        phi = math.radians(phi_deg)
+        if run.points:
+            warm = _warm(axis, q_rot, phi, ab, ie, d)
+        try:
+            eq = solve_equilibrium(scene, comps, springs, (), warm, (-phi, q_rot),
+                                   check=i == 0)
+        except FecheckError as err:
+            run.stopped = f"flexion {phi_deg:g}°: {err}{_edge_note(scene, run.points)}"
+            return
+        point = _point(scene, comps, eq, compartment_results(comps, eq), names, springs,
+                       axis, q_rot, phi_deg, sign)
+        lost = [c for c, v in point.compartments.items() if v["force_N"] <= 0.0]
+        if not eq.solution.converged or lost:
+            run.stopped = (_stop_reason(phi_deg, eq, lost, run.points)
+                           + _edge_note(scene, run.points))
+            return
+        run.points.append(point)
+        ab, ie = float(eq.q[3]), float(eq.q[4])
+        d = eq.rot @ axis.point + eq.t - axis.point
+        if progress is not None:
+            progress(i, point)
+
+
+def _stop_reason(phi_deg: float, eq, lost: list[str], done: list[FlexPoint]) -> str:
+    """The one line of an angle that did not solve."""
+    if lost:
+        where = ""
+        if done:
+            last = done[-1].compartments[lost[0]]
+            where = (f" (its centre of pressure at {done[-1].flexion_deg:g}° was at x = "
+                     f"{last['cop_x_mm']:.1f}, y = {last['cop_y_mm']:.1f} mm, tibia frame)")
+        return (f"flexion {phi_deg:g}°: no {' or '.join(lost)} contact: the femoral "
+                f"cartilage surface ends there{where}; stop the range before this angle")
+    sol = eq.solution
+    return (f"flexion {phi_deg:g}°: no equilibrium in {sol.iterations} iterations (residual "
+            f"{sol.residual_norm:.3g} N); stop the range before this angle or raise "
+            "solver.max_iterations")
+
+
+def _edge_note(scene: Scene, done: list[FlexPoint]) -> str:
+    """Where the last solved angle's contact was nearest the femoral surface's edge: ``;
+    at A° the C centre of pressure was D mm from the edge of the femoral surface (x, y, z
+    mm)`` ('' for none solved or a closed femoral surface)."""
+    from scipy.spatial import cKDTree
+
+    from fecheck.contact.pair import boundary_vertices
+    from fecheck.model.scanned import femoral_master
+
+    if not done:
+        return ""
+    femur = femoral_master(scene)
+    edge = femur.points[boundary_vertices(femur)]
+    if not len(edge):
+        return ""
+    last = done[-1]
+    best = (math.inf, "", np.zeros(3))
+    for name, c in last.compartments.items():
+        x = last.rot @ np.array([c["cop_x_mm"], c["cop_y_mm"], c["cop_z_mm"]]) + last.t
+        dist, i = cKDTree(edge).query(x)
+        if np.isfinite(dist) and dist < best[0]:
+            best = (float(dist), name, edge[i])
+    dist, name, at = best
+    if not name:
+        return ""
+    out = (f"; at {last.flexion_deg:g}° the {name} centre of pressure was {dist:.1f} mm "
+           f"from the edge of the femoral surface (at {at[0]:.1f}, {at[1]:.1f}, {at[2]:.1f} mm)")
+    return out + (": the femoral cartilage runs out there" if dist < EDGE_MM else "")
+
+
+def _point(scene: Scene, comps, eq, results: dict, names, springs, axis: FlexionAxis,
+           q_rot: np.ndarray, phi_deg: float, sign: float) -> FlexPoint:
+    """The `FlexPoint` of one equilibrium."""
+    rot, t = eq.rot, eq.t
+    compartments, fields = {}, {}
+    for c in comps:
+        r = results[c.name]
+        x, y, z = _cop(c.pair.slave, r.face_pressure_MPa, r.face_area_mm2)
+        compartments[c.name] = {"force_N": r.force_N, "axial_force_N": r.axial_force_N,
+                                "area_mm2": r.area_mm2, "max_pressure_MPa": r.max_pressure_MPa,
+                                "cop_x_mm": float(x), "cop_y_mm": float(y),
+                                "cop_z_mm": float(z)}
+        fields[c.name] = np.asarray(r.face_pressure_MPa, dtype=float)
+    ligaments = {}
+    for name, spring in zip(names, springs, strict=True):
+        length = float(np.linalg.norm(spring.femur_point - (rot @ spring.tibia_point + t)))
+        ligaments[name] = float(spring.tension(length))
+    d = q_rot.T @ (rot @ axis.point + t - axis.point)
+    return FlexPoint(float(phi_deg), math.degrees(eq.q[3]), sign * math.degrees(eq.q[4]), d,
+                     compartments, ligaments, rot, t, fields, eq.solution.iterations,
+                     eq.seconds)

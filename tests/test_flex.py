@@ -1,0 +1,257 @@
+"""Driven flexion (`fecheck flex`): the fitted axis, the base-rotated body coordinates, the
+ParaView time series, continuity through a range and the command line."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+from scipy.spatial.transform import Rotation
+
+from fecheck.statics.ligaments import SpringLigament
+from fecheck.statics.newton import Body, Problem, _System, body_pose, on_body, point_force
+from fecheck.studies import flex
+from geometry.icosphere import icosphere
+from geometry.mesh import TriMesh
+
+MEDIAL_C, LATERAL_C = np.array([-22.0, 4.5, 26.5]), np.array([21.5, 1.5, 27.5])
+
+
+def _two_condyles() -> TriMesh:
+    """Two whole spheres (R 27 and 25 mm) standing for the condyles, one mesh."""
+    a = icosphere(27.0, 4, MEDIAL_C, method="trimesh", cache=False)
+    b = icosphere(25.0, 4, LATERAL_C, method="trimesh", cache=False)
+    return TriMesh(np.vstack([a.points, b.points]), np.vstack([a.faces, b.faces + a.n_points]))
+
+
+def test_the_axis_of_two_sphere_condyles_is_the_line_through_their_centres():
+    # Known axis: through MEDIAL_C and LATERAL_C. The fit uses face centroids, which sit
+    # inside the sphere by about R·(1 - cos) of a face's angular size (level 4: ~0.03 mm,
+    # the same on every face), so the centres come back to 0.01 mm and the direction to
+    # 1e-4; the radius a little short of R.
+    axis = flex.condyle_axis(_two_condyles())
+    e = (LATERAL_C - MEDIAL_C) / np.linalg.norm(LATERAL_C - MEDIAL_C)
+    assert np.allclose(axis.direction, e, atol=1e-4)
+    assert np.allclose(axis.point, (MEDIAL_C + LATERAL_C) / 2, atol=0.01)
+    assert np.allclose(axis.spheres["x<0"][0], MEDIAL_C, atol=0.01)
+    assert axis.spheres["x<0"][1] == pytest.approx(27.0, abs=0.05)
+
+
+def test_the_scene_keys_give_the_axis_turned_towards_plus_x():
+    from fecheck.errors import FecheckError
+    from fecheck.scene import load_scene
+
+    scene = load_scene("femur_tibia_ligaments", ["flexion.axis_point_mm=[1.0, 2.0, 25.0]",
+                                                 "flexion.axis_dir=[-3.0, 0.0, 4.0]"])
+    axis = flex.scene_axis(scene)
+    assert axis.point.tolist() == [1.0, 2.0, 25.0]
+    assert np.allclose(axis.direction, [0.6, 0.0, -0.8]) and "flexion.axis" in axis.source
+    with pytest.raises(FecheckError, match="set both flexion.axis_point_mm"):
+        flex.scene_axis(load_scene("femur_tibia_ligaments", ["flexion.axis_dir=[1, 0, 0]"]))
+    with pytest.raises(FecheckError, match="more than 78° from the medio-lateral x axis"):
+        flex.given_axis([0.0, 0.0, 0.0], [0.1, 1.0, 0.0])
+
+
+def test_a_base_rotation_turns_the_flexion_angle_about_its_first_axis():
+    # R = Q·Rx(θ)·Qᵀ is the rotation by θ about Q e_x (scipy's rotation vector).
+    e = np.array([0.95, -0.2, 0.24]) / np.linalg.norm([0.95, -0.2, 0.24])
+    q_rot = flex.axis_rotation(e)
+    assert np.allclose(q_rot @ [1.0, 0.0, 0.0], e) and np.linalg.det(q_rot) == pytest.approx(1)
+    rot, _ = body_pose(np.array([0.0, 0.0, 0.0, 0.7, 0.0, 0.0]), q_rot)
+    assert np.allclose(rot, Rotation.from_rotvec(0.7 * e).as_matrix(), atol=1e-12)
+
+
+def test_base_rotated_coordinates_keep_an_exact_newton_tangent():
+    # A body with a base rotation, every coordinate free, under a Blankevoort spring to
+    # the world and a constant force at a body point: the Jacobian of the residual
+    # against central differences (smooth parts: h = 1e-5 gives truncation ~1e-10 of
+    # the largest entry; a missing or unrotated axis term is of order 1e-1).
+    q_rot = flex.axis_rotation(np.array([0.9, -0.3, 0.3]))
+    spring = SpringLigament(np.array([10.0, 5.0, 40.0]), np.array([-4.0, 8.0, -20.0]), 50.0,
+                            2000.0, 0.06)
+    force_at = np.array([3.0, -2.0, -300.0])
+
+    def parts(rot, t):
+        return [spring(rot, t), point_force(rot @ force_at + t, np.array([5.0, 20.0, 100.0]))]
+
+    q0 = np.array([0.5, -0.4, 0.8, 0.4, 0.1, -0.2])
+    system = _System(Problem((Body("tibia", q0, tuple(range(6)), base=q_rot),),
+                             on_body(parts)))
+    z = system.z_of([q0])
+    res, jac = system(z)
+    assert spring.tension(np.linalg.norm(spring.femur_point - spring.tibia_point)) >= 0
+    cols = []
+    for j in range(6):
+        dz = np.zeros(6)
+        dz[j] = 1e-5
+        cols.append((system(z + dz)[0] - system(z - dz)[0]) / 2e-5)
+    fd = np.column_stack(cols)
+    assert np.abs(fd - jac).max() <= 1e-6 * np.abs(fd).max()
+
+
+def _toy_run(angles) -> flex.FlexRun:
+    """A FlexRun of two small sheets turned about x by each angle (no solve)."""
+    sheet = TriMesh(np.array([[0.0, 0, 0], [1, 0, 0], [0, 1, 0], [1, 1, 0]]),
+                    np.array([[0, 1, 2], [1, 3, 2]]))
+    axis = flex.FlexionAxis(np.zeros(3), np.array([1.0, 0.0, 0.0]), "given")
+    points = []
+    for a in angles:
+        rot = Rotation.from_rotvec([-math.radians(a), 0, 0]).as_matrix()
+        comp = {"force_N": 1.0, "axial_force_N": 1.0, "area_mm2": 1.0,
+                "max_pressure_MPa": a, "cop_x_mm": 0.5, "cop_y_mm": 0.5}
+        points.append(flex.FlexPoint(a, 0.0, 0.0, np.zeros(3), {"medial": comp,
+                                     "lateral": comp}, {"ACLam1": 1.0}, rot, np.zeros(3),
+                                     {"medial": np.full(2, a), "lateral": np.full(2, -a)},
+                                     1, 0.0))
+    return flex.FlexRun(axis, points, 0.0, {"medial": sheet, "lateral": sheet})
+
+
+def test_the_pvd_reads_back_as_a_time_series_with_one_step_per_angle(tmp_path):
+    pv = pytest.importorskip("pyvista")
+    from fecheck.studies.flex_outputs import write_vtk_series
+
+    angles = [0.0, 15.0, 30.0, 90.0]
+    pvd = write_vtk_series(_toy_run(angles), tmp_path / "vtk")
+    reader = pv.get_reader(str(pvd))
+    assert reader.time_values == pytest.approx(angles)
+    for a in angles:
+        reader.set_active_time_value(a)
+        mesh = reader.read()[0]
+        assert mesh.n_cells == 4
+        assert np.allclose(mesh.cell_data["pressure_MPa"], [a, a, -a, -a])
+        # the point (0, 1, 0) turned by -a about x: (0, cos a, -sin a)
+        assert np.allclose(mesh.points[2], [0.0, math.cos(math.radians(a)),
+                                            -math.sin(math.radians(a))], atol=1e-6)
+
+
+@pytest.fixture(scope="module")
+def knee_range():
+    """The scanned knee with bundles, decimated, 20-26° in 1° steps."""
+    from fecheck.scene import load_scene
+
+    scene = load_scene("femur_tibia_ligaments", ["scanned.decimate_faces=3000"])
+    axis = flex.scene_axis(scene)
+    return axis, flex.run_flex(scene, np.arange(20.0, 27.0), axis)
+
+
+def test_the_driven_angle_is_turned_about_the_axis_and_the_others_solved(knee_range):
+    # Qᵀ·R·Q decomposed as Rx·Ry·Rz (scipy intrinsic XYZ): the first angle is the driven
+    # -φ to round-off, the other two the reported abduction and internal rotation.
+    axis, run = knee_range
+    q_rot = flex.axis_rotation(axis.direction)
+    assert run.stopped is None and len(run.points) == 7
+    for p in run.points:
+        x, y, z = Rotation.from_matrix(q_rot.T @ p.rot @ q_rot).as_euler("XYZ")
+        assert x == pytest.approx(-math.radians(p.flexion_deg), abs=1e-12)
+        assert (math.degrees(y), math.degrees(z)) == pytest.approx(
+            (p.abduction_deg, p.internal_deg), abs=1e-9)
+
+
+def test_neighbouring_angles_do_not_jump(knee_range):
+    # 1° apart on this range the contact stays on the same condyle region: measured steps
+    # are at most 0.05° (rotations), 0.10 mm (translations of the tibial point at the axis
+    # point), 0.17 mm (centres of pressure) and 0.9 % (compartment forces) per degree; the
+    # bounds are 3-4 times those. A jump of the contact (the scanned knee's full range has
+    # one at 6-8°: 2.1° and 4 mm per degree) or the hinge's own arc reported as a
+    # translation (26.5 mm · 1° = 0.46 mm) exceeds them.
+    _, run = knee_range
+    rows = [p.row() for p in run.points]
+    for key, bound in (("internal_deg", 0.2), ("abduction_deg", 0.2), ("ap_mm", 0.3),
+                       ("ml_mm", 0.3), ("si_mm", 0.3), ("medial_cop_y_mm", 0.5),
+                       ("lateral_cop_y_mm", 0.5)):
+        steps = np.abs(np.diff([r[key] for r in rows]))
+        assert steps.max() < bound, key
+    for c in ("medial", "lateral"):
+        force = np.array([r[f"{c}_force_N"] for r in rows])
+        assert np.abs(np.diff(force)).max() < 0.03 * force.mean()
+
+
+def test_each_angle_starts_from_the_last_equilibrium_turned_about_the_axis(monkeypatch):
+    # The start of angle i+1: the last equilibrium's rotation turned by the 1° step about
+    # the axis (scipy rotation vector), the tibial point at the axis point left where the
+    # last equilibrium put it.
+    import fecheck.model.equilibrium as equilibrium
+    from fecheck.scene import load_scene
+    from fecheck.statics.newton import body_pose
+
+    real, starts = equilibrium.solve_equilibrium, []
+
+    def recorded(scene, comps, springs, constraints, warm, flexion, **kwargs):
+        starts.append((warm, flexion))
+        return real(scene, comps, springs, constraints, warm, flexion, **kwargs)
+
+    monkeypatch.setattr(equilibrium, "solve_equilibrium", recorded)
+    scene = load_scene("femur_tibia_ligaments", ["scanned.decimate_faces=3000"])
+    axis = flex.scene_axis(scene)
+    run = flex.run_flex(scene, [20.0, 21.0, 22.0], axis)
+    c, step = axis.point, Rotation.from_rotvec(-math.radians(1.0) * axis.direction)
+    assert starts[0][0] is None
+    for last, (warm, (theta, base)) in zip(run.points, starts[1:], strict=False):
+        rot, t = body_pose(np.array([*warm[:3], theta, *warm[3:]]), base)
+        assert np.allclose(rot, step.as_matrix() @ last.rot, atol=1e-12)
+        assert np.allclose(rot @ c + t, last.rot @ c + last.t, atol=1e-9)
+
+
+KNEE = ["femur_tibia_ligaments", "--set", "scanned.decimate_faces=3000"]
+
+
+def _main(argv):
+    from fecheck.cli import main
+
+    return main(["flex", *KNEE, *argv])
+
+
+def test_cli_writes_one_row_per_angle_and_progress_on_stderr(tmp_path, capsys):
+    import json
+
+    code = _main(["--angles", "0:2:1", "--csv", "-", "--json", str(tmp_path / "f.json")])
+    out, err = capsys.readouterr()
+    assert code == 0
+    lines = out.strip().splitlines()
+    assert lines[0].startswith("flexion_deg,abduction_deg,internal_deg,ml_mm,ap_mm,si_mm")
+    assert [float(line.split(",")[0]) for line in lines[1:]] == [0.0, 1.0, 2.0]
+    assert "flex [3/3] 2°" in err and "flexion axis: point" in err
+    doc = json.loads((tmp_path / "f.json").read_text())
+    assert [a["flexion_deg"] for a in doc["angles"]] == [0.0, 1.0, 2.0]
+    assert len(doc["angles"][0]["ligaments_N"]) == 55
+
+
+def test_cli_refuses_bad_angles_before_building_anything(monkeypatch, capsys):
+    import fecheck.model.scanned as scanned
+
+    def never(scene):
+        raise AssertionError("built")
+
+    monkeypatch.setattr(scanned, "build_compartments", never)
+    assert _main(["--angles", "30:10:1"]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "--angles '30:10:1'" in err[0]
+
+
+def test_ctrl_c_keeps_the_finished_angles(tmp_path, monkeypatch, capsys):
+    import fecheck.model.equilibrium as equilibrium
+
+    real, calls = equilibrium.solve_equilibrium, []
+
+    def interrupted(*args, **kwargs):
+        calls.append(1)
+        if len(calls) == 3:
+            raise KeyboardInterrupt
+        return real(*args, **kwargs)
+
+    monkeypatch.setattr(equilibrium, "solve_equilibrium", interrupted)
+    assert _main(["--angles", "0:4:1", "--csv", str(tmp_path / "f.csv")]) == 130
+    rows = (tmp_path / "f.csv").read_text().strip().splitlines()
+    assert len(rows) == 3                              # header and the angles 0° and 1°
+    assert "interrupted at flexion 2°" in capsys.readouterr().err
+
+
+def test_past_the_cartilage_stops_with_one_line_naming_the_angle(tmp_path, capsys):
+    # decimated knee: 140° solves with the lateral contact 4.3 mm from the posterior edge
+    # of the femoral cartilage; 145° finds no equilibrium
+    assert _main(["--angles", "140,145", "--csv", str(tmp_path / "f.csv")]) == 1
+    err = capsys.readouterr().err.strip().splitlines()[-1]
+    assert err.startswith("fecheck: error: flexion 145°: no equilibrium")
+    assert "the femoral cartilage runs out there" in err
+    assert len((tmp_path / "f.csv").read_text().strip().splitlines()) == 2
