@@ -11,6 +11,7 @@ import pytest
 from contact_helpers import box
 
 from fecheck.contact.pair import ContactPair
+from fecheck.errors import FecheckError
 from fecheck.laws.fused import linear_law
 from fecheck.model import menisci
 from fecheck.model.run import run_scene
@@ -206,3 +207,22 @@ def test_reduced_knee_share_meets_the_hand_statics():
     assert rows["lateral"]["meniscal_share"] == 0.0
     assert rows["lateral"]["cartilage_N"] == pytest.approx(K_CART * a_cl * (z_t - 0.2),
                                                            rel=1e-8)
+
+
+def test_fe_and_flex_refuse_the_menisci_they_do_not_model(monkeypatch):
+    """The FE cross-check (and calibrate, which runs it) and `fecheck flex` have no
+    meniscus bodies: a scene with menisci is refused before any solve, never answered as
+    the knee without them."""
+    from fecheck.fe import crosscheck
+    from fecheck.studies import flex
+
+    def no_ef_run(*args, **kwargs):
+        raise AssertionError("the EF run started before the refusal")
+
+    monkeypatch.setattr(crosscheck, "_ef_run", no_ef_run)
+    scene = load_scene("femur_tibia_menisci")
+    with pytest.raises(FecheckError, match=r"does not model menisci.*menisci.dir = ''"):
+        crosscheck.cross_check(scene, log=None)
+    with pytest.raises(FecheckError, match=r"flex does not carry the menisci.*menisci.dir"):
+        flex.check_kind(scene)
+    flex.check_kind(load_scene("femur_tibia_menisci", ["menisci.dir=''"]))

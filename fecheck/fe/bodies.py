@@ -176,17 +176,23 @@ def _tibia_solid(scene: Scene) -> TibiaSolid:
     return TibiaSolid(solid, articular, name)
 
 
-def refuse_rigid(scene: Scene) -> None:
-    """`FecheckError` for a scene with no cartilage to model (``model.kind = "rigid"``)."""
+def refuse_unmodelled(scene: Scene) -> None:
+    """`FecheckError` for a scene the FE cannot model as the EF does: no cartilage
+    (``model.kind = "rigid"``), or menisci (``menisci.dir``: the FE has no meniscus
+    bodies, and an FE without them would answer for another knee)."""
     if scene["model.kind"] == "rigid":
         raise FecheckError("model.kind = 'rigid' has no cartilage: nothing to cross-check "
                            "with the FE")
+    if scene["menisci.dir"]:
+        raise FecheckError("the FE cross-check does not model menisci yet (menisci.dir = "
+                           f"{scene['menisci.dir']!r}): set menisci.dir = '' to cross-check "
+                           "the knee without them")
 
 
 def scene_bodies(scene: Scene) -> list[FEBody]:
     """The FE geometry of every compartment of `scene` (module docstring); refuses a
-    scene without cartilage (`refuse_rigid`)."""
-    refuse_rigid(scene)
+    scene it cannot model (`refuse_unmodelled`)."""
+    refuse_unmodelled(scene)
     if scene["model.kind"] in SCANNED_KINDS:
         return _scanned_bodies(scene)
     if scene["fe.body"] == "solid":

@@ -37,7 +37,7 @@ from typing import Any
 import numpy as np
 
 from fecheck.errors import FecheckError
-from fecheck.fe.bodies import FEBody, refuse_rigid, scene_bodies
+from fecheck.fe.bodies import FEBody, refuse_unmodelled, scene_bodies
 from fecheck.fe.budget import guard_layers
 from fecheck.fe.press import (
     FELayer,
@@ -426,7 +426,7 @@ def cross_check(scene: Scene, *, mode: str | None = None, refine: int | None = N
     from fecheck.fe.femoral import refuse_two_layer
 
     settings = FESettings.from_scene(scene, mode=mode, refine=refine)
-    refuse_rigid(scene)
+    refuse_unmodelled(scene)
     _refuse_constraints(scene, settings)
     refuse_two_layer(scene, settings)
     E, nu = scene["contact.youngs_MPa"], scene["contact.poisson"]

@@ -211,11 +211,16 @@ def scene_axis(scene: Scene) -> FlexionAxis:
 
 
 def check_kind(scene: Scene) -> None:
-    """Refuse a scene that is not a femur-tibia model (flexion turns a femoral surface)."""
+    """Refuse a scene that is not a femur-tibia model (flexion turns a femoral surface),
+    or one with menisci (not carried through flexion yet)."""
     if scene["model.kind"] != "femur-tibia":
         raise FecheckError(f"fecheck flex needs a femur-tibia scene (a femoral surface to "
                            f"roll over the plateaus), not model.kind = "
                            f"{scene['model.kind']!r}: set model.kind = 'femur-tibia'")
+    if scene["menisci.dir"]:
+        raise FecheckError("fecheck flex does not carry the menisci through flexion yet "
+                           f"(menisci.dir = {scene['menisci.dir']!r}): set menisci.dir = '' "
+                           "to flex the knee without them")
 
 
 def _cop(slave: TriMesh, pressure: np.ndarray, area: np.ndarray) -> np.ndarray:
