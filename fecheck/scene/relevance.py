@@ -258,6 +258,15 @@ def _no_axisymmetric(scene: SceneValues) -> str | None:
     return None
 
 
+def _one_layer(scene: SceneValues) -> str | None:
+    if scene["model.kind"] == "rigid" or scene["contact.law"] == "ef" \
+            or scene["fe.cartilage"] == "two-layer":
+        return None
+    return (f"contact.law = '{scene['contact.law']}' with fe.cartilage = 'series' reads one "
+            "cartilage layer (only the linear 'ef' law and the two-layer FE read the femoral "
+            "one apart)")
+
+
 def _no_prepare(scene: SceneValues) -> str | None:
     if scene["fe.prepare"] == "off":
         return "fe.prepare = 'off': `fecheck fe` meshes the EF run's own faces, unprepared"
@@ -270,12 +279,13 @@ _PLATEAU_MESH_KEYS = _MESH_KEYS[2:]
 _CONTACT_KEYS = ("contact.law", "contact.area", "contact.master", "contact.detection",
                  "contact.margin_mm", "contact.volumetric_stiffness_N_per_mm3",
                  "contact.indenter_youngs_MPa", "contact.indenter_poisson")
+_LAYER_KEYS = ("contact.femoral_share", "contact.femoral_youngs_MPa", "contact.femoral_poisson")
 _SOLVER_KEYS = ("solver.start_gap_mm", "solver.max_iterations", "solver.tolerance")
 _SPRING_KEYS = ("ligaments.transition_strain",) + tuple(
     f"ligaments.{n}.{p}" for n in LIGAMENTS for p in ("stiffness_N", "reference_strain"))
 
 _LEADING_RULES: tuple[tuple[tuple[str, ...], Reason], ...] = (
-    (_MESH_KEYS + _CONTACT_KEYS + _SOLVER_KEYS, _rigid),
+    (_MESH_KEYS + _CONTACT_KEYS + _SOLVER_KEYS + _LAYER_KEYS, _rigid),
     (("mesh.sphere_subdivisions", "mesh.method"), _condyle_not_meshed),
     (_PLATEAU_MESH_KEYS, _plateau_not_meshed),
     (("contact.master",), _master_fixed),
@@ -308,6 +318,7 @@ RULES: tuple[tuple[tuple[str, ...], Reason], ...] = (
     (("geometry.ligaments",), _no_bundle_file),
     (("fe.axisym_size_mm",), _no_axisymmetric),
     (("fe.size_mm", "fe.smooth_mm"), _no_prepare),
+    (_LAYER_KEYS, _one_layer),
 )
 """(keys, reason): the keys have no effect in a scene where ``reason(scene)`` is not None.
 The first rule that applies to a key gives its reason (`rules`: `_LEADING_RULES`, then the
