@@ -123,8 +123,9 @@ def _law_does_not_read(key: str) -> Reason:
 
 def law_rules() -> tuple[tuple[tuple[str, ...], Reason], ...]:
     """One rule per key that some declared law reads (`fecheck.scene.law_keys`): inert
-    under a law that does not read it."""
-    keys = dict.fromkeys(k for law in LAWS.values() for k in law.keys)
+    under a law that does not read it (the femoral layer's keys: `_one_layer`, the
+    two-layer FE reads them whatever the law)."""
+    keys = dict.fromkeys(k for law in LAWS.values() for k in law.keys if k not in _LAYER_KEYS)
     return tuple(((k,), _law_does_not_read(k)) for k in keys)
 
 
@@ -259,12 +260,12 @@ def _no_axisymmetric(scene: SceneValues) -> str | None:
 
 
 def _one_layer(scene: SceneValues) -> str | None:
-    if scene["model.kind"] == "rigid" or scene["contact.law"] == "ef" \
-            or scene["fe.cartilage"] == "two-layer":
+    law = scene["contact.law"]
+    if set(_LAYER_KEYS) <= set(LAWS[law].keys) or scene["fe.cartilage"] == "two-layer":
         return None
-    return (f"contact.law = '{scene['contact.law']}' with fe.cartilage = 'series' reads one "
-            "cartilage layer (only the linear 'ef' law and the two-layer FE read the femoral "
-            "one apart)")
+    titles = " and ".join(r.title for r in readers(_LAYER_KEYS[0]))
+    return (f"contact.law = '{law}' with fe.cartilage = 'series' reads one cartilage layer "
+            f"(only the {titles} law and the two-layer FE read the femoral one apart)")
 
 
 def _no_prepare(scene: SceneValues) -> str | None:
