@@ -83,6 +83,43 @@ def test_per_face_layers_in_series_use_each_face_thickness():
     np.testing.assert_allclose(k, 1.0 / (h_t / C_T + h_f / C_F), rtol=1e-12)
 
 
+def test_the_scanned_ef_takes_the_bone_distance_sides_in_series(monkeypatch):
+    """With a femoral material of its own the scanned EF's per-face thickness is the
+    equivalent h_t + h_f·c_t/c_f of the two sides (hand), not their plain sum."""
+    from fecheck.model import scanned
+
+    h_t, h_f = np.array([1.0, 2.5]), np.array([2.0, 1.1])
+    monkeypatch.setattr(scanned, "slave_sides", lambda scene, slave: (h_t, h_f))
+    scene = validate({**APART, "scanned": {"thickness": "bone-distance"}})
+    np.testing.assert_allclose(scanned._face_thickness(scene, None), h_t + h_f * C_T / C_F,
+                               rtol=1e-12)
+
+
+def test_a_sphere_plane_run_reports_each_layer():
+    """The baseline (condyle spheres on flat layers) with the layers apart: the solved
+    depth is the EF cap's at k = 1/(h_t/c_t + h_f/c_f) (hand k; cap F = k·πd²(R − d/3),
+    measured +0.2 %, the mesh's), and the layers share each face's depth 0.8235 : 0.1765
+    (δ_t/δ = (h_t/c_t)/(h_t/c_t + h_f/c_f), femoral ν 0.3 here)."""
+    from fecheck.model.condyles import scene_knee
+    from fecheck.model.run import run_scene
+    from fecheck.reference.closed_forms import ef_cap_depth
+
+    scene = load_scene("baseline", ["contact.femoral_share=0.3",
+                                    "contact.femoral_youngs_MPa=40.0"])
+    c_f = 0.7 * 40.0 / (1.3 * 0.4)
+    k = 1.0 / (H_T / C_T + H_F / c_f)
+    ratio = (H_T / C_T) / (H_T / C_T + H_F / c_f)
+    assert ratio == pytest.approx(0.8235, abs=1e-4)
+    run = run_scene(scene)
+    knee = scene_knee(scene)
+    for name, res in run.compartments.items():
+        d = ef_cap_depth(res.force_N, knee.radius_mm(name), k)
+        assert res.max_depth_mm == pytest.approx(d, rel=0.005)
+        t, f = res.as_dict()["tibial_compression_mm"], res.as_dict()["femoral_compression_mm"]
+        assert t / (t + f) == pytest.approx(ratio, rel=1e-12)
+        assert 0.99 * res.max_depth_mm < t + f <= res.max_depth_mm
+
+
 def test_the_depth_splits_by_the_layers_compliances():
     """δ_t/δ = (h_t/c_t)/(h_t/c_t + h_f/c_f) = 0.9293; each layer compresses p·h/c under
     the common pressure p = k·δ (hand)."""
