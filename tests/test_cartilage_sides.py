@@ -137,12 +137,15 @@ def test_the_depth_splits_by_the_layers_compliances():
 
 
 def test_defaults_give_one_material_and_no_split():
-    """Unset keys: the EF stiffness is c/h bit for bit, the run result is untouched and
-    its JSON has no new field."""
+    """Unset keys: the EF stiffness is today's c/h bit for bit (the layers in series,
+    c/(h/2 + h/2·c/c), differ from it in the last bit for some E, ν, h), the run result
+    is untouched and its JSON has no new field."""
     scene = validate({})
     sides = layer.sides(scene)
     assert not sides.given and not sides.own_material
-    assert spec_of(scene).stiffness(scene) == ef_stiffness(20.0, 0.3, 6.0)   # today's k
+    for e, nu, h in ((20.0, 0.3, 6.0), (20.0, 0.3, 0.9), (13.0, 0.49, 4.1), (5.0, 0.45, 2.3)):
+        one = validate({"contact": {"youngs_MPa": e, "poisson": nu, "thickness_mm": h}})
+        assert spec_of(one).stiffness(one) == ef_stiffness(e, nu, h)    # today's k, exactly
     res = CompartmentResult(1.0, 1.0, 1.0, 1.0, 0.05, 0.0, np.zeros(3),
                             face_depth_mm=np.array([0.05]))
     assert "tibial_compression_mm" not in res.as_dict()
