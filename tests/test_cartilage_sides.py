@@ -228,3 +228,24 @@ def test_a_femoral_layer_twice_as_stiff_takes_a_third_of_the_approach():
     assert tibial_give == pytest.approx(p * h / m_t, rel=0.01)
     assert femoral_give == pytest.approx(p * h / (2.0 * m_t), rel=0.01)
     assert femoral_give / (tibial_give + femoral_give) == pytest.approx(1.0 / 3.0, rel=0.01)
+
+
+def test_a_calibration_fingerprint_tells_the_femoral_layer_apart():
+    """A calibration fitted with a femoral cartilage of its own does not carry to a scene
+    with another one; scenes that leave the keys alone keep their fingerprint (the same
+    sha256 as without the keys: the keys' defaults are not hashed)."""
+    import hashlib
+    import json
+
+    from fecheck.model.fingerprint import MATERIAL_KEYS, SHAPE_SECTIONS, scene_fingerprint
+    from fecheck.scene.schema import SCHEMA
+
+    base = load_scene("baseline")
+    keys = [*MATERIAL_KEYS, *(k for k in SCHEMA if k.startswith(SHAPE_SECTIONS))]
+    before = hashlib.sha256(json.dumps({k: base[k] for k in keys}, sort_keys=True,
+                                       default=str).encode()).hexdigest()
+    assert scene_fingerprint(base) == before
+    prints = {scene_fingerprint(load_scene("baseline", over)) for over in (
+        [], ["contact.femoral_youngs_MPa=40.0"], ["contact.femoral_poisson=0.45"],
+        ["contact.femoral_share=0.3"])}
+    assert len(prints) == 4
