@@ -10,8 +10,9 @@ used, its thickness and the femoral surface that presses it.
   thickness (tibial plus femoral cartilage in series) averaged onto the vertices.
   The FE then models that total thickness as one deformable layer on the tibia under a
   rigid femoral surface — the EF's own assumption (``fe.cartilage = "series"``). With
-  ``fe.cartilage = "two-layer"`` the tibial cartilage alone: its bone distance, or half of
-  ``contact.thickness_mm`` (the femoral layer, `fecheck.fe.femoral`, takes the rest).
+  ``fe.cartilage = "two-layer"`` the tibial cartilage alone: its bone distance, or its
+  share of ``contact.thickness_mm``, 1 − ``contact.femoral_share`` (the femoral layer,
+  `fecheck.fe.femoral`, takes the rest).
   With ``geometry.tibia_solid`` and ``fe.body`` "layer": the solid's own thickness map
   (`fecheck.fe.volume.solid_thickness`).
 - Tibial solid (``fe.body`` "solid", or "auto" with ``geometry.tibia_solid``): the closed
@@ -135,13 +136,14 @@ def _scanned_bodies(scene: Scene) -> list[FEBody]:
 
 def _tibial_thickness(scene: Scene, surface: TriMesh) -> np.ndarray:
     """The tibial cartilage's own thickness at the vertices of `surface` (two layers):
-    the distance to geometry.tibia_bone, or half of contact.thickness_mm, mm."""
-    from fecheck.laws.layer import bone_distance_thickness
+    the distance to geometry.tibia_bone, or the tibial share of contact.thickness_mm
+    (`fecheck.laws.layer.uniform_sides`), mm."""
+    from fecheck.laws.layer import bone_distance_thickness, uniform_sides
 
     if scene["scanned.thickness"] == "bone-distance":
         return vertex_values(surface, bone_distance_thickness(surface,
                                                               surfaces.bone(scene, "tibia")))
-    return np.full(surface.n_points, 0.5 * float(scene["contact.thickness_mm"]))
+    return np.full(surface.n_points, uniform_sides(scene)[0])
 
 
 def _tibial_body(scene: Scene) -> str:

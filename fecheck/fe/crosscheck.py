@@ -423,7 +423,7 @@ def cross_check(scene: Scene, *, mode: str | None = None, refine: int | None = N
         an unloaded compartment), or an FE answer that is not physical.
     """
     say = log or (lambda message: None)
-    from fecheck.fe.femoral import refuse_two_layer
+    from fecheck.fe.femoral import femoral_material, refuse_two_layer
 
     settings = FESettings.from_scene(scene, mode=mode, refine=refine)
     refuse_unmodelled(scene)
@@ -463,7 +463,8 @@ def cross_check(scene: Scene, *, mode: str | None = None, refine: int | None = N
     dofs = sum(sol.n_dofs for sol in _solids(layers)) + sum(f.solid.n_dofs for f in femurs)
     geometry = _geometry(layers, dofs) | {"cartilage": settings.cartilage}
     if femurs:
-        geometry |= {"deformable_layers": 2,
+        e_f, nu_f = femoral_material(scene)
+        geometry |= {"deformable_layers": 2, "femoral_E_MPa": e_f, "femoral_nu": nu_f,
                      "elements": geometry["elements"] + int(sum(len(f.solid.mesh.tets)
                                                                 for f in femurs)),
                      "nodes": geometry["nodes"] + int(sum(f.solid.n_nodes for f in femurs))}
@@ -486,7 +487,9 @@ def cross_check(scene: Scene, *, mode: str | None = None, refine: int | None = N
         notes.insert(0, "two deformable layers (fe.cartilage = 'two-layer'): the tibial and "
                         "the femoral cartilage each extruded toward its own bone by its own "
                         f"thickness ({geometry['thickness_source']}) and bonded there, "
-                        "frictionless node-to-surface contact between them; "
+                        f"tibial E {E:g} MPa ν {nu:g}, femoral E {geometry['femoral_E_MPa']:g} "
+                        f"MPa ν {geometry['femoral_nu']:g}, frictionless node-to-surface "
+                        "contact between them; "
                         + SERIES_VS_TWO_LAYER)
     elif geometry["thickness_source"] == "bone-distance":
         notes.insert(0, "one deformable layer on the tibia with the EF's series thickness "

@@ -3,9 +3,11 @@
 The femoral articular sheet (world frame, normals toward the tibia) is cropped to the
 faces within `CROP_MM` of the points where the tibial contact candidates' rays meet it,
 extruded toward the femoral bone by its thickness (the distance to ``geometry.femur_bone``
-with ``scanned.thickness = "bone-distance"``, else half of ``contact.thickness_mm``: the
-series model's total shared equally) and bonded there, with the same levels, grading and
-material as the tibial layers; its cut walls are free. The vertices of the faces hit and
+with ``scanned.thickness = "bone-distance"``, else ``contact.femoral_share`` of
+``contact.thickness_mm``, the series model's total) and bonded there, with the same levels
+and grading as the tibial layers and the femoral cartilage's material
+(``contact.femoral_youngs_MPa`` and ``contact.femoral_poisson``, where unset the tibial
+one's); its cut walls are free. The vertices of the faces hit and
 those within `RING_MM` of the hit points are condensed in three dofs for the node-to-surface contact
 (`fecheck.fe.joint.FemoralLayer`).
 
@@ -53,8 +55,16 @@ class FemoralSheet:
 
 
 def refuse_two_layer(scene: Scene, settings: FESettings) -> None:
-    """`FecheckError` for a scene the two-layer FE does not model (before any solve)."""
+    """`FecheckError` for a scene the two-layer FE does not model, or a femoral material of
+    its own under the one-layer series FE (before any solve)."""
     if settings.cartilage != "two-layer":
+        given = [k for k in ("contact.femoral_youngs_MPa", "contact.femoral_poisson")
+                 if scene[k] is not None]
+        if given:
+            raise FecheckError(f"fe.cartilage = 'series' models both cartilages as one layer "
+                               f"of contact.youngs_MPa and contact.poisson, but "
+                               f"{' and '.join(given)} gives the femoral one its own: use "
+                               "fe.cartilage = 'two-layer', or unset it")
         return
     where = "fe.cartilage = 'two-layer'"
     if scene["model.kind"] != "femur-tibia":
@@ -71,16 +81,23 @@ def refuse_two_layer(scene: Scene, settings: FESettings) -> None:
 
 def femoral_sheet(scene: Scene, femur: TriMesh) -> FemoralSheet:
     """The femoral sheet `femur` (the EF run's, world frame) with its thickness."""
-    from fecheck.laws.layer import bone_distance_thickness
+    from fecheck.laws.layer import bone_distance_thickness, uniform_sides
 
     if scene["scanned.thickness"] == "bone-distance":
         faces = bone_distance_thickness(femur, surfaces.bone(scene, "femur"))
         h, source = vertex_values(femur, faces), "bone-distance"
     else:
-        h = np.full(femur.n_points, 0.5 * float(scene["contact.thickness_mm"]))
+        h = np.full(femur.n_points, uniform_sides(scene)[1])
         source = "uniform"
-    return FemoralSheet(femur, h, source, float(scene["contact.youngs_MPa"]),
-                        float(scene["contact.poisson"]))
+    return FemoralSheet(femur, h, source, *femoral_material(scene))
+
+
+def femoral_material(scene: Scene) -> tuple[float, float]:
+    """(E MPa, ν) of the femoral cartilage: contact.femoral_youngs_MPa and
+    contact.femoral_poisson, each where unset the tibial cartilage's (contact.*)."""
+    e, nu = scene["contact.femoral_youngs_MPa"], scene["contact.femoral_poisson"]
+    return (float(scene["contact.youngs_MPa"] if e is None else e),
+            float(scene["contact.poisson"] if nu is None else nu))
 
 
 def _crop(mesh: TriMesh, faces: np.ndarray) -> tuple[TriMesh, np.ndarray, np.ndarray]:

@@ -22,7 +22,7 @@ closest to the slave face at the rest pose (`series_thickness`).
 
 from __future__ import annotations
 
-from dataclasses import replace
+from dataclasses import dataclass, replace
 
 import numpy as np
 
@@ -72,8 +72,14 @@ def series_thickness(slave: TriMesh, slave_h: np.ndarray, master: TriMesh,
                      master_h: np.ndarray) -> np.ndarray:
     """Total thickness (mm) of two layers in series under each slave face: its own plus
     that of the master face closest to its centroid (rest pose)."""
+    return np.asarray(slave_h, dtype=float) + opposite_thickness(slave, master, master_h)
+
+
+def opposite_thickness(slave: TriMesh, master: TriMesh, master_h: np.ndarray) -> np.ndarray:
+    """The thickness (mm) of the master face closest to each slave face's centroid (rest
+    pose): the other layer of the pair under that slave face."""
     _, face = closest_distance(slave.face_centroids, master)
-    return np.asarray(slave_h, dtype=float) + np.asarray(master_h, dtype=float)[face]
+    return np.asarray(master_h, dtype=float)[face]
 
 
 def face_ef_stiffness(thickness_mm: np.ndarray, youngs_MPa: float, poisson: float
@@ -114,3 +120,55 @@ def face_elastic_foundation(k_face_N_per_mm3: np.ndarray):
         return replace(res, max_pressure=p_max)
 
     return compiled_law(LINEAR, np.array([1.0]), law, face_scale=k_face)
+
+
+@dataclass(frozen=True)
+class Sides:
+    """The two cartilage layers of a scene: their column moduli c = (1−ν)E/((1+ν)(1−2ν))
+    (MPa, `fecheck.laws.materials.ef_stiffness` at h = 1), the femoral layer's share of a
+    uniform total thickness, and whether the scene gives the femoral cartilage a material
+    of its own (``contact.femoral_youngs_MPa`` or ``contact.femoral_poisson`` set)."""
+
+    c_tibial: float
+    c_femoral: float
+    femoral_share: float
+    own_material: bool
+
+    @property
+    def given(self) -> bool:
+        """The scene sets either layer apart (a share other than ½ or a femoral material):
+        the run reports each layer's compression."""
+        return self.own_material or self.femoral_share != 0.5
+
+    def equivalent_thickness(self, tibial_mm: np.ndarray, femoral_mm: np.ndarray
+                             ) -> np.ndarray:
+        """The thickness (mm) of one tibial-material layer as compliant as the two in
+        series: h_t + h_f·c_t/c_f, so that c_t/h = 1/(h_t/c_t + h_f/c_f)."""
+        t, f = np.asarray(tibial_mm, dtype=float), np.asarray(femoral_mm, dtype=float)
+        return t + f * (self.c_tibial / self.c_femoral) if self.own_material else t + f
+
+    def tibial_ratio(self, tibial_mm: np.ndarray, femoral_mm: np.ndarray) -> np.ndarray:
+        """The tibial layer's part of the depth, δ_t/δ = (h_t/c_t)/(h_t/c_t + h_f/c_f)
+        (the femoral layer's is one minus it)."""
+        t = np.asarray(tibial_mm, dtype=float) / self.c_tibial
+        return t / (t + np.asarray(femoral_mm, dtype=float) / self.c_femoral)
+
+
+def sides(scene) -> Sides:
+    """The `Sides` of a scene (a mapping of the dotted keys): tibial cartilage of
+    ``contact.youngs_MPa``/``contact.poisson``, femoral of ``contact.femoral_youngs_MPa``/
+    ``contact.femoral_poisson`` where set (else the same), femoral share
+    ``contact.femoral_share``."""
+    e, nu = scene["contact.youngs_MPa"], scene["contact.poisson"]
+    e_f, nu_f = scene["contact.femoral_youngs_MPa"], scene["contact.femoral_poisson"]
+    own = e_f is not None or nu_f is not None
+    e_f, nu_f = e if e_f is None else e_f, nu if nu_f is None else nu_f
+    return Sides(ef_stiffness(e, nu, 1.0), ef_stiffness(e_f, nu_f, 1.0),
+                 float(scene["contact.femoral_share"]), own)
+
+
+def uniform_sides(scene) -> tuple[float, float]:
+    """(tibial, femoral) thickness (mm) of a uniform layer: contact.thickness_mm shared by
+    contact.femoral_share."""
+    h, share = float(scene["contact.thickness_mm"]), float(scene["contact.femoral_share"])
+    return (1.0 - share) * h, share * h

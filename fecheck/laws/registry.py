@@ -155,13 +155,23 @@ def _ef_stiffness(scene: Values) -> float:
     return ef_stiffness(*_material(scene))
 
 
+def _layers_stiffness(scene: Values) -> float:
+    """k (N/mm³) of the linear EF: c/h, or with a femoral cartilage of its own material
+    the two layers of `layer.uniform_sides` in series, 1/(h_t/c_t + h_f/c_f)."""
+    sides = layer.sides(scene)
+    if not sides.own_material:
+        return ef_stiffness(*_material(scene))
+    validate_material(*_material(scene))
+    return sides.c_tibial / float(sides.equivalent_thickness(*layer.uniform_sides(scene)))
+
+
 def _volumetric_stiffness(scene: Values) -> float:
     return scene["contact.volumetric_stiffness_N_per_mm3"]
 
 
 def _build_ef(inputs: LawInputs) -> LawFactory:
     validate_material(*_material(inputs.scene))
-    return _same(linear_law(_ef_stiffness(inputs.scene)))
+    return _same(linear_law(_layers_stiffness(inputs.scene)))
 
 
 def _ef_per_face(inputs: LawInputs, thickness: Callable[[], np.ndarray], radius_mm: float,
@@ -247,7 +257,7 @@ BUILT_IN: tuple[LawSpec, ...] = (
             "thesis eq. 4.1-4.3; a sphere on a plane: F = k·πd²(R − d/3) "
             "(fecheck.reference.closed_forms.ef_sphere_plane)",
             "linear elastic foundation p = k·d, k = (1−ν)E/((1+ν)(1−2ν)h)",
-            stiffness=_ef_stiffness, linear=True, per_face=_ef_per_face),
+            stiffness=_layers_stiffness, linear=True, per_face=_ef_per_face),
     LawSpec(_KEYS["hertz"], _build_hertz, None, False,
             "thesis eq. 4.4-4.8: P = 4/3·E*·√R·d^(3/2), a = √(R d)",
             "from the deepest point: smooth on a convex sphere-plane pair, from the deepest "

@@ -2,10 +2,11 @@
 
 A calibration file (`fecheck calibrate`) holds C and n fitted to one knee's surfaces,
 layer and material; it carries to another scene only with the same ones. Its fingerprint
-is the sha256 of: the material and layer keys (`MATERIAL_KEYS`), the keys that shape the
-analytic surfaces (``plateau.*``, ``knee.*``, ``mesh.*``), and for the scanned kinds the
-arrays of the surfaces the run reads (the tibial compartments as split and decimated, the
-femoral surface, the bones of a bone-distance thickness: points in mm, faces). It is kept
+is the sha256 of: the material and layer keys (`MATERIAL_KEYS`, and `SIDE_KEYS` where
+set), the keys that shape the analytic surfaces (``plateau.*``, ``knee.*``, ``mesh.*``),
+and for the scanned kinds the arrays of the surfaces the run reads (the tibial
+compartments as split and decimated, the femoral surface, the bones of a bone-distance
+thickness: points in mm, faces). It is kept
 per process for the same keys and file contents (a decimated knee takes ~1.5 s to build,
 and `fecheck calibrate` reads its file at every EF equilibrium).
 """
@@ -24,6 +25,9 @@ from fecheck.scene.schema import SCHEMA
 MATERIAL_KEYS = ("model.kind", "contact.youngs_MPa", "contact.poisson", "contact.thickness_mm",
                  "scanned.thickness")
 """Keys of the material and layer a calibration is fitted to."""
+SIDE_KEYS = ("contact.femoral_share", "contact.femoral_youngs_MPa", "contact.femoral_poisson")
+"""Keys that set the femoral layer apart: part of the fingerprint only where set away from
+their defaults (the fingerprints of scenes that leave them alone are unchanged)."""
 SHAPE_SECTIONS = ("plateau.", "knee.", "mesh.")
 """Key prefixes of the surfaces a scene builds from numbers."""
 _MEMO: dict[str, str] = {}
@@ -49,7 +53,7 @@ def _memo_key(scene: Scene) -> str:
     keys, the folder its files resolve in and the files' contents."""
     from fecheck.scene import surfaces
 
-    keys = [k for k in SCHEMA if k in MATERIAL_KEYS
+    keys = [k for k in SCHEMA if k in MATERIAL_KEYS or k in SIDE_KEYS
             or k.startswith((*SHAPE_SECTIONS, "geometry.", "scanned."))]
     paths = [surfaces.file_path(scene, k) for k in surfaces.FILE_KEYS]
     digests = [surfaces.file_digest(p) if p.is_file() else str(p) for p in paths if p]
@@ -65,6 +69,9 @@ def scene_fingerprint(scene: Scene) -> str:
     h = hashlib.sha256()
     keys = [*MATERIAL_KEYS, *(k for k in SCHEMA if k.startswith(SHAPE_SECTIONS))]
     h.update(json.dumps({k: scene[k] for k in keys}, sort_keys=True, default=str).encode())
+    sides = {k: scene[k] for k in SIDE_KEYS if scene[k] != SCHEMA[k].default}
+    if sides:
+        h.update(json.dumps(sides, sort_keys=True).encode())
     if scene["model.kind"] in SCANNED_KINDS:
         for mesh in _surfaces(scene):
             h.update(np.ascontiguousarray(mesh.points, dtype=np.float64).tobytes())

@@ -104,6 +104,9 @@ class CompartmentResult:
         `force_N` is its magnitude and `axial_force_N` its component along the tibia's
         long axis (the tibial z axis at equilibrium; + compressive, i.e. pressing the
         tibia down its axis)
+    tibial_compression_mm, femoral_compression_mm : the deepest compression of each
+        cartilage layer (face-mean depth split by the layers' compliances in series,
+        `fecheck.model.sides`), mm; None where the scene does not set the layers apart
     """
 
     force_N: float
@@ -121,11 +124,16 @@ class CompartmentResult:
     face_depth_mm: np.ndarray | None = None
     force_vector_N: np.ndarray | None = None
     axial_force_N: float = math.nan
+    tibial_compression_mm: float | None = None
+    femoral_compression_mm: float | None = None
 
     def as_dict(self) -> dict[str, Any]:
-        """JSON-ready metrics (no per-face arrays)."""
+        """JSON-ready metrics (no per-face arrays; the layers' compressions where set)."""
         vector = (None if self.force_vector_N is None
                   else [_num(v) for v in self.force_vector_N])
+        sides = ({} if self.tibial_compression_mm is None else
+                 {"tibial_compression_mm": _num(self.tibial_compression_mm),
+                  "femoral_compression_mm": _num(self.femoral_compression_mm)})
         return {"force_N": _num(self.force_N), "force_vector_N": vector,
                 "axial_force_N": _num(self.axial_force_N),
                 "max_pressure_MPa": _num(self.max_pressure_MPa),
@@ -133,7 +141,7 @@ class CompartmentResult:
                 "area_mm2": _num(self.area_mm2), "max_depth_mm": _num(self.max_depth_mm),
                 "torque_Nmm": _num(self.torque_Nmm),
                 "torque_vector_Nmm": [_num(v) for v in self.torque_vector_Nmm],
-                "n_contact_faces": int(self.n_contact_faces)}
+                "n_contact_faces": int(self.n_contact_faces)} | sides
 
 
 @dataclass(frozen=True)
@@ -276,6 +284,9 @@ class RunResult:
                 ("contact area mm²", "area_mm2", "{:.1f}"), ("max depth mm", "max_depth_mm",
                 "{:.4f}"), ("torque N·mm", "torque_Nmm", "{:.1f}")]
         names = list(self.compartments)
+        if all(self.compartments[n].tibial_compression_mm is not None for n in names):
+            rows += [("tibial layer mm", "tibial_compression_mm", "{:.4f}"),
+                     ("femoral layer mm", "femoral_compression_mm", "{:.4f}")]
         lines.append(f"{'':20s}" + "".join(f"{n:>12s}" for n in names))
         for label, attr, fmt in rows:
             vals = [getattr(self.compartments[n], attr) for n in names]

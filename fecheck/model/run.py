@@ -16,6 +16,7 @@ from fecheck.model.plausibility import after_solve
 from fecheck.model.results import RunResult
 from fecheck.model.rigid import run_rigid
 from fecheck.model.scanned import bundle_springs, run_scanned
+from fecheck.model.sides import with_layer_compression
 from fecheck.model.sphere_plane import ligament_parts, run_contact_model
 from fecheck.scene import Scene
 
@@ -49,7 +50,7 @@ def run_scene(scene: Scene, warm_start: np.ndarray | None = None) -> RunResult:
                            f"{', '.join(MODEL_RUNNERS)}")
     result = runner(scene, warm_start)
     after_solve(scene, result)
-    return result
+    return with_layer_compression(scene, result)
 
 
 def ligament_springs(scene: Scene) -> list[Callable]:

@@ -117,6 +117,31 @@ def slave_thickness(scene: Scene, slave) -> np.ndarray:
     return cached_arrays("series-thickness", [slave, femur, femur_bone, tibia_bone], build)[0]
 
 
+def slave_sides(scene: Scene, slave) -> tuple[np.ndarray, np.ndarray]:
+    """Per-face (tibial, femoral) cartilage thickness (mm) under each face of a tibial
+    slave, each from the distance to its bone, the femoral one at the femoral face closest
+    to the slave face (`fecheck.laws.layer`); cached on disk by the meshes' content."""
+    femur = femoral_master(scene)
+    femur_bone, tibia_bone = surfaces.bone(scene, "femur"), surfaces.bone(scene, "tibia")
+
+    def build() -> tuple[np.ndarray, np.ndarray]:
+        fem_h = layer.bone_distance_thickness(femur, femur_bone)
+        return (layer.bone_distance_thickness(slave, tibia_bone),
+                layer.opposite_thickness(slave, femur, fem_h))
+
+    return cached_arrays("side-thickness", [slave, femur, femur_bone, tibia_bone], build)
+
+
+def _face_thickness(scene: Scene, slave) -> np.ndarray:
+    """The per-face foundation thickness (mm) of the slave in the tibial material: the
+    series total, or with a femoral material of its own the equivalent thickness
+    (`fecheck.laws.layer.Sides.equivalent_thickness`)."""
+    sides = layer.sides(scene)
+    if not sides.own_material:
+        return slave_thickness(scene, slave)
+    return sides.equivalent_thickness(*slave_sides(scene, slave))
+
+
 def _law(scene: Scene, slave, radius_mm: float, compartment: str):
     """The compartment's law (`fecheck.laws.registry`): over the bone-distance thickness
     map where the scene asks for it and the law takes one (`LawSpec.per_face`)."""
@@ -128,7 +153,7 @@ def _law(scene: Scene, slave, radius_mm: float, compartment: str):
         raise FecheckError("scanned.thickness = 'bone-distance' sets a linear EF stiffness "
                            f"per face: use contact.law = {names} (or "
                            "scanned.thickness = 'uniform')")
-    return spec.per_face(law_inputs(scene), lambda: slave_thickness(scene, slave), radius_mm,
+    return spec.per_face(law_inputs(scene), lambda: _face_thickness(scene, slave), radius_mm,
                          compartment)
 
 

@@ -39,7 +39,8 @@ class LawKeys:
 
 
 LAWS: dict[str, LawKeys] = {law.name: law for law in (
-    LawKeys("ef", "EF",
+    LawKeys("ef", "EF", ("contact.femoral_share", "contact.femoral_youngs_MPa",
+                         "contact.femoral_poisson"),
             doc="= linear elastic foundation (thesis eq. 4.1-4.3, stiffness from "
                 "contact.youngs_MPa, contact.poisson and contact.thickness_mm)"),
     LawKeys("hertz", "Hertz", ("contact.indenter_youngs_MPa", "contact.indenter_poisson"),

@@ -123,8 +123,9 @@ def _law_does_not_read(key: str) -> Reason:
 
 def law_rules() -> tuple[tuple[tuple[str, ...], Reason], ...]:
     """One rule per key that some declared law reads (`fecheck.scene.law_keys`): inert
-    under a law that does not read it."""
-    keys = dict.fromkeys(k for law in LAWS.values() for k in law.keys)
+    under a law that does not read it (the femoral layer's keys: `_one_layer`, the
+    two-layer FE reads them whatever the law)."""
+    keys = dict.fromkeys(k for law in LAWS.values() for k in law.keys if k not in _LAYER_KEYS)
     return tuple(((k,), _law_does_not_read(k)) for k in keys)
 
 
@@ -258,6 +259,15 @@ def _no_axisymmetric(scene: SceneValues) -> str | None:
     return None
 
 
+def _one_layer(scene: SceneValues) -> str | None:
+    law = scene["contact.law"]
+    if set(_LAYER_KEYS) <= set(LAWS[law].keys) or scene["fe.cartilage"] == "two-layer":
+        return None
+    titles = " and ".join(r.title for r in readers(_LAYER_KEYS[0]))
+    return (f"contact.law = '{law}' with fe.cartilage = 'series' reads one cartilage layer "
+            f"(only the {titles} law and the two-layer FE read the femoral one apart)")
+
+
 def _no_prepare(scene: SceneValues) -> str | None:
     if scene["fe.prepare"] == "off":
         return "fe.prepare = 'off': `fecheck fe` meshes the EF run's own faces, unprepared"
@@ -270,12 +280,13 @@ _PLATEAU_MESH_KEYS = _MESH_KEYS[2:]
 _CONTACT_KEYS = ("contact.law", "contact.area", "contact.master", "contact.detection",
                  "contact.margin_mm", "contact.volumetric_stiffness_N_per_mm3",
                  "contact.indenter_youngs_MPa", "contact.indenter_poisson")
+_LAYER_KEYS = ("contact.femoral_share", "contact.femoral_youngs_MPa", "contact.femoral_poisson")
 _SOLVER_KEYS = ("solver.start_gap_mm", "solver.max_iterations", "solver.tolerance")
 _SPRING_KEYS = ("ligaments.transition_strain",) + tuple(
     f"ligaments.{n}.{p}" for n in LIGAMENTS for p in ("stiffness_N", "reference_strain"))
 
 _LEADING_RULES: tuple[tuple[tuple[str, ...], Reason], ...] = (
-    (_MESH_KEYS + _CONTACT_KEYS + _SOLVER_KEYS, _rigid),
+    (_MESH_KEYS + _CONTACT_KEYS + _SOLVER_KEYS + _LAYER_KEYS, _rigid),
     (("mesh.sphere_subdivisions", "mesh.method"), _condyle_not_meshed),
     (_PLATEAU_MESH_KEYS, _plateau_not_meshed),
     (("contact.master",), _master_fixed),
@@ -308,6 +319,7 @@ RULES: tuple[tuple[tuple[str, ...], Reason], ...] = (
     (("geometry.ligaments",), _no_bundle_file),
     (("fe.axisym_size_mm",), _no_axisymmetric),
     (("fe.size_mm", "fe.smooth_mm"), _no_prepare),
+    (_LAYER_KEYS, _one_layer),
 )
 """(keys, reason): the keys have no effect in a scene where ``reason(scene)`` is not None.
 The first rule that applies to a key gives its reason (`rules`: `_LEADING_RULES`, then the

@@ -258,6 +258,25 @@ SCHEMA: dict[str, Key] = {
         "Thickness h of the cartilage layer, mm: EF stiffness k = (1-ν)E / ((1+ν)(1-2ν)h); "
         "the Blankevoort law's layer; a solved depth ≥ h stops the foundation laws (the "
         "layer is crushed through).", low=0.0, low_open=True),
+    "contact.femoral_share": Key(
+        "float", 0.5,
+        "The femoral cartilage's share of contact.thickness_mm where the two layers are "
+        "uniform, dimensionless: femoral h·share, tibial h·(1 - share). The linear EF's "
+        "depth split between the layers and the two-layer FE (fe.cartilage) read it; "
+        "0.5 = equal layers.", low=0.0, high=1.0, low_open=True, high_open=True,
+        unit=DIMENSIONLESS),
+    "contact.femoral_youngs_MPa": Key(
+        "float", None,
+        "Young's modulus of the femoral cartilage, MPa; not set = contact.youngs_MPa (one "
+        "material). Read by the linear EF (contact.law = 'ef': the layers in series, k = "
+        "1/(h_t/c_t + h_f/c_f), c = (1-ν)E/((1+ν)(1-2ν))) and the two-layer FE; "
+        "contact.youngs_MPa is then the tibial cartilage's.", low=0.0, low_open=True,
+        example=10.0),
+    "contact.femoral_poisson": Key(
+        "float", None,
+        "Poisson's ratio of the femoral cartilage, dimensionless, below 0.5; not set = "
+        "contact.poisson. Read as contact.femoral_youngs_MPa is.", low=0.0, high=0.5,
+        high_open=True, unit=DIMENSIONLESS, example=0.45),
     "contact.volumetric_stiffness_N_per_mm3": Key(
         "float", 1e-2,
         "Stiffness k_V of the volumetric law (contact.law = 'volumetric'), N/mm³: pressure "

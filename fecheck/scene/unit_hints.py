@@ -170,6 +170,9 @@ def moduli(scene: Scene) -> list[tuple[str, float, float]]:
     out = []
     if scene["model.kind"] != "rigid":
         out.append(("contact.youngs_MPa", scene["contact.youngs_MPa"], IMPLANT_E_MPA))
+        if scene["contact.femoral_youngs_MPa"] is not None:
+            out.append(("contact.femoral_youngs_MPa", scene["contact.femoral_youngs_MPa"],
+                        IMPLANT_E_MPA))
         indenter = scene["contact.indenter_youngs_MPa"]
         if "contact.indenter_youngs_MPa" in LAWS[scene["contact.law"]].keys \
                 and math.isfinite(indenter):
