@@ -134,11 +134,19 @@ def test_tibia_starts_at_the_inverse_of_G_composed_with_the_scene_pose():
     np.testing.assert_allclose(g @ matrix(*body_pose(q)), s, atol=1e-12)
 
 
-def test_meniscus_interface_stiffness_is_the_two_layers_in_series():
+def test_meniscus_interface_stiffness_is_smith2019s_lumped_layer():
+    # smith2019's lumped model (OpenSim-JAM Smith2018ArticularContactForce): mean E
+    # (1 + 20)/2 = 10.5 MPa, mean ν (0.45 + 0.3)/2 = 0.375, summed h 3 + 6/2 = 6 mm:
+    # k = 0.625·10.5/(1.375·0.25·6) = 6.5625/2.0625 = 3.181818 N/mm³.
+    law = menisci.meniscus_law(load_scene("femur_tibia_menisci"))
+    assert law.params[0] == pytest.approx(3.181818, rel=1e-6)
+
+
+def test_meniscus_interface_stiffness_in_series_on_request():
     # 1 MPa, ν 0.45, 3 mm meniscus: k = (1-ν)E/((1+ν)(1-2ν)h) = 0.55/(1.45·0.1·3)
     # = 1.264368 N/mm³; one cartilage layer 20 MPa, ν 0.3, 6/2 mm: 14/(1.3·0.4·3)
     # = 8.974359 N/mm³; in series 1/(1/1.264368 + 1/8.974359) = 1.108233 N/mm³.
-    law = menisci.meniscus_law(load_scene("femur_tibia_menisci"))
+    law = menisci.meniscus_law(load_scene("femur_tibia_menisci", ["menisci.layers=series"]))
     assert law.params[0] == pytest.approx(1.108233, rel=1e-6)
 
 

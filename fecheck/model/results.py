@@ -198,6 +198,10 @@ class RunResult:
     menisci : with menisci (`fecheck.model.menisci`): per compartment the axial load into
         the tibia through meniscus and cartilage and the meniscal share, each body's balance
         and pose, the meniscal ligament forces; else {}
+    meniscus_maps : with menisci, per meniscus side {"pressure_MPa": (n,) the meniscus's
+        face-mean pressure on the compartment's tibial faces (as the compartment's
+        `slave_faces`), "outline": (k, 2, 3) world segments (mm) of its footprint's edge
+        at the solved pose}, for the pressure map (not written to JSON); else {}
 
     `pose` is the tibia's; the femur is the fixed frame. `poses` maps every moving body's
     name to its `Pose` (today only the tibia moves).
@@ -217,6 +221,7 @@ class RunResult:
     notes: tuple[str, ...] = ()
     record: SolveRecord | None = None
     menisci: Mapping[str, Any] = field(default_factory=dict)
+    meniscus_maps: Mapping[str, Any] = field(default_factory=dict)
 
     @property
     def poses(self) -> dict[str, Pose]:
