@@ -214,3 +214,44 @@ def test_reduced_knee_share_meets_the_hand_statics():
     assert rows["lateral"]["meniscal_share"] == 0.0
     assert rows["lateral"]["cartilage_N"] == pytest.approx(K_CART * a_cl * (z_t - 0.2),
                                                            rel=1e-8)
+
+
+def test_footprint_outline_is_the_bottom_edge_of_a_turned_box():
+    # A 4 x 2 x 1 mm box turned 30° about z and moved by (5, -3, 7): its footprint's edge is
+    # the bottom rectangle at z = 7 + 0 (the box spans z 0..1), corners (±2, ±1) turned:
+    # x half-extent 2cos30 + 1sin30 = 2.232051, y half-extent 2sin30 + 1cos30 = 1.866025.
+    c, s = math.cos(math.radians(30)), math.sin(math.radians(30))
+    rot = np.array([[c, -s, 0.0], [s, c, 0.0], [0.0, 0.0, 1.0]])
+    seg = menisci.footprint_outline(box((-2, -1, 0), (2, 1, 1)), rot, np.array([5, -3, 7.0]))
+    pts = seg.reshape(-1, 3)
+    np.testing.assert_allclose(pts[:, 2], 7.0, atol=1e-12)
+    np.testing.assert_allclose([pts[:, 0].min(), pts[:, 0].max(), pts[:, 1].min(),
+                                pts[:, 1].max()],
+                               [5 - 2.232051, 5 + 2.232051, -3 - 1.866025, -3 + 1.866025],
+                               atol=1e-6)
+    # the four sides' lengths: 2 x 4 + 2 x 2 mm
+    assert np.linalg.norm(seg[:, 1] - seg[:, 0], axis=1).sum() == pytest.approx(12.0)
+
+
+def test_pressure_map_draws_each_meniscus_footprint_where_it_sits(results):
+    # Both maps (cartilage and meniscus pressure) draw each meniscus's footprint edge; the
+    # drawn lines span the x-y bounds of the meniscus volume's vertices at its solved pose
+    # (computed here from the reported pose). The extreme vertices lie on the silhouette,
+    # so the bounds agree to rounding; 1e-6 mm.
+    from fecheck.io.plots import pressure_map_figure
+
+    intact = results[0]
+    folder = menisci.menisci_dir(load_scene("femur_tibia_menisci"))
+    fig = pressure_map_figure(intact)
+    try:
+        drawn = [np.asarray(line.points) for line in fig.lines]
+    finally:
+        fig.plotter.close()
+    assert len(drawn) == 4                              # two maps, two menisci
+    for k, side in enumerate(("medial", "lateral")):
+        rot, t = body_pose(np.array(intact.menisci["poses"][f"{side} meniscus"]["q"]))
+        pts = menisci.read_volume(folder, side).points @ rot.T + t
+        want = [pts[:, 0].min(), pts[:, 0].max(), pts[:, 1].min(), pts[:, 1].max()]
+        for line in (drawn[k], drawn[2 + k]):
+            got = [line[:, 0].min(), line[:, 0].max(), line[:, 1].min(), line[:, 1].max()]
+            np.testing.assert_allclose(got, want, atol=1e-6)

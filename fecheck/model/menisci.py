@@ -264,14 +264,24 @@ def build_problem(scene: Scene):
 def footprint_outline(volume, rot: np.ndarray, t: np.ndarray) -> np.ndarray:
     """(k, 2, 3) world segments (mm) of the edge of a closed meniscus volume's footprint
     at pose x = R p + t: the edges that bound its downward-facing faces (world n_z < 0),
-    whose x-y projection covers the footprint."""
+    whose x-y projection covers the footprint; loops shorter than a tenth of the longest
+    (small folds where a wall's faces turn over) are left out."""
+    from scipy.sparse import coo_matrix
+    from scipy.sparse.csgraph import connected_components
+
     pts = volume.points @ np.asarray(rot).T + t
     tri = pts[volume.faces]
     down = volume.faces[np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0])[:, 2] < 0.0]
     edges = np.sort(np.concatenate([down[:, [0, 1]], down[:, [1, 2]], down[:, [2, 0]]]),
                     axis=1)
     unique, count = np.unique(edges, axis=0, return_counts=True)
-    return pts[unique[count == 1]]
+    edge = unique[count == 1]
+    n = len(pts)
+    graph = coo_matrix((np.ones(len(edge)), (edge[:, 0], edge[:, 1])), shape=(n, n))
+    _, label = connected_components(graph, directed=False)
+    length = np.linalg.norm(pts[edge[:, 0], :2] - pts[edge[:, 1], :2], axis=1)
+    loop = np.bincount(label[edge[:, 0]], weights=length, minlength=n)
+    return pts[edge[loop[label[edge[:, 0]]] >= 0.1 * loop.max()]]
 
 
 def _maps(interfaces: Sequence[Interface], poses, sides, folder: Path) -> dict[str, dict]:
