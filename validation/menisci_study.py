@@ -124,6 +124,8 @@ def plot(rows: list[dict], path: Path) -> None:
     twin = ax[2].twinx()
     twin.bar([v + 0.2 for v in x], [med[s]["tibial_area_mm2"] for s in med], 0.4,
              color="tab:orange", label="medial tibial contact area mm²")
+    ax[2].set_ylim(0, 1.4 * max(med[s]["tibial_p_max_MPa"] for s in med))   # room for
+    twin.set_ylim(0, 1.4 * max(med[s]["tibial_area_mm2"] for s in med))      # the legends
     ax[2].set_xticks(x, ["intact", "medial meniscectomy"])
     ax[2].set_ylabel("p_max MPa")
     twin.set_ylabel("contact area mm²")
