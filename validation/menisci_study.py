@@ -12,7 +12,11 @@ menisci as free rigid bodies, EF contact, full extension) is solved
   and 120 MPa (Donahue 2002's circumferential E_θ, an upper bound: the hoop stiffness is
   no compressive modulus);
 * at 800 N with the two layers in series instead of lumped (the model before the lumped
-  convention), and without the medial meniscus (menisci.sides = ['lateral']).
+  convention); with each meniscus held in the plateau's plane (menisci.free = z, flexion,
+  abduction: x, y and internal rotation ride on the tibia), which shows how much of the
+  low share comes from the rigid frictionless menisci sliding outward, which nothing
+  but the horn roots resists (the coronary ligaments are slack); and without the medial
+  meniscus (menisci.sides = ['lateral']).
 
 Per run and compartment: the axial load through the meniscus and through cartilage, the
 meniscal share, the tibial peak pressure (the larger of the cartilage-cartilage and the
@@ -60,6 +64,7 @@ def cases(quick: bool) -> list[tuple[str, float, list[str]]]:
     out = [("load", f, [f"load.force_N={f}"]) for f in loads]
     out += [("modulus", e, [f"menisci.youngs_MPa={e}"]) for e in moduli]
     out += [("series", 800.0, ["menisci.layers='series'"]),
+            ("held", 800.0, ["menisci.free=['z', 'flexion', 'abduction']"]),
             ("meniscectomy", 800.0, ["menisci.sides=['lateral']"])]
     return out
 
@@ -110,7 +115,11 @@ def plot(rows: list[dict], path: Path) -> None:
                          and r["study"] == study and r["compartment"] == side)
             a.plot(*zip(*pts, strict=True), mark, label=side)
         a.axhspan(40, 70, color="0.85", label="published intact, 40-70 %")
-        a.set(xlabel=label, ylabel="meniscal load share %", ylim=(0, 100))
+        failed = sorted({f"{r['x']:g}" for r in rows
+                         if r["study"] == study and not r["converged"]})
+        a.set(xlabel=label + (f"\nnot converged, left out: {', '.join(failed)}"
+                              if failed else ""), ylabel="meniscal load share %",
+              ylim=(0, 100))
         a.legend(fontsize=8)
     ax[1].set_xscale("log")
     ax[0].set_title("share against load (1 MPa meniscus)", fontsize=10)
