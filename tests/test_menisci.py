@@ -212,6 +212,12 @@ def test_reduced_knee_share_meets_the_hand_statics():
     assert rows["medial"]["cartilage_N"] == pytest.approx(f_cm, rel=1e-8)
     assert rows["medial"]["meniscal_share"] == pytest.approx(f_men / (f_men + f_cm), rel=1e-8)
     assert rows["lateral"]["meniscal_share"] == 0.0
+    # the meniscus on the tibial disc: uniform depth z_t - z_m over the whole disc, so
+    # p_max = k_m (z_t - z_m) and the contact area is the disc's
+    maps = menisci._maps(interfaces, [body_pose(q) for q in sol.q],
+                         {"medial": box((-30, -22, 0.0), (-10, -8, 2.0))})
+    assert maps["medial"]["max_pressure_MPa"] == pytest.approx(K_MEN * (z_t - z_m), rel=1e-8)
+    assert maps["medial"]["area_mm2"] == pytest.approx(a_tm, rel=1e-9)
     assert rows["lateral"]["cartilage_N"] == pytest.approx(K_CART * a_cl * (z_t - 0.2),
                                                            rel=1e-8)
 

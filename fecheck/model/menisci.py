@@ -284,18 +284,18 @@ def footprint_outline(volume, rot: np.ndarray, t: np.ndarray) -> np.ndarray:
     return pts[edge[loop[label[edge[:, 0]]] >= 0.1 * loop.max()]]
 
 
-def _maps(interfaces: Sequence[Interface], poses, sides, folder: Path) -> dict[str, dict]:
-    """Per meniscus side: its pressure on the tibial faces, the edge of its footprint,
-    and its contact area and peak pressure on the tibia (`RunResult.meniscus_maps`)."""
+def _maps(interfaces: Sequence[Interface], poses, volumes: dict) -> dict[str, dict]:
+    """Per meniscus side (`volumes`: side → its closed volume): its pressure on the tibial
+    faces, the edge of its footprint, and its contact area and peak pressure on the tibia
+    (`RunResult.meniscus_maps`)."""
     by_name = {i.name: i for i in interfaces}
     out = {}
-    for side in sides:
+    for side, volume in volumes.items():
         down = by_name[f"{side} meniscus-tibia"]
         res = down.law(down.pair.evaluate(poses[down.slave], poses[down.master]))
         out[side] = {"pressure_MPa": res.face_pressure(), "area_mm2": float(res.area),
                      "max_pressure_MPa": float(res.max_pressure),
-                     "outline": footprint_outline(read_volume(folder, side),
-                                                  *poses[down.master])}
+                     "outline": footprint_outline(volume, *poses[down.master])}
     return out
 
 
@@ -336,7 +336,8 @@ def run_menisci(scene: Scene, warm_start: np.ndarray | None = None) -> RunResult
     for comp in comps:
         res, w, _ = comp.evaluate(rot, t)
         compartments[comp.name] = compartment_result(comp, res, w, rot, t)
-    maps = _maps(interfaces, poses, sides, menisci_dir(scene))
+    folder = menisci_dir(scene)
+    maps = _maps(interfaces, poses, {s: read_volume(folder, s) for s in sides})
     shares = _shares(interfaces, poses, sides)
     for side, m in maps.items():
         shares[side]["meniscus_tibia_area_mm2"] = m["area_mm2"]

@@ -312,8 +312,10 @@ def _menisci_lines(menisci: Mapping[str, Any]) -> list[str]:
     out = [f"{'menisci':20s}" + "".join(f"{n:>12s}" for n in menisci["compartments"])]
     for label, key, fmt in (("through meniscus N", "meniscus_N", "{:.2f}"),
                             ("through cartilage N", "cartilage_N", "{:.2f}"),
-                            ("meniscal share", "meniscal_share", "{:.3f}")):
-        vals = [row[key] for row in menisci["compartments"].values()]
+                            ("meniscal share", "meniscal_share", "{:.3f}"),
+                            ("meniscus p_max MPa", "meniscus_tibia_max_pressure_MPa", "{:.3f}"),
+                            ("meniscus area mm²", "meniscus_tibia_area_mm2", "{:.1f}")):
+        vals = [row.get(key, math.nan) for row in menisci["compartments"].values()]
         out.append(f"{label:20s}" + "".join(
             f"{'-' if math.isnan(v) else fmt.format(v):>12s}" for v in vals))
     out.append("balance N (free DOFs): " + "  ".join(
