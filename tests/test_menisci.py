@@ -135,11 +135,19 @@ def test_tibia_starts_at_the_inverse_of_G_composed_with_the_scene_pose():
     np.testing.assert_allclose(g @ matrix(*body_pose(q)), s, atol=1e-12)
 
 
-def test_meniscus_interface_stiffness_is_the_two_layers_in_series():
+def test_meniscus_interface_stiffness_is_smith2019s_lumped_layer():
+    # smith2019's lumped model (OpenSim-JAM Smith2018ArticularContactForce): mean E
+    # (1 + 20)/2 = 10.5 MPa, mean ν (0.45 + 0.3)/2 = 0.375, summed h 3 + 6/2 = 6 mm:
+    # k = 0.625·10.5/(1.375·0.25·6) = 6.5625/2.0625 = 3.181818 N/mm³.
+    law = menisci.meniscus_law(load_scene("femur_tibia_menisci"))
+    assert law.params[0] == pytest.approx(3.181818, rel=1e-6)
+
+
+def test_meniscus_interface_stiffness_in_series_on_request():
     # 1 MPa, ν 0.45, 3 mm meniscus: k = (1-ν)E/((1+ν)(1-2ν)h) = 0.55/(1.45·0.1·3)
     # = 1.264368 N/mm³; one cartilage layer 20 MPa, ν 0.3, 6/2 mm: 14/(1.3·0.4·3)
     # = 8.974359 N/mm³; in series 1/(1/1.264368 + 1/8.974359) = 1.108233 N/mm³.
-    law = menisci.meniscus_law(load_scene("femur_tibia_menisci"))
+    law = menisci.meniscus_law(load_scene("femur_tibia_menisci", ["menisci.layers=series"]))
     assert law.params[0] == pytest.approx(1.108233, rel=1e-6)
 
 
@@ -205,8 +213,55 @@ def test_reduced_knee_share_meets_the_hand_statics():
     assert rows["medial"]["cartilage_N"] == pytest.approx(f_cm, rel=1e-8)
     assert rows["medial"]["meniscal_share"] == pytest.approx(f_men / (f_men + f_cm), rel=1e-8)
     assert rows["lateral"]["meniscal_share"] == 0.0
+    # the meniscus on the tibial disc: uniform depth z_t - z_m over the whole disc, so
+    # p_max = k_m (z_t - z_m) and the contact area is the disc's
+    maps = menisci._maps(interfaces, [body_pose(q) for q in sol.q],
+                         {"medial": box((-30, -22, 0.0), (-10, -8, 2.0))})
+    assert maps["medial"]["max_pressure_MPa"] == pytest.approx(K_MEN * (z_t - z_m), rel=1e-8)
+    assert maps["medial"]["area_mm2"] == pytest.approx(a_tm, rel=1e-9)
     assert rows["lateral"]["cartilage_N"] == pytest.approx(K_CART * a_cl * (z_t - 0.2),
                                                            rel=1e-8)
+
+
+def test_footprint_outline_is_the_bottom_edge_of_a_turned_box():
+    # A 4 x 2 x 1 mm box turned 30° about z and moved by (5, -3, 7): its footprint's edge is
+    # the bottom rectangle at z = 7 + 0 (the box spans z 0..1), corners (±2, ±1) turned:
+    # x half-extent 2cos30 + 1sin30 = 2.232051, y half-extent 2sin30 + 1cos30 = 1.866025.
+    c, s = math.cos(math.radians(30)), math.sin(math.radians(30))
+    rot = np.array([[c, -s, 0.0], [s, c, 0.0], [0.0, 0.0, 1.0]])
+    seg = menisci.footprint_outline(box((-2, -1, 0), (2, 1, 1)), rot, np.array([5, -3, 7.0]))
+    pts = seg.reshape(-1, 3)
+    np.testing.assert_allclose(pts[:, 2], 7.0, atol=1e-12)
+    np.testing.assert_allclose([pts[:, 0].min(), pts[:, 0].max(), pts[:, 1].min(),
+                                pts[:, 1].max()],
+                               [5 - 2.232051, 5 + 2.232051, -3 - 1.866025, -3 + 1.866025],
+                               atol=1e-6)
+    # the four sides' lengths: 2 x 4 + 2 x 2 mm
+    assert np.linalg.norm(seg[:, 1] - seg[:, 0], axis=1).sum() == pytest.approx(12.0)
+
+
+def test_pressure_map_draws_each_meniscus_footprint_where_it_sits(results):
+    # Both maps (cartilage and meniscus pressure) draw each meniscus's footprint edge; the
+    # drawn lines span the x-y bounds of the meniscus volume's vertices at its solved pose
+    # (computed here from the reported pose). The extreme vertices lie on the silhouette,
+    # so the bounds agree to rounding; 1e-6 mm.
+    from fecheck.io.plots import pressure_map_figure
+
+    intact = results[0]
+    folder = menisci.menisci_dir(load_scene("femur_tibia_menisci"))
+    fig = pressure_map_figure(intact)
+    try:
+        drawn = [np.asarray(line.points) for line in fig.lines]
+    finally:
+        fig.plotter.close()
+    assert len(drawn) == 4                              # two maps, two menisci
+    for k, side in enumerate(("medial", "lateral")):
+        rot, t = body_pose(np.array(intact.menisci["poses"][f"{side} meniscus"]["q"]))
+        pts = menisci.read_volume(folder, side).points @ rot.T + t
+        want = [pts[:, 0].min(), pts[:, 0].max(), pts[:, 1].min(), pts[:, 1].max()]
+        for line in (drawn[k], drawn[2 + k]):
+            got = [line[:, 0].min(), line[:, 0].max(), line[:, 1].min(), line[:, 1].max()]
+            np.testing.assert_allclose(got, want, atol=1e-6)
 
 
 def test_fe_and_flex_refuse_the_menisci_they_do_not_model(monkeypatch):

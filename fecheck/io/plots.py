@@ -63,6 +63,8 @@ class Patch:
         faces is drawn as a line of that colour (the first mask is the contact region
         the camera frames)
     note : text under the name (e.g. the compartment's force and p_max)
+    lines : ((k, 2, 3) world segments, colour) pairs drawn flat just above the patch
+        (e.g. a meniscus's footprint edge)
     """
 
     name: str
@@ -72,6 +74,7 @@ class Patch:
     outlines: tuple[tuple[np.ndarray, str], ...] = ()
     note: str = ""
     per_point: bool = False
+    lines: tuple[tuple[np.ndarray, str], ...] = ()
 
     @property
     def contact(self) -> np.ndarray:
@@ -105,14 +108,15 @@ class Panel:
 @dataclass(eq=False)
 class Figure:
     """A drawn figure: the pyvista plotter (close it after use), the map renderers, the
-    scale-bar renderers (one under each map), the colour bars and every text drawn
-    (heading, titles, labels), for checks."""
+    scale-bar renderers (one under each map), the colour bars, every text drawn
+    (heading, titles, labels) and the `Patch.lines` drawn (pyvista lines), for checks."""
 
     plotter: object
     maps: list = field(default_factory=list)
     scales: list = field(default_factory=list)
     bars: list = field(default_factory=list)
     texts: list[str] = field(default_factory=list)
+    lines: list = field(default_factory=list)
 
     def save(self, path: str | Path) -> Path:
         """Write the PNG to `path` and close the plotter."""
@@ -152,15 +156,16 @@ def _union(boxes: Sequence[Bounds]) -> Bounds:
 def patch_frame(patch: Patch) -> Bounds:
     """The plateau region to show for one patch, mm: its contact faces' bounds with a
     margin (30 % of their size, at least 3 mm), kept inside the mesh; the whole mesh
-    when nothing is in contact."""
+    when nothing is in contact; widened to hold the patch's lines."""
     mesh_box = _box(patch.points)
     hot = patch.contact
+    lines = [np.reshape(seg, (-1, 3)) for seg, _ in patch.lines if len(seg)]
     if not hot.any():
-        return mesh_box
+        return _union([mesh_box, *map(_box, lines)])
     x0, x1, y0, y1 = _box(patch.points[np.unique(patch.faces[hot])])
     m = max(MARGIN_MIN_MM, MARGIN_FRACTION * max(x1 - x0, y1 - y0))
-    return (max(x0 - m, mesh_box[0]), min(x1 + m, mesh_box[1]),
-            max(y0 - m, mesh_box[2]), min(y1 + m, mesh_box[3]))
+    return _union([(max(x0 - m, mesh_box[0]), min(x1 + m, mesh_box[1]),
+                    max(y0 - m, mesh_box[2]), min(y1 + m, mesh_box[3])), *map(_box, lines)])
 
 
 def frame_bounds(patches: Sequence[Patch]) -> Bounds:
@@ -194,8 +199,17 @@ def _outline(mesh, mask: np.ndarray):
     return _boundary(region, LIFT_MM)
 
 
-def _add_patch(plotter, pv, patch: Patch, scale: ColourScale):
-    """Draw one patch unlit, its mesh edge in grey and its outlines; returns the actor."""
+def _segments(pv, segments: np.ndarray, z: float):
+    """(k, 2, 3) segments as one pyvista line mesh, flattened to height `z` (mm)."""
+    pts = np.asarray(segments, dtype=float).reshape(-1, 3).copy()
+    pts[:, 2] = z
+    cells = np.column_stack([np.full(len(segments), 2), np.arange(len(pts)).reshape(-1, 2)])
+    return pv.PolyData(pts, lines=cells.ravel())
+
+
+def _add_patch(plotter, pv, patch: Patch, scale: ColourScale, drawn: list):
+    """Draw one patch unlit, its mesh edge in grey, its outlines and its lines (appended
+    to `drawn`); returns the actor."""
     mesh = _polydata(pv, patch.points, patch.faces)
     data = mesh.point_data if patch.per_point else mesh.cell_data
     data["values"] = np.asarray(patch.values, dtype=float)
@@ -208,6 +222,11 @@ def _add_patch(plotter, pv, patch: Patch, scale: ColourScale):
         line = _outline(mesh, np.asarray(mask, dtype=bool))
         if line is not None:
             plotter.add_mesh(line, color=colour, line_width=2.5, lighting=False)
+    top = float(np.asarray(patch.points)[:, 2].max()) + LIFT_MM
+    for segments, colour in patch.lines:
+        if len(segments):
+            drawn.append(_segments(pv, segments, top))
+            plotter.add_mesh(drawn[-1], color=colour, line_width=3, lighting=False)
     return actor
 
 
@@ -299,10 +318,11 @@ def frame_camera(plotter, frame: Bounds, top_z: float) -> None:
     plotter.renderer.ResetCameraClippingRange()
 
 
-def _draw_map(plotter, pv, panel: Panel, frame: Bounds, texts: list[str]):
+def _draw_map(plotter, pv, panel: Panel, frame: Bounds, fig: Figure):
     """Patches, camera and labels in the active renderer; returns the
     first patch's mapper (its lookup table is the panel's colour bar)."""
-    actors = [_add_patch(plotter, pv, p, panel.scale) for p in panel.patches]
+    texts = fig.texts
+    actors = [_add_patch(plotter, pv, p, panel.scale, fig.lines) for p in panel.patches]
     top_z = max(float(p.points[:, 2].max()) for p in panel.patches) + LIFT_MM
     frame_camera(plotter, camera_frame(frame), top_z)
     _add_labels(plotter, panel.patches, frame, top_z + LIFT_MM, texts)
@@ -377,7 +397,7 @@ def draw_maps(panels: Sequence[Panel], heading: str, width: int = 1400) -> Figur
                          color=INK)
         fig.texts.append(panel.title)
         plotter.subplot(2 + 3 * i, 0)
-        mapper = _draw_map(plotter, pv, panel, frame, fig.texts)
+        mapper = _draw_map(plotter, pv, panel, frame, fig)
         fig.maps.append(plotter.renderer)
         mm_per_px = _mm_per_pixel(plotter)
         plotter.subplot(3 + 3 * i, 0)
@@ -429,9 +449,37 @@ def run_heading(result: RunResult, p_max: float, where: str, face_max: float) ->
             f"printed by fecheck run)")
 
 
+MENISCUS_INK = "red"
+"""Colour of a meniscus's footprint edge on the pressure maps."""
+
+
+def meniscus_panels(result: RunResult, patches: Sequence[Patch]) -> tuple[list[Patch],
+                                                                           list[Patch]]:
+    """With menisci: (the cartilage patches with each meniscus's footprint edge, the
+    meniscus-on-tibia patches: the meniscus's face-mean pressure on the same tibial
+    faces, its contact outlined, its footprint edge, its load and share)."""
+    maps, rows = result.meniscus_maps, result.menisci.get("compartments", {})
+    lined, under = [], []
+    for patch in patches:
+        m = maps.get(patch.name)
+        lines = () if m is None else ((m["outline"], MENISCUS_INK),)
+        lined.append(Patch(patch.name, patch.points, patch.faces, patch.values,
+                           patch.outlines, patch.note, patch.per_point, lines))
+        if m is None:
+            continue
+        p, row = np.asarray(m["pressure_MPa"], dtype=float), rows[patch.name]
+        note = (f"meniscus {row['meniscus_N']:.1f} N ({100 * row['meniscal_share']:.1f} %), "
+                f"p_max {row['meniscus_tibia_max_pressure_MPa']:.3f} MPa")
+        under.append(Patch(patch.name, patch.points, patch.faces, p, ((p > 0, INK),), note,
+                           lines=lines))
+    return lined, under
+
+
 def pressure_map_figure(result: RunResult) -> Figure:
     """The figure of `write_pressure_plots` (not saved): both compartments in one map,
-    colour bar 0 … the printed p_max. Raises ValueError without face pressures."""
+    colour bar 0 … the printed p_max; with menisci a second map, in the same colours, of
+    the menisci's pressure on the tibia, and each meniscus's footprint edge on both.
+    Raises ValueError without face pressures."""
     patches = run_patches(result)
     if not patches:
         raise ValueError(f"{result.scene}: the {result.model} model has no pressure map")
@@ -439,8 +487,17 @@ def pressure_map_figure(result: RunResult) -> Figure:
     face_max = max(float(p.values.max()) for p in patches)
     top = p_max if p_max > 0 else max(face_max, 1.0)
     scale = ColourScale("pressure\n(MPa)\nface means", (0.0, top))
-    panel = Panel("contact pressure, MPa (face means)", patches, scale)
-    return draw_maps([panel], run_heading(result, p_max, where, face_max))
+    heading = run_heading(result, p_max, where, face_max)
+    if not result.meniscus_maps:
+        panel = Panel("contact pressure, MPa (face means)", patches, scale)
+        return draw_maps([panel], heading)
+    lined, under = meniscus_panels(result, patches)
+    panels = [Panel("cartilage-cartilage contact pressure on the tibial cartilage, MPa "
+                    "(face means)", lined, scale, bar=False),
+              Panel("meniscus-tibia contact pressure on the tibial cartilage, MPa (face "
+                    "means, same colours)", under, scale)]
+    return draw_maps(panels, heading + f"\n{MENISCUS_INK} line: edge of each meniscus's "
+                     "footprint (its volume projected on x-y at the solved pose)")
 
 
 def write_pressure_plots(result: RunResult, directory: str | Path) -> list[Path]:

@@ -19,9 +19,14 @@ compartment:
 
 A meniscus interface uses the linear EF of the law registry (contact.law = "ef") with the
 meniscus layer (menisci.youngs_MPa, menisci.poisson, menisci.thickness_mm: smith2019's
-1 MPa, 0.45, 3 mm) in series with one cartilage layer (the contact material over half of
-contact.thickness_mm, which holds both layers), 1/k = 1/k_meniscus + 1/k_cartilage
-(smith2019 lumps the two meshes' layers the same way, Bei & Fregly 2003).
+1 MPa, 0.45, 3 mm) and one cartilage layer (the contact material over half of
+contact.thickness_mm, which holds both layers) combined as menisci.layers says:
+"lumped" (smith2019's use_lumped_contact_model, Bei & Fregly 2003, as OpenSim-JAM's
+Smith2018ArticularContactForce computes it): one layer of the mean modulus and mean
+Poisson's ratio over the summed thickness, k = (1−ν̄)Ē/((1+ν̄)(1−2ν̄)(h_m + h_c)); the
+smith2019 meniscus modulus (1 MPa) belongs to this convention. "series": the two layers as
+springs in series, 1/k = 1/k_meniscus + 1/k_cartilage (softer: 1.11 against 3.18 N/mm³
+with the packaged scene's values).
 The 15 meniscal ligaments of ``meniscal_ligaments.json`` (coronary, horn roots, transverse)
 are Blankevoort 1991 springs between tibia and meniscus (the transverse one between the two
 menisci). The femur sits at smith2019's default knee pose, the matrix G of the data set's
@@ -116,17 +121,24 @@ def start_coordinates(scene: Scene, theta_g: float, t_g: np.ndarray) -> np.ndarr
     return np.array([t[0], t[1], t[2], 0.0, q[3] - theta_g, q[4]])
 
 
+def meniscus_stiffness(scene: Scene) -> float:
+    """EF stiffness of a meniscus interface, N/mm³: the meniscus layer and one cartilage
+    layer combined as menisci.layers says (module docstring)."""
+    men = (scene["menisci.youngs_MPa"], scene["menisci.poisson"], scene["menisci.thickness_mm"])
+    cart = (scene["contact.youngs_MPa"], scene["contact.poisson"],
+            0.5 * scene["contact.thickness_mm"])
+    if scene["menisci.layers"] == "lumped":
+        return ef_stiffness(0.5 * (men[0] + cart[0]), 0.5 * (men[1] + cart[1]),
+                            men[2] + cart[2])
+    return 1.0 / (1.0 / ef_stiffness(*men) + 1.0 / ef_stiffness(*cart))
+
+
 def meniscus_law(scene: Scene):
-    """The registry's linear EF for a meniscus interface: the meniscus layer in series with
-    one cartilage layer (module docstring)."""
+    """The registry's linear EF for a meniscus interface (`meniscus_stiffness`)."""
     if not spec_of(scene).linear:
         raise FecheckError(f"menisci.dir: the meniscus interfaces use the linear EF; set "
                            f"contact.law = 'ef' (got {scene['contact.law']!r})")
-    k_men = ef_stiffness(scene["menisci.youngs_MPa"], scene["menisci.poisson"],
-                         scene["menisci.thickness_mm"])
-    k_cart = ef_stiffness(scene["contact.youngs_MPa"], scene["contact.poisson"],
-                          0.5 * scene["contact.thickness_mm"])
-    return linear_law(1.0 / (1.0 / k_men + 1.0 / k_cart))
+    return linear_law(meniscus_stiffness(scene))
 
 
 def _sides(scene: Scene) -> tuple[str, ...]:
@@ -155,6 +167,16 @@ def _springs(folder: Path, index: dict[str, int]) -> list[tuple[str, BodySpring]
     return out
 
 
+def read_volume(folder: Path, side: str):
+    """The closed volume surface of the `side` meniscus in `folder` (mm)."""
+    path = folder / VOLUME.format(side=side)
+    volume = read_surface(path)
+    if not is_closed(volume):
+        raise FecheckError(f"{path}: the {side} meniscus volume is not closed; the "
+                           "menisci model needs the data set's watertight volume")
+    return volume
+
+
 def _interfaces(scene: Scene, folder: Path, comps, index: dict[str, int]) -> list[Interface]:
     """Cartilage-cartilage interfaces (one per compartment), then per meniscus its
     interfaces with the femoral and with the tibial cartilage: the cartilage sheet is the
@@ -166,11 +188,7 @@ def _interfaces(scene: Scene, folder: Path, comps, index: dict[str, int]) -> lis
     opts = {"method": scene["contact.detection"], "area": scene["contact.area"],
             "margin_mm": scene["contact.margin_mm"]}
     for side, body in index.items():
-        path = folder / VOLUME.format(side=side)
-        volume = read_surface(path)
-        if not is_closed(volume):
-            raise FecheckError(f"{path}: the {side} meniscus volume is not closed; the "
-                               "menisci model needs the data set's watertight volume")
+        volume = read_volume(folder, side)
         out.append(Interface(f"{side} femur-meniscus", ContactPair(femur, volume, **opts),
                              law, FEMUR, body))
         out.append(Interface(f"{side} meniscus-tibia",
@@ -243,6 +261,44 @@ def build_problem(scene: Scene):
     return problem, interfaces, springs, comps, sides
 
 
+def footprint_outline(volume, rot: np.ndarray, t: np.ndarray) -> np.ndarray:
+    """(k, 2, 3) world segments (mm) of the edge of a closed meniscus volume's footprint
+    at pose x = R p + t: the edges that bound its downward-facing faces (world n_z < 0),
+    whose x-y projection covers the footprint; loops shorter than a tenth of the longest
+    (small folds where a wall's faces turn over) are left out."""
+    from scipy.sparse import coo_matrix
+    from scipy.sparse.csgraph import connected_components
+
+    pts = volume.points @ np.asarray(rot).T + t
+    tri = pts[volume.faces]
+    down = volume.faces[np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0])[:, 2] < 0.0]
+    edges = np.sort(np.concatenate([down[:, [0, 1]], down[:, [1, 2]], down[:, [2, 0]]]),
+                    axis=1)
+    unique, count = np.unique(edges, axis=0, return_counts=True)
+    edge = unique[count == 1]
+    n = len(pts)
+    graph = coo_matrix((np.ones(len(edge)), (edge[:, 0], edge[:, 1])), shape=(n, n))
+    _, label = connected_components(graph, directed=False)
+    length = np.linalg.norm(pts[edge[:, 0], :2] - pts[edge[:, 1], :2], axis=1)
+    loop = np.bincount(label[edge[:, 0]], weights=length, minlength=n)
+    return pts[edge[loop[label[edge[:, 0]]] >= 0.1 * loop.max()]]
+
+
+def _maps(interfaces: Sequence[Interface], poses, volumes: dict) -> dict[str, dict]:
+    """Per meniscus side (`volumes`: side → its closed volume): its pressure on the tibial
+    faces, the edge of its footprint, and its contact area and peak pressure on the tibia
+    (`RunResult.meniscus_maps`)."""
+    by_name = {i.name: i for i in interfaces}
+    out = {}
+    for side, volume in volumes.items():
+        down = by_name[f"{side} meniscus-tibia"]
+        res = down.law(down.pair.evaluate(poses[down.slave], poses[down.master]))
+        out[side] = {"pressure_MPa": res.face_pressure(), "area_mm2": float(res.area),
+                     "max_pressure_MPa": float(res.max_pressure),
+                     "outline": footprint_outline(volume, *poses[down.master])}
+    return out
+
+
 def _shares(interfaces: Sequence[Interface], poses, sides) -> dict[str, dict[str, float]]:
     """Per compartment: axial load into the tibia through cartilage and meniscus (N, +
     compressive), the meniscal share, the femur's load on the meniscus, the depths."""
@@ -280,7 +336,13 @@ def run_menisci(scene: Scene, warm_start: np.ndarray | None = None) -> RunResult
     for comp in comps:
         res, w, _ = comp.evaluate(rot, t)
         compartments[comp.name] = compartment_result(comp, res, w, rot, t)
-    menisci = {"compartments": _shares(interfaces, poses, sides),
+    folder = menisci_dir(scene)
+    maps = _maps(interfaces, poses, {s: read_volume(folder, s) for s in sides})
+    shares = _shares(interfaces, poses, sides)
+    for side, m in maps.items():
+        shares[side]["meniscus_tibia_area_mm2"] = m["area_mm2"]
+        shares[side]["meniscus_tibia_max_pressure_MPa"] = m["max_pressure_MPa"]
+    menisci = {"compartments": shares,
                "balance_N": balance(problem, sol.q),
                "poses": {b.name: {"q": [float(v) for v in q]}
                          for b, q in zip(problem.bodies, sol.q, strict=True) if b.free},
@@ -293,4 +355,5 @@ def run_menisci(scene: Scene, warm_start: np.ndarray | None = None) -> RunResult
     return RunResult(scene["name"] or scene.source, scene["model.kind"], scene["contact.law"],
                      sol.converged, sol.iterations, sol.residual_norm, Pose.of(q_tibia),
                      compartments, {}, timing, {}, tuple(not_converged_note(sol)), record,
-                     menisci)
+                     menisci, {s: {k: m[k] for k in ("pressure_MPa", "outline")}
+                               for s, m in maps.items()})

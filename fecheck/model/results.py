@@ -206,6 +206,10 @@ class RunResult:
     menisci : with menisci (`fecheck.model.menisci`): per compartment the axial load into
         the tibia through meniscus and cartilage and the meniscal share, each body's balance
         and pose, the meniscal ligament forces; else {}
+    meniscus_maps : with menisci, per meniscus side {"pressure_MPa": (n,) the meniscus's
+        face-mean pressure on the compartment's tibial faces (as the compartment's
+        `slave_faces`), "outline": (k, 2, 3) world segments (mm) of its footprint's edge
+        at the solved pose}, for the pressure map (not written to JSON); else {}
 
     `pose` is the tibia's; the femur is the fixed frame. `poses` maps every moving body's
     name to its `Pose` (today only the tibia moves).
@@ -225,6 +229,7 @@ class RunResult:
     notes: tuple[str, ...] = ()
     record: SolveRecord | None = None
     menisci: Mapping[str, Any] = field(default_factory=dict)
+    meniscus_maps: Mapping[str, Any] = field(default_factory=dict)
 
     @property
     def poses(self) -> dict[str, Pose]:
@@ -318,8 +323,10 @@ def _menisci_lines(menisci: Mapping[str, Any]) -> list[str]:
     out = [f"{'menisci':20s}" + "".join(f"{n:>12s}" for n in menisci["compartments"])]
     for label, key, fmt in (("through meniscus N", "meniscus_N", "{:.2f}"),
                             ("through cartilage N", "cartilage_N", "{:.2f}"),
-                            ("meniscal share", "meniscal_share", "{:.3f}")):
-        vals = [row[key] for row in menisci["compartments"].values()]
+                            ("meniscal share", "meniscal_share", "{:.3f}"),
+                            ("meniscus p_max MPa", "meniscus_tibia_max_pressure_MPa", "{:.3f}"),
+                            ("meniscus area mm²", "meniscus_tibia_area_mm2", "{:.1f}")):
+        vals = [row.get(key, math.nan) for row in menisci["compartments"].values()]
         out.append(f"{label:20s}" + "".join(
             f"{'-' if math.isnan(v) else fmt.format(v):>12s}" for v in vals))
     out.append("balance N (free DOFs): " + "  ".join(

@@ -495,14 +495,22 @@ SCHEMA: dict[str, Key] = {
         choices=("x", "y", "z", "flexion", "abduction", "internal")),
     "menisci.youngs_MPa": Key(
         "float", 1.0, "Young's modulus of the meniscus layer of a meniscus EF interface, "
-        "MPa (smith2019: 1 MPa); in series with one cartilage layer of the contact "
-        "material, contact.thickness_mm / 2 thick.", low=0.0, low_open=True),
+        "MPa (smith2019: 1 MPa); combined with one cartilage layer of the contact "
+        "material, contact.thickness_mm / 2 thick, as menisci.layers says.", low=0.0,
+        low_open=True),
     "menisci.poisson": Key(
         "float", 0.45, "Poisson's ratio of the meniscus layer (smith2019: 0.45).", low=0.0,
         high=0.5, high_open=True, unit=DIMENSIONLESS),
     "menisci.thickness_mm": Key(
         "float", 3.0, "Thickness of the meniscus layer of a meniscus EF interface, mm "
         "(smith2019: 3 mm, constant).", low=0.0, low_open=True),
+    "menisci.layers": Key(
+        "str", "lumped",
+        "How a meniscus EF interface combines the meniscus layer with one cartilage layer "
+        "(contact material, contact.thickness_mm / 2 thick): 'lumped' = smith2019's lumped "
+        "model (Bei & Fregly 2003): mean modulus and Poisson's ratio over the summed "
+        "thickness; 'series' = the two layers as springs in series (softer).",
+        choices=("lumped", "series")),
     "fe.mode": Key("str", "joint", _FE + "'joint' = the tibia's free DOFs are FE unknowns "
                    "under the scene's load, gravity and ligament springs, so the FE finds its "
                    "own medial/lateral split and pose; 'compartment' = each compartment is "
