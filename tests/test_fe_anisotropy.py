@@ -108,6 +108,8 @@ def test_isotropic_limit_equals_the_isotropic_assemblies():
     _, K = p2_transiso(mesh, iso, d)
     _, _, K_iso = p2_elasticity(TetMesh(mesh.p.T, mesh.t.T), E, nu)
     assert abs(K - K_iso).max() < 1e-12 * abs(K_iso).max()
+    _, K_point = p2_transiso(mesh, iso, lambda x: np.cos(x) + 0.1)     # fibres per point
+    assert abs(K_point - K_iso).max() < 1e-12 * abs(K_iso).max()
     tri = Basis(MeshTri.init_tensor(np.linspace(1, 3, 4), np.linspace(0, 1, 3)),
                 ElementVector(ElementTriP2()))
     K_ax, K_ax_iso = axisym_hoop_stiffness(tri, iso), axisym_stiffness(tri, E, nu)
@@ -141,17 +143,20 @@ def _lekhnitskii_u(m: TransIso, r: np.ndarray) -> np.ndarray:
     return A * r ** k + B * r ** (-k)
 
 
-def _ring_3d(m: TransIso, n_r: int = 6, n_t: int = 24) -> tuple[np.ndarray, np.ndarray]:
+def _ring_3d(m: TransIso, n_r: int, n_t: int, per_point: bool) -> tuple[np.ndarray, np.ndarray]:
     """(r, u_r) at the vertices of a quarter ring (1 mm long, u_z = 0: plane strain;
-    symmetry planes x = 0 and y = 0) of P2 tetrahedra, hoop fibres per element."""
+    symmetry planes x = 0 and y = 0) of P2 tetrahedra, hoop fibres per element or per
+    quadrature point."""
     from skfem import FacetBasis, LinearForm, MeshTet, asm
 
     box = MeshTet.init_tensor(np.linspace(A_IN, B_OUT, n_r + 1),
                               np.linspace(0, np.pi / 2, n_t + 1), np.linspace(0, 1, 2))
     r, t = box.p[0], box.p[1]
     mesh = MeshTet(np.array([r * np.cos(t), r * np.sin(t), box.p[2]]), box.t)
-    centres = mesh.p[:, mesh.t].mean(axis=1).T
-    basis, K = p2_transiso(mesh, m, hoop_directions(centres, np.zeros(3), [0, 0, 1.0]))
+    def hoop(x: np.ndarray) -> np.ndarray:
+        return hoop_directions(x, np.zeros(3), [0, 0, 1.0])
+
+    basis, K = p2_transiso(mesh, m, hoop if per_point else hoop(mesh.p[:, mesh.t].mean(axis=1).T))
     inner = mesh.facets_satisfying(lambda x: np.hypot(x[0], x[1]) < A_IN + 1e-6)
     fb = FacetBasis(mesh, basis.elem, facets=inner, intorder=3)
     f = asm(LinearForm(lambda v, w: -P_IN * np.einsum("a...,a...->...", w.n, v)), fb)
@@ -186,11 +191,13 @@ def _ring_axisym(m: TransIso, n_r: int = 12) -> tuple[np.ndarray, np.ndarray]:
 
 
 def test_hoop_stiff_ring_3d_and_axisym_against_lekhnitskii():
-    r3, u3 = _ring_3d(MENISCUS, 6, 48)
+    r3, u3 = _ring_3d(MENISCUS, 6, 48, per_point=False)   # 1.9° elements
+    rp, up = _ring_3d(MENISCUS, 6, 24, per_point=True)    # 3.75° elements
     ra, ua = _ring_axisym(MENISCUS)
     iso = _lekhnitskii_u(TransIso(20.0, 20.0, 0.2, 0.2, 20.0 / 2.4), r3)
     ref3, refa = _lekhnitskii_u(MENISCUS, r3), _lekhnitskii_u(MENISCUS, ra)
-    assert np.abs(u3 / ref3 - 1).max() < 0.01             # element-wise fibres: 0.5 %
+    assert np.abs(u3 / ref3 - 1).max() < 0.01             # fibres per element: 0.46 %
+    assert np.abs(up / _lekhnitskii_u(MENISCUS, rp) - 1).max() < 0.005   # per point: 0.17 %
     assert np.abs(ua / refa - 1).max() < 1e-4
     inner = np.isclose(r3, A_IN)
     assert u3[inner].mean() == pytest.approx(ua[0], rel=0.01)
