@@ -202,3 +202,50 @@ def test_hoop_stiff_ring_3d_and_axisym_against_lekhnitskii():
     inner = np.isclose(r3, A_IN)
     assert u3[inner].mean() == pytest.approx(ua[0], rel=0.01)
     assert ref3.max() < 0.5 * iso.max()                     # the hoop fibres matter
+
+
+
+def _energy(K: sp.spmatrix, held: np.ndarray, u_held: np.ndarray, n: int) -> float:
+    """Strain energy ½ uᵀ K u (N mm) with the `held` dofs at `u_held` (mm), others free."""
+    u = np.zeros(n)
+    u[held] = u_held
+    free = np.setdiff1d(np.arange(n), held)
+    u[free] = sla.spsolve(K[free][:, free].tocsc(), -(K[free][:, held] @ u[held]))
+    return float(0.5 * u @ (K @ u))
+
+
+def test_ring_sheared_between_plates_3d_equals_axisym():
+    """A ring (A_IN..B_OUT, 3 mm high), bottom bonded, top bonded to a plate that expands
+    radially by 0.01 mm: r-z shear (G_p in the plane of isotropy; G_t ≠ G_p in MAT) and hoop
+    stretch. Strain energy of the 3D quarter ring (× 4, fibres per point) against the
+    axisymmetric ring."""
+    from skfem import Basis, ElementTriP2, ElementVector, MeshTet, MeshTri
+
+    h, c = 3.0, 0.01
+    box = MeshTet.init_tensor(np.linspace(A_IN, B_OUT, 7), np.linspace(0, np.pi / 2, 25),
+                              np.linspace(0.0, h, 5))
+    r, t = box.p[0], box.p[1]
+    mesh = MeshTet(np.array([r * np.cos(t), r * np.sin(t), box.p[2]]), box.t)
+    basis, K = p2_transiso(mesh, MAT, lambda x: hoop_directions(x, np.zeros(3), [0, 0, 1.0]))
+    ix, iy, iz = basis.split_indices()
+    x = basis.doflocs
+    rx = np.hypot(x[0], x[1])
+    top = [i[np.isclose(x[2, i], h)] for i in (ix, iy, iz)]
+    held = np.concatenate([i[np.isclose(x[2, i], 0.0)] for i in (ix, iy, iz)]
+                          + top + [ix[np.isclose(x[0, ix], 0)], iy[np.isclose(x[1, iy], 0)]])
+    u_held = np.zeros(basis.N)
+    u_held[top[0]] = c * x[0, top[0]] / rx[top[0]]
+    u_held[top[1]] = c * x[1, top[1]] / rx[top[1]]
+    held = np.unique(held)
+    energy_3d = 4 * _energy(K, held, u_held[held], basis.N)
+    ab = Basis(MeshTri.init_tensor(np.linspace(A_IN, B_OUT, 13), np.linspace(0, h, 9)),
+               ElementVector(ElementTriP2()))
+    ir, jz = ab.split_indices()
+    y = ab.doflocs
+    top_r = ir[np.isclose(y[1, ir], h)]
+    held_ax = np.concatenate([ir[np.isclose(y[1, ir], 0) | np.isclose(y[1, ir], h)],
+                              jz[np.isclose(y[1, jz], 0) | np.isclose(y[1, jz], h)]])
+    u_ax = np.zeros(ab.N)
+    u_ax[top_r] = c
+    energy_ax = _energy(axisym_hoop_stiffness(ab, MAT), held_ax, u_ax[held_ax], ab.N)
+    assert energy_3d == pytest.approx(energy_ax, rel=0.01)

@@ -103,7 +103,7 @@ def stiffness_tensor(m: TransIso, directions: np.ndarray) -> np.ndarray:
     C6 = local_stiffness(m)
     lam, mu = C6[0, 1], m.G_p
     alpha = C6[0, 2] - C6[0, 1]
-    shear = m.G_t - mu
+    shear = C6[3, 3] - mu
     beta = C6[2, 2] - C6[0, 0] - 2 * alpha - 4 * shear
     eye = np.eye(3)
     M = np.einsum("na,nb->nab", d, d)
