@@ -21,11 +21,14 @@ quadratic tetrahedra with one direction per element or per quadrature point; the
 axisymmetric (r, z) one with fibres along the hoop θ, where (r, z, θ) is the
 fibre-along-third-axis frame itself.
 
-Meniscus values: `MENISCUS` (E_θ 140 MPa along the circumferential fibres, E_r = E_z
-20 MPa, ν_rz 0.2, ν_θr = ν_θz 0.3; these are the values the Donahue group's knee models use
-(Donahue et al. 2002, J Biomech Eng 124:273-280; Haut Donahue et al. 2003, J Biomech
-36:19-34) as cited by later models; G_θ is not given there: `MENISCUS` takes
-G_t = E_p / (2 (1 + ν_p)), an assumption to replace once the papers' value is checked).
+Meniscus values (`MENISCUS`) are literature values, not checked against Donahue et al.
+2002 (J Biomech Eng 124:273-280) or Haut Donahue et al. 2003 (J Biomech 36:19-34), whose
+texts could not be opened: a citing study of knee models ("Sensitivity of the
+tibio-femoral response ...", as excerpted by scite.ai) quotes for the menisci modulus and
+Poisson's ratio 20 MPa and 0.2 in the radial and axial directions and 140 MPa and 0.3 in
+the circumferential one. Read here as E_p = E_r = E_z 20 MPa, ν_p = ν_rz 0.2, E_t = E_θ
+140 MPa, ν_tp = ν_θr = ν_θz 0.3. It gives no fibre shear modulus: `MENISCUS` assumes
+G_t = G_p = E_p / (2 (1 + ν_p)) until the source's value is checked.
 Units: N, mm, MPa.
 """
 
