@@ -23,6 +23,7 @@ from fecheck.fe.anisotropy import (
     hoop_directions,
     local_stiffness,
     p2_transiso,
+    voigt_stiffness,
 )
 from fecheck.statics.frames import rotation
 
@@ -114,6 +115,23 @@ def test_isotropic_limit_equals_the_isotropic_assemblies():
                 ElementVector(ElementTriP2()))
     K_ax, K_ax_iso = axisym_hoop_stiffness(tri, iso), axisym_stiffness(tri, E, nu)
     assert abs(K_ax - K_ax_iso).max() < 1e-12 * abs(K_ax_iso).max()
+
+
+def test_voigt_compliance_with_fibres_along_x():
+    S = np.linalg.inv(voigt_stiffness(MAT, [[2.0, 0.0, 0.0]])[0])     # order xx yy zz yz xz xy
+    E_p, E_t = MAT.E_p, MAT.E_t
+    expected = np.diag([1 / E_t, 1 / E_p, 1 / E_p, 2 * (1 + MAT.nu_p) / E_p, 1 / MAT.G_t,
+                        1 / MAT.G_t])
+    expected[0, 1:3] = expected[1:3, 0] = -MAT.nu_tp / E_t
+    expected[1, 2] = expected[2, 1] = -MAT.nu_p / E_p
+    assert np.abs(S - expected).max() < 1e-12 * S.max()
+
+
+def test_undefined_fibre_directions_are_refused_in_one_line():
+    with pytest.raises(FecheckError, match="fibre direction 1 is zero"):
+        voigt_stiffness(MAT, [[1.0, 0.0, 0.0], [0.0, 0.0, 0.0]])
+    with pytest.raises(FecheckError, match=r"\[0.0, 0.0, 5.0\] mm lies on the fibre axis"):
+        hoop_directions(np.array([[1.0, 0.0, 0.0], [0.0, 0.0, 5.0]]), np.zeros(3), [0, 0, 1.0])
 
 
 def test_material_that_is_not_positive_definite_is_refused_in_one_line():
