@@ -171,6 +171,7 @@ def _ring_3d(m: TransIso, n_r: int, n_t: int, per_point: bool) -> tuple[np.ndarr
                               np.linspace(0, np.pi / 2, n_t + 1), np.linspace(0, 1, 2))
     r, t = box.p[0], box.p[1]
     mesh = MeshTet(np.array([r * np.cos(t), r * np.sin(t), box.p[2]]), box.t)
+
     def hoop(x: np.ndarray) -> np.ndarray:
         return hoop_directions(x, np.zeros(3), [0, 0, 1.0])
 
