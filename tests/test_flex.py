@@ -272,8 +272,8 @@ def test_fe_at_an_angle_holds_its_flexion_and_balances_the_free_dofs(knee_fe):
     # gravity and ligaments sum to no force, and with θy, θz free their moment lies along
     # n = Q·Rx(-φ)·(cos θy, 0, -sin θy) (normal to the two free rotation axes Q·Rx·e_y and
     # Q·Rx·Ry·e_z). Bounds: 1e-8 of the 800 N load, moments over 100 mm lever. An FE
-    # solved about world x at the scene's 0° instead starts 21° away from the contact
-    # (the FE then finds none); the reported balance must agree (measured 2e-12).
+    # driven about world x at the scene's 0° instead does not settle (its active set
+    # fails after 200 iterations); the reported balance must agree (measured 2e-12).
     from fecheck.model.assembly import applied_load
     from fecheck.model.run import ligament_springs
     from fecheck.statics.newton import pose
