@@ -141,7 +141,8 @@ def run(args: argparse.Namespace) -> int:
     axis = _axis(args, scene)
     err = sys.stderr
     print(axis.describe(), file=err, flush=True)
-    result = flex.run_flex(scene, angles, axis, _progress(len(angles), err), fe_at)
+    result = flex.run_flex(scene, angles, axis, _progress(len(angles), err), fe_at,
+                           lambda message: print(f"flex FE: {message}", file=err, flush=True))
     solve = sum(p.seconds for p in result.points)
     print(f"{len(result.points)} of {len(angles)} angles solved; build {result.build_seconds:.2f}"
           f" s, then {result.sweep_seconds:.2f} s wall for the angles (Newton {solve:.2f} s)",

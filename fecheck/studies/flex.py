@@ -316,6 +316,8 @@ def fe_row(scene: Scene, point: FlexPoint, axis: FlexionAxis, built: tuple,
     from fecheck.model.scanned import run_scanned
 
     flexion = (-math.radians(point.flexion_deg), axis_rotation(axis.direction))
+    if log is not None:
+        log(f"the FE cross-check at flexion {point.flexion_deg:g}°")
     t0 = time.perf_counter()
     ef = run_scanned(scene, point.q, flexion, built)
     ef_seconds = time.perf_counter() - t0
