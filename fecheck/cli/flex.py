@@ -4,9 +4,9 @@ The tibia is turned about the knee's flexion axis (``--axis-point`` and ``--axis
 the scene's flexion.axis_point_mm and flexion.axis_dir, or else the axis through the
 centres of spheres fitted to the posterior condyles of the femoral surface) and its other
 DOFs solved at each angle under the scene's load, ligaments and gravity, each angle from
-the last (`fecheck.studies.flex`). Progress goes
-to standard error; Ctrl-C, or an angle that does not solve, stops the run and the angles
-solved so far are written.
+the last (`fecheck.studies.flex`); ``--fe-at`` runs the FE cross-check at chosen angles
+from their EF poses. Progress goes to standard error; Ctrl-C, or an angle that does not
+solve, stops the run and the angles solved so far are written.
 """
 
 from __future__ import annotations
@@ -34,6 +34,10 @@ def add_parser(subparsers) -> None:
                         "flexion.axis_point_mm, else fitted)")
     p.add_argument("--axis-dir", metavar="X,Y,Z",
                    help="the flexion axis direction (with --axis-point)")
+    p.add_argument("--fe-at", metavar="A,B,...",
+                   help="run the FE cross-check at these angles of --angles, deg, from the EF "
+                        "poses (the flexion held, the other DOFs free): a table on standard "
+                        "error and the JSON's 'fe'")
     p.add_argument("--csv", metavar="PATH", help="one row per angle ('-': stdout)")
     p.add_argument("--json", metavar="PATH", help="axis and every angle ('-': stdout)")
     p.add_argument("--plot", type=Path, metavar="DIR",
@@ -81,6 +85,24 @@ def _progress(total: int, out):
     return show
 
 
+def _fe_table(rows: list[dict], out) -> None:
+    """The FE-vs-EF table of the --fe-at angles, one line per angle and compartment."""
+    if not rows:
+        return
+    print("FE vs EF at the --fe-at angles (p_max face-averaged MPa, area mm², split, centre "
+          "of pressure x, y mm tibia frame):", file=out)
+    for r in rows:
+        for c in ("medial", "lateral"):
+            print(f"  {r['flexion_deg']:5g}° {c:8s} p_max {r[f'{c}_fe_p_max_MPa']:6.3f} vs "
+                  f"{r[f'{c}_ef_p_max_MPa']:6.3f}  area {r[f'{c}_fe_area_mm2']:6.1f} vs "
+                  f"{r[f'{c}_ef_area_mm2']:6.1f}  split {r[f'{c}_fe_split']:.3f} vs "
+                  f"{r[f'{c}_ef_split']:.3f}  CoP ({r[f'{c}_fe_cop_x_mm']:.1f}, "
+                  f"{r[f'{c}_fe_cop_y_mm']:.1f}) vs ({r[f'{c}_ef_cop_x_mm']:.1f}, "
+                  f"{r[f'{c}_ef_cop_y_mm']:.1f})", file=out)
+        print(f"  {r['flexion_deg']:5g}° balanced to {r['balance']:.1e} of the load, FE "
+              f"{r['fe_seconds']:.1f} s", file=out)
+
+
 def _write_outputs(args: argparse.Namespace, run_, out) -> None:
     from fecheck.io.outputs import write_text
     from fecheck.studies import flex_outputs
@@ -106,6 +128,7 @@ def run(args: argparse.Namespace) -> int:
     from fecheck.studies import flex
 
     angles = flex.parse_angles(args.angles)
+    fe_at = flex.parse_fe_at(args.fe_at, angles)
     for attr in ("csv", "json"):
         check_output(getattr(args, attr))
     for attr in ("plot", "vtk"):
@@ -118,11 +141,13 @@ def run(args: argparse.Namespace) -> int:
     axis = _axis(args, scene)
     err = sys.stderr
     print(axis.describe(), file=err, flush=True)
-    result = flex.run_flex(scene, angles, axis, _progress(len(angles), err))
+    result = flex.run_flex(scene, angles, axis, _progress(len(angles), err), fe_at,
+                           lambda message: print(f"flex FE: {message}", file=err, flush=True))
     solve = sum(p.seconds for p in result.points)
     print(f"{len(result.points)} of {len(angles)} angles solved; build {result.build_seconds:.2f}"
           f" s, then {result.sweep_seconds:.2f} s wall for the angles (Newton {solve:.2f} s)",
           file=err)
+    _fe_table(result.fe, err)
     _write_outputs(args, result, err)
     if result.stopped is None:
         return 0

@@ -381,24 +381,25 @@ def _femoral(scene: Scene, layers: Sequence[FELayer], settings: FESettings,
 
 
 def _solve(scene: Scene, layers: Sequence[FELayer], run: RunResult, settings: FESettings,
-           log: Callable[[str], None]) -> tuple[dict, np.ndarray, float, float]:
+           log: Callable[[str], None], flexion: tuple[float, np.ndarray] | None = None
+           ) -> tuple[dict, np.ndarray, float, float]:
     """FE solve(s) of the mode: {compartment: (layer, contact, worst penetration, (R, t)
     the tibia pose of that compartment's solution)}, the FE pose q (5,) (the EF pose in
     compartment mode), the condensation time and the femoral layers' build time (s; 0
-    for the series model)."""
+    for the series model); `flexion` as in `cross_check`."""
     from fecheck.model.run import ligament_springs
 
     q_ef = np.asarray(run.pose.q, dtype=float)
     margin = settings.candidate_gap_mm + _expected_depth(scene, run)
     femoral = _femoral(scene, layers, settings, log)
     if settings.mode == "joint":
-        drive = joint_drive(scene, q_ef, ligament_springs(scene))
+        drive = joint_drive(scene, q_ef, ligament_springs(scene), flexion)
         sol, condense, _, worst = solve_pressed(layers, drive, margin, settings, log, femoral)
         at = drive.pose(sol.q)
         out = {lay.body.name: (lay, lc, worst, at) for lay, lc in zip(layers, sol.layers,
                                                                         strict=True)}
         return out, drive.full(sol.q), condense, getattr(femoral, "seconds", 0.0)
-    rot, t = pose(q_ef, math.radians(scene["dofs.flexion_deg"]))
+    rot, t = _ef_pose(scene, q_ef, flexion)
     out, condense = {}, 0.0
     for lay in layers:
         force = run.compartments[lay.body.name].force_vector_N
@@ -409,12 +410,22 @@ def _solve(scene: Scene, layers: Sequence[FELayer], run: RunResult, settings: FE
     return out, q_ef, condense, getattr(femoral, "seconds", 0.0)
 
 
+def _ef_pose(scene: Scene, q: np.ndarray, flexion: tuple[float, np.ndarray] | None
+             ) -> tuple[np.ndarray, np.ndarray]:
+    """The tibia's (R, t) at q (5,): flexion dofs.flexion_deg about x, or `flexion`."""
+    theta, base = flexion or (math.radians(scene["dofs.flexion_deg"]), None)
+    return pose(np.asarray(q, dtype=float), theta, base)
+
+
 def cross_check(scene: Scene, *, mode: str | None = None, refine: int | None = None,
                 log: Callable[[str], None] | None = stderr_log,
-                ef: tuple[RunResult, float] | None = None) -> CrossCheck:
+                ef: tuple[RunResult, float] | None = None,
+                flexion: tuple[float, np.ndarray] | None = None) -> CrossCheck:
     """The FE cross-check of `scene` (module docstring); `mode` and `refine` override
     ``fe.mode`` and ``fe.refine``; `log` gets progress lines (None: silent); `ef` the
-    scene's EF run and its time (s) when the caller has them (None: solved here).
+    scene's EF run and its time (s) when the caller has them (None: solved here);
+    `flexion` = (θx rad, Q (3, 3)): the EF run's flexion, held about Q's first column
+    (`fecheck flex`; None: dofs.flexion_deg about x).
 
     Raises
     ------
@@ -437,10 +448,9 @@ def cross_check(scene: Scene, *, mode: str | None = None, refine: int | None = N
     t1 = time.perf_counter()
     layers = build_layers(bodies, E, nu, settings, say)
     t2 = time.perf_counter()
-    solved, q_fe, condense, femoral_s = _solve(scene, layers, run, settings, say)
+    solved, q_fe, condense, femoral_s = _solve(scene, layers, run, settings, say, flexion)
     t3 = time.perf_counter()
-    theta = math.radians(scene["dofs.flexion_deg"])
-    rot_ef, t_ef = pose(np.asarray(run.pose.q, dtype=float), theta)
+    rot_ef, t_ef = _ef_pose(scene, run.pose.q, flexion)
     checks, alerts, femoral = {}, [], {}
     for name, (lay, lc, worst, (rot, t)) in solved.items():
         fe, pressure = _fe_metrics(lay, lc.force_N, lc.active, rigid_gaps(lay, rot, t), rot)

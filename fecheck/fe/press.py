@@ -246,10 +246,13 @@ class Drive:
     full: Callable[[np.ndarray], np.ndarray]
 
 
-def joint_drive(scene: Scene, q_ef: np.ndarray, springs: Sequence[Callable]) -> Drive:
-    """The scene's free DOFs under its load, gravity and ligament springs."""
+def joint_drive(scene: Scene, q_ef: np.ndarray, springs: Sequence[Callable],
+                flexion: tuple[float, np.ndarray] | None = None) -> Drive:
+    """The scene's free DOFs under its load, gravity and ligament springs; `flexion` =
+    (θx rad, Q (3, 3)) holds θx about Q's first column (`fecheck flex`) instead of
+    dofs.flexion_deg about world x."""
     free = list(free_indices(scene))
-    theta = math.radians(scene["dofs.flexion_deg"])
+    theta, base = flexion or (math.radians(scene["dofs.flexion_deg"]), None)
     parts = [applied_load(scene), *springs]
 
     def full(x: np.ndarray) -> np.ndarray:
@@ -259,7 +262,7 @@ def joint_drive(scene: Scene, q_ef: np.ndarray, springs: Sequence[Callable]) -> 
 
     def wrench(x: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         q = full(x)
-        rot, t = pose(q, theta)
+        rot, t = pose(q, theta, base)
         w, dw = np.zeros(6), np.zeros((6, 6))
         for part in parts:
             wp, dp = part(rot, t)
@@ -269,15 +272,15 @@ def joint_drive(scene: Scene, q_ef: np.ndarray, springs: Sequence[Callable]) -> 
 
     def load(x: np.ndarray) -> np.ndarray:
         q, w, _ = wrench(x)
-        return (twist_basis(q, theta).T @ w)[free]
+        return (twist_basis(q, theta, base).T @ w)[free]
 
     def stiffness(x: np.ndarray) -> np.ndarray:
         q, w, dw = wrench(x)
-        b = twist_basis(q, theta)
-        return (b.T @ dw @ b + geometric_tangent(q, w, theta))[np.ix_(free, free)]
+        b = twist_basis(q, theta, base)
+        return (b.T @ dw @ b + geometric_tangent(q, w, theta, base))[np.ix_(free, free)]
 
-    return Drive(lambda x: pose(full(x), theta),
-                  lambda x: twist_basis(full(x), theta)[:, free], load, stiffness,
+    return Drive(lambda x: pose(full(x), theta, base),
+                  lambda x: twist_basis(full(x), theta, base)[:, free], load, stiffness,
                   np.asarray(q_ef, dtype=float)[free], full)
 
 

@@ -15,7 +15,7 @@ from fecheck.errors import FecheckError
 from fecheck.model.plausibility import after_solve
 from fecheck.model.results import RunResult
 from fecheck.model.rigid import run_rigid
-from fecheck.model.scanned import bundle_springs, run_scanned
+from fecheck.model.scanned import bundle_parts, bundle_springs, run_scanned
 from fecheck.model.sides import with_layer_compression
 from fecheck.model.sphere_plane import ligament_parts, run_contact_model
 from fecheck.scene import Scene
@@ -57,5 +57,5 @@ def ligament_springs(scene: Scene) -> list[Callable]:
     """The ligament springs (wrench parts of the pose) the scene's run adds to contact,
     load and gravity: the scanned knee's bundles or the three spring ligaments."""
     if scene["scanned.ligaments"] != "none":
-        return bundle_springs(scene)[1]
+        return bundle_parts(bundle_springs(scene)[1])
     return ligament_parts(scene)[0] if scene["model.kind"] == "sphere-plane" else []

@@ -50,7 +50,7 @@ from fecheck.model.reuse import reusable
 from fecheck.scene import Scene, surfaces
 from fecheck.scene.bundles import read_bundles
 from fecheck.scene.constants import COMPARTMENTS
-from fecheck.statics.ligaments import SpringLigament, transition_strain_check
+from fecheck.statics.ligaments import SpringLigament, SpringSet, transition_strain_check
 from geometry.cache import cached_arrays
 from geometry.cap import spherical_cap
 from geometry.decimate import decimate
@@ -193,18 +193,27 @@ def bundle_springs(scene: Scene) -> tuple[tuple[str, ...], list[SpringLigament]]
     return tuple(b.name for b in out), springs
 
 
-def run_scanned(scene: Scene, warm_start: np.ndarray | None = None) -> RunResult:
-    """Solve a scanned-knee scene (module docstring); same outputs as the other models."""
+def bundle_parts(springs: list[SpringLigament]) -> list[SpringSet]:
+    """The wrench parts of the bundle `springs`: one vectorised `SpringSet` (none: [])."""
+    return [SpringSet.of(springs)] if springs else []
+
+
+def run_scanned(scene: Scene, warm_start: np.ndarray | None = None,
+                flexion: tuple[float, np.ndarray] | None = None,
+                built: tuple | None = None) -> RunResult:
+    """Solve a scanned-knee scene (module docstring); same outputs as the other models.
+    `flexion` = (θx rad, Q (3, 3)) as in `solve_equilibrium`; `built` = (compartments,
+    bundle names, bundle springs) already built for this scene (a flexion angle)."""
     if scene["constraints.equal_forces"]:
         raise FecheckError("constraints.equal_forces is not available for the scanned models")
     if scene["model.kind"] != "sphere-plane" and scene["ligaments.model"] != "none":
         raise FecheckError("the scanned models take the scanned knee's own ligament bundles "
                            "(scanned.ligaments = 'bundles'); set ligaments.model = 'none'")
     t_start = time.perf_counter()
-    comps = build_compartments(scene)
-    names, springs = bundle_springs(scene)
+    comps, names, springs = built or (build_compartments(scene), *bundle_springs(scene))
     t_built = time.perf_counter()
-    eq = solve_equilibrium(scene, comps, springs, (), warm_start)
+    eq = solve_equilibrium(scene, comps, bundle_parts(springs), (), warm_start, flexion,
+                           check=built is None)
     sol, rot, t = eq.solution, eq.rot, eq.t
     compartments = compartment_results(comps, eq)
     ligaments = {}
@@ -233,5 +242,6 @@ def run_scanned(scene: Scene, warm_start: np.ndarray | None = None) -> RunResult
               "per_evaluation_us": 1e6 * contact.contact_seconds / max(contact.evaluations, 1)}
     return RunResult(scene["name"] or scene.source, scene["model.kind"], scene["contact.law"],
                      sol.converged, sol.iterations, sol.residual_norm,
-                     Pose.of(eq.q, math.radians(scene["dofs.flexion_deg"])), compartments,
+                     Pose.of(eq.q, math.radians(scene["dofs.flexion_deg"]) if flexion is None
+                             else flexion[0]), compartments,
                      ligaments, timing, {}, tuple(notes), record)

@@ -22,6 +22,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from fecheck.errors import FecheckError
+from fecheck.statics.frames import skew
 from fecheck.statics.newton import BodyPose, ConstraintFn, Part, point_force, two_point_force
 
 
@@ -90,6 +91,66 @@ class SpringLigament:
     def __call__(self, rot: np.ndarray, t: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         x = rot @ self.tibia_point + t
         return point_force(x, *_pull(self, self.femur_point, x))
+
+
+@dataclass(frozen=True, eq=False)
+class SpringSet:
+    """Many `SpringLigament` s evaluated at once: called with (R, t) it gives the summed
+    wrench (6,) of all their pulls on the tibia and its exact tangent dW/dξ (6, 6), the sum
+    of their `point_force` s in one numpy evaluation.
+
+    femur_points, tibia_points : (n, 3) mm (world; tibia frame)
+    slack_mm, stiffness_N, transition_strain : (n,)
+    """
+
+    femur_points: np.ndarray
+    tibia_points: np.ndarray
+    slack_mm: np.ndarray
+    stiffness_N: np.ndarray
+    transition_strain: np.ndarray
+
+    @classmethod
+    def of(cls, springs: Sequence[SpringLigament]) -> SpringSet:
+        """The set of `springs` (at least one)."""
+        def col(name):
+            return np.array([getattr(s, name) for s in springs], dtype=float)
+
+        return cls(col("femur_point"), col("tibia_point"), col("slack_length_mm"),
+                   col("stiffness_N"), col("transition_strain"))
+
+    def lengths(self, rot: np.ndarray, t: np.ndarray) -> np.ndarray:
+        """(n,) lengths at the tibia pose (R, t), mm."""
+        return np.linalg.norm(self.femur_points - (self.tibia_points @ rot.T + t), axis=1)
+
+    def tensions(self, rot: np.ndarray, t: np.ndarray) -> np.ndarray:
+        """(n,) spring forces at the tibia pose (R, t), N (+ tension)."""
+        strain = (self.lengths(rot, t) - self.slack_mm) / self.slack_mm
+        return blankevoort_tension(strain, self.stiffness_N, self.transition_strain)[0]
+
+    def __call__(self, rot: np.ndarray, t: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        x = self.tibia_points @ rot.T + t
+        d = self.femur_points - x
+        length = np.linalg.norm(d, axis=1)
+        if np.any(length < 1e-9):
+            raise FecheckError("a ligament's attachments coincide (zero length); check the "
+                               "knee landmarks")
+        u = d / length[:, None]
+        l0 = self.slack_mm
+        f, df = blankevoort_tension((length - l0) / l0, self.stiffness_N,
+                                    self.transition_strain)
+        force = f[:, None] * u
+        # the pull's Jacobian with x: -f'/l0·uuᵀ - f/l·(I - uuᵀ), per spring (n, 3, 3)
+        uu = u[:, :, None] * u[:, None, :]
+        jac = -(df / l0)[:, None, None] * uu - (f / length)[:, None, None] * (np.eye(3) - uu)
+        xs, fs = skew(x), skew(force)
+        lower = xs @ jac - fs                       # dM/dx (n, 3, 3): [x]×J - [F]×
+        dw = np.zeros((6, 6))
+        dw[:3, :3] = jac.sum(axis=0)
+        dw[:3, 3:] = -(jac @ xs).sum(axis=0)
+        dw[3:, :3] = lower.sum(axis=0)
+        dw[3:, 3:] = -(lower @ xs).sum(axis=0)
+        return np.concatenate([force.sum(axis=0), np.cross(x, force).sum(axis=0)]), dw
+
 
 
 def _pull(spring, a: np.ndarray, x: np.ndarray) -> tuple[np.ndarray, np.ndarray]:

@@ -115,15 +115,16 @@ def _geometric(t: np.ndarray, wrench: np.ndarray, axes: Sequence[np.ndarray]) ->
     return k
 
 
-def body_basis(q: np.ndarray) -> np.ndarray:
+def body_basis(q: np.ndarray, base: np.ndarray | None = None) -> np.ndarray:
     """B (6, 6): the twist ξ = (v, ω) about the world origin for δq (mm, rad)."""
-    _, t, axes = _frame(q)
+    _, t, axes = _frame(q, base)
     return _basis(t, axes)
 
 
-def body_geometric(q: np.ndarray, wrench: np.ndarray) -> np.ndarray:
+def body_geometric(q: np.ndarray, wrench: np.ndarray, base: np.ndarray | None = None
+                   ) -> np.ndarray:
     """Σ_k (∂B/∂q_k)ᵀ·W e_kᵀ (6, 6): the tangent part from B's dependence on q."""
-    _, t, axes = _frame(q)
+    _, t, axes = _frame(q, base)
     return _geometric(t, wrench, axes)
 
 
@@ -132,19 +133,23 @@ def tibia_coordinates(q: np.ndarray, theta_x: float = 0.0) -> np.ndarray:
     return np.array([q[0], q[1], q[2], theta_x, q[3], q[4]], dtype=float)
 
 
-def pose(q: np.ndarray, theta_x: float = 0.0) -> BodyPose:
-    """Rotation R and translation t (mm) of the tibia for q = (x, y, z, θy, θz)."""
-    return body_pose(tibia_coordinates(q, theta_x))
+def pose(q: np.ndarray, theta_x: float = 0.0, base: np.ndarray | None = None) -> BodyPose:
+    """Rotation R and translation t (mm) of the tibia for q = (x, y, z, θy, θz) (`base`:
+    the axes the angles turn about, as in `Body`)."""
+    return body_pose(tibia_coordinates(q, theta_x), base)
 
 
-def twist_basis(q: np.ndarray, theta_x: float = 0.0) -> np.ndarray:
+def twist_basis(q: np.ndarray, theta_x: float = 0.0, base: np.ndarray | None = None
+                ) -> np.ndarray:
     """B (6, 5) of the tibia's q = (x, y, z, θy, θz) (mm, rad)."""
-    return np.ascontiguousarray(body_basis(tibia_coordinates(q, theta_x))[:, TIBIA_COORDINATES])
+    b = body_basis(tibia_coordinates(q, theta_x), base)
+    return np.ascontiguousarray(b[:, TIBIA_COORDINATES])
 
 
-def geometric_tangent(q: np.ndarray, wrench: np.ndarray, theta_x: float = 0.0) -> np.ndarray:
+def geometric_tangent(q: np.ndarray, wrench: np.ndarray, theta_x: float = 0.0,
+                      base: np.ndarray | None = None) -> np.ndarray:
     """Σ_k (∂B/∂q_k)ᵀ·W e_kᵀ (5, 5) of the tibia's q = (x, y, z, θy, θz)."""
-    k = body_geometric(tibia_coordinates(q, theta_x), wrench)
+    k = body_geometric(tibia_coordinates(q, theta_x), wrench, base)
     return k[np.ix_(TIBIA_COORDINATES, TIBIA_COORDINATES)]
 
 

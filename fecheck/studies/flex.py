@@ -152,6 +152,7 @@ class FlexPoint:
     ligaments : {bundle: tension N}
     rot, t : the tibia's pose; fields : {compartment: face pressure MPa (n_faces,)}
     iterations, seconds : Newton iterations and wall time of this angle
+    q : (5,) the solved coordinates (x, y, z mm, θy, θz rad) with the flexion held
     """
 
     flexion_deg: float
@@ -165,6 +166,7 @@ class FlexPoint:
     fields: dict
     iterations: int
     seconds: float
+    q: np.ndarray | None = None
 
     def row(self) -> dict:
         """Flat CSV row: kinematics, compartments, ligament groups (N)."""
@@ -185,7 +187,7 @@ class FlexPoint:
 class FlexRun:
     """A flexion run: axis, solved points, build time and wall time of the angles after
     it (s), and how it ended (`stopped`: None when every angle was solved, else the
-    one-line reason)."""
+    one-line reason); `fe`: the FE cross-check rows of the --fe-at angles (`fe_row`)."""
 
     axis: FlexionAxis
     points: list[FlexPoint]
@@ -193,6 +195,7 @@ class FlexRun:
     slaves: dict
     stopped: str | None = None
     sweep_seconds: float = 0.0
+    fe: list[dict] = field(default_factory=list)
 
 
 def scene_axis(scene: Scene) -> FlexionAxis:
@@ -243,9 +246,34 @@ def _warm(axis: FlexionAxis, q_rot: np.ndarray, phi: float, ab: float, ie: float
     return np.array([t[0], t[1], t[2], ab, ie])
 
 
+def parse_fe_at(text: str | None, angles: np.ndarray) -> list[float]:
+    """The --fe-at angles (deg), each one of the sweep's `angles` ([] for None).
+
+    >>> parse_fe_at("0,10", parse_angles("0:10:5"))
+    [0.0, 10.0]
+    """
+    if text is None:
+        return []
+    try:
+        out = [float(v) for v in re.split(r"[,\s]+", text.strip())]
+    except ValueError:
+        raise FecheckError(f"--fe-at {text!r}: give a comma list of flexion angles, "
+                           "degrees") from None
+    missing = [a for a in out if not np.any(np.isclose(angles, a, rtol=0.0, atol=1e-9))]
+    if missing:
+        raise FecheckError(f"--fe-at {text!r}: {', '.join(f'{a:g}' for a in missing)}° not "
+                           f"among the --angles ({angles[0]:g} to {angles[-1]:g}°, "
+                           f"{len(angles)} angles): give angles of the sweep")
+    return out
+
+
 def run_flex(scene: Scene, angles: Sequence[float], axis: FlexionAxis,
-             progress: Callable[[int, FlexPoint], None] | None = None) -> FlexRun:
-    """Solve the scene at every flexion angle (deg) in turn, each from the last.
+             progress: Callable[[int, FlexPoint], None] | None = None,
+             fe_at: Sequence[float] = (), fe_log: Callable[[str], None] | None = None
+             ) -> FlexRun:
+    """Solve the scene at every flexion angle (deg) in turn, each from the last, then
+    the FE cross-check at the solved angles of `fe_at` (`fe_row`; `fe_log` gets its
+    progress).
 
     A failure at an angle (no equilibrium, no convergence, contact lost in a compartment:
     the femoral cartilage ran out) stops the run with `stopped` naming the angle; Ctrl-C
@@ -265,7 +293,75 @@ def run_flex(scene: Scene, angles: Sequence[float], axis: FlexionAxis,
         run.stopped = f"interrupted at flexion {angles[len(run.points)]:g}°"
     finally:
         run.sweep_seconds = time.perf_counter() - t_built
+    for p in run.points:
+        if any(math.isclose(p.flexion_deg, a, abs_tol=1e-9) for a in fe_at):
+            run.fe.append(fe_row(scene, p, axis, (comps, names, springs), fe_log))
     return run
+
+
+def fe_row(scene: Scene, point: FlexPoint, axis: FlexionAxis, built: tuple,
+           log: Callable[[str], None] | None = None) -> dict:
+    """The FE cross-check (`fecheck.fe.crosscheck.cross_check`, joint mode by default) of
+    one solved angle: the EF run at the angle's pose (`run_scanned` from its q, the
+    flexion held about the axis), the FE from there with the same flexion held and the
+    other DOFs free under the same load, gravity and ligaments.
+
+    Returns {flexion_deg, balance (the largest free-DOF imbalance at the FE pose over
+    the load: forces / load.force_N, moments / (100 mm · load.force_N)), fe_seconds,
+    ef_seconds, and per compartment FE and EF p_max (face-averaged, MPa), area (mm²),
+    split (share of the summed force magnitudes), centre of pressure x, y (mm, tibia
+    frame) and their distance (mm)}, `check`: the `CrossCheck`.
+    """
+    from fecheck.fe.crosscheck import cross_check
+    from fecheck.model.scanned import run_scanned
+
+    flexion = (-math.radians(point.flexion_deg), axis_rotation(axis.direction))
+    if log is not None:
+        log(f"the FE cross-check at flexion {point.flexion_deg:g}°")
+    t0 = time.perf_counter()
+    ef = run_scanned(scene, point.q, flexion, built)
+    ef_seconds = time.perf_counter() - t0
+    check = cross_check(scene, log=log, ef=(ef, ef_seconds), flexion=flexion)
+    row = {"flexion_deg": point.flexion_deg, "balance": fe_balance(scene, check, flexion),
+           "fe_seconds": check.timing_s["fe"], "ef_seconds": ef_seconds}
+    splits = {side: check.split(side) for side in ("fe", "ef_model")}
+    for name, chk in check.compartments.items():
+        fe_cop, ef_cop = (np.full(3, math.nan) if c is None else np.asarray(c, dtype=float)
+                          for c in (chk.fe.center_of_pressure_mm,
+                                    chk.ef_model.center_of_pressure_mm))
+        row.update({f"{name}_fe_p_max_MPa": float(np.nanmax(chk.fe_face_pressure_MPa)),
+                    f"{name}_ef_p_max_MPa": chk.ef_model.max_pressure_MPa,
+                    f"{name}_fe_area_mm2": chk.fe.area_mm2,
+                    f"{name}_ef_area_mm2": chk.ef_model.area_mm2,
+                    f"{name}_fe_split": splits["fe"][name],
+                    f"{name}_ef_split": splits["ef_model"][name],
+                    f"{name}_fe_cop_x_mm": fe_cop[0], f"{name}_fe_cop_y_mm": fe_cop[1],
+                    f"{name}_ef_cop_x_mm": ef_cop[0], f"{name}_ef_cop_y_mm": ef_cop[1],
+                    f"{name}_cop_distance_mm": chk.cop_distance_mm})
+    return row | {"check": check}
+
+
+def fe_balance(scene: Scene, check, flexion: tuple[float, np.ndarray]) -> float:
+    """The largest generalised force on the free DOFs at the FE pose of `check` (load,
+    gravity, ligaments and the FE contact forces on the tibia) over the load: forces /
+    load.force_N, moments / (100 mm · load.force_N); zero at equilibrium."""
+    from fecheck.model.assembly import applied_load, free_indices
+    from fecheck.model.run import ligament_springs
+    from fecheck.statics.newton import pose, twist_basis
+
+    p = check.pose["fe"]
+    q = np.array([p["x_mm"], p["y_mm"], p["z_mm"], math.radians(p["abduction_deg"]),
+                  math.radians(p["internal_deg"])])
+    rot, t = pose(q, *flexion)
+    total = sum(part(rot, t)[0] for part in [applied_load(scene), *ligament_springs(scene)])
+    for chk in check.compartments.values():
+        x = chk.layer.surface.points @ rot.T + t
+        f = -chk.fe_force_N[:, None] * (chk.layer.solid.normals @ rot.T)
+        total = total + np.concatenate([f.sum(axis=0), np.cross(x, f).sum(axis=0)])
+    free = list(free_indices(scene))
+    residual = (twist_basis(q, *flexion).T @ total)[free]
+    scale = np.where(np.array(free) < 3, 1.0, 100.0) * scene["load.force_N"]
+    return float(np.abs(residual / scale).max())
 
 
 def _sweep(scene: Scene, angles: Sequence[float], axis: FlexionAxis, run: FlexRun, comps,
@@ -273,8 +369,10 @@ def _sweep(scene: Scene, angles: Sequence[float], axis: FlexionAxis, run: FlexRu
     """The angles of `run_flex` in turn, appended to `run.points` (`run.stopped` set
     where they stop)."""
     from fecheck.model.equilibrium import compartment_results, solve_equilibrium
+    from fecheck.model.scanned import bundle_parts
 
     names, springs = bundles
+    parts = bundle_parts(springs)
     q_rot = axis_rotation(axis.direction)
     sign = 1.0 if scene["knee.side"] == "right" else -1.0
     warm, ab, ie, d = None, 0.0, 0.0, np.zeros(3)
@@ -283,7 +381,7 @@ def _sweep(scene: Scene, angles: Sequence[float], axis: FlexionAxis, run: FlexRu
         if run.points:
             warm = _warm(axis, q_rot, phi, ab, ie, d)
         try:
-            eq = solve_equilibrium(scene, comps, springs, (), warm, (-phi, q_rot),
+            eq = solve_equilibrium(scene, comps, parts, (), warm, (-phi, q_rot),
                                    check=i == 0)
         except FecheckError as err:
             run.stopped = f"flexion {phi_deg:g}°: {err}{_edge_note(scene, run.points)}"
@@ -368,4 +466,4 @@ def _point(scene: Scene, comps, eq, results: dict, names, springs, axis: Flexion
     d = q_rot.T @ (rot @ axis.point + t - axis.point)
     return FlexPoint(float(phi_deg), math.degrees(eq.q[3]), sign * math.degrees(eq.q[4]), d,
                      compartments, ligaments, rot, t, fields, eq.solution.iterations,
-                     eq.seconds)
+                     eq.seconds, np.asarray(eq.q, dtype=float))

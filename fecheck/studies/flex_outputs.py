@@ -47,7 +47,8 @@ def json_text(run: FlexRun) -> str:
                                 for k, (c, r) in axis.spheres.items()}},
            "build_seconds": run.build_seconds, "stopped": run.stopped,
            "angles": [{**{k: _num(v) for k, v in p.row().items()},
-                       "ligaments_N": p.ligaments} for p in run.points]}
+                       "ligaments_N": p.ligaments} for p in run.points],
+           "fe": [{k: _num(v) for k, v in r.items() if k != "check"} for r in run.fe]}
     return json.dumps(doc, indent=2) + "\n"
 
 
