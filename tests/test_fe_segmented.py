@@ -165,15 +165,3 @@ def test_voxel_knee_fe_matches_the_smooth_knees_own_fe(voxel_fe, own_fe):
     5 % of the smooth knee's own FE at the default settings."""
     assert np.all(np.abs(_face_peak(voxel_fe) / _face_peak(own_fe) - 1) < 0.05)
     assert np.all(np.abs(_area(voxel_fe) / _area(own_fe) - 1) < 0.05)
-
-
-def test_fine_voxel_knee_fe_matches_the_smooth_knees_own_fe(tmp_path, own_fe):
-    """At 0.3 mm voxels the terraces (0.3 mm steps) are narrower than the default
-    smoothing length (fe.smooth_mm 4 mm, the femoral surface over 8 mm): knee import -> fe
-    at the default settings gives the face-averaged p_max and the area within 5 % of the
-    smooth knee's own FE."""
-    chk = cross_check(load_scene(_import(tmp_path, write_voxel_knee(tmp_path, 0.3, bones=False)),
-                                 []), log=None)
-    assert all(c.layer.to_ef is not None for c in chk.compartments.values())
-    assert np.all(np.abs(_face_peak(chk) / _face_peak(own_fe) - 1) < 0.05)
-    assert np.all(np.abs(_area(chk) / _area(own_fe) - 1) < 0.05)
