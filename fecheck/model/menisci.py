@@ -46,6 +46,7 @@ import math
 import os
 import time
 from collections.abc import Sequence
+from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
@@ -61,6 +62,7 @@ from fecheck.model.plausibility import before_solve
 from fecheck.model.results import Pose, RunResult, SolveRecord
 from fecheck.scene import Scene
 from fecheck.scene.constants import COMPARTMENTS
+from fecheck.scene.load import with_values
 from fecheck.scene.packaged import PACKAGE_PREFIX, data_dir
 from fecheck.scene.surfaces import read_surface
 from fecheck.statics.frames import rot_y
@@ -71,6 +73,7 @@ from fecheck.statics.newton import (
     TIBIA_COORDINATES,
     Body,
     Problem,
+    Solution,
     body_basis,
     body_pose,
     on_body,
@@ -261,6 +264,67 @@ def build_problem(scene: Scene):
     return problem, interfaces, springs, comps, sides
 
 
+REFERENCE = {"load.force_N": 800.0, "menisci.youngs_MPa": 1.0}
+"""The packaged scene's load and meniscus modulus, where the solve from the start pose
+converges (24 iterations): the start of the continuation (`solve_continued`)."""
+CONTINUATION_ITERATIONS = 60
+"""Newton iterations allowed for each step of the continuation before the step is halved."""
+MIN_STEP = 1.0 / 64
+"""Smallest continuation step (of the path from `REFERENCE` to the scene's values)."""
+
+
+def _started(problem: Problem, q: Sequence[np.ndarray], max_iterations: int) -> Problem:
+    """`problem` started at body coordinates `q` with at most `max_iterations`."""
+    bodies = tuple(replace(b, q_start=np.array(qb, dtype=float))
+                   for b, qb in zip(problem.bodies, q, strict=True))
+    return replace(problem, bodies=bodies, max_iterations=max_iterations)
+
+
+def solve_continued(scene: Scene, problem: Problem) -> tuple[Solution, list[dict]]:
+    """Solve the knee with menisci, by continuation where the direct solve fails.
+
+    The direct Newton solve from the start pose is tried first (its answer is kept where
+    it converges). Where it does not (e.g. 200 or 2000 N, or a 120 MPa meniscus: the
+    nearly free menisci are pushed up to 10 mm into the femoral cartilage, where the
+    closed-volume depth no longer has one value per pose, and the line search fails),
+    the load and the meniscus modulus are moved geometrically from `REFERENCE` to the
+    scene's values, each step started from the last converged equilibrium and halved
+    when it does not converge in `CONTINUATION_ITERATIONS`, down to `MIN_STEP`. The last
+    step solves the scene's own problem. Returns the solution and one record per solve
+    (fraction of the path, load N, modulus MPa, converged, iterations).
+    """
+    sol = solve(problem)
+    steps = [{"path": 1.0, "load_N": scene["load.force_N"],
+              "youngs_MPa": scene["menisci.youngs_MPa"], "converged": sol.converged,
+              "iterations": sol.iterations}]
+    if sol.converged:
+        return sol, steps
+    target = {k: scene[k] for k in REFERENCE}
+    done, step, q = 0.0, 1.0, None
+    while done < 1.0 and step >= MIN_STEP:
+        s = min(1.0, done + step) if q is not None else 0.0
+        values = {k: REFERENCE[k] * (target[k] / REFERENCE[k]) ** s for k in REFERENCE}
+        if s == 1.0:
+            values = target
+        sub = problem if s == 1.0 else build_problem(with_values(
+            scene, load__force_N=values["load.force_N"],
+            menisci__youngs_MPa=values["menisci.youngs_MPa"]))[0]
+        start = sub if q is None else _started(sub, q, CONTINUATION_ITERATIONS)
+        trial = solve(start)
+        steps.append({"path": s, "load_N": values["load.force_N"],
+                      "youngs_MPa": values["menisci.youngs_MPa"],
+                      "converged": trial.converged, "iterations": trial.iterations})
+        if trial.converged:
+            done, q, step = s, trial.q, min(1.0, 2.0 * step)
+            if s == 1.0:
+                return trial, steps
+        elif q is None:
+            break                                   # the reference itself fails
+        else:
+            step *= 0.5
+    return sol, steps
+
+
 def footprint_outline(volume, rot: np.ndarray, t: np.ndarray) -> np.ndarray:
     """(k, 2, 3) world segments (mm) of the edge of a closed meniscus volume's footprint
     at pose x = R p + t: the edges that bound its downward-facing faces (world n_z < 0),
@@ -328,7 +392,7 @@ def run_menisci(scene: Scene, warm_start: np.ndarray | None = None) -> RunResult
     t_start = time.perf_counter()
     problem, interfaces, springs, comps, sides = build_problem(scene)
     t_built = time.perf_counter()
-    sol = solve(problem)
+    sol, _ = solve_continued(scene, problem)
     seconds = time.perf_counter() - t_built
     poses = [body_pose(q) for q in sol.q]
     rot, t = poses[TIBIA]
