@@ -281,3 +281,26 @@ def test_fe_and_flex_refuse_the_menisci_they_do_not_model(monkeypatch):
     with pytest.raises(FecheckError, match=r"flex does not carry the menisci.*menisci.dir"):
         flex.check_kind(scene)
     flex.check_kind(load_scene("femur_tibia_menisci", ["menisci.dir=''"]))
+
+
+@pytest.mark.parametrize("load_n", [200.0, 2000.0])
+def test_packaged_knee_balances_at_200_and_2000_N(load_n):
+    # The solve from the start pose fails at these loads (the menisci are pushed through
+    # the femoral cartilage); the run converges by continuation from the 800 N
+    # equilibrium. Forces at the run's poses are summed here from the interfaces and
+    # springs: each meniscus carries no net force and the tibia balances load and weight
+    # along z, to 1e-8 of the load.
+    scene = load_scene("femur_tibia_menisci", [f"load.force_N={load_n}"])
+    result = run_scene(scene)
+    assert result.converged
+    problem, interfaces, springs, _, _ = menisci.build_problem(scene)
+    q = [np.asarray(result.menisci["poses"][b.name]["q"]) if b.free else b.q_start
+         for b in problem.bodies]
+    poses = [body_pose(qb) for qb in q]
+    for body in (2, 3):                                      # medial, lateral meniscus
+        assert np.abs(_forces_on(body, interfaces, springs, poses)).max() <= 1e-8 * load_n
+    on_tibia = _forces_on(menisci.TIBIA, interfaces, springs, poses)
+    assert on_tibia[2] + load_n - TIBIA_KG * GRAVITY_MPS2 == pytest.approx(
+        0.0, abs=1e-8 * load_n)
+    assert max(menisci.balance(problem, q).values()) <= 1e-8 * load_n
+    assert result.menisci["solves"][-1]["load_N"] == load_n

@@ -34,9 +34,16 @@ menisci.json: the tibia and the menisci start at G⁻¹ composed with the scene'
 pose, where the menisci just touch the femur and the cartilages are 2.3 mm apart. The
 menisci carry no weight (about 1 g each).
 
+The equilibrium is solved from the start pose; where that does not converge (the nearly
+free menisci pushed deep into the femoral cartilage, e.g. at 200 or 2000 N or with a
+120 MPa meniscus), by continuation from the packaged 800 N, 1 MPa equilibrium
+(`solve_continued`).
+
 Result (`MenisciResult`, in `RunResult.menisci`): per compartment the axial load into the
 tibia through the meniscus and through cartilage-cartilage contact and the meniscal share of
-their sum, each body's pose, and each body's balance on its free coordinates.
+their sum, each body's pose, each body's balance on its free coordinates, and the solves
+("solves": the direct one, then the continuation's steps); the run's iterations are their
+sum.
 """
 
 from __future__ import annotations
@@ -189,7 +196,7 @@ def _interfaces(scene: Scene, folder: Path, comps, index: dict[str, int]) -> lis
     out = [Interface(c.name, c.pair, c.law, TIBIA, FEMUR) for c in comps]
     law, femur, tibia = meniscus_law(scene), femoral_master(scene), tibial_slaves(scene)
     opts = {"method": scene["contact.detection"], "area": scene["contact.area"],
-            "margin_mm": scene["contact.margin_mm"]}
+            "margin_mm": scene["contact.margin_mm"], "mesh_sign": "winding"}
     for side, body in index.items():
         volume = read_volume(folder, side)
         out.append(Interface(f"{side} femur-meniscus", ContactPair(femur, volume, **opts),
@@ -392,7 +399,7 @@ def run_menisci(scene: Scene, warm_start: np.ndarray | None = None) -> RunResult
     t_start = time.perf_counter()
     problem, interfaces, springs, comps, sides = build_problem(scene)
     t_built = time.perf_counter()
-    sol, _ = solve_continued(scene, problem)
+    sol, steps = solve_continued(scene, problem)
     seconds = time.perf_counter() - t_built
     poses = [body_pose(q) for q in sol.q]
     rot, t = poses[TIBIA]
@@ -410,14 +417,16 @@ def run_menisci(scene: Scene, warm_start: np.ndarray | None = None) -> RunResult
                "balance_N": balance(problem, sol.q),
                "poses": {b.name: {"q": [float(v) for v in q]}
                          for b, q in zip(problem.bodies, sol.q, strict=True) if b.free},
-               "ligaments_N": {n: s.tension(poses) for n, s in springs.items()}}
+               "ligaments_N": {n: s.tension(poses) for n, s in springs.items()},
+               "solves": steps}
     q_tibia = sol.q[TIBIA][list(TIBIA_COORDINATES)]
     record = SolveRecord(0, {i.name: i.pair.slave.n_faces for i in interfaces},
                          {i.name: i.pair.describe() for i in interfaces}, tuple(sol.history))
     timing = {"total": time.perf_counter() - t_start, "build": t_built - t_start,
               "solve": seconds}
     return RunResult(scene["name"] or scene.source, scene["model.kind"], scene["contact.law"],
-                     sol.converged, sol.iterations, sol.residual_norm, Pose.of(q_tibia),
+                     sol.converged, sum(s["iterations"] for s in steps), sol.residual_norm,
+                     Pose.of(q_tibia),
                      compartments, {}, timing, {}, tuple(not_converged_note(sol)), record,
                      menisci, {s: {k: m[k] for k in ("pressure_MPa", "outline")}
                                for s, m in maps.items()})
