@@ -15,7 +15,14 @@ compartment:
   surface as the master, or the cartilage sheet as the master of the meniscus surface,
   gives the depth's side-of-normal sign jumps behind the sheet's rim
   (`fecheck.contact.mesh_master`), which a meniscus reaching past the cartilage's edge
-  (43-76 mm² of each) turns into force jumps that stall Newton.
+  (43-76 mm² of each) turns into force jumps that stall Newton. Inside or outside the
+  volume is its generalised winding number, with the tree's closest face: the side of the
+  closest face's normal put femoral cartilage points outside the medial meniscus's
+  anterior rim up to 7.3 mm inside it (25 N of spurious force at the 800 N pose), and a
+  closest-face walk from the last call can stop at a local closest face of the thin
+  rim; either made the contact wrench depend on the calls before, not on the pose alone,
+  and stalled the line search (200 and 2000 N and a 120 MPa meniscus did not converge,
+  800 N took 24 iterations; now 9-13 iterations from 200 to 2000 N and 1 to 120 MPa).
 
 A meniscus interface uses the linear EF of the law registry (contact.law = "ef") with the
 meniscus layer (menisci.youngs_MPa, menisci.poisson, menisci.thickness_mm: smith2019's
@@ -34,16 +41,9 @@ menisci.json: the tibia and the menisci start at G⁻¹ composed with the scene'
 pose, where the menisci just touch the femur and the cartilages are 2.3 mm apart. The
 menisci carry no weight (about 1 g each).
 
-The equilibrium is solved from the start pose; where that does not converge (the nearly
-free menisci pushed deep into the femoral cartilage, e.g. at 200 or 2000 N or with a
-120 MPa meniscus), by continuation from the packaged 800 N, 1 MPa equilibrium
-(`solve_continued`).
-
 Result (`MenisciResult`, in `RunResult.menisci`): per compartment the axial load into the
 tibia through the meniscus and through cartilage-cartilage contact and the meniscal share of
-their sum, each body's pose, each body's balance on its free coordinates, and the solves
-("solves": the direct one, then the continuation's steps); the run's iterations are their
-sum.
+their sum, each body's pose, and each body's balance on its free coordinates.
 """
 
 from __future__ import annotations
@@ -53,7 +53,6 @@ import math
 import os
 import time
 from collections.abc import Sequence
-from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
@@ -69,7 +68,6 @@ from fecheck.model.plausibility import before_solve
 from fecheck.model.results import Pose, RunResult, SolveRecord
 from fecheck.scene import Scene
 from fecheck.scene.constants import COMPARTMENTS
-from fecheck.scene.load import with_values
 from fecheck.scene.packaged import PACKAGE_PREFIX, data_dir
 from fecheck.scene.surfaces import read_surface
 from fecheck.statics.frames import rot_y
@@ -80,7 +78,6 @@ from fecheck.statics.newton import (
     TIBIA_COORDINATES,
     Body,
     Problem,
-    Solution,
     body_basis,
     body_pose,
     on_body,
@@ -196,7 +193,7 @@ def _interfaces(scene: Scene, folder: Path, comps, index: dict[str, int]) -> lis
     out = [Interface(c.name, c.pair, c.law, TIBIA, FEMUR) for c in comps]
     law, femur, tibia = meniscus_law(scene), femoral_master(scene), tibial_slaves(scene)
     opts = {"method": scene["contact.detection"], "area": scene["contact.area"],
-            "margin_mm": scene["contact.margin_mm"], "mesh_sign": "winding"}
+            "margin_mm": scene["contact.margin_mm"], "mesh_sign": "normal"}
     for side, body in index.items():
         volume = read_volume(folder, side)
         out.append(Interface(f"{side} femur-meniscus", ContactPair(femur, volume, **opts),
@@ -271,67 +268,6 @@ def build_problem(scene: Scene):
     return problem, interfaces, springs, comps, sides
 
 
-REFERENCE = {"load.force_N": 800.0, "menisci.youngs_MPa": 1.0}
-"""The packaged scene's load and meniscus modulus, where the solve from the start pose
-converges (24 iterations): the start of the continuation (`solve_continued`)."""
-CONTINUATION_ITERATIONS = 60
-"""Newton iterations allowed for each step of the continuation before the step is halved."""
-MIN_STEP = 1.0 / 64
-"""Smallest continuation step (of the path from `REFERENCE` to the scene's values)."""
-
-
-def _started(problem: Problem, q: Sequence[np.ndarray], max_iterations: int) -> Problem:
-    """`problem` started at body coordinates `q` with at most `max_iterations`."""
-    bodies = tuple(replace(b, q_start=np.array(qb, dtype=float))
-                   for b, qb in zip(problem.bodies, q, strict=True))
-    return replace(problem, bodies=bodies, max_iterations=max_iterations)
-
-
-def solve_continued(scene: Scene, problem: Problem) -> tuple[Solution, list[dict]]:
-    """Solve the knee with menisci, by continuation where the direct solve fails.
-
-    The direct Newton solve from the start pose is tried first (its answer is kept where
-    it converges). Where it does not (e.g. 200 or 2000 N, or a 120 MPa meniscus: the
-    nearly free menisci are pushed up to 10 mm into the femoral cartilage, where the
-    closed-volume depth no longer has one value per pose, and the line search fails),
-    the load and the meniscus modulus are moved geometrically from `REFERENCE` to the
-    scene's values, each step started from the last converged equilibrium and halved
-    when it does not converge in `CONTINUATION_ITERATIONS`, down to `MIN_STEP`. The last
-    step solves the scene's own problem. Returns the solution and one record per solve
-    (fraction of the path, load N, modulus MPa, converged, iterations).
-    """
-    sol = solve(problem)
-    steps = [{"path": 1.0, "load_N": scene["load.force_N"],
-              "youngs_MPa": scene["menisci.youngs_MPa"], "converged": sol.converged,
-              "iterations": sol.iterations}]
-    if sol.converged:
-        return sol, steps
-    target = {k: scene[k] for k in REFERENCE}
-    done, step, q = 0.0, 1.0, None
-    while done < 1.0 and step >= MIN_STEP:
-        s = min(1.0, done + step) if q is not None else 0.0
-        values = {k: REFERENCE[k] * (target[k] / REFERENCE[k]) ** s for k in REFERENCE}
-        if s == 1.0:
-            values = target
-        sub = problem if s == 1.0 else build_problem(with_values(
-            scene, load__force_N=values["load.force_N"],
-            menisci__youngs_MPa=values["menisci.youngs_MPa"]))[0]
-        start = sub if q is None else _started(sub, q, CONTINUATION_ITERATIONS)
-        trial = solve(start)
-        steps.append({"path": s, "load_N": values["load.force_N"],
-                      "youngs_MPa": values["menisci.youngs_MPa"],
-                      "converged": trial.converged, "iterations": trial.iterations})
-        if trial.converged:
-            done, q, step = s, trial.q, min(1.0, 2.0 * step)
-            if s == 1.0:
-                return trial, steps
-        elif q is None:
-            break                                   # the reference itself fails
-        else:
-            step *= 0.5
-    return sol, steps
-
-
 def footprint_outline(volume, rot: np.ndarray, t: np.ndarray) -> np.ndarray:
     """(k, 2, 3) world segments (mm) of the edge of a closed meniscus volume's footprint
     at pose x = R p + t: the edges that bound its downward-facing faces (world n_z < 0),
@@ -399,7 +335,7 @@ def run_menisci(scene: Scene, warm_start: np.ndarray | None = None) -> RunResult
     t_start = time.perf_counter()
     problem, interfaces, springs, comps, sides = build_problem(scene)
     t_built = time.perf_counter()
-    sol, steps = solve_continued(scene, problem)
+    sol = solve(problem)
     seconds = time.perf_counter() - t_built
     poses = [body_pose(q) for q in sol.q]
     rot, t = poses[TIBIA]
@@ -417,16 +353,14 @@ def run_menisci(scene: Scene, warm_start: np.ndarray | None = None) -> RunResult
                "balance_N": balance(problem, sol.q),
                "poses": {b.name: {"q": [float(v) for v in q]}
                          for b, q in zip(problem.bodies, sol.q, strict=True) if b.free},
-               "ligaments_N": {n: s.tension(poses) for n, s in springs.items()},
-               "solves": steps}
+               "ligaments_N": {n: s.tension(poses) for n, s in springs.items()}}
     q_tibia = sol.q[TIBIA][list(TIBIA_COORDINATES)]
     record = SolveRecord(0, {i.name: i.pair.slave.n_faces for i in interfaces},
                          {i.name: i.pair.describe() for i in interfaces}, tuple(sol.history))
     timing = {"total": time.perf_counter() - t_start, "build": t_built - t_start,
               "solve": seconds}
     return RunResult(scene["name"] or scene.source, scene["model.kind"], scene["contact.law"],
-                     sol.converged, sum(s["iterations"] for s in steps), sol.residual_norm,
-                     Pose.of(q_tibia),
+                     sol.converged, sol.iterations, sol.residual_norm, Pose.of(q_tibia),
                      compartments, {}, timing, {}, tuple(not_converged_note(sol)), record,
                      menisci, {s: {k: m[k] for k in ("pressure_MPa", "outline")}
                                for s, m in maps.items()})
