@@ -193,7 +193,7 @@ def _interfaces(scene: Scene, folder: Path, comps, index: dict[str, int]) -> lis
     out = [Interface(c.name, c.pair, c.law, TIBIA, FEMUR) for c in comps]
     law, femur, tibia = meniscus_law(scene), femoral_master(scene), tibial_slaves(scene)
     opts = {"method": scene["contact.detection"], "area": scene["contact.area"],
-            "margin_mm": scene["contact.margin_mm"], "mesh_sign": "normal"}
+            "margin_mm": scene["contact.margin_mm"], "mesh_sign": "winding"}
     for side, body in index.items():
         volume = read_volume(folder, side)
         out.append(Interface(f"{side} femur-meniscus", ContactPair(femur, volume, **opts),
