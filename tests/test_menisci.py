@@ -302,3 +302,24 @@ def test_packaged_knee_balances_at_200_and_2000_N(load_n):
     assert on_tibia[2] + load_n - TIBIA_KG * GRAVITY_MPS2 == pytest.approx(
         0.0, abs=1e-8 * load_n)
     assert all(i.max_depth_mm < 2.0 for i in interfaces)    # no spurious deep points
+
+
+def test_winding_sign_depth_does_not_depend_on_the_call_before():
+    # A 2 mm thin closed box (a meniscus's rim in small): a flat patch 0.9 mm below its
+    # top, then moved 0.2 mm down, is 1.1 mm below the top and 0.9 mm above the bottom;
+    # the depth is the distance to the nearest face, 0.9 mm, as a fresh pair finds it
+    # (a walk from the last call's closest face, the top, stops there: 1.1 mm).
+    master = box((-20.0, -20.0, -1.0), (20.0, 20.0, 1.0))
+    patch = plane_patch((0.0, 0.0, 0.0), (0.0, 0.0, 1.0), radius=2.0, size=0.5,
+                        cache=False)
+    eye, world = np.eye(3), (np.eye(3), np.zeros(3))
+
+    def pair():
+        return ContactPair(patch, master, method="bvh", mesh_sign="winding")
+
+    warm = pair()
+    assert warm.evaluate((eye, np.array([0.0, 0.0, 0.1])), world).max_depth == (
+        pytest.approx(0.9, abs=1e-9))
+    moved = (eye, np.array([0.0, 0.0, -0.1]))
+    assert warm.evaluate(moved, world).max_depth == pytest.approx(0.9, abs=1e-9)
+    assert pair().evaluate(moved, world).max_depth == pytest.approx(0.9, abs=1e-9)
