@@ -74,22 +74,21 @@ def test_tibia_and_menisci_balance_at_800_N(intact):
 
 def test_meniscal_share_splits_each_compartments_load(intact, results):
     # Per compartment the meniscus and cartilage-cartilage loads into the tibia are both
-    # compressive and the share is their ratio; with the ligaments' small vertical pull,
-    # the four loads add up to the load less the tibia's weight (1e-8, the balance)
-    # plus the ligaments' z pull on the tibia (computed here).
+    # compressive and the share is their ratio; the four loads are the contact force on
+    # the tibia (summed here from the interfaces) along its axis a, whose z component
+    # balances the load less the tibia's weight plus the ligaments' z pull on the tibia
+    # (computed here), to 1e-8 of the load (x and y of the tibia are held).
     _, _, interfaces, springs, sol = intact
     rows = results[0].menisci["compartments"]
     poses = [body_pose(q) for q in sol.q]
-    lig_z = 0.0
-    for s in springs.values():
-        if menisci.TIBIA in (s.body_a, s.body_b):
-            x_a, x_b = s.ends(poses)
-            lig_z += -s.tension(poses) * (x_b - x_a)[2] / np.linalg.norm(x_a - x_b)
+    lig_z = _forces_on(menisci.TIBIA, [], springs, poses)[2]
+    contact = _forces_on(menisci.TIBIA, interfaces, {}, poses)
     carried = sum(r["meniscus_N"] + r["cartilage_N"] for r in rows.values())
-    rot = poses[menisci.TIBIA][0]
-    assert abs(rot[2, 2] - 1.0) < 1e-4                         # axial ≈ z: ~0.3° tilt
-    assert carried * rot[2, 2] == pytest.approx(LOAD_N - TIBIA_KG * GRAVITY_MPS2 + lig_z,
-                                                rel=2e-4)
+    axis = poses[menisci.TIBIA][0][:, 2]
+    assert abs(axis[2] - 1.0) < 1e-4                           # axial ≈ z: ~0.3° tilt
+    assert carried == pytest.approx(-contact @ axis, rel=1e-12)
+    assert -contact[2] == pytest.approx(LOAD_N - TIBIA_KG * GRAVITY_MPS2 + lig_z,
+                                        abs=1e-8 * LOAD_N)
     for r in rows.values():
         assert r["meniscus_N"] > 0 and r["cartilage_N"] > 0
         assert 0 < r["meniscal_share"] < 1
@@ -281,3 +280,46 @@ def test_fe_and_flex_refuse_the_menisci_they_do_not_model(monkeypatch):
     with pytest.raises(FecheckError, match=r"flex does not carry the menisci.*menisci.dir"):
         flex.check_kind(scene)
     flex.check_kind(load_scene("femur_tibia_menisci", ["menisci.dir=''"]))
+
+
+@pytest.mark.parametrize("load_n", [200.0, 2000.0])
+def test_packaged_knee_balances_at_200_and_2000_N(load_n):
+    # These loads did not converge while the meniscus interfaces' depth depended on the
+    # calls before (side-of-normal sign, closest-face walk). Forces at the run's poses are
+    # summed here by interfaces and springs built afresh (no evaluation history): each
+    # meniscus carries no net force and the tibia balances load and weight along z, to
+    # 1e-8 of the load.
+    scene = load_scene("femur_tibia_menisci", [f"load.force_N={load_n}"])
+    result = run_scene(scene)
+    assert result.converged
+    problem, interfaces, springs, _, _ = menisci.build_problem(scene)
+    q = [np.asarray(result.menisci["poses"][b.name]["q"]) if b.free else b.q_start
+         for b in problem.bodies]
+    poses = [body_pose(qb) for qb in q]
+    for body in (2, 3):                                      # medial, lateral meniscus
+        assert np.abs(_forces_on(body, interfaces, springs, poses)).max() <= 1e-8 * load_n
+    on_tibia = _forces_on(menisci.TIBIA, interfaces, springs, poses)
+    assert on_tibia[2] + load_n - TIBIA_KG * GRAVITY_MPS2 == pytest.approx(
+        0.0, abs=1e-8 * load_n)
+    assert all(i.max_depth_mm < 2.0 for i in interfaces)    # no spurious deep points
+
+
+def test_winding_sign_depth_does_not_depend_on_the_call_before():
+    # A 2 mm thin closed box (a meniscus's rim in small): a flat patch 0.9 mm below its
+    # top, then moved 0.2 mm down, is 1.1 mm below the top and 0.9 mm above the bottom;
+    # the depth is the distance to the nearest face, 0.9 mm, as a fresh pair finds it
+    # (a walk from the last call's closest face, the top, stops there: 1.1 mm).
+    master = box((-20.0, -20.0, -1.0), (20.0, 20.0, 1.0))
+    patch = plane_patch((0.0, 0.0, 0.0), (0.0, 0.0, 1.0), radius=2.0, size=0.5,
+                        cache=False)
+    eye, world = np.eye(3), (np.eye(3), np.zeros(3))
+
+    def pair():
+        return ContactPair(patch, master, method="bvh", mesh_sign="winding")
+
+    warm = pair()
+    assert warm.evaluate((eye, np.array([0.0, 0.0, 0.1])), world).max_depth == (
+        pytest.approx(0.9, abs=1e-9))
+    moved = (eye, np.array([0.0, 0.0, -0.1]))
+    assert warm.evaluate(moved, world).max_depth == pytest.approx(0.9, abs=1e-9)
+    assert pair().evaluate(moved, world).max_depth == pytest.approx(0.9, abs=1e-9)

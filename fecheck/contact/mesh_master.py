@@ -203,7 +203,11 @@ class MeshMaster:
             if settled:
                 return state, out
         y = cand.points @ R.T + t
-        depth, grad, face = self._query(y, None if state is None else state.face)
+        # the winding sign takes the tree's closest face: a walk from the last one can stop
+        # at a local closest face inside a thin closed master (a meniscus's rim), which
+        # makes the depth depend on the calls before
+        warm = state is not None and self.sign == "normal"
+        depth, grad, face = self._query(y, state.face if warm else None)
         return WalkState.start(face, y, depth, self._ring_width), mesh_surface(
             clipped, True, cand.local_faces, y, depth, grad, cand.normals, cand.areas, Rm, tm,
             Rs)

@@ -15,7 +15,14 @@ compartment:
   surface as the master, or the cartilage sheet as the master of the meniscus surface,
   gives the depth's side-of-normal sign jumps behind the sheet's rim
   (`fecheck.contact.mesh_master`), which a meniscus reaching past the cartilage's edge
-  (43-76 mm² of each) turns into force jumps that stall Newton.
+  (43-76 mm² of each) turns into force jumps that stall Newton. Inside or outside the
+  volume is its generalised winding number, with the tree's closest face: the side of the
+  closest face's normal put femoral cartilage points outside the medial meniscus's
+  anterior rim up to 7.3 mm inside it (25 N of spurious force at the 800 N pose), and a
+  closest-face walk from the last call can stop at a local closest face of the thin
+  rim; either made the contact wrench depend on the calls before, not on the pose alone,
+  and stalled the line search (200 and 2000 N and a 120 MPa meniscus did not converge,
+  800 N took 24 iterations; now 9-13 iterations from 200 to 2000 N and 1 to 120 MPa).
 
 A meniscus interface uses the linear EF of the law registry (contact.law = "ef") with the
 meniscus layer (menisci.youngs_MPa, menisci.poisson, menisci.thickness_mm: smith2019's
@@ -186,7 +193,7 @@ def _interfaces(scene: Scene, folder: Path, comps, index: dict[str, int]) -> lis
     out = [Interface(c.name, c.pair, c.law, TIBIA, FEMUR) for c in comps]
     law, femur, tibia = meniscus_law(scene), femoral_master(scene), tibial_slaves(scene)
     opts = {"method": scene["contact.detection"], "area": scene["contact.area"],
-            "margin_mm": scene["contact.margin_mm"]}
+            "margin_mm": scene["contact.margin_mm"], "mesh_sign": "winding"}
     for side, body in index.items():
         volume = read_volume(folder, side)
         out.append(Interface(f"{side} femur-meniscus", ContactPair(femur, volume, **opts),
