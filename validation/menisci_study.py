@@ -7,10 +7,11 @@ menisci as free rigid bodies, EF contact, full extension) is solved
 * at 200-2000 N with smith2019's meniscus layer (1 MPa, ν 0.45, 3 mm, lumped with one
   cartilage layer as smith2019 does);
 * at 800 N with the meniscus modulus 1 MPa (smith2019's meniscus contact mesh), 5 MPa
-  (smith2019's cartilage), 20 MPa (Donahue et al. 2002, J. Biomech. Eng. 124:273-280:
-  the meniscus's radial and axial modulus E_r = E_z, the one an EF column compresses)
-  and 120 MPa (Donahue 2002's circumferential E_θ, an upper bound: the hoop stiffness is
-  no compressive modulus);
+  (smith2019's cartilage), 20 MPa (the radial and axial modulus E_r = E_z quoted for the
+  meniscus of Donahue et al. 2002, J. Biomech. Eng. 124:273-280, the one an EF column
+  compresses) and 120 MPa (of the order of the circumferential modulus E_θ quoted for that
+  meniscus, 140 MPa in `fecheck.fe.anisotropy`, an upper bound: the hoop stiffness is no
+  compressive modulus); the values are quoted from citing studies, not read in the paper;
 * at 800 N with the two layers in series instead of lumped (the model before the lumped
   convention); with each meniscus held in the plateau's plane (menisci.free = z, flexion,
   abduction: x, y and internal rotation ride on the tibia), which shows how much of the
