@@ -7,7 +7,7 @@ own assumption) and ``"two-layer"`` (each cartilage extruded toward its own bone
 own thickness, frictionless contact between them), from the same EF equilibrium. Per
 compartment: force, vertex p_max, p_max averaged on the EF faces, contact area, centre of
 pressure (tibia frame) and its shift between the models; the medial/lateral split; the
-largest penetration and the balance of the free DOFs (N, relative to the load); the FE
+largest penetration and the balance of the free DOFs (`fecheck.fe.balance`); the FE
 time (build, condense, contact) and the process's peak memory. Times are wall clock on
 a shared machine.
 
@@ -33,11 +33,10 @@ from pathlib import Path
 
 import numpy as np
 
+from fecheck.fe.balance import free_dof_balance
 from fecheck.fe.crosscheck import cross_check
-from fecheck.model.assembly import applied_load, free_indices
 from fecheck.model.run import run_scene
 from fecheck.scene import load_scene
-from fecheck.statics.newton import pose, twist_basis
 
 if __name__ == "__main__" and not __package__:  # python validation/x.py: as python -m
     sys.path[0] = str(Path(__file__).resolve().parents[1])
@@ -48,27 +47,10 @@ SCENE = Path(__file__).resolve().parent / "scenes" / "femur_tibia.toml"
 MODELS = ("series", "two-layer")
 
 
-def balance(scene, check) -> float:
-    """Largest generalised force left on the free DOFs at the FE pose (load, gravity and
-    the FE contact forces), relative to the load."""
-    p = check.pose["fe"]
-    q = np.array([p["x_mm"], p["y_mm"], p["z_mm"], math.radians(p["abduction_deg"]),
-                  math.radians(p["internal_deg"])])
-    theta = math.radians(scene["dofs.flexion_deg"])
-    rot, t = pose(q, theta)
-    total = applied_load(scene)(rot, t)[0]
-    for chk in check.compartments.values():
-        lay = chk.layer
-        x = lay.surface.points @ rot.T + t
-        f = -chk.fe_force_N[:, None] * (lay.solid.normals @ rot.T)
-        total = total + np.concatenate([f.sum(axis=0), np.cross(x, f).sum(axis=0)])
-    free = (twist_basis(q, theta).T @ total)[list(free_indices(scene))]
-    return float(np.abs(free).max() / scene["load.force_N"])
-
-
 def rows_of(scene, check, model: str, wall_s: float) -> list[dict]:
     """One row per compartment of one model's cross-check."""
     split = check.split("fe")
+    balance = free_dof_balance(scene, check, (math.radians(scene["dofs.flexion_deg"]),))
     out = []
     for name, chk in check.compartments.items():
         cop = chk.fe.center_of_pressure_mm
@@ -77,7 +59,7 @@ def rows_of(scene, check, model: str, wall_s: float) -> list[dict]:
                     "p_max_faces_MPa": float(np.nanmax(chk.fe_face_pressure_MPa)),
                     "area_mm2": chk.fe.area_mm2, "cop_x_mm": cop[0], "cop_y_mm": cop[1],
                     "cop_z_mm": cop[2], "penetration_mm": chk.max_penetration_mm,
-                    "balance": balance(scene, check), "dofs": check.geometry["dofs"],
+                    "balance": balance, "dofs": check.geometry["dofs"],
                     "fe_s": check.timing_s["fe"], "build_s": check.timing_s["fe_build"],
                     "condense_s": check.timing_s["fe_condense"],
                     "contact_s": check.timing_s["fe_contact"], "wall_s": wall_s,

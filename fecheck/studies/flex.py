@@ -28,6 +28,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from fecheck.errors import FecheckError
+from fecheck.fe.balance import free_dof_balance
 from fecheck.scene import Scene
 from geometry.mesh import TriMesh
 
@@ -322,7 +323,7 @@ def fe_row(scene: Scene, point: FlexPoint, axis: FlexionAxis, built: tuple,
     ef = run_scanned(scene, point.q, flexion, built)
     ef_seconds = time.perf_counter() - t0
     check = cross_check(scene, log=log, ef=(ef, ef_seconds), flexion=flexion)
-    row = {"flexion_deg": point.flexion_deg, "balance": fe_balance(scene, check, flexion),
+    row = {"flexion_deg": point.flexion_deg, "balance": free_dof_balance(scene, check, flexion),
            "fe_seconds": check.timing_s["fe"], "ef_seconds": ef_seconds}
     splits = {side: check.split(side) for side in ("fe", "ef_model")}
     for name, chk in check.compartments.items():
@@ -339,29 +340,6 @@ def fe_row(scene: Scene, point: FlexPoint, axis: FlexionAxis, built: tuple,
                     f"{name}_ef_cop_x_mm": ef_cop[0], f"{name}_ef_cop_y_mm": ef_cop[1],
                     f"{name}_cop_distance_mm": chk.cop_distance_mm})
     return row | {"check": check}
-
-
-def fe_balance(scene: Scene, check, flexion: tuple[float, np.ndarray]) -> float:
-    """The largest generalised force on the free DOFs at the FE pose of `check` (load,
-    gravity, ligaments and the FE contact forces on the tibia) over the load: forces /
-    load.force_N, moments / (100 mm · load.force_N); zero at equilibrium."""
-    from fecheck.model.assembly import applied_load, free_indices
-    from fecheck.model.run import ligament_springs
-    from fecheck.statics.newton import pose, twist_basis
-
-    p = check.pose["fe"]
-    q = np.array([p["x_mm"], p["y_mm"], p["z_mm"], math.radians(p["abduction_deg"]),
-                  math.radians(p["internal_deg"])])
-    rot, t = pose(q, *flexion)
-    total = sum(part(rot, t)[0] for part in [applied_load(scene), *ligament_springs(scene)])
-    for chk in check.compartments.values():
-        x = chk.layer.surface.points @ rot.T + t
-        f = -chk.fe_force_N[:, None] * (chk.layer.solid.normals @ rot.T)
-        total = total + np.concatenate([f.sum(axis=0), np.cross(x, f).sum(axis=0)])
-    free = list(free_indices(scene))
-    residual = (twist_basis(q, *flexion).T @ total)[free]
-    scale = np.where(np.array(free) < 3, 1.0, 100.0) * scene["load.force_N"]
-    return float(np.abs(residual / scale).max())
 
 
 def _sweep(scene: Scene, angles: Sequence[float], axis: FlexionAxis, run: FlexRun, comps,
