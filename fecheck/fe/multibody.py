@@ -1,0 +1,248 @@
+"""Deformable solids in frictionless contact with each other and with one rigid indenter
+under load control: the core of the FE with menisci.
+
+A `Body` is an assembled linear elastic solid reduced to its kept dofs (stiffness K,
+N/mm, symmetric positive definite once its supports, symmetry planes and anchors are
+removed) with, for each node, the kept dof of each displacement component (-1: a fixed
+component, zero displacement). A body that floats along some directions (a meniscus
+between the femur and the tibia) keeps those rigid translations t_k as unknowns: one dof
+per direction is anchored to make K positive definite, and the translation amplitude
+joins the problem with the body's equilibrium along it (exact: the contact forces that
+solve the problem are self-equilibrated along t_k, so the anchor carries nothing).
+
+A `Pair` pairs slave nodes of one body (unit normals n pointing from the slave to the
+master, reference gaps g0 along n, mm) with the rigid indenter or with a master body,
+hit at master nodes with weights w (the barycentric weights of the master face the
+slave's ray hits, `ray_pairs`; or one matching node, weight 1). With the contact force
+λ ≥ 0 (N) the slave takes −λ n and the master +λ Σ w n, so every gap reads
+
+    g = g0 + (Σ_a w_a u_a − u_s)·n + δ a·n (indenter pairs) = g0 + J δq + C λ,
+
+where the indenter moves by δ along its axis a (pushed with the load F), δq = (δ, t),
+and C = Σ_bodies D_b K_b⁻¹ D_bᵀ (D_b: the gaps' map to body b's kept dofs; one sparse
+factorization and one block solve per body). The mixed complementarity problem
+g ≥ 0, λ ≥ 0, λ·g = 0 with the equilibria Jᵀλ = (−F, 0, ...) is solved exactly by the
+primal-dual active set of `fecheck.fe.contact.active_set`: no penalty. Gaps are in the
+reference configuration (small displacements, pairs fixed). Units: mm, N, MPa.
+"""
+
+from __future__ import annotations
+
+import time
+from collections.abc import Sequence
+from dataclasses import dataclass, field
+
+import numpy as np
+import scipy.sparse as sp
+
+from fecheck.errors import FecheckError
+from fecheck.fe.contact import active_set, factorize
+
+
+@dataclass(frozen=True, eq=False)
+class Body:
+    """An assembled solid: name, kept-dof stiffness K (N/mm), node_dofs (N, d) the kept
+    dof of each node's displacement components (-1: fixed), translations (k, d) the unit
+    rigid translations left free (anchored out of K)."""
+
+    name: str
+    K: sp.spmatrix
+    node_dofs: np.ndarray
+    translations: np.ndarray = field(default_factory=lambda: np.zeros((0, 3)))
+
+
+@dataclass(frozen=True, eq=False)
+class Pair:
+    """Slave `nodes` (m,) of body `slave` with unit `normals` (m, d) toward the master and
+    reference gaps `gap0_mm` (m,); `master` None for the rigid indenter, else a body
+    hit at `master_nodes` (m, k) with `weights` (m, k)."""
+
+    name: str
+    slave: str
+    nodes: np.ndarray
+    normals: np.ndarray
+    gap0_mm: np.ndarray
+    master: str | None = None
+    master_nodes: np.ndarray | None = None
+    weights: np.ndarray | None = None
+
+
+@dataclass(frozen=True)
+class Indenter:
+    """The rigid indenter: unit `axis` (d,) it moves along and is pushed along with
+    `load_N` (N, > 0)."""
+
+    axis: np.ndarray
+    load_N: float
+
+
+@dataclass(frozen=True, eq=False)
+class PairContact:
+    """One pair at the solution: force_N (m,) N, gap_mm (m,) mm, active (m,)."""
+
+    force_N: np.ndarray
+    gap_mm: np.ndarray
+    active: np.ndarray
+
+
+@dataclass(frozen=True, eq=False)
+class MultibodySolution:
+    """pairs: name → PairContact; approach_mm: the indenter's travel along its axis;
+    translations: body → (k,) rigid translations (mm); u: body → kept-dof elastic
+    displacements (mm, without the translations); iterations; timing_s."""
+
+    pairs: dict[str, PairContact]
+    approach_mm: float
+    translations: dict[str, np.ndarray]
+    u: dict[str, np.ndarray]
+    iterations: int
+    timing_s: dict
+
+    @property
+    def max_penetration_mm(self) -> float:
+        """The largest penetration over every pair, mm (≥ 0)."""
+        return float(max(0.0, -min(p.gap_mm.min() for p in self.pairs.values())))
+
+
+def _entries(body: Body, nodes: np.ndarray, coef: np.ndarray, row: np.ndarray
+             ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """(rows, cols, values) of coef (r, d) on `nodes` (r,) of `body` in gap rows `row`,
+    fixed components dropped."""
+    cols = body.node_dofs[nodes]
+    rows = np.broadcast_to(row[:, None], cols.shape)
+    keep = cols >= 0
+    return rows[keep], cols[keep], coef[keep]
+
+
+def _check(bodies: Sequence[Body], pairs: Sequence[Pair], indenter: Indenter) -> dict:
+    names = {b.name: b for b in bodies}
+    if not (np.isfinite(indenter.load_N) and indenter.load_N > 0):
+        raise FecheckError(f"the indenter's load must be a positive number of N, got "
+                           f"{indenter.load_N}")
+    for p in pairs:
+        for who in (p.slave, p.master):
+            if who is not None and who not in names:
+                raise FecheckError(f"contact pair {p.name!r} names body {who!r}, which is "
+                                   f"not among {sorted(names)}")
+        if not np.allclose(np.linalg.norm(p.normals, axis=1), 1.0, atol=1e-9):
+            raise FecheckError(f"contact pair {p.name!r}: the normals must be unit vectors")
+    return names
+
+
+def solve_multibody(bodies: Sequence[Body], pairs: Sequence[Pair], indenter: Indenter, *,
+                    solver: str = "cholmod", max_iter: int = 200, block: int = 512
+                    ) -> MultibodySolution:
+    """Solve the frictionless contact of `bodies` through `pairs` under the indenter's
+    load (module docstring). Returns the forces, gaps and displacements; `FecheckError`
+    when the active set does not settle or a stiffness is singular."""
+    names = _check(bodies, pairs, indenter)
+    timing = {}
+    t0 = time.perf_counter()
+    sizes = [len(p.nodes) for p in pairs]
+    offsets = np.concatenate([[0], np.cumsum(sizes)]).astype(int)
+    m = int(offsets[-1])
+    unknowns = [(None, indenter.axis)] + [(b.name, t) for b in bodies for t in b.translations]
+    J = np.zeros((m, len(unknowns)))
+    entries: dict[str, list] = {b.name: [] for b in bodies}
+    for p, start in zip(pairs, offsets[:-1], strict=True):
+        row = np.arange(start, start + len(p.nodes))
+        entries[p.slave].append(_entries(names[p.slave], p.nodes, -p.normals, row))
+        slave_t = [k for k, (who, _) in enumerate(unknowns) if who == p.slave]
+        for k in slave_t:
+            J[row, k] -= p.normals @ unknowns[k][1]
+        if p.master is None:
+            J[row, 0] = p.normals @ np.asarray(indenter.axis, dtype=float)
+            continue
+        wn = p.weights[:, :, None] * p.normals[:, None, :]                   # (r, k, d)
+        rows = np.repeat(row, p.master_nodes.shape[1])
+        entries[p.master].append(_entries(names[p.master], p.master_nodes.ravel(),
+                                          wn.reshape(-1, wn.shape[2]), rows))
+        for k in (k for k, (who, _) in enumerate(unknowns) if who == p.master):
+            J[row, k] += p.weights.sum(axis=1) * (p.normals @ unknowns[k][1])
+    C = np.zeros((m, m))
+    D, solves = {}, {}
+    for b in bodies:
+        if not entries[b.name]:
+            continue
+        r, c, v = (np.concatenate(x) for x in zip(*entries[b.name], strict=True))
+        D[b.name] = sp.csr_matrix((v, (r, c)), shape=(m, b.K.shape[0]))
+        touched = np.unique(r)
+        solves[b.name] = factorize(b.K, solver)
+        Dt = D[b.name][touched]
+        for s in range(0, len(touched), block):
+            part = slice(s, s + block)
+            X = solves[b.name](Dt[part].T.toarray())
+            C[np.ix_(touched, touched[part])] += Dt @ X
+    C = 0.5 * (C + C.T)
+    timing["condense"] = time.perf_counter() - t0
+    t0 = time.perf_counter()
+    g0 = np.concatenate([p.gap0_mm for p in pairs])
+    Q = np.zeros(len(unknowns))
+    Q[0] = indenter.load_N
+    first = g0 <= g0.min() + 1e-9
+    lam, dq, active, iterations = active_set(C, g0, J, J, Q, np.zeros((len(Q),) * 2), first,
+                                             max_iter, "refine the meshes at the contact "
+                                             "or check the load")
+    gap = g0 + J @ dq + C @ lam
+    timing["active_set"] = time.perf_counter() - t0
+    u = {name: solves[name](D[name].T @ lam) for name in D}
+    if not all(np.all(np.isfinite(x)) for x in u.values()):
+        raise FecheckError("the multibody contact solve produced NaN: a stiffness is singular")
+    out = {p.name: PairContact(lam[a:b], gap[a:b], active[a:b])
+           for p, a, b in zip(pairs, offsets[:-1], offsets[1:], strict=True)}
+    translations = {b.name: dq[[k for k, (who, _) in enumerate(unknowns) if who == b.name]]
+                    for b in bodies}
+    return MultibodySolution(out, float(dq[0]), translations, u, iterations, timing)
+
+
+def ray_pairs(points: np.ndarray, normals: np.ndarray, master_points: np.ndarray,
+              master_faces: np.ndarray, tolerance_mm: float
+              ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Where each ray points + s·normals (m, 3) meets the master surface (triangles
+    `master_faces` on `master_points`): (faces (m,), barycentric weights (m, 3), gaps s
+    (m,) mm; face -1 and gap inf where it misses). A ray that passes outside the surface's
+    rim by at most `tolerance_mm` (a slave vertex on a circle the master's chords cut
+    inside) takes the nearest face, its weights clipped to it."""
+    from scipy.spatial import cKDTree
+
+    from geometry.distance import ray_hits
+    from geometry.mesh import TriMesh
+
+    surface = TriMesh(master_points, master_faces)
+    gap, face = ray_hits(points, normals, surface)
+    miss = face < 0
+    if miss.any():
+        centroids = master_points[master_faces].mean(axis=1)
+        _, near = cKDTree(centroids).query(points[miss], k=min(6, len(centroids)))
+        near = near.reshape(int(miss.sum()), -1)
+        best_d = np.full(len(near), np.inf)
+        for j in range(near.shape[1]):
+            f = near[:, j]
+            w = _barycentric(points[miss], master_points[master_faces[f]], normals[miss])
+            w = np.clip(w, 0.0, None)
+            w /= w.sum(axis=1, keepdims=True)
+            x = np.einsum("mk,mkc->mc", w, master_points[master_faces[f]])
+            s = np.einsum("mc,mc->m", x - points[miss], normals[miss])
+            off = np.linalg.norm(x - points[miss] - s[:, None] * normals[miss], axis=1)
+            better = (off <= tolerance_mm) & (off < best_d)
+            idx = np.flatnonzero(miss)[better]
+            face[idx], gap[idx], best_d[better] = f[better], s[better], off[better]
+    weights = np.zeros((len(points), 3))
+    hit = face >= 0
+    weights[hit] = _barycentric(points[hit] + gap[hit, None] * normals[hit],
+                                master_points[master_faces[face[hit]]], normals[hit])
+    weights[hit] = np.clip(weights[hit], 0.0, None)
+    weights[hit] /= weights[hit].sum(axis=1, keepdims=True)
+    return face, weights, gap
+
+
+def _barycentric(x: np.ndarray, tri: np.ndarray, normals: np.ndarray) -> np.ndarray:
+    """(m, 3) barycentric weights of x (m, 3) projected along `normals` onto the planes of
+    triangles tri (m, 3, 3)."""
+    e1, e2 = tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0]
+    d = x - tri[:, 0]
+    n = normals
+    det = np.einsum("mc,mc->m", n, np.cross(e1, e2))
+    b1 = np.einsum("mc,mc->m", n, np.cross(d, e2)) / det
+    b2 = np.einsum("mc,mc->m", n, np.cross(e1, d)) / det
+    return np.column_stack([1.0 - b1 - b2, b1, b2])
