@@ -180,6 +180,10 @@ def solve_multibody(bodies: Sequence[Body], pairs: Sequence[Pair], indenter: Ind
     Q = np.zeros(len(unknowns))
     Q[0] = indenter.load_N
     first = g0 <= g0.min() + 1e-9
+    for k in range(len(unknowns)):          # each unknown starts with a contact that holds it
+        rows = J[:, k] != 0.0
+        if rows.any() and not (first & rows).any():
+            first[np.argmin(np.where(rows, g0, np.inf))] = True
     lam, dq, active, iterations = active_set(C, g0, J, J, Q, np.zeros((len(Q),) * 2), first,
                                              max_iter, "refine the meshes at the contact "
                                              "or check the load")

@@ -196,10 +196,9 @@ def axisym_ring(case: RingCase, size_mm: float = 0.1, *, meniscus_stiffness=None
     top = np.flatnonzero(np.isclose(pl[1], 0.0))
     top = top[np.argsort(pl[0, top])]
     rt = pl[0, top]
-    central = rt < case.inner_mm - 1e-9
-    under = ~central & (rt <= case.outer_mm + 1e-9)
-    if case.meniscus is None:
-        under[:] = False
+    reach = rt <= case.outer_mm + 1e-9            # without the meniscus: sphere out to r_o
+    central = reach & ((rt < case.inner_mm - 1e-9) | (case.meniscus is None))
+    under = reach & ~central
     gap = R - np.sqrt(R * R - rt[central] ** 2)
     pairs = [Pair("sphere-layer", "layer", top[central], np.tile([0.0, 1.0], (central.sum(), 1)),
                   gap)]
@@ -390,10 +389,9 @@ def solid_ring(case: RingCase, size_mm: float = 0.6) -> RingAnswer:
     rt = np.hypot(lx[:, 0], lx[:, 1])
     on_top = np.zeros(len(lx), dtype=bool)
     on_top[top_faces] = True
-    central = on_top & (rt < ri - tol)
-    under = on_top & (rt >= ri - tol) & (rt <= ro + tol)
-    if case.meniscus is None:
-        under[:] = False
+    reach = on_top & (rt <= ro + tol)             # without the meniscus: sphere out to r_o
+    central = reach & ((rt < ri - tol) | (case.meniscus is None))
+    under = reach & ~central
     nodes = np.flatnonzero(central)
     pairs = [Pair("sphere-layer", "layer", nodes, up(nodes),
                   R - np.sqrt(R * R - rt[nodes] ** 2))]
