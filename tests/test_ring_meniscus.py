@@ -12,7 +12,7 @@ import scipy.sparse as sp
 from fecheck.fe.anisotropy import TransIso
 from fecheck.fe.axisym import axisym_sphere_on_layer, axisym_stiffness
 from fecheck.fe.multibody import Body, Indenter, Pair, ray_pairs, solve_multibody
-from fecheck.fe.ring_meniscus import RingCase, axisym_ring, solid_ring
+from fecheck.fe.ring_meniscus import RingCase, _ring_area, axisym_ring, solid_ring
 
 K1, K2, K3 = 100.0, 50.0, 80.0          # N/mm: base under the block, block, base beside it
 G1, G2, G3 = 0.1, 0.05, 0.2             # mm: indenter-block, block-base, indenter-base
@@ -20,11 +20,11 @@ G1, G2, G3 = 0.1, 0.05, 0.2             # mm: indenter-block, block-base, indent
 
 def _springs(load_N: float):
     """1-D bodies: a base of two grounded springs (K1 under the block, K3 beside it) and
-    a floating block (spring K2 between its bottom and top nodes, bottom anchored, its
+    a floating block (spring K2 between its bottom and top nodes, top anchored, its
     vertical translation free); the indenter moves down (-1) onto the block's top and the
     base's second node."""
     base = Body("base", sp.diags([K1, K3]).tocsc(), np.array([[0], [1]]), np.zeros((0, 1)))
-    block = Body("block", sp.csc_matrix([[K2]]), np.array([[-1], [0]]), np.array([[1.0]]))
+    block = Body("block", sp.csc_matrix([[K2]]), np.array([[0], [-1]]), np.array([[1.0]]))
     up = np.ones((1, 1))
     pairs = [Pair("indenter-block", "block", np.array([1]), up, np.array([G1])),
              Pair("block-base", "base", np.array([0]), up, np.array([G2]), "block",
@@ -37,13 +37,18 @@ def test_springs_in_series_and_in_parallel_match_hand_values():
     # Both paths closed: the block path (1/K1 + 1/K2 = 0.03 mm/N) after G1 + G2, the
     # direct one (K3) after G3; δ = (F + (G1 + G2)/0.03 + K3 G3) / (1/0.03 + K3) = 0.45 mm
     # at F = 30 N: 10 N through the block, 20 N beside it. The base node under the block
-    # sinks 10/K1 = 0.1 mm, so the block's bottom (its translation) is at -0.15 mm.
+    # sinks 10/K1 = 0.1 mm, the block's bottom 0.15 mm, its top (anchored: the block's
+    # translation) 0.15 + 10/K2 = 0.35 mm.
     sol = _springs(30.0)
     assert sol.approach_mm == pytest.approx(0.45, rel=1e-12)
     assert sol.pairs["indenter-block"].force_N[0] == pytest.approx(10.0, rel=1e-12)
     assert sol.pairs["block-base"].force_N[0] == pytest.approx(10.0, rel=1e-12)
     assert sol.pairs["indenter-base"].force_N[0] == pytest.approx(20.0, rel=1e-12)
-    assert sol.translations["block"][0] == pytest.approx(-0.15, rel=1e-12)
+    assert sol.translations["block"][0] == pytest.approx(-0.35, rel=1e-12)
+    # elastic displacements: the base's nodes sink F/K (0.1, 0.25 mm); the block's bottom
+    # rises 10/K2 = 0.2 mm against its anchored top (the sign of each force's direction)
+    np.testing.assert_allclose(sol.u["base"], [-0.1, -0.25], rtol=1e-12)
+    np.testing.assert_allclose(sol.u["block"], [0.2], rtol=1e-12)
     assert sol.max_penetration_mm < 1e-12
 
 
@@ -69,6 +74,18 @@ def test_rays_meet_the_master_face_at_hand_weights_and_snap_at_the_rim():
     np.testing.assert_allclose(weights[1], [0.0, 0.5, 0.5], atol=1e-12)
     np.testing.assert_allclose(gap[:2], 0.5, atol=1e-12)
     assert np.isinf(gap[2])
+
+
+def test_ring_area_extrapolates_p_squared_past_the_last_contact_node():
+    # Outward end: q = p² = 9, 4, 1 at r = 0, 1, 2, then free: the last segment's slope
+    # (-3 per mm) reaches 0 at r = 7/3. Inward end (an annulus lifting off at its inner
+    # rim): q = 1, 4, 4 at r = 2, 3, 4, free at 1: slope 3 per mm, edge at r = 5/3.
+    outward = _ring_area(np.arange(4.0), np.array([3.0, 2.0, 1.0, 0.0]),
+                         np.array([True, True, True, False]))
+    assert outward == pytest.approx(np.pi * (7 / 3) ** 2, rel=1e-12)
+    inward = _ring_area(np.arange(1.0, 5.0), np.array([0.0, 1.0, 2.0, 2.0]),
+                        np.array([False, True, True, True]))
+    assert inward == pytest.approx(np.pi * (16 - 25 / 9), rel=1e-12)
 
 
 def test_without_the_meniscus_the_sphere_on_layer_reference_is_recovered():
