@@ -365,6 +365,28 @@ def _baseline_3d(size_mm: float):
                                 size_mm=max(2.0, size_mm), layers=3, grading=1.6).metrics
 
 
+@lru_cache(maxsize=2)
+def _ring_axisym():
+    """The axisymmetric ring-meniscus reference at 0.1 mm."""
+    from fecheck.fe.ring_meniscus import RingCase, axisym_ring
+
+    return axisym_ring(RingCase(), 0.1)
+
+
+@lru_cache(maxsize=4)
+def _ring_3d(size_mm: float):
+    from fecheck.fe.ring_meniscus import RingCase, solid_ring
+
+    return solid_ring(RingCase(), size_mm)
+
+
+def ring_meniscus(size_mm: float, quantity: str) -> Sample:
+    """The ring meniscus (`fecheck.fe.ring_meniscus`: 300 N, R 25, ring 6-12 mm, hoop
+    fibres) by the 3-D quarter model at element `size_mm` against the axisymmetric FE at
+    0.1 mm: `quantity` "share", "p_max_MPa" or "area_mm2" of the layer."""
+    return getattr(_ring_3d(size_mm), quantity), getattr(_ring_axisym(), quantity)
+
+
 def fe3d_layer(size_mm: float, quantity: str) -> Sample:
     """The general 3-D FE contact path (`fecheck.fe.sphere_layer`: extruded P2 layer, 3
     levels through 6 mm, exact frictionless contact) of the baseline medial contact
