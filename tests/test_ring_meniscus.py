@@ -18,7 +18,7 @@ K1, K2, K3 = 100.0, 50.0, 80.0          # N/mm: base under the block, block, bas
 G1, G2, G3 = 0.1, 0.05, 0.2             # mm: indenter-block, block-base, indenter-base
 
 
-def _springs(load_N: float):
+def _springs(load_N: float, solver: str = "cholmod"):
     """1-D bodies: a base of two grounded springs (K1 under the block, K3 beside it) and
     a floating block (spring K2 between its bottom and top nodes, top anchored, its
     vertical translation free); the indenter moves down (-1) onto the block's top and the
@@ -30,16 +30,18 @@ def _springs(load_N: float):
              Pair("block-base", "base", np.array([0]), up, np.array([G2]), "block",
                   np.array([[0]]), np.ones((1, 1))),
              Pair("indenter-base", "base", np.array([1]), up, np.array([G3]))]
-    return solve_multibody([base, block], pairs, Indenter(np.array([-1.0]), load_N))
+    return solve_multibody([base, block], pairs, Indenter(np.array([-1.0]), load_N),
+                           solver=solver)
 
 
-def test_springs_in_series_and_in_parallel_match_hand_values():
+@pytest.mark.parametrize("solver", ["cholmod", "superlu"])
+def test_springs_in_series_and_in_parallel_match_hand_values(solver):
     # Both paths closed: the block path (1/K1 + 1/K2 = 0.03 mm/N) after G1 + G2, the
     # direct one (K3) after G3; δ = (F + (G1 + G2)/0.03 + K3 G3) / (1/0.03 + K3) = 0.45 mm
     # at F = 30 N: 10 N through the block, 20 N beside it. The base node under the block
     # sinks 10/K1 = 0.1 mm, the block's bottom 0.15 mm, its top (anchored: the block's
     # translation) 0.15 + 10/K2 = 0.35 mm.
-    sol = _springs(30.0)
+    sol = _springs(30.0, solver)
     assert sol.approach_mm == pytest.approx(0.45, rel=1e-12)
     assert sol.pairs["indenter-block"].force_N[0] == pytest.approx(10.0, rel=1e-12)
     assert sol.pairs["block-base"].force_N[0] == pytest.approx(10.0, rel=1e-12)
