@@ -9,6 +9,7 @@ import numpy as np
 import pytest
 import scipy.sparse as sp
 
+from fecheck.errors import FecheckError
 from fecheck.fe.anisotropy import TransIso
 from fecheck.fe.axisym import axisym_sphere_on_layer, axisym_stiffness
 from fecheck.fe.multibody import Body, Indenter, Pair, ray_pairs, solve_multibody
@@ -88,6 +89,12 @@ def test_ring_area_extrapolates_p_squared_past_the_last_contact_node():
     inward = _ring_area(np.arange(1.0, 5.0), np.array([0.0, 1.0, 2.0, 2.0]),
                         np.array([False, True, True, True]))
     assert inward == pytest.approx(np.pi * (16 - 25 / 9), rel=1e-12)
+
+
+def test_a_clearance_above_the_inner_rim_is_refused():
+    # 1 mm below the sphere leaves no meniscus at r_i (the sphere is 0.73 mm high there)
+    with pytest.raises(FecheckError, match="clearance"):
+        axisym_ring(RingCase(clearance_mm=1.0))
 
 
 def test_without_the_meniscus_the_sphere_on_layer_reference_is_recovered():
