@@ -24,9 +24,11 @@ R, RHO, N_RING, N_ROUND = 15.0, 2.5, 56, 16
 """Torus segment: centreline radius and tube radius (mm), rings along the arc (5 deg apart)
 and points round each circular section."""
 CENTRE = np.array([-20.0, 2.0, 1.0])
-PHI_A, PHI_P = math.radians(40.0), math.radians(320.0)
-"""The torus segment runs counter-clockwise from its anterior tip (+40 deg, y > 0) to its
-posterior one (320 deg), its opening facing +x like a medial meniscus's."""
+TORI = {"opening +x": (math.radians(40.0), math.radians(320.0), 1.0),
+        "opening -x": (math.radians(220.0), math.radians(500.0), -1.0)}
+"""Torus segments from angle φ0 counter-clockwise to φ1 about the axis through CENTRE
+along z, and +1 when the anterior tip (y > 0) is at φ0, -1 at φ1: the opening faces +x
+(like a medial meniscus, the arc counter-clockwise) or -x (lateral, clockwise)."""
 POLYGON_AREA = 0.5 * N_ROUND * RHO ** 2 * math.sin(2 * math.pi / N_ROUND)
 """Area of the faceted section at a ring, mm² (a regular 16-gon of circumradius RHO)."""
 
@@ -36,15 +38,15 @@ def packaged(side: str) -> ms.MeniscusSolid:
     return ms.meniscus_solid(PACKAGED, side)
 
 
-def torus_segment() -> TriMesh:
-    """Closed outward surface of the torus segment (rings of N_ROUND points, fan caps)."""
-    theta = np.linspace(PHI_A, PHI_P, N_RING + 1)
+def torus_segment(phi0: float, phi1: float) -> TriMesh:
+    """Closed outward surface of a torus segment (rings of N_ROUND points, fan caps)."""
+    theta = np.linspace(phi0, phi1, N_RING + 1)
     psi = 2 * np.pi * np.arange(N_ROUND) / N_ROUND
     t, p = np.meshgrid(theta, psi, indexing="ij")
     radius = R + RHO * np.cos(p)
     pts = np.stack([radius * np.cos(t), radius * np.sin(t), RHO * np.sin(p)], -1).reshape(-1, 3)
-    ends = np.array([[R * np.cos(PHI_A), R * np.sin(PHI_A), 0.0],
-                     [R * np.cos(PHI_P), R * np.sin(PHI_P), 0.0]])
+    ends = np.array([[R * np.cos(phi0), R * np.sin(phi0), 0.0],
+                     [R * np.cos(phi1), R * np.sin(phi1), 0.0]])
     points = np.vstack([pts, ends]) + CENTRE
     i, j = np.meshgrid(np.arange(N_RING), np.arange(N_ROUND), indexing="ij")
     a, b = i * N_ROUND + j, i * N_ROUND + (j + 1) % N_ROUND
@@ -61,21 +63,27 @@ def torus_segment() -> TriMesh:
 
 
 @functools.cache
-def torus_solid() -> ms.MeniscusSolid:
-    """The torus segment as a `MeniscusSolid` (mesh, centreline, fibres; no labels)."""
-    mesh, _ = ms.solid_mesh(torus_segment(), 1.25, "torus")
+def torus_solid(opening: str = "opening +x") -> ms.MeniscusSolid:
+    """A torus segment of `TORI` as a `MeniscusSolid` (mesh, centreline, fibres; no
+    labels)."""
+    mesh, _ = ms.solid_mesh(torus_segment(*TORI[opening][:2]), 1.25, "torus")
     boundary = mesh.boundaries["boundary"]
     line, fibre, arc = ms.centreline_fibres(mesh, boundary)
     none = np.zeros(len(boundary), dtype=int)
     return ms.MeniscusSolid("torus", mesh, boundary, none, none, fibre, arc, line, {})
 
 
-def exact_hoop(x: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """(unit hoop directions e_θ (n, 3), arc coordinates (n,)) of points x about the
-    torus axis: e_θ = (-sin φ, cos φ, 0), arc = (φ - 40°) / 280°."""
-    phi = np.mod(np.arctan2(x[:, 1] - CENTRE[1], x[:, 0] - CENTRE[0]), 2 * np.pi)
-    return (np.column_stack([-np.sin(phi), np.cos(phi), np.zeros_like(phi)]),
-            (phi - PHI_A) / (PHI_P - PHI_A))
+def exact_hoop(x: np.ndarray, opening: str = "opening +x"
+               ) -> tuple[np.ndarray, np.ndarray]:
+    """(unit hoop directions (n, 3) from the anterior tip on, arc coordinates (n,)) of
+    points x on a torus segment of `TORI`: ±e_θ = ±(-sin φ, cos φ, 0) and the angle from
+    the anterior tip over the segment's 280 deg."""
+    phi0, phi1, sign = TORI[opening]
+    phi = phi0 + np.mod(np.arctan2(x[:, 1] - CENTRE[1], x[:, 0] - CENTRE[0]) - phi0,
+                        2 * np.pi)
+    arc = (phi - phi0) / (phi1 - phi0)
+    return (sign * np.column_stack([-np.sin(phi), np.cos(phi), np.zeros_like(phi)]),
+            arc if sign > 0 else 1.0 - arc)
 
 
 @pytest.mark.parametrize("side", SIDES)
@@ -95,7 +103,9 @@ def test_packaged_meniscus_tetrahedra_fill_its_closed_volume(side):
 
 
 def test_tet_quality_of_a_regular_tetrahedron():
-    """Regular tetrahedron: every dihedral angle arccos(1/3) = 70.53 deg, γ = 1."""
+    """Regular tetrahedron: every dihedral angle arccos(1/3) = 70.53 deg, γ = 1. The corner
+    tetrahedron of legs 1, 2, 4 (its smallest dihedral angle on the edge between its
+    first and third vertices): arccos(1 / √(1 + 1/4 + 1/16)) = 29.21 deg."""
     pts = np.array([[1, 1, 1], [1, -1, -1], [-1, 1, -1], [-1, -1, 1]], dtype=float)
     tets = np.array([[0, 1, 2, 3]])
     if TetMesh(pts, tets).tet_volumes[0] < 0:
@@ -104,6 +114,13 @@ def test_tet_quality_of_a_regular_tetrahedron():
     assert q["min_dihedral_deg"] == pytest.approx(math.degrees(math.acos(1 / 3)), abs=1e-9)
     assert q["min_gamma"] == pytest.approx(1.0, abs=1e-12)
     assert q["volume_mm3"] == pytest.approx(8 / 3, rel=1e-12)
+    corner = np.array([[0, 2, 0], [1, 0, 0], [0, 0, 4], [0, 0, 0]], dtype=float)
+    tets = np.array([[0, 1, 2, 3]])
+    if TetMesh(corner, tets).tet_volumes[0] < 0:
+        tets = tets[:, [0, 3, 2, 1]]
+    q = ms.tet_quality(TetMesh(corner, tets))
+    assert q["min_dihedral_deg"] == pytest.approx(
+        math.degrees(math.acos(1 / math.sqrt(1 + 1 / 4 + 1 / 16))), abs=1e-9)
 
 
 @pytest.mark.parametrize("side", SIDES)
@@ -137,14 +154,14 @@ def test_horns_and_their_root_ligaments(side, tips, stiffness):
     """The arc runs from the anterior horn's end to the posterior one's (the data set
     README's end centroids, the mean of the volume's vertices within 4 deg of each edge of
     the C's opening; within 1.5 mm, 0.8-1.4 mm measured); the anterior horn's
-    nodes lie in the first third of the arc and the posterior's in the last, none on the
-    femoral surface; each horn carries its two root bundles with the README's k/l0 (N/mm)
-    and a node within 1.5 mm of the bundle's meniscal point (README: within 0.9 mm of the
-    surface)."""
+    nodes lie in the first third of the arc and the posterior's in the last, each on a
+    face off the femoral surface; each horn carries its two root bundles with the README's
+    k/l0 (N/mm) and a node within 1.5 mm of the bundle's meniscal point (README: within
+    0.9 mm of the surface)."""
     solid = packaged(side)
     for arc, tip in zip((0.0, 1.0), tips, strict=True):
         assert np.linalg.norm(solid.centreline.at(arc)[0] - tip) <= 1.5
-    sup = np.unique(solid.faces(ms.SUPERIOR))
+    held = np.unique(solid.boundary[solid.face_label != ms.SUPERIOR])
     node_arc = {h: solid.centreline.arc[solid.centreline.closest(solid.mesh.points[
         solid.horns[h].nodes])] for h in ("anterior", "posterior")}
     assert np.median(node_arc["anterior"]) < 1 / 3 < 2 / 3 < np.median(node_arc["posterior"])
@@ -154,20 +171,21 @@ def test_horns_and_their_root_ligaments(side, tips, stiffness):
     assert [lig.stiffness_N_per_mm for lig in ligaments] == pytest.approx(stiffness, abs=0.06)
     for horn in solid.horns.values():
         assert len(horn.nodes) > 50
-        assert not np.isin(horn.nodes, sup).all()
+        assert np.isin(horn.nodes, held).all()
         for lig in horn.ligaments:
             gap = np.linalg.norm(solid.mesh.points[lig.node] - lig.meniscus_mm)
             assert gap == pytest.approx(lig.node_distance_mm, abs=1e-9) and gap <= 1.5
 
 
-def test_torus_fibres_follow_the_hoop_direction():
-    """On the torus segment every element's fibre is the closed-form hoop direction
+@pytest.mark.parametrize("opening", TORI)
+def test_torus_fibres_follow_the_hoop_direction(opening):
+    """On a torus segment (either way round) every element's fibre is the closed-form hoop direction
     e_θ = (-sin φ, cos φ, 0) at its centroid to within 1 deg (0.70 deg measured, at the
     tips, where the fitted series ends) and to 0.25 deg between arc 0.1 and 0.9 (0.17 deg;
     sign: from the anterior tip on), and its arc coordinate is (φ - 40°) / 280° to within
     0.002 (0.0007)."""
-    solid = torus_solid()
-    e, arc = exact_hoop(solid.mesh.points[solid.mesh.tets].mean(axis=1))
+    solid = torus_solid(opening)
+    e, arc = exact_hoop(solid.mesh.points[solid.mesh.tets].mean(axis=1), opening)
     cos = np.einsum("ij,ij->i", solid.fibre, e)
     error_deg = np.degrees(np.arccos(np.clip(cos, -1.0, 1.0)))
     assert error_deg.max() <= 1.0
