@@ -233,6 +233,16 @@ def test_plane_section_of_a_unit_cube_is_its_face_area():
     assert area.sum() == pytest.approx(math.sqrt(2), rel=1e-12)
 
 
+def test_a_scene_names_the_menisci_folder():
+    """A scene's menisci.dir gives the same solid as the folder's name (read from the
+    cache: the same tetrahedra)."""
+    from fecheck.scene.load import load_scene
+
+    solid = ms.meniscus_solid(load_scene("femur_tibia_menisci"), "lateral")
+    assert np.array_equal(solid.mesh.tets, packaged("lateral").mesh.tets)
+    assert np.array_equal(solid.face_label, packaged("lateral").face_label)
+
+
 def test_refusals_come_before_any_meshing(monkeypatch):
     """An unknown side, a size out of range and a stress of the wrong shape are refused on
     one line, before a mesh is built."""

@@ -154,7 +154,8 @@ class MeniscusSolid:
     first points are the boundary's; boundary triangles (m, 3) outward; per boundary face
     its label (`SUPERIOR`, `INFERIOR`, `WALL`) and region (1-3); per element the unit fibre
     direction (nel, 3) and arc coordinate (nel,); the centreline; the horns; mesh quality
-    and timing."""
+    (`tet_quality`) with the STL's volume, the vertices `unfold` moved and the mesh's
+    seconds (built, or read from the cache)."""
 
     side: str
     mesh: TetMesh
