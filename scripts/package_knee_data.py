@@ -50,6 +50,11 @@ MENISCI = "smith2019_menisci"
 MENISCI_FILES = (
     "smith2019_R_meniscus_medial.stl",
     "smith2019_R_meniscus_lateral.stl",
+    *(f"smith2019_R_meniscus_{side}_{face}.stl"
+      for side in ("medial", "lateral") for face in ("superior", "inferior")),
+    *(f"regions/smith2019_R_meniscus_{side}_{face}_{part}.stl"
+      for side in ("medial", "lateral") for face in ("superior", "inferior")
+      for part in ("1_anterior", "2_middle", "3_posterior")),
     "meniscal_ligaments.json",
     "menisci.json",
     "README.md",
@@ -58,9 +63,9 @@ MENISCI_FILES = (
 )
 """The menisci files the scene key ``menisci.dir`` reads (`fecheck.model.menisci`): the two
 closed volumes (their contact surfaces), the meniscal ligaments and contact parameters,
-menisci.json (the femur's smith2019 pose, the files' sha256), README, licence and NOTICE.
-Not packaged: the separate articular surfaces, the regions and preview.png, which the
-rigid-body model does not read."""
+menisci.json (the femur's smith2019 pose, the files' sha256), README, licence and NOTICE;
+and the four articular surfaces and their twelve regions (``regions/``), which label the
+meniscus solids of the FE (`fecheck.fe.meniscus_solid`). Not packaged: preview.png."""
 
 
 def sha256(path: Path) -> str:
@@ -75,15 +80,21 @@ def read_manifest(folder: Path) -> dict[str, str]:
                                                           if line.strip())}
 
 
+def packaged_files(folder: Path) -> set[str]:
+    """The files under `folder`, as paths relative to it (``regions/x.stl``)."""
+    return {p.relative_to(folder).as_posix() for p in folder.rglob("*") if p.is_file()}
+
+
 def build(source: Path, target: Path, files: tuple[str, ...] = FILES) -> None:
     """Copy `files` from `source` to `target` and write their SHA256SUMS."""
     missing = [name for name in files if not (source / name).is_file()]
     if missing:
         sys.exit(f"package_knee_data: {source} lacks {', '.join(missing)}")
     target.mkdir(parents=True, exist_ok=True)
-    for stale in set(p.name for p in target.iterdir()) - set(files) - {MANIFEST}:
+    for stale in packaged_files(target) - set(files) - {MANIFEST}:
         (target / stale).unlink()
     for name in files:
+        (target / name).parent.mkdir(parents=True, exist_ok=True)
         shutil.copyfile(source / name, target / name)
     (target / MANIFEST).write_text("".join(f"{sha256(target / n)}  {n}\n" for n in files),
                                    encoding="utf-8")
@@ -95,7 +106,7 @@ def problems(target: Path, source: Path | None, files: tuple[str, ...] = FILES) 
     manifest = read_manifest(target)
     out = [f"{name}: listed in {MANIFEST} but not a packaged file" for name in files
            if name not in manifest]
-    present = {p.name for p in target.iterdir()} - {MANIFEST}
+    present = packaged_files(target) - {MANIFEST}
     out += [f"{name}: in {target} but not listed in {MANIFEST}" for name in
             sorted(present - set(manifest))]
     for name, digest in manifest.items():

@@ -63,14 +63,14 @@ def test_packaged_menisci_are_the_data_sets_own_files():
     set's own menisci.json records for it, with its licence."""
     listed = package_knee_data.read_manifest(MENISCI)
     assert sorted(listed) == sorted(package_knee_data.MENISCI_FILES)
-    assert {p.name for p in MENISCI.iterdir()} == set(listed) | {"SHA256SUMS"}
+    assert package_knee_data.packaged_files(MENISCI) == set(listed) | {"SHA256SUMS"}
     assert package_knee_data.problems(MENISCI, None, package_knee_data.MENISCI_FILES) == []
     record = json.loads((MENISCI / "menisci.json").read_text())
     recorded = {**record["meshes"], **record["other_files"]}
     for name in listed:
         if name in recorded:
             assert _sha256(MENISCI / name) == recorded[name]["sha256"], name
-    assert sum(name in recorded for name in listed) == 5     # 2 volumes, json, LICENSE, NOTICE
+    assert sum(name in recorded for name in listed) == 21    # 2 + 4 + 12 meshes, 3 others
     assert "Apache License" in (MENISCI / "LICENSE").read_text()
 
 
@@ -115,7 +115,7 @@ def test_pyproject_packages_every_data_file_and_scene():
     globs = tomllib.loads((REPO / "pyproject.toml").read_text())["tool"]["setuptools"][
         "package-data"]["fecheck"]
     shipped = [p.relative_to(REPO / "fecheck").as_posix()
-               for p in [*PACKAGED.iterdir(), *MENISCI.iterdir(),
+               for p in [*PACKAGED.iterdir(), *(p for p in MENISCI.rglob("*") if p.is_file()),
                          *(REPO / "fecheck" / "scenes").glob("*.toml")]]
     missing = [f for f in shipped if not any(fnmatch.fnmatch(f, g) for g in globs)]
     assert not missing

@@ -52,9 +52,11 @@ class TibiaSolid:
     name: str
 
 
-def tetrahedralize(surface: TriMesh, name: str) -> TetMesh:
+def tetrahedralize(surface: TriMesh, name: str, options: dict[str, float] | None = None
+                   ) -> TetMesh:
     """Linear tetrahedra filling the closed outward `surface` (every closed piece its own
-    volume); the surface's vertices are the mesh's first points, in order.
+    volume); the surface's vertices are the mesh's first points, in order. `options`:
+    Gmsh options set before meshing (e.g. ``{"Mesh.MeshSizeMax": 1.25}``).
 
     Raises `FecheckError` naming `name` when Gmsh cannot fill it (a self-intersecting or
     inside-out surface) or returns an inverted tetrahedron.
@@ -71,6 +73,8 @@ def tetrahedralize(surface: TriMesh, name: str) -> TetMesh:
         for k in range(1, len(pieces) + 1):
             gmsh.model.geo.addVolume([gmsh.model.geo.addSurfaceLoop([k])])
         gmsh.model.geo.synchronize()
+        for key, value in (options or {}).items():
+            gmsh.option.setNumber(key, value)
         try:
             gmsh.model.mesh.generate(3)
         except Exception as err:       # gmsh raises a bare Exception with its log line
