@@ -79,3 +79,20 @@ def test_the_scanned_knee_flexes_past_4_degrees_under_a_tibia_frame_load():
     run = flex.run_flex(scene, np.arange(0.0, 9.0), axis)
     assert run.stopped is None and len(run.points) == 9
     assert all(abs(p.abduction_deg) < 3.0 for p in run.points)
+
+
+def test_a_small_compression_along_the_tibia_turns_it_internally_in_early_flexion():
+    # Screw-home, the published direction of passive knees (the tibia rotates internally
+    # as the knee flexes from extension: Wilson et al. 2000, J. Biomech. 33:465-473, quoted,
+    # not re-read): the decimated scanned knee under 30 N along the tibial axis turns
+    # internally from 0 to 20° at every 5° step (measured +2.5, +2.1, +1.1 and -0.3°: the
+    # bound asks for the turn over 0-15° and no reversal past half a degree at 20°).
+    from fecheck.studies import flex
+
+    scene = load_scene("femur_tibia_ligaments", ["scanned.decimate_faces=3000",
+                                                 "load.frame='tibia'", "load.force_N=30.0"])
+    run = flex.run_flex(scene, np.arange(0.0, 21.0, 5.0), flex.scene_axis(scene))
+    internal = np.array([p.internal_deg for p in run.points])
+    assert run.stopped is None and len(internal) == 5
+    assert internal[3] - internal[0] > 3.0
+    assert np.all(np.diff(internal[:4]) > 0.5) and internal[4] > internal[3] - 0.5
