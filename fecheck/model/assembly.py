@@ -26,7 +26,7 @@ from fecheck.model.results import Pose
 from fecheck.scene import Scene
 from fecheck.scene.constants import COMPARTMENTS, DOF_NAMES, GRAVITY_MPS2, LIGAMENTS
 from fecheck.scene.knee import plane_normal
-from fecheck.statics.newton import master_tangent, point_force
+from fecheck.statics.newton import carried, cross3, master_tangent, point_force
 
 Part = tuple[np.ndarray, np.ndarray]
 """(W (6,), dW/dξ (6, 6)): one part of the tibia's wrench and its tangent."""
@@ -73,9 +73,10 @@ def applied_load(scene: Scene) -> Callable[[np.ndarray, np.ndarray],
 
     def wrench(rot: np.ndarray, t: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         w2, d2 = point_force(rot @ com + t, weight)
-        if follows:
-            w1, d1 = point_force(rot @ point + t, force)
-            return w1 + w2, d1 + d2
+        if follows:                                 # point and direction turn with the tibia
+            f = rot @ force
+            w1 = np.concatenate([f, cross3(rot @ point + t, f)])
+            return w1 + w2, carried(w1) + d2
         return w_fixed + w2, d2
 
     return wrench
