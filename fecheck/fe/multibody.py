@@ -135,68 +135,99 @@ def solve_multibody(bodies: Sequence[Body], pairs: Sequence[Pair], indenter: Ind
     """Solve the frictionless contact of `bodies` through `pairs` under the indenter's
     load (module docstring). Returns the forces, gaps and displacements; `FecheckError`
     when the active set does not settle or a stiffness is singular."""
-    names = _check(bodies, pairs, indenter)
-    timing = {}
-    t0 = time.perf_counter()
-    sizes = [len(p.nodes) for p in pairs]
-    offsets = np.concatenate([[0], np.cumsum(sizes)]).astype(int)
-    m = int(offsets[-1])
-    unknowns = [(None, indenter.axis)] + [(b.name, t) for b in bodies for t in b.translations]
-    J = np.zeros((m, len(unknowns)))
-    entries: dict[str, list] = {b.name: [] for b in bodies}
-    for p, start in zip(pairs, offsets[:-1], strict=True):
-        row = np.arange(start, start + len(p.nodes))
-        entries[p.slave].append(_entries(names[p.slave], p.nodes, -p.normals, row))
-        slave_t = [k for k, (who, _) in enumerate(unknowns) if who == p.slave]
-        for k in slave_t:
-            J[row, k] -= p.normals @ unknowns[k][1]
-        if p.master is None:
-            J[row, 0] = p.normals @ np.asarray(indenter.axis, dtype=float)
-            continue
-        wn = p.weights[:, :, None] * p.normals[:, None, :]                   # (r, k, d)
-        rows = np.repeat(row, p.master_nodes.shape[1])
-        entries[p.master].append(_entries(names[p.master], p.master_nodes.ravel(),
-                                          wn.reshape(-1, wn.shape[2]), rows))
-        for k in (k for k, (who, _) in enumerate(unknowns) if who == p.master):
-            J[row, k] += p.weights.sum(axis=1) * (p.normals @ unknowns[k][1])
-    C = np.zeros((m, m))
-    D, solves = {}, {}
-    for b in bodies:
-        if not entries[b.name]:
-            continue
-        r, c, v = (np.concatenate(x) for x in zip(*entries[b.name], strict=True))
-        D[b.name] = sp.csr_matrix((v, (r, c)), shape=(m, b.K.shape[0]))
-        touched = np.unique(r)
-        solves[b.name] = factorize(b.K, solver)
-        Dt = D[b.name][touched]
-        for s in range(0, len(touched), block):
-            part = slice(s, s + block)
-            X = solves[b.name](Dt[part].T.toarray())
-            C[np.ix_(touched, touched[part])] += Dt @ X
-    C = 0.5 * (C + C.T)
-    timing["condense"] = time.perf_counter() - t0
-    t0 = time.perf_counter()
-    g0 = np.concatenate([p.gap0_mm for p in pairs])
-    Q = np.zeros(len(unknowns))
-    Q[0] = indenter.load_N
-    first = g0 <= g0.min() + 1e-9
-    for k in range(len(unknowns)):          # each unknown starts with a contact that holds it
-        rows = J[:, k] != 0.0
-        if rows.any() and not (first & rows).any():
-            first[np.argmin(np.where(rows, g0, np.inf))] = True
-    lam, dq, active, iterations = active_set(C, g0, J, J, Q, np.zeros((len(Q),) * 2), first,
-                                             max_iter, "refine the meshes at the contact "
-                                             "or check the load")
-    gap = g0 + J @ dq + C @ lam
-    timing["active_set"] = time.perf_counter() - t0
-    u = {name: solves[name](D[name].T @ lam) for name in D}
-    if not all(np.all(np.isfinite(x)) for x in u.values()):
-        raise FecheckError("the multibody contact solve produced NaN: a stiffness is singular")
-    out = {p.name: PairContact(lam[a:b], gap[a:b], active[a:b])
-           for p, a, b in zip(pairs, offsets[:-1], offsets[1:], strict=True)}
-    translations = {b.name: dq[[k for k, (who, _) in enumerate(unknowns) if who == b.name]]
-                    for b in bodies}
-    return MultibodySolution(out, float(dq[0]), translations, u, iterations, timing)
+    condensed = Condensed(bodies, pairs, indenter.axis, solver=solver, block=block)
+    return condensed.solve(np.concatenate([p.gap0_mm for p in pairs]), indenter.load_N,
+                           max_iter=max_iter)
+
+
+class Condensed:
+    """`bodies` condensed onto the gaps of `pairs` (the costly part: one factorization and
+    one block solve per body), ready to `solve` for any reference gaps and load with the
+    same pairing: an outer loop that re-evaluates the rigid gaps at the indenter's new
+    place reuses it."""
+
+    def __init__(self, bodies: Sequence[Body], pairs: Sequence[Pair], axis: np.ndarray, *,
+                 solver: str = "cholmod", block: int = 512):
+        names = _check(bodies, pairs, Indenter(np.asarray(axis, dtype=float), 1.0))
+        t0 = time.perf_counter()
+        self.pairs = list(pairs)
+        self.bodies = list(bodies)
+        sizes = [len(p.nodes) for p in pairs]
+        self.offsets = np.concatenate([[0], np.cumsum(sizes)]).astype(int)
+        m = int(self.offsets[-1])
+        self.unknowns = ([(None, np.asarray(axis, dtype=float))]
+                         + [(b.name, t) for b in bodies for t in b.translations])
+        self.J = self._gap_map(names, m)
+        C = np.zeros((m, m))
+        self.D, self.solves = {}, {}
+        for b in bodies:
+            if not self._entries[b.name]:
+                continue
+            r, c, v = (np.concatenate(x) for x in zip(*self._entries[b.name], strict=True))
+            self.D[b.name] = sp.csr_matrix((v, (r, c)), shape=(m, b.K.shape[0]))
+            touched = np.unique(r)
+            self.solves[b.name] = factorize(b.K, solver)
+            Dt = self.D[b.name][touched]
+            for s in range(0, len(touched), block):
+                part = slice(s, s + block)
+                X = self.solves[b.name](Dt[part].T.toarray())
+                C[np.ix_(touched, touched[part])] += Dt @ X
+        self.C = 0.5 * (C + C.T)
+        self.seconds = time.perf_counter() - t0
+
+    def _gap_map(self, names: dict, m: int) -> np.ndarray:
+        """J (m, unknowns): the gaps' change with the indenter's travel and the bodies'
+        translations; fills the per-body entries of the gaps' map to their dofs."""
+        unknowns = self.unknowns
+        J = np.zeros((m, len(unknowns)))
+        self._entries: dict[str, list] = {name: [] for name in names}
+        for p, start in zip(self.pairs, self.offsets[:-1], strict=True):
+            row = np.arange(start, start + len(p.nodes))
+            self._entries[p.slave].append(_entries(names[p.slave], p.nodes, -p.normals, row))
+            for k in (k for k, (who, _) in enumerate(unknowns) if who == p.slave):
+                J[row, k] -= p.normals @ unknowns[k][1]
+            if p.master is None:
+                J[row, 0] = p.normals @ unknowns[0][1]
+                continue
+            wn = p.weights[:, :, None] * p.normals[:, None, :]                   # (r, k, d)
+            rows = np.repeat(row, p.master_nodes.shape[1])
+            self._entries[p.master].append(_entries(names[p.master], p.master_nodes.ravel(),
+                                                    wn.reshape(-1, wn.shape[2]), rows))
+            for k in (k for k, (who, _) in enumerate(unknowns) if who == p.master):
+                J[row, k] += p.weights.sum(axis=1) * (p.normals @ unknowns[k][1])
+        return J
+
+    def solve(self, g0: np.ndarray, load_N: float, *, max_iter: int = 200
+              ) -> MultibodySolution:
+        """The contact under the indenter's load `load_N` (N, > 0) with reference gaps
+        `g0` (m,) mm, the pairs' rows in order."""
+        if not (np.isfinite(load_N) and load_N > 0):
+            raise FecheckError(f"the indenter's load must be a positive number of N, got "
+                               f"{load_N}")
+        t0 = time.perf_counter()
+        J, C = self.J, self.C
+        Q = np.zeros(len(self.unknowns))
+        Q[0] = load_N
+        first = g0 <= g0.min() + 1e-9
+        for k in range(len(self.unknowns)):   # each unknown starts with a contact that holds it
+            rows = J[:, k] != 0.0
+            if rows.any() and not (first & rows).any():
+                first[np.argmin(np.where(rows, g0, np.inf))] = True
+        lam, dq, active, iterations = active_set(C, g0, J, J, Q, np.zeros((len(Q),) * 2),
+                                                 first, max_iter, "refine the meshes at the "
+                                                 "contact or check the load")
+        gap = g0 + J @ dq + C @ lam
+        timing = {"condense": self.seconds, "active_set": time.perf_counter() - t0}
+        u = {name: self.solves[name](self.D[name].T @ lam) for name in self.D}
+        if not all(np.all(np.isfinite(x)) for x in u.values()):
+            raise FecheckError("the multibody contact solve produced NaN: a stiffness is "
+                               "singular")
+        off = self.offsets
+        out = {p.name: PairContact(lam[a:b], gap[a:b], active[a:b])
+               for p, a, b in zip(self.pairs, off[:-1], off[1:], strict=True)}
+        translations = {b.name: dq[[k for k, (who, _) in enumerate(self.unknowns)
+                                    if who == b.name]] for b in self.bodies}
+        return MultibodySolution(out, float(dq[0]), translations, u, iterations, timing)
 
 
 def ray_pairs(points: np.ndarray, normals: np.ndarray, master_points: np.ndarray,
