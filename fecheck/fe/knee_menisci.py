@@ -1,0 +1,521 @@
+"""The FE of the knee with menisci at the EF equilibrium (issue 28): a first working path.
+
+From the EF equilibrium of a ``menisci.dir`` scene (`fecheck.model.menisci`, e.g.
+``femur_tibia_menisci`` at 800 N), in the tibia frame of that equilibrium:
+
+* **Tibial cartilage**: each compartment's bonded layer as `fecheck fe` builds it
+  (`fecheck.fe.press.build_layers` on the scene's bodies, ``fe.*`` keys, the contact
+  material): with ``fe.cartilage = "series"`` (the only one taken here) its thickness holds
+  the femoral cartilage too, under the femoral condyle; over the menisci the femoral
+  cartilage is then rigid.
+* **Menisci**: each a deformable solid (`fecheck.fe.meniscus_solid`, P2 tetrahedra,
+  `fecheck.fe.anisotropy.MENISCUS`, fibres along the arc) at its EF pose, raised along
+  the tibial axis until it just touches the tibial layer (the EF's meniscus layer is
+  soft, so the EF pose overlaps the tibial sheet; the rise is reported). Each horn's
+  attachment nodes are on isotropic linear springs to the tibia, the horn's stiffness
+  spread evenly over its nodes: ``root = "data"`` the sum of its root bundles' k / l0
+  (smith2019's AHORN / PHORN, 6-13 N/mm each), ``"donahue"`` `DONAHUE_HORN_N_PER_MM`
+  per horn; the springs are unstretched at that placement (the EF ligaments' tension
+  there is not carried over), the coronary and transverse ligaments are left out.
+* **Femur**: the rigid femoral surface, its rotation held at the EF pose (the tibia's
+  abduction is held), its translation along the tibia's free axis (world z) solved under
+  the EF's axial load on the tibia (the load less the tibia's weight, along z).
+
+Frictionless contact on three interfaces, node to surface with exact complementarity
+(`fecheck.fe.multibody`): femur ↔ tibial layer vertices (along their normals),
+femur ↔ meniscus superior vertices, meniscus inferior faces ↔ tibial layer vertices (a
+tibial vertex under a meniscus meets its inferior face, the others the femur). Small
+displacements; the rigid gaps are re-evaluated at the femur's new place until it stops
+moving (1e-10 mm), so they are exact at the answer. Per compartment: axial load into the
+tibia through the meniscus (its contact and its horn springs) and through
+cartilage-cartilage contact, tibial contact area (`zero_contour_area`) and vertex p_max,
+beside the EF's and Donahue 2002's. Units: mm, N, MPa.
+"""
+
+from __future__ import annotations
+
+import time
+from collections.abc import Callable
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from fecheck.errors import FecheckError
+from fecheck.fe.anisotropy import MENISCUS, TransIso
+from fecheck.fe.meniscus_solid import (
+    DEFAULT_SIZE_MM,
+    DONAHUE_HORN_N_PER_MM,
+    INFERIOR,
+    SUPERIOR,
+    MeniscusSolid,
+)
+from fecheck.fe.multibody import Body, Condensed, Pair, ray_pairs
+from fecheck.scene import Scene
+from geometry.mesh import TriMesh
+
+ROOTS = ("data", "donahue")
+"""Horn root stiffness sources (module docstring)."""
+PENETRATION_TOL_MM = 1e-6
+"""Largest overlap accepted at any contact vertex after the solve, mm."""
+MOVE_TOL_MM = 1e-10
+"""The outer loop stops when the femur's step is below this, mm."""
+_REACH_MM = 5.0
+"""Rays toward a meniscus's inferior face start this far below the tibial vertex, mm."""
+
+
+@dataclass(frozen=True, eq=False)
+class MeniscusBody:
+    """A meniscus in the tibia frame: its solid, points (n, 3) mm, the `Body` (horn
+    springs in K), superior vertices and their unit normals, inferior faces, the rise
+    along the tibial axis (mm), the stiffness per horn (N/mm) and per horn node."""
+
+    side: str
+    solid: MeniscusSolid
+    points: np.ndarray
+    body: Body
+    superior: np.ndarray
+    superior_normals: np.ndarray
+    inferior_faces: np.ndarray
+    rise_mm: float
+    horn_N_per_mm: dict[str, float]
+    spring_nodes: np.ndarray
+    spring_N_per_mm: np.ndarray
+
+
+@dataclass(frozen=True)
+class CompartmentFE:
+    """One compartment: axial loads into the tibia (N, + compressive) through the
+    meniscus (contact + horn springs), its horn springs alone and cartilage-cartilage;
+    the femur's axial load on the meniscus; the meniscal share; tibial contact area (mm²)
+    and vertex p_max (MPa); the meniscus's force balance (N, norm of the residual)."""
+
+    meniscus_N: float
+    springs_N: float
+    cartilage_N: float
+    femur_on_meniscus_N: float
+    share: float
+    area_mm2: float
+    p_max_MPa: float
+    meniscus_balance_N: float
+
+
+@dataclass(frozen=True)
+class KneeMenisciFE:
+    """The answer: load (N), per compartment the FE (`CompartmentFE`) and the EF (a dict
+    of the same names), femur travel from the EF pose (mm), the femur's balance along its
+    axis (N), the worst penetration (mm), dofs, outer iterations, times (s), notes."""
+
+    load_N: float
+    fe: dict[str, CompartmentFE]
+    ef: dict[str, dict[str, float]]
+    approach_mm: float
+    balance_N: float
+    max_penetration_mm: float
+    n_dofs: int
+    outer_iterations: int
+    seconds: dict[str, float]
+    notes: tuple[str, ...] = field(default_factory=tuple)
+
+
+def vertex_normals(points: np.ndarray, faces: np.ndarray) -> np.ndarray:
+    """(n, 3) area-weighted unit normals of `faces` at `points` (zero where no face)."""
+    tri = points[faces]
+    cross = np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0])
+    out = np.zeros_like(points)
+    np.add.at(out, faces.ravel(), np.repeat(cross, 3, axis=0))
+    norm = np.linalg.norm(out, axis=1, keepdims=True)
+    return np.divide(out, norm, out=np.zeros_like(out), where=norm > 0)
+
+
+def horn_stiffness(solid: MeniscusSolid, root: str) -> dict[str, float]:
+    """Stiffness of each horn's attachment, N/mm: the sum of its root bundles' k / l0
+    (``root = "data"``) or `DONAHUE_HORN_N_PER_MM` (``"donahue"``)."""
+    if root not in ROOTS:
+        raise FecheckError(f"horn root stiffness {root!r}: give one of {', '.join(ROOTS)}")
+    if root == "donahue":
+        return {name: DONAHUE_HORN_N_PER_MM for name in solid.horns}
+    out = {name: float(sum(b.stiffness_N_per_mm for b in h.ligaments))
+           for name, h in solid.horns.items()}
+    if not all(v > 0 for v in out.values()):
+        raise FecheckError(f"the {solid.side} meniscus has a horn without root ligaments in "
+                           "meniscal_ligaments.json; use root = 'donahue'")
+    return out
+
+
+def meniscus_body(solid: MeniscusSolid, points: np.ndarray, fibre: np.ndarray,
+                  horns: dict[str, float], material: TransIso = MENISCUS) -> Body:
+    """The `Body` of a meniscus solid at `points` (n, 3) with element fibres `fibre`
+    (nel, 3), both in the common frame: P2 transversely isotropic stiffness, each horn's
+    stiffness (N/mm, `horns`) spread over its nodes as grounded springs in x, y and z,
+    and on the superior and inferior faces the midside normal displacement tied to its
+    edge's ends (contact at vertices only)."""
+    from skfem import MeshTet
+
+    from fecheck.fe.anisotropy import p2_transiso
+    from fecheck.fe.solid import edge_lookup, tie_matrix
+
+    mesh = MeshTet(np.ascontiguousarray(points.T), np.ascontiguousarray(solid.mesh.tets.T))
+    basis, K = p2_transiso(mesh, material, fibre)
+    nodes, k_node = _springs(solid, horns)
+    dofs = basis.nodal_dofs[:, nodes].T.ravel()
+    K = (K + _diagonal(basis.N, dofs, np.repeat(k_node, 3))).tocsr()
+    find_edge = edge_lookup(mesh.edges, mesh.p.shape[1])
+    edges, normals = [], []
+    for label in (SUPERIOR, INFERIOR):
+        faces = solid.faces(label)
+        e = TriMesh(points, faces).edges_unique
+        n = vertex_normals(points, faces)
+        nm = n[e[:, 0]] + n[e[:, 1]]
+        edges.append(e)
+        normals.append(nm / np.linalg.norm(nm, axis=1, keepdims=True))
+    edges_all = np.concatenate(edges)
+    _, first = np.unique(np.sort(edges_all, axis=1), axis=0, return_index=True)
+    edges_all, normals_all = edges_all[first], np.concatenate(normals)[first]
+    mid = basis.edge_dofs[:, find_edge(*edges_all.T)].T
+    ends = basis.nodal_dofs[:, edges_all.ravel()].T.reshape(-1, 2, 3)
+    T, kept = tie_matrix(basis.N, np.zeros(0, dtype=np.int64), mid, ends, normals_all)
+    position = np.full(basis.N, -1)
+    position[kept] = np.arange(len(kept))
+    return Body(f"{solid.side} meniscus", (T.T @ K @ T).tocsc(),
+                position[basis.nodal_dofs.T])
+
+
+def _springs(solid: MeniscusSolid, horns: dict[str, float]) -> tuple[np.ndarray, np.ndarray]:
+    """(nodes, N/mm per node): each horn's stiffness spread evenly over its nodes."""
+    nodes = [solid.horns[h].nodes for h in horns]
+    k = [np.full(len(n), horns[h] / len(n)) for h, n in zip(horns, nodes, strict=True)]
+    return np.concatenate(nodes), np.concatenate(k)
+
+
+def _diagonal(n: int, dofs: np.ndarray, values: np.ndarray):
+    import scipy.sparse as sp
+
+    return sp.csr_matrix((values, (dofs, dofs)), shape=(n, n))
+
+
+@dataclass(eq=False)
+class _Side:
+    """One compartment in the tibia frame: its layer and `Body`, the femoral surface
+    (world), its meniscus or None, and per layer vertex the meniscus inferior face its
+    ray meets (-1: none), the barycentric weights and the gap (mm); `under` the vertices
+    paired with the meniscus rather than the femur."""
+
+    name: str
+    layer: object
+    body: Body
+    indenter: object
+    meniscus: MeniscusBody | None
+    face: np.ndarray
+    weights: np.ndarray
+    gap: np.ndarray
+    under: np.ndarray
+
+
+def _disp(body: Body, u: np.ndarray, nodes: np.ndarray) -> np.ndarray:
+    """(k, 3) displacements (mm) of `nodes` of `body` from its kept-dof `u` (0: fixed)."""
+    dofs = body.node_dofs[nodes]
+    return np.where(dofs >= 0, u[np.maximum(dofs, 0)], 0.0)
+
+
+def _inferior_rays(points: np.ndarray, faces: np.ndarray, layer_points: np.ndarray,
+                   layer_normals: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """(faces, weights, gaps mm) of the rays from the layer vertices along their normals to
+    the meniscus's inferior `faces` on `points` (overlaps up to `_REACH_MM` seen)."""
+    face, weights, gap = ray_pairs(layer_points - _REACH_MM * layer_normals, layer_normals,
+                                   points, faces, 0.0)
+    return face, weights, np.where(face >= 0, gap - _REACH_MM, np.inf)
+
+
+def place_meniscus(solid: MeniscusSolid, q_meniscus: np.ndarray, q_tibia: np.ndarray,
+                   layer_points: np.ndarray, layer_normals: np.ndarray
+                   ) -> tuple[np.ndarray, np.ndarray, float]:
+    """(points (n, 3), fibres (nel, 3), rise mm): the meniscus at its EF body coordinates
+    `q_meniscus`, in the frame of the tibia at `q_tibia`, moved along the tibial z axis
+    until the least gap from the tibial layer vertices (along their normals) to its
+    inferior faces is zero (to 1e-9 mm)."""
+    from fecheck.statics.newton import body_pose
+
+    rot_m, t_m = body_pose(np.asarray(q_meniscus, dtype=float))
+    rot_t, t_t = body_pose(np.asarray(q_tibia, dtype=float))
+    points = (solid.mesh.points @ rot_m.T + t_m - t_t) @ rot_t
+    fibre = solid.fibre @ (rot_t.T @ rot_m).T
+    inferior = solid.faces(INFERIOR)
+    rise = 0.0
+    for _ in range(30):                 # the least gap falls about tenfold per rise
+        face, _, gap = _inferior_rays(points, inferior, layer_points, layer_normals)
+        if not (face >= 0).any():
+            raise FecheckError(f"the {solid.side} meniscus at its EF pose lies over no "
+                               "vertex of the tibial layer: check menisci.dir and the pose")
+        low = float(gap.min())
+        if abs(low) <= 1e-9:
+            return points, fibre, rise
+        points = points - [0.0, 0.0, low]
+        rise -= low
+    raise FecheckError(f"the {solid.side} meniscus does not settle on the tibial layer "
+                       f"(gap {low:.2e} mm after a rise of {rise:.3f} mm)")
+
+
+def knee_menisci_fe(scene: Scene, *, meniscus_size_mm: float = DEFAULT_SIZE_MM,
+                    root: str = "data", ef=None, layers=None,
+                    log: Callable[[str], None] | None = None) -> KneeMenisciFE:
+    """The FE of `scene`'s knee with menisci at its EF equilibrium (module docstring).
+
+    `ef`: the scene's EF run (`fecheck.model.menisci.run_menisci`; run here when None);
+    `layers`: its tibial layers (`fecheck.fe.press.FELayer`, built here when None);
+    `meniscus_size_mm`: the meniscus tetrahedra (`fecheck.fe.meniscus_solid`); `root`:
+    the horn root stiffness (`ROOTS`). `FecheckError` on a scene without ``menisci.dir``,
+    a two-layer cartilage, a load that does not press the joint, or a contact that
+    leaves a penetration over `PENETRATION_TOL_MM`."""
+    from fecheck.fe.meniscus_solid import meniscus_solid
+    from fecheck.fe.settings import FESettings
+    from fecheck.model.assembly import applied_load
+    from fecheck.model.menisci import run_menisci
+    from fecheck.scene import with_values
+    from fecheck.statics.newton import body_pose
+
+    say = log or (lambda message: None)
+    if not scene["menisci.dir"]:
+        raise FecheckError("the FE with menisci needs a scene with menisci.dir (e.g. "
+                           "femur_tibia_menisci)")
+    plain = with_values(scene, menisci__dir="")
+    settings = FESettings.from_scene(plain)
+    if settings.cartilage != "series":
+        raise FecheckError("the FE with menisci models fe.cartilage = 'series' only (the "
+                           "femoral cartilage in the tibial layer); set it")
+    seconds: dict[str, float] = {}
+    t0 = time.perf_counter()
+    run = ef if ef is not None else run_menisci(scene)
+    if not run.converged:
+        raise FecheckError("the EF equilibrium with menisci did not converge: no pose for "
+                           "the FE")
+    poses = run.menisci["poses"]
+    q_tibia = np.asarray(poses["tibia"]["q"])
+    rot, t = body_pose(q_tibia)
+    load = float(applied_load(scene)(rot, t)[0][2])
+    if not load > 0:
+        raise FecheckError(f"the load less the tibia's weight along z is {load:.1f} N: the "
+                           "FE with menisci needs a load that presses the joint")
+    seconds["ef"] = time.perf_counter() - t0
+    t0 = time.perf_counter()
+    if layers is None:
+        from fecheck.fe.bodies import scene_bodies
+        from fecheck.fe.press import build_layers
+
+        layers = build_layers(scene_bodies(plain), scene["contact.youngs_MPa"],
+                              scene["contact.poisson"], settings, say)
+    sides = []
+    for lay in layers:
+        pts, nrm = lay.surface.points, lay.solid.normals
+        body = Body(f"{lay.body.name} tibia", lay.solid.K, lay.solid.vertex_dofs)
+        men = None
+        if f"{lay.body.name} meniscus" in poses:
+            men = _meniscus(meniscus_solid(scene, lay.body.name, meniscus_size_mm),
+                            poses[f"{lay.body.name} meniscus"]["q"], q_tibia, pts, nrm, root)
+            say(f"{men.side} meniscus: {len(men.solid.mesh.tets)} tetrahedra, "
+                f"{men.body.K.shape[0]} dofs, raised {men.rise_mm:.3f} mm onto the layer")
+        sides.append(_side(lay, body, men, rot, t))
+    seconds["build"] = time.perf_counter() - t0
+    return _solve(sides, rot, t, load, settings.candidate_gap_mm, run, seconds, say)
+
+
+def _meniscus(solid: MeniscusSolid, q: np.ndarray, q_tibia: np.ndarray,
+              layer_points: np.ndarray, layer_normals: np.ndarray, root: str
+              ) -> MeniscusBody:
+    points, fibre, rise = place_meniscus(solid, q, q_tibia, layer_points, layer_normals)
+    horns = horn_stiffness(solid, root)
+    body = meniscus_body(solid, points, fibre, horns)
+    superior = np.unique(solid.faces(SUPERIOR))
+    normals = vertex_normals(points, solid.faces(SUPERIOR))[superior]
+    nodes, k_node = _springs(solid, horns)
+    return MeniscusBody(solid.side, solid, points, body, superior, normals,
+                        solid.faces(INFERIOR), rise, horns, nodes, k_node)
+
+
+def _side(lay, body: Body, men: MeniscusBody | None, rot: np.ndarray, t: np.ndarray
+          ) -> _Side:
+    """The compartment's pairing: a layer vertex meets the meniscus where its ray meets
+    the meniscus's inferior face before the femur."""
+    pts, nrm = lay.surface.points, lay.solid.normals
+    n = len(pts)
+    if men is None:
+        return _Side(lay.body.name, lay, body, lay.indenter, None, np.full(n, -1),
+                     np.zeros((n, 3)), np.full(n, np.inf), np.zeros(n, dtype=bool))
+    face, weights, gap = _inferior_rays(men.points, men.inferior_faces, pts, nrm)
+    femur = _femur_gap(lay.indenter, pts, nrm, rot, t, 0.0)
+    return _Side(lay.body.name, lay, body, lay.indenter, men, face, weights, gap,
+                 (face >= 0) & (gap < femur))
+
+
+def _femur_gap(indenter, points: np.ndarray, normals: np.ndarray, rot: np.ndarray,
+               t: np.ndarray, travel_mm: float) -> np.ndarray:
+    """Rigid gaps (mm) along `normals` from tibia-frame `points` to the femoral surface,
+    the tibia at pose (R, t) raised by `travel_mm` along world z."""
+    return indenter.gap(points @ rot.T + t + [0.0, 0.0, travel_mm], normals @ rot.T).gap_mm
+
+
+def _pairs(sides: list[_Side], cands: dict[str, np.ndarray]) -> list[Pair]:
+    """The contact pairs on the candidate vertices `cands` (pair name → indices)."""
+    out = []
+    for s in sides:
+        ft = cands[f"{s.name} femur-tibia"]
+        out.append(Pair(f"{s.name} femur-tibia", s.body.name, ft, s.layer.solid.normals[ft],
+                        np.zeros(len(ft))))
+        if s.meniscus is None:
+            continue
+        m = s.meniscus
+        fm = cands[f"{s.name} femur-meniscus"]
+        out.append(Pair(f"{s.name} femur-meniscus", m.body.name, m.superior[fm],
+                        m.superior_normals[fm], np.zeros(len(fm))))
+        mt = cands[f"{s.name} meniscus-tibia"]
+        out.append(Pair(f"{s.name} meniscus-tibia", s.body.name, mt, s.layer.solid.normals[mt],
+                        s.gap[mt], m.body.name, m.inferior_faces[s.face[mt]], s.weights[mt]))
+    return out
+
+
+def _all_gaps(sides: list[_Side], rot: np.ndarray, t: np.ndarray, travel: float,
+              u: dict[str, np.ndarray] | None) -> dict[str, np.ndarray]:
+    """Every pair's gaps (mm) over all its possible vertices (inf where none) with the
+    femur at `travel` and the bodies displaced by `u` (None: undeformed)."""
+    out = {}
+    for s in sides:
+        pts, nrm = s.layer.surface.points, s.layer.solid.normals
+        every = np.arange(len(pts))
+        u_t = _disp(s.body, u[s.body.name], every) if u else np.zeros_like(pts)
+        g = _femur_gap(s.indenter, pts, nrm, rot, t, travel) - np.einsum("ij,ij->i", u_t, nrm)
+        out[f"{s.name} femur-tibia"] = np.where(s.under, np.inf, g)
+        if s.meniscus is None:
+            continue
+        m = s.meniscus
+        u_m = (u[m.body.name] if u else np.zeros(m.body.K.shape[0]))
+        sup = _disp(m.body, u_m, m.superior)
+        out[f"{s.name} femur-meniscus"] = (
+            _femur_gap(s.indenter, m.points[m.superior], m.superior_normals, rot, t, travel)
+            - np.einsum("ij,ij->i", sup, m.superior_normals))
+        faces = m.inferior_faces[np.maximum(s.face, 0)]
+        at = np.einsum("mk,mkc->mc", s.weights, _disp(m.body, u_m, faces.ravel()).reshape(
+            -1, 3, 3))
+        out[f"{s.name} meniscus-tibia"] = np.where(
+            s.under, s.gap + np.einsum("ij,ij->i", at - u_t, nrm), np.inf)
+    return out
+
+
+def _solve(sides: list[_Side], rot: np.ndarray, t: np.ndarray, load: float,
+           margin: float, run, seconds: dict, say) -> KneeMenisciFE:
+    """Condense on the candidates (gaps under `margin` mm), move the femur until it stops,
+    widen the candidates while a vertex outside them penetrates; the answer."""
+    axis = -rot.T @ np.array([0.0, 0.0, 1.0])
+    bodies = [s.body for s in sides] + [s.meniscus.body for s in sides if s.meniscus]
+    gaps = _all_gaps(sides, rot, t, 0.0, None)
+    cands = {name: np.flatnonzero(g < margin) for name, g in gaps.items()}
+    travel, outer = 0.0, 0
+    t_condense = t_solve = 0.0
+    for _ in range(4):
+        pairs = [p for p in _pairs(sides, cands) if len(p.nodes)]
+        t0 = time.perf_counter()
+        condensed = Condensed(bodies, pairs, axis)
+        t_condense += time.perf_counter() - t0
+        say(f"condensed {sum(len(p.nodes) for p in pairs)} contact candidates in "
+            f"{condensed.seconds:.1f} s")
+        t0 = time.perf_counter()
+        for _ in range(50):
+            outer += 1
+            g0 = np.concatenate([_pair_gaps(p, sides, rot, t, travel) for p in pairs])
+            sol = condensed.solve(g0, load)
+            travel += sol.approach_mm
+            if abs(sol.approach_mm) <= MOVE_TOL_MM:
+                break
+        else:
+            raise FecheckError("the femur of the FE with menisci does not settle in 50 "
+                               "re-linearisations; check the load and the meshes")
+        t_solve += time.perf_counter() - t0
+        gaps = _all_gaps(sides, rot, t, travel, sol.u)
+        worst = max(0.0, -min(float(g.min()) for g in gaps.values()))
+        grown = {name: np.union1d(cands[name], np.flatnonzero(g < margin))
+                 for name, g in gaps.items()}
+        if worst <= PENETRATION_TOL_MM:
+            break
+        if all(len(grown[k]) == len(cands[k]) for k in cands):
+            break
+        say(f"a vertex outside the candidates penetrates by {worst:.2e} mm: widening them")
+        cands = grown
+    if worst > PENETRATION_TOL_MM:
+        raise FecheckError(f"the FE with menisci leaves a penetration of {worst:.2e} mm; "
+                           "raise fe.candidate_gap_mm")
+    seconds |= {"condense": t_condense, "solve": t_solve}
+    fe, balance = _report(sides, pairs, sol, axis, load)
+    ef = _ef_rows(run, [s.name for s in sides])
+    return KneeMenisciFE(load, fe, ef, travel, balance, worst,
+                         sum(b.K.shape[0] for b in bodies), outer, seconds)
+
+
+def _pair_gaps(p: Pair, sides: list[_Side], rot: np.ndarray, t: np.ndarray,
+               travel: float) -> np.ndarray:
+    """The reference gaps (mm) of pair `p` with the femur at `travel` (undeformed)."""
+    side = next(s for s in sides if p.name.startswith(f"{s.name} "))
+    if p.master is not None:
+        return p.gap0_mm
+    if p.slave == side.body.name:
+        return _femur_gap(side.indenter, side.layer.surface.points[p.nodes], p.normals,
+                          rot, t, travel)
+    return _femur_gap(side.indenter, side.meniscus.points[p.nodes], p.normals, rot, t,
+                      travel)
+
+
+def _report(sides: list[_Side], pairs: list[Pair], sol, axis: np.ndarray, load: float
+            ) -> tuple[dict[str, CompartmentFE], float]:
+    """Per compartment the loads, area and p_max (`CompartmentFE`) and the femur's
+    balance along its axis (N): Σ λ n·(−a) − F."""
+    from fecheck.fe.recovery import zero_contour_area
+
+    by_name = {p.name: p for p in pairs}
+    femur_total = 0.0
+    out = {}
+    for s in sides:
+        n_pts = len(s.layer.surface.points)
+        force = np.zeros(n_pts)
+        axial = {}
+        for kind in ("femur-tibia", "meniscus-tibia", "femur-meniscus"):
+            p = by_name.get(f"{s.name} {kind}")
+            lam = sol.pairs[p.name].force_N if p else np.zeros(0)
+            normals = p.normals if p else np.zeros((0, 3))
+            axial[kind] = float(lam @ normals[:, 2])
+            if p and p.master is None:
+                femur_total -= float(lam @ (normals @ axis))
+            if p and p.slave == s.body.name:
+                force[p.nodes] += lam
+        springs, balance = 0.0, 0.0
+        if s.meniscus is not None:
+            m = s.meniscus
+            spring = m.spring_N_per_mm[:, None] * _disp(m.body, sol.u[m.body.name],
+                                                        m.spring_nodes)
+            springs = -float(spring[:, 2].sum())
+            on_men = -spring.sum(axis=0)
+            for kind, sign in (("femur-meniscus", -1.0), ("meniscus-tibia", 1.0)):
+                p = by_name.get(f"{s.name} {kind}")
+                if p:
+                    on_men += sign * sol.pairs[p.name].force_N @ p.normals
+            balance = float(np.linalg.norm(on_men))
+        pressure = force / s.layer.solid.tributary_mm2
+        area = zero_contour_area(s.layer.surface.points, s.layer.surface.faces, pressure,
+                                 force > 0)
+        through = axial["meniscus-tibia"] + springs
+        total = through + axial["femur-tibia"]
+        out[s.name] = CompartmentFE(through, springs, axial["femur-tibia"],
+                                    axial["femur-meniscus"], through / total, float(area),
+                                    float(pressure.max()), balance)
+    return out, femur_total - load
+
+
+def _ef_rows(run, names: list[str]) -> dict[str, dict[str, float]]:
+    """Per compartment the EF's loads, share, tibial contact area (cartilage-cartilage
+    plus meniscus-tibia, mm²) and p_max (MPa)."""
+    out = {}
+    for c in names:
+        row = run.menisci["compartments"][c]
+        comp = run.compartments[c]
+        out[c] = {"meniscus_N": row["meniscus_N"], "cartilage_N": row["cartilage_N"],
+                  "share": row["meniscal_share"],
+                  "area_mm2": comp.area_mm2 + row.get("meniscus_tibia_area_mm2", 0.0),
+                  "p_max_MPa": max(comp.max_pressure_MPa,
+                                   row.get("meniscus_tibia_max_pressure_MPa", 0.0))}
+    return out
