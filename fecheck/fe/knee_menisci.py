@@ -99,22 +99,38 @@ class CompartmentFE:
     meniscus_balance_N: float
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, eq=False)
+class PairRecord:
+    """One contact pair at the answer (tibia frame): slave `nodes` (the layer's surface
+    vertices, or the meniscus's mesh points), contact forces (N, ≥ 0), gaps (mm) and the
+    unit normals (from the slave toward the master) the forces act along."""
+
+    nodes: np.ndarray
+    force_N: np.ndarray
+    gap_mm: np.ndarray
+    normals: np.ndarray
+
+
+@dataclass(frozen=True, eq=False)
 class KneeMenisciFE:
     """The answer: load (N), per compartment the FE (`CompartmentFE`) and the EF (a dict
-    of the same names), femur travel from the EF pose (mm), the femur's balance along its
-    axis (N), the worst penetration (mm), dofs, outer iterations, times (s), notes."""
+    of the same names), femur travel from the EF pose (mm) along `axis` (the tibia frame's
+    unit vector along which the femur is pushed), the femur's balance along it (N), the
+    worst penetration over every pair's vertices (mm), dofs, outer iterations, times (s),
+    each pair's `PairRecord`, and per meniscus the horn springs' force on it (3,) N."""
 
     load_N: float
     fe: dict[str, CompartmentFE]
     ef: dict[str, dict[str, float]]
     approach_mm: float
+    axis: np.ndarray
     balance_N: float
     max_penetration_mm: float
     n_dofs: int
     outer_iterations: int
     seconds: dict[str, float]
-    notes: tuple[str, ...] = field(default_factory=tuple)
+    pairs: dict[str, PairRecord] = field(default_factory=dict)
+    spring_force_N: dict[str, np.ndarray] = field(default_factory=dict)
 
 
 def vertex_normals(points: np.ndarray, faces: np.ndarray) -> np.ndarray:
@@ -149,16 +165,10 @@ def meniscus_body(solid: MeniscusSolid, points: np.ndarray, fibre: np.ndarray,
     stiffness (N/mm, `horns`) spread over its nodes as grounded springs in x, y and z,
     and on the superior and inferior faces the midside normal displacement tied to its
     edge's ends (contact at vertices only)."""
-    from skfem import MeshTet
-
-    from fecheck.fe.anisotropy import p2_transiso
     from fecheck.fe.solid import edge_lookup, tie_matrix
 
-    mesh = MeshTet(np.ascontiguousarray(points.T), np.ascontiguousarray(solid.mesh.tets.T))
-    basis, K = p2_transiso(mesh, material, fibre)
-    nodes, k_node = _springs(solid, horns)
-    dofs = basis.nodal_dofs[:, nodes].T.ravel()
-    K = (K + _diagonal(basis.N, dofs, np.repeat(k_node, 3))).tocsr()
+    basis, K = meniscus_stiffness(solid, points, fibre, horns, material)
+    mesh = basis.mesh
     find_edge = edge_lookup(mesh.edges, mesh.p.shape[1])
     edges, normals = [], []
     for label in (SUPERIOR, INFERIOR):
@@ -178,6 +188,22 @@ def meniscus_body(solid: MeniscusSolid, points: np.ndarray, fibre: np.ndarray,
     position[kept] = np.arange(len(kept))
     return Body(f"{solid.side} meniscus", (T.T @ K @ T).tocsc(),
                 position[basis.nodal_dofs.T])
+
+
+def meniscus_stiffness(solid: MeniscusSolid, points: np.ndarray, fibre: np.ndarray,
+                       horns: dict[str, float], material: TransIso = MENISCUS):
+    """(basis, K N/mm): the P2 transversely isotropic stiffness of the meniscus at
+    `points` with element fibres `fibre`, plus each horn's stiffness (N/mm, `horns`)
+    spread evenly over its nodes as grounded springs in x, y and z."""
+    from skfem import MeshTet
+
+    from fecheck.fe.anisotropy import p2_transiso
+
+    mesh = MeshTet(np.ascontiguousarray(points.T), np.ascontiguousarray(solid.mesh.tets.T))
+    basis, K = p2_transiso(mesh, material, fibre)
+    nodes, k_node = _springs(solid, horns)
+    dofs = basis.nodal_dofs[:, nodes].T.ravel()
+    return basis, (K + _diagonal(basis.N, dofs, np.repeat(k_node, 3))).tocsr()
 
 
 def _springs(solid: MeniscusSolid, horns: dict[str, float]) -> tuple[np.ndarray, np.ndarray]:
@@ -444,8 +470,13 @@ def _solve(sides: list[_Side], rot: np.ndarray, t: np.ndarray, load: float,
     seconds |= {"condense": t_condense, "solve": t_solve}
     fe, balance = _report(sides, pairs, sol, axis, load)
     ef = _ef_rows(run, [s.name for s in sides])
-    return KneeMenisciFE(load, fe, ef, travel, balance, worst,
-                         sum(b.K.shape[0] for b in bodies), outer, seconds)
+    records = {p.name: PairRecord(p.nodes, sol.pairs[p.name].force_N, sol.pairs[p.name].gap_mm,
+                                  p.normals) for p in pairs}
+    springs = {s.name: -(s.meniscus.spring_N_per_mm[:, None] * _disp(
+        s.meniscus.body, sol.u[s.meniscus.body.name], s.meniscus.spring_nodes)).sum(axis=0)
+        for s in sides if s.meniscus}
+    return KneeMenisciFE(load, fe, ef, travel, axis, balance, worst,
+                         sum(b.K.shape[0] for b in bodies), outer, seconds, records, springs)
 
 
 def _pair_gaps(p: Pair, sides: list[_Side], rot: np.ndarray, t: np.ndarray,

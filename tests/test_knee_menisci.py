@@ -1,0 +1,156 @@
+"""The FE of the knee with menisci (`fecheck.fe.knee_menisci`) on coarse meshes: balance and
+penetration summed here from the pairs' forces and gaps, the knee without menisci against
+the layers pressed by `fecheck.fe.press` (the joint contact solver, another code path), the
+horn springs' stiffness against the ligaments file, and the refusals before any work."""
+
+from __future__ import annotations
+
+import json
+
+import numpy as np
+import pytest
+
+from fecheck.errors import FecheckError
+from fecheck.fe import knee_menisci
+from fecheck.fe.meniscus_solid import DONAHUE_HORN_N_PER_MM, meniscus_solid
+from fecheck.scene import load_scene, with_values
+from fecheck.scene.packaged import data_dir
+
+COARSE = ["fe.prepare=on", "fe.size_mm=2.0"]
+"""Tibial sheets remeshed at 2 mm (11k dofs per layer instead of 100k)."""
+MENISCUS_MM = 2.5
+
+
+@pytest.fixture(scope="module")
+def coarse():
+    """(scene, EF run, tibial layers) of the packaged knee with menisci, coarse."""
+    from fecheck.fe.bodies import scene_bodies
+    from fecheck.fe.press import build_layers
+    from fecheck.fe.settings import FESettings
+    from fecheck.model.menisci import run_menisci
+
+    scene = load_scene("femur_tibia_menisci", COARSE)
+    plain = with_values(scene, menisci__dir="")
+    layers = build_layers(scene_bodies(plain), scene["contact.youngs_MPa"],
+                          scene["contact.poisson"], FESettings.from_scene(plain), lambda m: None)
+    return scene, run_menisci(scene), layers
+
+
+@pytest.fixture(scope="module")
+def intact(coarse):
+    scene, ef, layers = coarse
+    return knee_menisci.knee_menisci_fe(scene, meniscus_size_mm=MENISCUS_MM, ef=ef,
+                                        layers=layers)
+
+
+def _on(record, direction: np.ndarray) -> float:
+    return float(record.force_N @ (record.normals @ direction))
+
+
+def test_femur_and_menisci_balance_and_nothing_penetrates(intact):
+    # The femur's contact forces (femur-tibia and femur-meniscus pairs, summed here along
+    # the axis it is pushed along) balance the load, and each meniscus's contact forces
+    # and horn springs cancel, to 1e-8 of the load; every pair is complementary with no
+    # gap below -1e-6 mm, and no vertex outside the pairs penetrates either.
+    r = intact
+    load = r.load_N
+    assert load == pytest.approx(800.0 - 2.65207 * 9.81, rel=1e-3)   # load less the weight
+    femur = sum(_on(p, -r.axis) for name, p in r.pairs.items() if "femur" in name)
+    assert femur == pytest.approx(load, abs=1e-8 * load)
+    for side in ("medial", "lateral"):
+        up, down = r.pairs[f"{side} femur-meniscus"], r.pairs[f"{side} meniscus-tibia"]
+        on_meniscus = (-up.force_N @ up.normals + down.force_N @ down.normals
+                       + r.spring_force_N[side])
+        assert np.abs(on_meniscus).max() <= 1e-8 * load
+        assert up.force_N.sum() > 0 and down.force_N.sum() > 0        # the meniscus carries
+    for p in r.pairs.values():
+        assert p.force_N.min() >= 0.0
+        assert p.gap_mm.min() >= -1e-6
+        assert np.abs(p.force_N * p.gap_mm).max() <= 1e-6 * p.force_N.max()
+    assert 0.0 <= r.max_penetration_mm <= 1e-6
+    assert abs(r.balance_N) <= 1e-8 * load
+
+
+def test_compartment_loads_are_the_pairs_forces(intact):
+    # Per compartment the cartilage and meniscus loads are the pairs' forces along the
+    # tibial axis (meniscus: its tibial contact plus what its horn springs hand the tibia:
+    # as much as they hold the meniscus up by), and the share is the meniscus's part.
+    r = intact
+    z = np.array([0.0, 0.0, 1.0])
+    for side, fe in r.fe.items():
+        assert fe.cartilage_N == pytest.approx(_on(r.pairs[f"{side} femur-tibia"], z),
+                                               rel=1e-12)
+        through = _on(r.pairs[f"{side} meniscus-tibia"], z) + r.spring_force_N[side][2]
+        assert fe.meniscus_N == pytest.approx(through, rel=1e-12)
+        assert fe.share == pytest.approx(through / (through + fe.cartilage_N), rel=1e-12)
+        assert fe.area_mm2 > 0 and fe.p_max_MPa > 0
+
+
+def test_without_menisci_it_is_the_pressed_layers(coarse):
+    # With both menisci removed (menisci.sides = []) the FE is the tibial layers pressed by
+    # the rigid femur along the tibial z axis under the same load: `fecheck.fe.press`'s
+    # joint solver (re-linearised in the pose, its own condensation) on the same layers
+    # gives the same force at every vertex.
+    from fecheck.fe.press import push_drive, solve_pressed
+    from fecheck.fe.settings import FESettings
+    from fecheck.model.menisci import run_menisci
+    from fecheck.statics.newton import body_pose
+
+    scene, _, layers = coarse
+    bare = load_scene("femur_tibia_menisci", [*COARSE, "menisci.sides=[]"])
+    ef = run_menisci(bare)
+    r = knee_menisci.knee_menisci_fe(bare, ef=ef, layers=layers)
+    assert set(r.pairs) == {"medial femur-tibia", "lateral femur-tibia"}
+    rot, t = body_pose(np.asarray(ef.menisci["poses"]["tibia"]["q"]))
+    sol, _, _, worst = solve_pressed(layers, push_drive(rot, t, np.array([0.0, 0.0, -r.load_N])),
+                                     0.5, FESettings.from_scene(bare), lambda m: None)
+    assert worst <= 1e-6
+    for lay, ref in zip(layers, sol.layers, strict=True):
+        mine = np.zeros(lay.surface.n_points)
+        p = r.pairs[f"{lay.body.name} femur-tibia"]
+        mine[p.nodes] = p.force_N
+        assert np.abs(mine - ref.force_N).max() <= 1e-7 * ref.force_N.max()
+    for c in ("medial", "lateral"):
+        assert r.fe[c].meniscus_N == 0.0 and r.fe[c].share == 0.0
+
+
+def test_horn_springs_hold_a_rigid_shift_with_the_roots_stiffness():
+    # A rigid unit translation of the meniscus strains nothing: its energy is the horn
+    # springs' alone, uᵀ K u = Σ over horns of k_horn, with k_horn the sum of the horn's
+    # root bundles' k / l0 read here from meniscal_ligaments.json (or Donahue's 2000 N/mm).
+    folder = data_dir("fecheck:knee/smith2019_menisci", "menisci.dir")
+    items = json.loads((folder / "meniscal_ligaments.json").read_text())["ligaments"]
+    expected = {}
+    for horn, group in (("anterior", "AHORN"), ("posterior", "PHORN")):
+        expected[horn] = sum(it["parameters"]["linear_stiffness"]["value"]
+                             / (1000.0 * it["parameters"]["slack_length"]["value"])
+                             for it in items if it["meniscus"] == "medial" and it["group"] == group)
+    solid = meniscus_solid("fecheck:knee/smith2019_menisci", "medial", MENISCUS_MM)
+    horns = knee_menisci.horn_stiffness(solid, "data")
+    assert horns == pytest.approx(expected, rel=1e-12)
+    assert knee_menisci.horn_stiffness(solid, "donahue") == {
+        "anterior": DONAHUE_HORN_N_PER_MM, "posterior": DONAHUE_HORN_N_PER_MM}
+    basis, K = knee_menisci.meniscus_stiffness(solid, solid.mesh.points, solid.fibre, horns)
+    for d in np.eye(3):
+        u = np.zeros(basis.N)
+        for c in range(3):
+            u[basis.nodal_dofs[c]] = u[basis.edge_dofs[c]] = d[c]
+        assert u @ K @ u == pytest.approx(sum(expected.values()), rel=1e-8)
+    with pytest.raises(FecheckError, match="horn root stiffness 'ligaments'"):
+        knee_menisci.horn_stiffness(solid, "ligaments")
+
+
+def test_refused_before_any_work(monkeypatch):
+    # A scene without menisci, or with two cartilage layers, is refused on one line
+    # before the EF run.
+    import fecheck.model.menisci as model
+
+    def never(*args, **kwargs):
+        raise AssertionError("the EF ran before the refusal")
+
+    monkeypatch.setattr(model, "run_menisci", never)
+    with pytest.raises(FecheckError, match="needs a scene with menisci.dir"):
+        knee_menisci.knee_menisci_fe(load_scene("femur_tibia"))
+    with pytest.raises(FecheckError, match="fe.cartilage = 'series' only"):
+        knee_menisci.knee_menisci_fe(load_scene("femur_tibia_menisci",
+                                                ["fe.cartilage=two-layer"]))
