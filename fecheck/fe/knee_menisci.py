@@ -59,6 +59,11 @@ PENETRATION_TOL_MM = 1e-6
 """Largest overlap accepted at any contact vertex after the solve, mm."""
 MOVE_TOL_MM = 1e-10
 """The outer loop stops when the femur's step is below this, mm."""
+FACING_COS = 0.5
+"""A meniscus's superior vertex meets the femur when its normal lies within 60 deg of the
+tibial axis: at a horn tip the few superior faces give a vertex normal that may point
+sideways or down, whose ray meets the femoral surface far behind it (measured: 37.7 mm
+at the lateral anterior tip)."""
 _REACH_MM = 5.0
 """Rays toward a meniscus's inferior face start this far below the tibial vertex, mm."""
 
@@ -352,6 +357,8 @@ def _meniscus(solid: MeniscusSolid, q: np.ndarray, q_tibia: np.ndarray,
     body = meniscus_body(solid, points, fibre, horns)
     superior = np.unique(solid.faces(SUPERIOR))
     normals = vertex_normals(points, solid.faces(SUPERIOR))[superior]
+    facing = normals[:, 2] >= FACING_COS
+    superior, normals = superior[facing], normals[facing]
     nodes, k_node = _springs(solid, horns)
     return MeniscusBody(solid.side, solid, points, body, superior, normals,
                         solid.faces(INFERIOR), rise, horns, nodes, k_node)
@@ -455,18 +462,19 @@ def _solve(sides: list[_Side], rot: np.ndarray, t: np.ndarray, load: float,
                                "re-linearisations; check the load and the meshes")
         t_solve += time.perf_counter() - t0
         gaps = _all_gaps(sides, rot, t, travel, sol.u)
-        worst = max(0.0, -min(float(g.min()) for g in gaps.values()))
+        worst, where = _worst(gaps, sides)
         grown = {name: np.union1d(cands[name], np.flatnonzero(g < margin))
                  for name, g in gaps.items()}
         if worst <= PENETRATION_TOL_MM:
             break
         if all(len(grown[k]) == len(cands[k]) for k in cands):
             break
-        say(f"a vertex outside the candidates penetrates by {worst:.2e} mm: widening them")
+        say(f"a vertex outside the candidates penetrates by {worst:.2e} mm ({where}): "
+            "widening them")
         cands = grown
     if worst > PENETRATION_TOL_MM:
-        raise FecheckError(f"the FE with menisci leaves a penetration of {worst:.2e} mm; "
-                           "raise fe.candidate_gap_mm")
+        raise FecheckError(f"the FE with menisci leaves a penetration of {worst:.2e} mm "
+                           f"({where}); raise fe.candidate_gap_mm")
     seconds |= {"condense": t_condense, "solve": t_solve}
     fe, balance = _report(sides, pairs, sol, axis, load)
     ef = _ef_rows(run, [s.name for s in sides])
@@ -477,6 +485,18 @@ def _solve(sides: list[_Side], rot: np.ndarray, t: np.ndarray, load: float,
         for s in sides if s.meniscus}
     return KneeMenisciFE(load, fe, ef, travel, axis, balance, worst,
                          sum(b.K.shape[0] for b in bodies), outer, seconds, records, springs)
+
+
+def _worst(gaps: dict[str, np.ndarray], sides: list[_Side]) -> tuple[float, str]:
+    """(the deepest penetration over every pair's vertices (mm, ≥ 0), the pair and the
+    vertex's place in the tibia frame)."""
+    name = min(gaps, key=lambda k: float(gaps[k].min()))
+    k = int(np.argmin(gaps[name]))
+    side = next(s for s in sides if name.startswith(f"{s.name} "))
+    point = (side.meniscus.points[side.meniscus.superior[k]] if "femur-meniscus" in name
+             else side.layer.surface.points[k])
+    return (max(0.0, -float(gaps[name][k])),
+            f"{name} at ({', '.join(f'{v:.1f}' for v in point)}) mm, tibia frame")
 
 
 def _pair_gaps(p: Pair, sides: list[_Side], rot: np.ndarray, t: np.ndarray,

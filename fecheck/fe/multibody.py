@@ -20,10 +20,13 @@ slave's ray hits, `ray_pairs`; or one matching node, weight 1). With the contact
 
 where the indenter moves by δ along its axis a (pushed with the load F), δq = (δ, t),
 and C = Σ_bodies D_b K_b⁻¹ D_bᵀ (D_b: the gaps' map to body b's kept dofs; one sparse
-factorization and one block solve per body). The mixed complementarity problem
-g ≥ 0, λ ≥ 0, λ·g = 0 with the equilibria Jᵀλ = (−F, 0, ...) is solved exactly by the
-primal-dual active set of `fecheck.fe.contact.active_set`: no penalty. Gaps are in the
-reference configuration (small displacements, pairs fixed). Units: mm, N, MPa.
+factorization per body, K_b⁻¹ on the dofs D_b reads from its trailing block:
+`fecheck.fe.contact.condensed_compliance` along the normals for a body that is only a
+slave, `nodal_compliance` otherwise, or block solves with another solver). The mixed
+complementarity problem g ≥ 0, λ ≥ 0, λ·g = 0 with the equilibria Jᵀλ = (−F, 0, ...)
+is solved exactly by the primal-dual active set of `fecheck.fe.contact.active_set`: no
+penalty. Gaps are in the reference configuration (small displacements, pairs fixed).
+Units: mm, N, MPa.
 """
 
 from __future__ import annotations
@@ -36,7 +39,12 @@ import numpy as np
 import scipy.sparse as sp
 
 from fecheck.errors import FecheckError
-from fecheck.fe.contact import active_set, factorize
+from fecheck.fe.contact import (
+    active_set,
+    condensed_compliance,
+    factorize,
+    nodal_compliance,
+)
 
 
 @dataclass(frozen=True, eq=False)
@@ -164,16 +172,43 @@ class Condensed:
             if not self._entries[b.name]:
                 continue
             r, c, v = (np.concatenate(x) for x in zip(*self._entries[b.name], strict=True))
-            self.D[b.name] = sp.csr_matrix((v, (r, c)), shape=(m, b.K.shape[0]))
+            self.D[b.name] = D = sp.csr_matrix((v, (r, c)), shape=(m, b.K.shape[0]))
+            normal = self._normal_gaps(b) if solver == "cholmod" else None
+            if normal is not None:        # one direction per node: the normal compliance
+                rows, dofs, directions = normal
+                block, self.solves[b.name] = condensed_compliance(b.K, dofs, directions)
+                C[np.ix_(rows, rows)] += block
+                continue
+            if solver == "cholmod":       # (K⁻¹) on the dofs the gaps read, one factorization
+                cols = np.unique(c)
+                inverse, self.solves[b.name] = nodal_compliance(b.K, cols)
+                Dc = D[:, cols]
+                C += (Dc @ (Dc @ inverse).T).T
+                continue
             touched = np.unique(r)
             self.solves[b.name] = factorize(b.K, solver)
-            Dt = self.D[b.name][touched]
+            Dt = D[touched]
             for s in range(0, len(touched), block):
                 part = slice(s, s + block)
                 X = self.solves[b.name](Dt[part].T.toarray())
                 C[np.ix_(touched, touched[part])] += Dt @ X
         self.C = 0.5 * (C + C.T)
         self.seconds = time.perf_counter() - t0
+
+    def _normal_gaps(self, body: Body) -> tuple[np.ndarray, np.ndarray, np.ndarray] | None:
+        """(gap rows, node dof triplets, normals) when `body` is only ever a slave, at
+        distinct nodes with all three dofs kept (each gap reads one node's normal
+        displacement: `fecheck.fe.contact.condensed_compliance` applies); else None."""
+        mine = [(p, start) for p, start in zip(self.pairs, self.offsets[:-1], strict=True)
+                if body.name in (p.slave, p.master)]
+        if any(p.master == body.name for p, _ in mine):
+            return None
+        nodes = np.concatenate([p.nodes for p, _ in mine])
+        dofs = body.node_dofs[nodes]
+        if len(np.unique(nodes)) < len(nodes) or dofs.shape[1] != 3 or (dofs < 0).any():
+            return None
+        rows = np.concatenate([np.arange(start, start + len(p.nodes)) for p, start in mine])
+        return rows, dofs, np.concatenate([p.normals for p, _ in mine])
 
     def _gap_map(self, names: dict, m: int) -> np.ndarray:
         """J (m, unknowns): the gaps' change with the indenter's travel and the bodies'
