@@ -36,7 +36,7 @@ from __future__ import annotations
 
 import time
 from collections.abc import Callable
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 
@@ -450,16 +450,20 @@ def _solve(sides: list[_Side], rot: np.ndarray, t: np.ndarray, load: float,
         say(f"condensed {sum(len(p.nodes) for p in pairs)} contact candidates in "
             f"{condensed.seconds:.1f} s")
         t0 = time.perf_counter()
+        previous = None
         for _ in range(50):
             outer += 1
             g0 = np.concatenate([_pair_gaps(p, sides, rot, t, travel) for p in pairs])
-            sol = condensed.solve(g0, load)
+            sol = condensed.solve(g0, load, start=previous, displace=False)
+            previous = np.concatenate([sol.pairs[p.name].active for p in pairs])
             travel += sol.approach_mm
             if abs(sol.approach_mm) <= MOVE_TOL_MM:
                 break
         else:
             raise FecheckError("the femur of the FE with menisci does not settle in 50 "
                                "re-linearisations; check the load and the meshes")
+        sol = replace(sol, u=condensed.displacements(
+            np.concatenate([sol.pairs[p.name].force_N for p in pairs])))
         t_solve += time.perf_counter() - t0
         gaps = _all_gaps(sides, rot, t, travel, sol.u)
         worst, where = _worst(gaps, sides)

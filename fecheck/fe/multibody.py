@@ -232,10 +232,20 @@ class Condensed:
                 J[row, k] += p.weights.sum(axis=1) * (p.normals @ unknowns[k][1])
         return J
 
-    def solve(self, g0: np.ndarray, load_N: float, *, max_iter: int = 200
-              ) -> MultibodySolution:
+    def displacements(self, lam: np.ndarray) -> dict[str, np.ndarray]:
+        """Each body's kept-dof displacements (mm) under the contact forces `lam` (m,) N."""
+        u = {name: self.solves[name](self.D[name].T @ lam) for name in self.D}
+        if not all(np.all(np.isfinite(x)) for x in u.values()):
+            raise FecheckError("the multibody contact solve produced NaN: a stiffness is "
+                               "singular")
+        return u
+
+    def solve(self, g0: np.ndarray, load_N: float, *, max_iter: int = 200,
+              start: np.ndarray | None = None, displace: bool = True) -> MultibodySolution:
         """The contact under the indenter's load `load_N` (N, > 0) with reference gaps
-        `g0` (m,) mm, the pairs' rows in order."""
+        `g0` (m,) mm, the pairs' rows in order; `start` (m,) the first active set (a
+        previous answer's; None: the closest gaps); without `displace` the bodies'
+        displacements are left out (u empty: `displacements` gives them later)."""
         if not (np.isfinite(load_N) and load_N > 0):
             raise FecheckError(f"the indenter's load must be a positive number of N, got "
                                f"{load_N}")
@@ -243,7 +253,7 @@ class Condensed:
         J, C = self.J, self.C
         Q = np.zeros(len(self.unknowns))
         Q[0] = load_N
-        first = g0 <= g0.min() + 1e-9
+        first = (g0 <= g0.min() + 1e-9) | (False if start is None else start)
         for k in range(len(self.unknowns)):   # each unknown starts with a contact that holds it
             rows = J[:, k] != 0.0
             if rows.any() and not (first & rows).any():
@@ -253,10 +263,7 @@ class Condensed:
                                                  "contact or check the load")
         gap = g0 + J @ dq + C @ lam
         timing = {"condense": self.seconds, "active_set": time.perf_counter() - t0}
-        u = {name: self.solves[name](self.D[name].T @ lam) for name in self.D}
-        if not all(np.all(np.isfinite(x)) for x in u.values()):
-            raise FecheckError("the multibody contact solve produced NaN: a stiffness is "
-                               "singular")
+        u = self.displacements(lam) if displace else {}
         off = self.offsets
         out = {p.name: PairContact(lam[a:b], gap[a:b], active[a:b])
                for p, a, b in zip(self.pairs, off[:-1], off[1:], strict=True)}
