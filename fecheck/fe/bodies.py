@@ -188,7 +188,8 @@ def refuse_unmodelled(scene: Scene) -> None:
     if scene["menisci.dir"]:
         raise FecheckError("the FE cross-check does not model menisci yet (menisci.dir = "
                            f"{scene['menisci.dir']!r}): set menisci.dir = '' to cross-check "
-                           "the knee without them")
+                           "the knee without them (validation/fe_menisci.py runs a first FE "
+                           "with menisci)")
 
 
 def scene_bodies(scene: Scene) -> list[FEBody]:
