@@ -59,6 +59,8 @@ PENETRATION_TOL_MM = 1e-6
 """Largest overlap accepted at any contact vertex after the solve, mm."""
 MOVE_TOL_MM = 1e-10
 """The outer loop stops when the femur's step is below this, mm."""
+MAX_CANDIDATES = 12000
+"""Most contact candidates in all (their dense compliance: 12000² doubles are 1.2 GB)."""
 FACING_COS = 0.5
 """A meniscus's superior vertex meets the femur when its normal lies within 60 deg of the
 tibial axis: at a horn tip the few superior faces give a vertex normal that may point
@@ -444,6 +446,12 @@ def _solve(sides: list[_Side], rot: np.ndarray, t: np.ndarray, load: float,
     t_condense = t_solve = 0.0
     for _ in range(4):
         pairs = [p for p in _pairs(sides, cands) if len(p.nodes)]
+        count = sum(len(p.nodes) for p in pairs)
+        if count > MAX_CANDIDATES:
+            raise FecheckError(f"{count} contact candidates (gaps under {margin:.2f} mm), more "
+                               f"than the {MAX_CANDIDATES} the dense contact solve takes: "
+                               "lower fe.candidate_gap_mm or coarsen the sheets (fe.prepare "
+                               "= 'on', fe.size_mm)")
         t0 = time.perf_counter()
         condensed = Condensed(bodies, pairs, axis)
         t_condense += time.perf_counter() - t0
