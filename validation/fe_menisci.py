@@ -37,6 +37,7 @@ if __name__ == "__main__" and not __package__:  # python validation/x.py: as pyt
 
 from fecheck.errors import FecheckError
 from fecheck.fe.knee_menisci import ROOTS, knee_menisci_fe
+from fecheck.fe.meniscus_solid import DEFAULT_SIZE_MM
 from fecheck.reference.closed_forms import DONAHUE_2002
 from fecheck.scene import load_scene
 
@@ -76,7 +77,7 @@ def main(argv=None) -> int:
     p.add_argument("--out", type=Path, default=Path("out/validation"), help="output folder")
     args = p.parse_args(argv)
     scene = load_scene(SCENE, QUICK if args.quick else [])
-    size = QUICK_MENISCUS_MM if args.quick else 1.25
+    size = QUICK_MENISCUS_MM if args.quick else DEFAULT_SIZE_MM
     t0 = time.perf_counter()
     try:
         r = knee_menisci_fe(scene, meniscus_size_mm=size, root=args.root,
@@ -98,7 +99,8 @@ def main(argv=None) -> int:
         print(f"{c}: FE area {fe.area_mm2 / DONAHUE_2002[c][1.0].area_mm2:.2f}x and p_max "
               f"{fe.p_max_MPa / DONAHUE_2002[c][1.0].max_pressure_MPa:.2f}x Donahue's; "
               f"meniscal share {fe.share:.1%} (published for intact knees near full "
-              f"extension: about {PUBLISHED_SHARE[c]:.0%}); meniscus balance "
+              f"extension: about {PUBLISHED_SHARE[c]:.0%}); the meniscus slides "
+              f"{fe.meniscus_slide_mm:.3f} mm in the tibial plane; its balance "
               f"{fe.meniscus_balance_N:.1e} N")
     print(f"balance: femur contact along its axis - load = {r.balance_N:.2e} N "
           f"({abs(r.balance_N) / r.load_N:.1e} of the load); worst penetration "

@@ -94,7 +94,8 @@ class CompartmentFE:
     """One compartment: axial loads into the tibia (N, + compressive) through the
     meniscus (contact + horn springs), its horn springs alone and cartilage-cartilage;
     the femur's axial load on the meniscus; the meniscal share; tibial contact area (mm²)
-    and vertex p_max (MPa); the meniscus's force balance (N, norm of the residual)."""
+    and vertex p_max (MPa); the meniscus's force balance (N, norm of the residual); how
+    far the meniscus slides in the tibial plane (mm, its vertices' mean displacement)."""
 
     meniscus_N: float
     springs_N: float
@@ -104,6 +105,7 @@ class CompartmentFE:
     area_mm2: float
     p_max_MPa: float
     meniscus_balance_N: float
+    meniscus_slide_mm: float = 0.0
 
 
 @dataclass(frozen=True, eq=False)
@@ -546,9 +548,11 @@ def _report(sides: list[_Side], pairs: list[Pair], sol, axis: np.ndarray, load: 
                 femur_total -= float(lam @ (normals @ axis))
             if p and p.slave == s.body.name:
                 force[p.nodes] += lam
-        springs, balance = 0.0, 0.0
+        springs, balance, slide = 0.0, 0.0, 0.0
         if s.meniscus is not None:
             m = s.meniscus
+            every = _disp(m.body, sol.u[m.body.name], np.arange(len(m.points)))
+            slide = float(np.linalg.norm(every.mean(axis=0)[:2]))
             spring = m.spring_N_per_mm[:, None] * _disp(m.body, sol.u[m.body.name],
                                                         m.spring_nodes)
             springs = -float(spring[:, 2].sum())
@@ -565,7 +569,7 @@ def _report(sides: list[_Side], pairs: list[Pair], sol, axis: np.ndarray, load: 
         total = through + axial["femur-tibia"]
         out[s.name] = CompartmentFE(through, springs, axial["femur-tibia"],
                                     axial["femur-meniscus"], through / total, float(area),
-                                    float(pressure.max()), balance)
+                                    float(pressure.max()), balance, slide)
     return out, femur_total - load
 
 
