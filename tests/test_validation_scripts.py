@@ -5,6 +5,11 @@ editing this file; each runs as a file (``python validation/x.py``) in a subproc
 temporary folder, with its output options (``--out``, ``--json``, ``--plot``, as its
 ``--help`` lists them) pointed there, and answers ``--help`` as a module of the package
 (``python -m validation.x`` from the repository root).
+
+The row scripts (``validation/row_*.py``) are the exception: CI's ``fecheck validate
+--quick`` runs every one of them in its quick mode and fails on a failed row, as their
+``main_for`` does, so here one of them runs as a file (the command line they share) and
+the others only answer ``--help``.
 """
 
 from __future__ import annotations
@@ -27,6 +32,9 @@ NOT_SCRIPTS = {
     "__init__.py": "the package file (the scripts import one another as validation.x)",
 }
 SCRIPTS = sorted(p for p in VALIDATION.glob("*.py") if p.name not in NOT_SCRIPTS)
+ROWS = "row_"
+"""Prefix of the row scripts that ``fecheck validate --quick`` runs (`fecheck.studies.validate`)."""
+STUDIES = [p for p in SCRIPTS if not p.name.startswith(ROWS)]
 OUTPUT_OPTIONS = {"--out": ".", "--json": "result.json", "--plot": "."}
 TIMEOUT_S = 600
 
@@ -61,8 +69,25 @@ def test_runs_as_a_module_of_the_package(script):
     assert "usage:" in usage.stdout
 
 
-@pytest.mark.parametrize("script", SCRIPTS, ids=lambda p: p.stem)
+@pytest.mark.parametrize("script", STUDIES, ids=lambda p: p.stem)
 def test_quick_mode_runs_to_the_end(script, tmp_path):
     done = _run([str(script), "--quick", *output_args(script, tmp_path)], tmp_path)
     assert done.returncode == 0, f"{script.name}: exit {done.returncode}\n{done.stderr[-3000:]}"
     assert "Traceback" not in done.stderr, done.stderr[-3000:]
+
+
+def test_the_row_scripts_are_the_ones_fecheck_validate_runs():
+    from fecheck.studies.validate import SCRIPT_PREFIX, discover
+
+    assert SCRIPT_PREFIX == ROWS
+    rows = {p for p in SCRIPTS if p.name.startswith(ROWS)}
+    assert rows and set(discover(VALIDATION).values()) == rows
+
+
+def test_a_row_script_runs_as_a_file_in_its_quick_mode(tmp_path):
+    # the command line every row script shares (`validation.report.main_for`): rows printed
+    done = _run([str(VALIDATION / "row_rigid.py"), "--quick", "--out", str(tmp_path)],
+                tmp_path)
+    assert done.returncode == 0, done.stderr[-3000:]
+    assert "### Table 5.1: rigid model force distribution" in done.stdout
+    assert (tmp_path / "table_5_1.csv").is_file()
