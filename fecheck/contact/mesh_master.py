@@ -14,7 +14,7 @@ the closest point, positive inside. Inside/outside:
 * ``sign="winding"``: the generalised winding number (inside where it exceeds 1/2),
   robust for closed meshes with defects (self-intersections, small holes). A point's
   side comes from a grid of nodes with known side and distance built once per master
-  (`fecheck.contact.winding.SideGrid`, 1 mm: every point over 0.87 mm from the surface),
+  (`fecheck.contact.winding.SideGrid`, 1 mm: every point over 1.73 mm from the surface),
   else from an exact hierarchical winding number (`fecheck.contact.winding.WindingTree`,
   built once); a broad phase that asks only reach > -margin takes no sign within the
   margin (`MeshMaster.margin_reach`). Measured on the femur_tibia_menisci solve (3,124

@@ -202,7 +202,8 @@ class SideGrid:
     """The side of a closed mesh (inside: winding number > 1/2) at the nodes of a grid
     over its box grown by `GRID_PAD_MM`, with each node's distance to the mesh: a point
     within a node's empty ball is on its side (`same_side`). With a 1 mm spacing every
-    point of the box over 0.87 mm (half the diagonal) from the mesh is answered."""
+    point of the box over 1.73 mm (a cell's diagonal) from the mesh is answered, and most
+    points over half that."""
 
     @staticmethod
     def tables(points: np.ndarray, spacing_mm: float, distance, winding
