@@ -120,7 +120,7 @@ def _solve(scene):
     return sol, menisci._shares(interfaces, poses, sides), menisci.balance(problem, sol.q)
 
 
-def test_menisci_solve_equals_the_face_by_face_winding_solve(monkeypatch):
+def test_menisci_solve_equals_the_libigl_winding_solve(monkeypatch):
     """femur_tibia_menisci at 800 N with the grid, the tree and the broad phase's
     unsigned margin, against every point's side from libigl's winding number (the path
     before them): the same
