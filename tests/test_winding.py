@@ -96,18 +96,38 @@ def test_side_grid_answers_far_points_and_only_with_the_true_side(meniscus):
     assert not answered[dist < 1e-3].any()
 
 
-def test_margin_reach_asks_no_winding_number_within_the_margin(meniscus, monkeypatch):
-    """The broad phase's reach tells reach > -margin exactly as the signed distance does,
-    and sends none of the points within the margin to the winding number."""
+def test_side_grid_bounds_hold_the_signed_distance(meniscus):
     master = MeshMaster(meniscus, "winding")
-    q = _probes(meniscus, 2000, 1.5, seed=3)
+    tables = SideGrid.tables(master._V, 1.0, master.distance_mm, master._winding)
+    q = _probes(meniscus, 3000, 1.5, seed=4)
+    lower, upper = SideGrid.bounds(*tables, q)
+    signed = master.reach(q)
+    assert np.all(lower <= signed) and np.all(signed <= upper)
+    on_grid = np.isfinite(lower)
+    assert on_grid.mean() > 0.9
+    assert np.all((upper - lower)[on_grid] <= np.sqrt(3.0) + 1e-6)    # twice the half diagonal
+
+
+def _no_grid(*tables):
+    n = len(tables[-1])
+    return np.zeros(n, bool), np.zeros(n, bool)
+
+
+def test_margin_reach_tells_reach_above_minus_margin_like_the_signed_distance(meniscus,
+                                                                              monkeypatch):
+    """With the grid's bounds: the same answers as the signed distance; without them, none
+    of the points within the margin is sent to the winding number."""
+    master = MeshMaster(meniscus, "winding")
+    q = _probes(meniscus, 3000, 1.5, seed=3)
+    signed = master.reach(q)
+    assert 0.1 < (signed > -2.0).mean() < 0.9
+    np.testing.assert_array_equal(master.margin_reach(2.0)(q) > -2.0, signed > -2.0)
     asked = []
     tree = master._winding
     monkeypatch.setattr(master, "_winding", lambda p: asked.append(p) or tree(p))
-    monkeypatch.setattr(SideGrid, "sides", staticmethod(
-        lambda *a: (np.zeros(len(a[-1]), bool), np.zeros(len(a[-1]), bool))))
-    signed = master.reach(q)
-    asked.clear()
+    monkeypatch.setattr(SideGrid, "sides", staticmethod(_no_grid))
+    monkeypatch.setattr(SideGrid, "bounds", staticmethod(
+        lambda *a: (np.full(len(a[-1]), -np.inf), np.full(len(a[-1]), np.inf))))
     near = master.margin_reach(2.0)(q)
     np.testing.assert_array_equal(near > -2.0, signed > -2.0)
     assert len(asked) == 1 and len(asked[0]) == int((np.abs(signed) >= 2.0).sum())
@@ -122,15 +142,14 @@ def _solve(scene):
 
 def test_menisci_solve_equals_the_libigl_winding_solve(monkeypatch):
     """femur_tibia_menisci at 800 N with the grid, the tree and the broad phase's
-    unsigned margin, against every point's side from libigl's winding number (the path
+    bounds and unsigned margin, against every point's side from libigl's winding number (the path
     before them): the same
     poses, forces and shares (1e-9 relative), each balanced to 1e-8 of the load."""
     scene = load_scene("femur_tibia_menisci")
     fast, fast_rows, fast_balance = _solve(scene)
     monkeypatch.setattr(winding.WindingTree, "__call__",
                         lambda self, p: igl.winding_number(self._points, self._faces, p))
-    monkeypatch.setattr(SideGrid, "sides", staticmethod(
-        lambda *a: (np.zeros(len(a[-1]), bool), np.zeros(len(a[-1]), bool))))
+    monkeypatch.setattr(SideGrid, "sides", staticmethod(_no_grid))
     monkeypatch.setattr(MeshMaster, "margin_reach", lambda self, margin: self.reach)
     ref, ref_rows, ref_balance = _solve(scene)
     assert fast.converged and ref.converged

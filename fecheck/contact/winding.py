@@ -230,3 +230,18 @@ class SideGrid:
         flat = np.ravel_multi_index(idx.T, count)
         answered = within & same_side(y, lo + h * idx, distance[flat])
         return answered, inside[flat]
+
+    @staticmethod
+    def bounds(frame: np.ndarray, count: np.ndarray, distance: np.ndarray,
+               inside: np.ndarray, y: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """(lower, upper) (n,) bounds of the signed distance (mm, positive inside) at points
+        y (n, 3) from their nearest nodes: φ(node) ∓ |y - node| (φ is 1-Lipschitz: its
+        sign turns only on the surface); (-inf, inf) off the grid."""
+        lo, h = frame[:3], frame[3]
+        idx = np.rint((y - lo) / h).astype(np.int64)
+        within = np.all((idx >= 0) & (idx < count), axis=1)
+        idx = np.clip(idx, 0, count - 1)
+        flat = np.ravel_multi_index(idx.T, count)
+        phi = np.where(inside[flat], distance[flat], -distance[flat])
+        gap = np.sqrt(((y - (lo + h * idx)) ** 2).sum(axis=1)) + SIDE_SLACK_MM
+        return (np.where(within, phi - gap, -np.inf), np.where(within, phi + gap, np.inf))
