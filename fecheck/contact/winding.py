@@ -25,7 +25,7 @@ import math
 import numpy as np
 from numba import njit
 
-from fecheck.contact.bvh import _build
+from fecheck.contact.bvh import build_tree
 
 FOUR_PI = 4.0 * math.pi
 GRID_PAD_MM = 3.0
@@ -102,7 +102,7 @@ def build_tables(points: np.ndarray, faces: np.ndarray):
         for k in range(3):
             centroids[f, k] = (points[faces[f, 0], k] + points[faces[f, 1], k]
                                + points[faces[f, 2], k]) / 3.0
-    order, lo, hi, child, span = _build(centroids)
+    order, lo, hi, child, span = build_tree(centroids)
     n_nodes = lo.shape[0]
     centre = np.empty((n_nodes, 3))
     ptr = np.zeros(n_nodes + 1, dtype=np.int64)
