@@ -14,7 +14,8 @@ the closest point, positive inside. Inside/outside:
 * ``sign="winding"``: the generalised winding number (inside where it exceeds 1/2),
   robust for closed meshes with defects (self-intersections, small holes). A point's
   side comes from a grid of nodes with known side and distance built once per master
-  (`fecheck.contact.winding.SideGrid`, 1 mm: every point over 1.73 mm from the surface),
+  (`fecheck.contact.winding.SideGrid`, 1 mm, wider over large boxes: every point over
+  1.73 mm from the surface),
   else from an exact hierarchical winding number (`fecheck.contact.winding.WindingTree`,
   built once); a broad phase that asks only reach > -margin takes the answer from the
   grid's bounds of the signed distance where they tell, and no sign within the margin
@@ -114,7 +115,7 @@ class MeshMaster:
             self._grid = cached_arrays(
                 "side-grid", [self._V, self._F, np.array([GRID_MM, GRID_PAD_MM])],
                 lambda: SideGrid.tables(self._V, GRID_MM, self.distance_mm, self._winding),
-                version=1)
+                version=2)
         self._load_kernels()
 
     def _load_kernels(self) -> None:
