@@ -30,7 +30,7 @@ _BIT = np.array([0, 1, 28, 2, 29, 14, 24, 3, 30, 22, 20, 15, 25, 17, 4, 8, 31, 2
 
 
 @njit(cache=True)
-def _build(points: np.ndarray):
+def build_tree(points: np.ndarray):
     """Tree arrays: order (n,) point indices grouped by leaf; per node lo (3,), hi (3,),
     left/right child (-1 at a leaf), first/count of its points in `order`."""
     n = points.shape[0]
@@ -415,7 +415,7 @@ class PointTree:
         self.faces = np.ascontiguousarray(faces, dtype=np.int64)
         self.normals = np.ascontiguousarray(normals, dtype=float)
         self.areas = np.ascontiguousarray(areas, dtype=float)
-        self.tables = _build(self.points)      # order, lo, hi, child, span
+        self.tables = build_tree(self.points)      # order, lo, hi, child, span
         self.ptr, self.index = vertex_faces(self.faces, len(self.points))
         self.face_bits = np.zeros(len(self.faces) // 32 + 1, dtype=np.int64)
         self.vertex_index = np.full(len(self.points), -1, dtype=np.int64)

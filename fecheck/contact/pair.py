@@ -235,7 +235,9 @@ class ContactPair:
         self._warm: tuple[object, object] = (None, None)
         if self._thesis is None:
             region = getattr(self.master, "region", None)
-            self._cache = CandidateCache(slave, self.master.reach, self.margin_mm,
+            reach = (self.master.margin_reach(self.margin_mm) if method == "bvh"
+                     else self.master.reach)
+            self._cache = CandidateCache(slave, reach, self.margin_mm,
                                          region=region(self.margin_mm) if region else None)
 
     def describe(self) -> str:

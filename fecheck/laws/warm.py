@@ -5,7 +5,7 @@ seconds each); the setup script runs this module once after installing, so that 
 user's first run compiles anything. One small contact of each kind is evaluated through
 the hot path (`fecheck.laws.fused`) and the full path, with each compiled law: a plane,
 a sphere and a mesh master (its walked and its tree-queried evaluations), clipped and
-whole-face areas.
+whole-face areas, and a closed mesh master inside by its winding number.
 
     python -m fecheck.laws.warm
 """
@@ -49,6 +49,9 @@ def compile_kernels() -> float:
                     w = contact_wrench(pair, pose, master_pose, law)
                     law(pair.evaluate(pose, master_pose))
                     assert w.max_depth > 0, "the warm-up contacts must touch"
+    # a closed master inside by its winding number (a meniscus): the winding tree's kernels
+    pair = ContactPair(slave, icosphere(12.0, 2), mesh_sign="winding")
+    pair.evaluate(poses[0], cases[2][1])
     return time.perf_counter() - t0
 
 
