@@ -26,13 +26,26 @@ import numpy as np
 from numba import njit
 
 from fecheck.contact.broadphase import checked_relative_pose, region_set
-from fecheck.contact.kernels import plane_surface, sphere_surface, walked_mesh_surface
+from fecheck.contact.clip import RULE, face_rule
+from fecheck.contact.kernels import (
+    mat_vec,
+    plane_surface,
+    slave_to_master,
+    sphere_surface,
+    walked_mesh_surface,
+)
 from fecheck.contact.mesh_master import MAX_STEPS
 from fecheck.contact.pair import checked_poses, raise_bad_pose
 from fecheck.contact.surface import ContactSurface
 from fecheck.errors import FecheckError
 from fecheck.laws.foundation import foundation
-from fecheck.laws.kernel import LINEAR, law_function, law_values, pressure_resultant
+from fecheck.laws.kernel import (
+    LINEAR,
+    close_resultant,
+    law_function,
+    law_values,
+    pressure_resultant,
+)
 
 ORIGIN = np.zeros(3)
 PACKED = 44
@@ -156,6 +169,133 @@ def _reduce(surface, slave_normals, faces, kind, params, face_scale, about, out)
     out[43] = vertex_depth.max()
 
 
+# One fused compiled loop over the faces for speed (the cases of one face kept together).
+@njit(cache=True, fastmath=False)
+def plane_linear_wrench(clipped, points, local_faces, normals, areas, R, t, Rm, tm, Rs,  # noqa: C901
+                        plane_point, plane_normal, stiffness, about, out):
+    """The linear law p = k·d (`stiffness` k, N/mm³) against a plane master, written into
+    `out` (a `Wrench`'s packed array): `fecheck.contact.kernels.plane_surface`, its
+    `surface_quadrature` (points fixed in the face: the linear law's case) and
+    `_reduce`'s `pressure_resultant` in one pass over the candidate faces, each
+    quadrature point's contribution summed as it is formed, with no per-point arrays.
+    Arguments as `plane_surface` (points (n, 3), local_faces (m, 3), normals (m, 3),
+    areas (m,): the candidates in the slave frame, mm)."""
+    n0, n1, n2 = plane_normal[0], plane_normal[1], plane_normal[2]
+    offset = plane_point[0] * n0 + plane_point[1] * n1 + plane_point[2] * n2
+    y = slave_to_master(points, R, t)
+    dv = np.empty(points.shape[0])
+    for i in range(points.shape[0]):
+        dv[i] = offset - (y[i, 0] * n0 + y[i, 1] * n1 + y[i, 2] * n2)
+    w0, w1, w2 = mat_vec(Rm, n0, n1, n2)                     # the normal in the world
+    g0, g1, g2 = -w0, -w1, -w2                            # ∂d/∂x of every vertex
+    D = np.empty(3)
+    X = np.empty((3, 3))
+    T = np.empty((3, 6))
+    bary = np.empty((6, 3))
+    frac = np.empty(6)
+    corner = np.empty((6, 3))
+    dt = np.empty(6)
+    wt = np.empty(6)
+    tangent = np.zeros((6, 6))
+    f0 = f1 = f2 = m0 = m1 = m2 = area = 0.0
+    xf00 = xf01 = xf02 = xf10 = xf11 = xf12 = xf20 = xf21 = xf22 = 0.0   # Σ x_q F_qᵀ
+    hits, deepest_vertex = 0, -np.inf
+    for f in range(local_faces.shape[0]):
+        for j in range(3):
+            D[j] = dv[local_faces[f, j]]
+        if not (D[0] > 0.0 or D[1] > 0.0 or D[2] > 0.0):
+            continue
+        hits += 1
+        for j in range(3):
+            deepest_vertex = max(deepest_vertex, D[j])
+            v = local_faces[f, j]
+            x0, x1, x2 = mat_vec(Rm, y[v, 0], y[v, 1], y[v, 2])
+            x0, x1, x2 = x0 + tm[0], x1 + tm[1], x2 + tm[2]
+            X[j, 0], X[j, 1], X[j, 2] = x0, x1, x2
+            T[j, 0], T[j, 1], T[j, 2] = g0, g1, g2
+            T[j, 3] = x1 * g2 - x2 * g1
+            T[j, 4] = x2 * g0 - x0 * g2
+            T[j, 5] = x0 * g1 - x1 * g0
+        a0, a1, a2 = mat_vec(Rs, normals[f, 0], normals[f, 1], normals[f, 2])
+        cos = a0 * w0 + a1 * w1 + a2 * w2
+        sign = 1.0 if cos > 0.0 else (-1.0 if cos < 0.0 else 0.0)
+        cos_abs = abs(cos)
+        rate3 = sign * (a1 * w2 - a2 * w1)                # ∂cos/∂ω = n_face × n
+        rate4 = sign * (a2 * w0 - a0 * w2)
+        rate5 = sign * (a0 * w1 - a1 * w0)
+        if clipped:
+            n_q = face_rule(D[0], D[1], D[2], bary, frac, 0, corner)
+        else:
+            n_q = 3
+            for q in range(3):
+                for k in range(3):
+                    bary[q, k] = RULE[q, k]
+                frac[q] = 1.0 / 3.0
+        deepest = 0
+        for j in range(1, 3):
+            if D[j] > D[deepest]:
+                deepest = j
+        for q in range(n_q):
+            b0, b1, b2 = bary[q, 0], bary[q, 1], bary[q, 2]
+            x0 = b0 * X[0, 0] + b1 * X[1, 0] + b2 * X[2, 0]
+            x1 = b0 * X[0, 1] + b1 * X[1, 1] + b2 * X[2, 1]
+            x2 = b0 * X[0, 2] + b1 * X[1, 2] + b2 * X[2, 2]
+            if clipped:
+                depth = b0 * D[0] + b1 * D[1] + b2 * D[2]
+                for k in range(6):
+                    dt[k] = b0 * T[0, k] + b1 * T[1, k] + b2 * T[2, k]
+            else:
+                depth = D[deepest]
+                for k in range(6):
+                    dt[k] = T[deepest, k]
+            a = frac[q] * areas[f]
+            w = a * cos_abs
+            wt[0] = wt[1] = wt[2] = a * 0.0
+            wt[3], wt[4], wt[5] = a * rate3, a * rate4, a * rate5
+            if depth <= 0.0:
+                continue
+            p = stiffness * depth
+            dpw = stiffness * w
+            s = w * p
+            area += w
+            arm3, arm4, arm5 = x1 * w2 - x2 * w1, x2 * w0 - x0 * w2, x0 * w1 - x1 * w0
+            for k in range(6):
+                gq = dpw * dt[k] + p * wt[k]
+                tangent[0, k] += w0 * gq
+                tangent[1, k] += w1 * gq
+                tangent[2, k] += w2 * gq
+                tangent[3, k] += arm3 * gq
+                tangent[4, k] += arm4 * gq
+                tangent[5, k] += arm5 * gq
+            f0 += s * w0
+            f1 += s * w1
+            f2 += s * w2
+            m0 += s * arm3
+            m1 += s * arm4
+            m2 += s * arm5
+            xf00 += x0 * w0 * s
+            xf01 += x0 * w1 * s
+            xf02 += x0 * w2 * s
+            xf10 += x1 * w0 * s
+            xf11 += x1 * w1 * s
+            xf12 += x1 * w2 * s
+            xf20 += x2 * w0 * s
+            xf21 += x2 * w1 * s
+            xf22 += x2 * w2 * s
+    if hits == 0:
+        out[:] = 0.0
+        return
+    xf = np.array([[xf00, xf01, xf02], [xf10, xf11, xf12], [xf20, xf21, xf22]])
+    force, moment = close_resultant(tangent, f0, f1, f2, m0, m1, m2, xf, False, about)
+    out[:3] = force
+    out[3:6] = moment
+    for i in range(6):
+        for k in range(6):
+            out[6 + 6 * i + k] = tangent[i, k]
+    out[42] = area
+    out[43] = deepest_vertex
+
+
 @njit(cache=True, fastmath=False)
 def closed_form_wrench(state, Rs, ts, Rm, tm, sphere, master, clipped, kind, params,
                        face_scale, about, out):
@@ -177,6 +317,11 @@ def closed_form_wrench(state, Rs, ts, Rm, tm, sphere, master, clipped, kind, par
     if state.cand_faces.size == 0:
         return 0, 0
     moving = kind != LINEAR
+    if not (sphere or moving or face_scale.size):
+        plane_linear_wrench(clipped, state.cand_points, state.cand_local, state.cand_normals,
+                            state.cand_areas, R, t, Rm, tm, Rs, master[:3], master[3:],
+                            params[0], about, out)
+        return 0, 0
     if sphere:
         surface = sphere_surface(clipped, moving, state.cand_points, state.cand_local,
                                  state.cand_normals, state.cand_areas, R, t, Rm, tm, Rs,
