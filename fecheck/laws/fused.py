@@ -196,9 +196,9 @@ def plane_linear_wrench(clipped, points, local_faces, normals, areas, R, t, Rm, 
     corner = np.empty((6, 3))
     dt = np.empty(6)
     wt = np.empty(6)
-    tangent = np.zeros((6, 6))
-    f0 = f1 = f2 = m0 = m1 = m2 = area = 0.0
-    xf00 = xf01 = xf02 = xf10 = xf11 = xf12 = xf20 = xf21 = xf22 = 0.0   # Σ x_q F_qᵀ
+    G = np.zeros(6)                                       # Σ_q gq_q, gq = d(w·p)/dξ
+    XG = np.zeros((3, 6))                                 # Σ_q x_q gq_qᵀ
+    S = S0 = S1 = S2 = area = 0.0                         # Σ_q s_q, Σ_q s_q x_q
     hits, deepest_vertex = 0, -np.inf
     for f in range(local_faces.shape[0]):
         for j in range(3):
@@ -258,35 +258,32 @@ def plane_linear_wrench(clipped, points, local_faces, normals, areas, R, t, Rm, 
             dpw = stiffness * w
             s = w * p
             area += w
-            arm3, arm4, arm5 = x1 * w2 - x2 * w1, x2 * w0 - x0 * w2, x0 * w1 - x1 * w0
             for k in range(6):
                 gq = dpw * dt[k] + p * wt[k]
-                tangent[0, k] += w0 * gq
-                tangent[1, k] += w1 * gq
-                tangent[2, k] += w2 * gq
-                tangent[3, k] += arm3 * gq
-                tangent[4, k] += arm4 * gq
-                tangent[5, k] += arm5 * gq
-            f0 += s * w0
-            f1 += s * w1
-            f2 += s * w2
-            m0 += s * arm3
-            m1 += s * arm4
-            m2 += s * arm5
-            xf00 += x0 * w0 * s
-            xf01 += x0 * w1 * s
-            xf02 += x0 * w2 * s
-            xf10 += x1 * w0 * s
-            xf11 += x1 * w1 * s
-            xf12 += x1 * w2 * s
-            xf20 += x2 * w0 * s
-            xf21 += x2 * w1 * s
-            xf22 += x2 * w2 * s
+                G[k] += gq
+                XG[0, k] += x0 * gq
+                XG[1, k] += x1 * gq
+                XG[2, k] += x2 * gq
+            S += s
+            S0 += s * x0
+            S1 += s * x1
+            S2 += s * x2
     if hits == 0:
         out[:] = 0.0
         return
-    xf = np.array([[xf00, xf01, xf02], [xf10, xf11, xf12], [xf20, xf21, xf22]])
-    force, moment = close_resultant(tangent, f0, f1, f2, m0, m1, m2, xf, False, about)
+    # the normal w is the same at every point: the unit wrench is [w, x × w], so
+    # Σ arm gqᵀ, the force, the moment and Σ x Fᵀ follow from G, XG, S and S·x
+    tangent = np.empty((6, 6))
+    for k in range(6):
+        tangent[0, k], tangent[1, k], tangent[2, k] = w0 * G[k], w1 * G[k], w2 * G[k]
+        tangent[3, k] = XG[1, k] * w2 - XG[2, k] * w1
+        tangent[4, k] = XG[2, k] * w0 - XG[0, k] * w2
+        tangent[5, k] = XG[0, k] * w1 - XG[1, k] * w0
+    xf = np.empty((3, 3))
+    for i, si in enumerate((S0, S1, S2)):
+        xf[i, 0], xf[i, 1], xf[i, 2] = si * w0, si * w1, si * w2
+    force, moment = close_resultant(tangent, S * w0, S * w1, S * w2, S1 * w2 - S2 * w1,
+                                    S2 * w0 - S0 * w2, S0 * w1 - S1 * w0, xf, False, about)
     out[:3] = force
     out[3:6] = moment
     for i in range(6):
