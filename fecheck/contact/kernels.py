@@ -158,7 +158,7 @@ def _vertex(T: np.ndarray, X: np.ndarray, i: int, j: int, x: tuple, g: tuple,
 
 
 @njit(cache=True, fastmath=False)
-def slave_to_master(points: np.ndarray, R: np.ndarray, t: np.ndarray) -> np.ndarray:
+def _slave_to_master(points: np.ndarray, R: np.ndarray, t: np.ndarray) -> np.ndarray:
     """y = R p + t for the candidate points (n, 3)."""
     y = np.empty_like(points)
     for i in range(points.shape[0]):
@@ -263,7 +263,7 @@ def plane_surface(clipped: bool, moving: bool, points: np.ndarray, local_faces: 
     """
     n0, n1, n2 = plane_normal[0], plane_normal[1], plane_normal[2]
     offset = plane_point[0] * n0 + plane_point[1] * n1 + plane_point[2] * n2
-    y = slave_to_master(points, R, t)
+    y = _slave_to_master(points, R, t)
     dv = np.empty(points.shape[0])
     for i in range(points.shape[0]):
         dv[i] = offset - (y[i, 0] * n0 + y[i, 1] * n1 + y[i, 2] * n2)
@@ -316,7 +316,7 @@ def sphere_surface(clipped: bool, moving: bool, points: np.ndarray, local_faces:
     returns as `plane_surface`.
     """
     n_c = local_faces.shape[0]
-    y = slave_to_master(points, R, t)
+    y = _slave_to_master(points, R, t)
     r2 = radius * radius
     rr = np.empty(points.shape[0])              # |y - c|², mm²
     for v in range(points.shape[0]):
@@ -469,7 +469,7 @@ def walked_mesh_surface(clipped: bool, moving: bool, points: np.ndarray, local_f
     settle, settled is False, the contact is empty and the state is spoilt (the caller
     queries the tree).
     """
-    y = slave_to_master(points, R, t)
+    y = _slave_to_master(points, R, t)
     n = y.shape[0]
     moved = np.empty(n)
     dv = np.empty(n)                    # the depth, or its (negative) bound if not needed

@@ -25,12 +25,11 @@ from dataclasses import dataclass
 import numpy as np
 from numba import njit
 
-from fecheck.contact.broadphase import checked_relative_pose, region_set
+from fecheck.contact.broadphase import checked_relative_pose, region_ranks, region_set
 from fecheck.contact.clip import RULE, face_rule
 from fecheck.contact.kernels import (
     mat_vec,
     plane_surface,
-    slave_to_master,
     sphere_surface,
     walked_mesh_surface,
 )
@@ -171,22 +170,31 @@ def _reduce(surface, slave_normals, faces, kind, params, face_scale, about, out)
 
 # One fused compiled loop over the faces for speed (the cases of one face kept together).
 @njit(cache=True, fastmath=False)
-def plane_linear_wrench(clipped, points, local_faces, normals, areas, R, t, Rm, tm, Rs,  # noqa: C901
-                        plane_point, plane_normal, stiffness, about, out):
+def plane_linear_wrench(clipped, ranks, corners, normals, areas, points, size, R, t,  # noqa: C901
+                        Rm, tm, Rs, plane_point, plane_normal, stiffness, about, out):
     """The linear law p = k·d (`stiffness` k, N/mm³) against a plane master, written into
     `out` (a `Wrench`'s packed array): `fecheck.contact.kernels.plane_surface`, its
     `surface_quadrature` (points fixed in the face: the linear law's case) and
     `_reduce`'s `pressure_resultant` in one pass over the candidate faces, each
     quadrature point's contribution summed as it is formed, with no per-point arrays.
-    Arguments as `plane_surface` (points (n, 3), local_faces (m, 3), normals (m, 3),
-    areas (m,): the candidates in the slave frame, mm)."""
+
+    The candidates are the faces `ranks` (m,) of the broad phase's tables in rank order
+    (`fecheck.contact.bvh.owner_tables`): corners (n_faces, 3) slave vertex indices,
+    outward normals (n_faces, 3), areas (n_faces,) mm²; points (n_points, 3) the slave
+    vertices (slave frame, mm), all within `size` mm of the slave origin. A face is
+    skipped when no corner can be below the plane (its depth along the plane normal
+    carried into the slave frame, within a round-off bound); the others get the vertex
+    depths and positions of `plane_surface`, by the same arithmetic. Poses and the
+    plane as for `plane_surface`.
+    """
     n0, n1, n2 = plane_normal[0], plane_normal[1], plane_normal[2]
     offset = plane_point[0] * n0 + plane_point[1] * n1 + plane_point[2] * n2
-    y = slave_to_master(points, R, t)
-    dv = np.empty(points.shape[0])
-    for i in range(points.shape[0]):
-        dv[i] = offset - (y[i, 0] * n0 + y[i, 1] * n1 + y[i, 2] * n2)
-    w0, w1, w2 = mat_vec(Rm, n0, n1, n2)                     # the normal in the world
+    s0, s1, s2 = (R[0, 0] * n0 + R[1, 0] * n1 + R[2, 0] * n2,      # Rᵀn, slave frame
+                  R[0, 1] * n0 + R[1, 1] * n1 + R[2, 1] * n2,
+                  R[0, 2] * n0 + R[1, 2] * n1 + R[2, 2] * n2)
+    level = offset - (t[0] * n0 + t[1] * n1 + t[2] * n2)        # depth = level - Rᵀn·p
+    slack = 1e-9 * (1.0 + abs(offset) + abs(level) + 3.0 * size)   # ≫ round-off, mm
+    w0, w1, w2 = mat_vec(Rm, n0, n1, n2)                  # the normal in the world
     g0, g1, g2 = -w0, -w1, -w2                            # ∂d/∂x of every vertex
     D = np.empty(3)
     X = np.empty((3, 3))
@@ -200,22 +208,30 @@ def plane_linear_wrench(clipped, points, local_faces, normals, areas, R, t, Rm, 
     XG = np.zeros((3, 6))                                 # Σ_q x_q gq_qᵀ
     S = S0 = S1 = S2 = area = 0.0                         # Σ_q s_q, Σ_q s_q x_q
     hits, deepest_vertex = 0, -np.inf
-    for f in range(local_faces.shape[0]):
+    for f in ranks:
+        near = False
         for j in range(3):
-            D[j] = dv[local_faces[f, j]]
-        if not (D[0] > 0.0 or D[1] > 0.0 or D[2] > 0.0):
+            v = corners[f, j]
+            depth = level - (s0 * points[v, 0] + s1 * points[v, 1] + s2 * points[v, 2])
+            near |= depth > -slack
+        if not near:
             continue
-        hits += 1
         for j in range(3):
-            deepest_vertex = max(deepest_vertex, D[j])
-            v = local_faces[f, j]
-            x0, x1, x2 = mat_vec(Rm, y[v, 0], y[v, 1], y[v, 2])
+            v = corners[f, j]
+            y0, y1, y2 = mat_vec(R, points[v, 0], points[v, 1], points[v, 2])
+            y0, y1, y2 = y0 + t[0], y1 + t[1], y2 + t[2]
+            D[j] = offset - (y0 * n0 + y1 * n1 + y2 * n2)
+            x0, x1, x2 = mat_vec(Rm, y0, y1, y2)
             x0, x1, x2 = x0 + tm[0], x1 + tm[1], x2 + tm[2]
             X[j, 0], X[j, 1], X[j, 2] = x0, x1, x2
             T[j, 0], T[j, 1], T[j, 2] = g0, g1, g2
             T[j, 3] = x1 * g2 - x2 * g1
             T[j, 4] = x2 * g0 - x0 * g2
             T[j, 5] = x0 * g1 - x1 * g0
+        if not (D[0] > 0.0 or D[1] > 0.0 or D[2] > 0.0):
+            continue
+        hits += 1
+        deepest_vertex = max(deepest_vertex, D[0], D[1], D[2])
         a0, a1, a2 = mat_vec(Rs, normals[f, 0], normals[f, 1], normals[f, 2])
         cos = a0 * w0 + a1 * w1 + a2 * w2
         sign = 1.0 if cos > 0.0 else (-1.0 if cos < 0.0 else 0.0)
@@ -310,14 +326,17 @@ def closed_form_wrench(state, Rs, ts, Rm, tm, sphere, master, clipped, kind, par
     R, t, slave_status, master_status = checked_relative_pose(Rs, ts, Rm, tm)
     if slave_status or master_status:
         return slave_status, master_status
+    moving = kind != LINEAR
+    if not (sphere or moving or face_scale.size):      # the set's face data not gathered
+        region_ranks(state, R, t)
+        c = state.centroid
+        size = np.sqrt(c[0] * c[0] + c[1] * c[1] + c[2] * c[2]) + state.radius
+        plane_linear_wrench(clipped, state.cand_ranks, state.corners, state.normals,
+                            state.areas, state.points, size, R, t, Rm, tm, Rs,
+                            master[:3], master[3:], params[0], about, out)
+        return 0, 0
     region_set(state, R, t)
     if state.cand_faces.size == 0:
-        return 0, 0
-    moving = kind != LINEAR
-    if not (sphere or moving or face_scale.size):
-        plane_linear_wrench(clipped, state.cand_points, state.cand_local, state.cand_normals,
-                            state.cand_areas, R, t, Rm, tm, Rs, master[:3], master[3:],
-                            params[0], about, out)
         return 0, 0
     if sphere:
         surface = sphere_surface(clipped, moving, state.cand_points, state.cand_local,
