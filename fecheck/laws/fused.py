@@ -198,15 +198,14 @@ def plane_linear_wrench(clipped, ranks, corners, normals, areas, points, size, R
     g0, g1, g2 = -w0, -w1, -w2                            # ∂d/∂x of every vertex
     D = np.empty(3)
     X = np.empty((3, 3))
-    T = np.empty((3, 6))
     bary = np.empty((6, 3))
     frac = np.empty(6)
     corner = np.empty((6, 3))
-    dt = np.empty(6)
-    wt = np.empty(6)
-    G = np.zeros(6)                                       # Σ_q gq_q, gq = d(w·p)/dξ
-    XG = np.zeros((3, 6))                                 # Σ_q x_q gq_qᵀ
+    RA = np.zeros(3)                                      # Σ_f rate_f Σ_q p·a
+    RX = np.zeros((3, 3))                                 # Σ_f (Σ_q p·a·x) rate_fᵀ
     S = S0 = S1 = S2 = area = 0.0                         # Σ_q s_q, Σ_q s_q x_q
+    Sd = Sd0 = Sd1 = Sd2 = Se0 = Se1 = Se2 = 0.0          # Σ dpw, Σ dpw x, Σ dpw e
+    M00 = M01 = M02 = M10 = M11 = M12 = M20 = M21 = M22 = 0.0   # Σ dpw x eᵀ
     hits, deepest_vertex = 0, -np.inf
     for f in ranks:
         near = False
@@ -224,10 +223,6 @@ def plane_linear_wrench(clipped, ranks, corners, normals, areas, points, size, R
             x0, x1, x2 = mat_vec(Rm, y0, y1, y2)
             x0, x1, x2 = x0 + tm[0], x1 + tm[1], x2 + tm[2]
             X[j, 0], X[j, 1], X[j, 2] = x0, x1, x2
-            T[j, 0], T[j, 1], T[j, 2] = g0, g1, g2
-            T[j, 3] = x1 * g2 - x2 * g1
-            T[j, 4] = x2 * g0 - x0 * g2
-            T[j, 5] = x0 * g1 - x1 * g0
         if not (D[0] > 0.0 or D[1] > 0.0 or D[2] > 0.0):
             continue
         hits += 1
@@ -251,44 +246,66 @@ def plane_linear_wrench(clipped, ranks, corners, normals, areas, points, size, R
         for j in range(1, 3):
             if D[j] > D[deepest]:
                 deepest = j
+        pa = pa0 = pa1 = pa2 = 0.0
         for q in range(n_q):
             b0, b1, b2 = bary[q, 0], bary[q, 1], bary[q, 2]
             x0 = b0 * X[0, 0] + b1 * X[1, 0] + b2 * X[2, 0]
             x1 = b0 * X[0, 1] + b1 * X[1, 1] + b2 * X[2, 1]
             x2 = b0 * X[0, 2] + b1 * X[1, 2] + b2 * X[2, 2]
-            if clipped:
+            if clipped:                                   # the depth and its arm e
                 depth = b0 * D[0] + b1 * D[1] + b2 * D[2]
-                for k in range(6):
-                    dt[k] = b0 * T[0, k] + b1 * T[1, k] + b2 * T[2, k]
+                e0, e1, e2 = x0, x1, x2
             else:
                 depth = D[deepest]
-                for k in range(6):
-                    dt[k] = T[deepest, k]
+                e0, e1, e2 = X[deepest, 0], X[deepest, 1], X[deepest, 2]
             a = frac[q] * areas[f]
             w = a * cos_abs
-            wt[0] = wt[1] = wt[2] = a * 0.0
-            wt[3], wt[4], wt[5] = a * rate3, a * rate4, a * rate5
             if depth <= 0.0:
                 continue
             p = stiffness * depth
             dpw = stiffness * w
             s = w * p
             area += w
-            for k in range(6):
-                gq = dpw * dt[k] + p * wt[k]
-                G[k] += gq
-                XG[0, k] += x0 * gq
-                XG[1, k] += x1 * gq
-                XG[2, k] += x2 * gq
+            Sd += dpw
+            Sd0, Sd1, Sd2 = Sd0 + dpw * x0, Sd1 + dpw * x1, Sd2 + dpw * x2
+            Se0, Se1, Se2 = Se0 + dpw * e0, Se1 + dpw * e1, Se2 + dpw * e2
+            c0, c1, c2 = dpw * x0, dpw * x1, dpw * x2
+            M00, M01, M02 = M00 + c0 * e0, M01 + c0 * e1, M02 + c0 * e2
+            M10, M11, M12 = M10 + c1 * e0, M11 + c1 * e1, M12 + c1 * e2
+            M20, M21, M22 = M20 + c2 * e0, M21 + c2 * e1, M22 + c2 * e2
+            pa_q = p * a
+            pa += pa_q
+            pa0, pa1, pa2 = pa0 + pa_q * x0, pa1 + pa_q * x1, pa2 + pa_q * x2
             S += s
             S0 += s * x0
             S1 += s * x1
             S2 += s * x2
+        rate = (rate3, rate4, rate5)                      # the weight's twist, ∂w/∂ω / a
+        for k in range(3):
+            RA[k] += pa * rate[k]
+            RX[0, k] += pa0 * rate[k]
+            RX[1, k] += pa1 * rate[k]
+            RX[2, k] += pa2 * rate[k]
     if hits == 0:
         out[:] = 0.0
         return
-    # the normal w is the same at every point: the unit wrench is [w, x × w], so
-    # Σ arm gqᵀ, the force, the moment and Σ x Fᵀ follow from G, XG, S and S·x
+    # gq = dpw·(g, e × g) + p·a·(0, rate) (the depth twist of a point, at arm e: the point
+    # itself on clipped faces, the deepest vertex on whole faces; g = -w the depth
+    # gradient); with the unit wrench [w, x × w], the tangent Σ [w, x × w] gqᵀ follows
+    # from G = Σ gq and XG = Σ x gqᵀ, formed from Σ dpw, Σ dpw x, Σ dpw e, M = Σ dpw x eᵀ
+    # and the rate sums RA, RX; the force, moment and Σ x Fᵀ from S = Σ s and Σ s x
+    G = np.empty(6)
+    XG = np.empty((3, 6))
+    G[0], G[1], G[2] = g0 * Sd, g1 * Sd, g2 * Sd
+    G[3] = Se1 * g2 - Se2 * g1 + RA[0]
+    G[4] = Se2 * g0 - Se0 * g2 + RA[1]
+    G[5] = Se0 * g1 - Se1 * g0 + RA[2]
+    for i, (sd, mi0, mi1, mi2) in enumerate(((Sd0, M00, M01, M02), (Sd1, M10, M11, M12),
+                                            (Sd2, M20, M21, M22))):
+        XG[i, 0], XG[i, 1], XG[i, 2] = sd * g0, sd * g1, sd * g2
+        XG[i, 3] = mi1 * g2 - mi2 * g1 + RX[i, 0]
+        XG[i, 4] = mi2 * g0 - mi0 * g2 + RX[i, 1]
+        XG[i, 5] = mi0 * g1 - mi1 * g0 + RX[i, 2]
     tangent = np.empty((6, 6))
     for k in range(6):
         tangent[0, k], tangent[1, k], tangent[2, k] = w0 * G[k], w1 * G[k], w2 * G[k]
