@@ -10,9 +10,14 @@ plane or sphere master that function also checks the poses and reuses or rebuild
 candidate set (`closed_form_wrench`), so an evaluation is one compiled call; a
 `HotPath` binds a pair and a law once, so that the call is made without per-call
 lookups. The arithmetic is that of the full path, in the same order (tested equal to
-1e-12). Masters without a compiled kernel (polynomial, the thesis's detectors) and a mesh
-master whose candidate set is new, or whose closest-point walk does not settle, go
-through the full path.
+1e-12), except for the linear law on a plane master (`plane_linear_wrench`, the case
+`fecheck.studies.bench_peers` times): there the plane's normal, the same at every point,
+is taken out of the sums, so that a quadrature point adds to a few running sums and the
+tangent is formed once (the same terms regrouped; equal to 1e-12), and a rebuilt
+candidate set is read as the ranks the tree query found, its faces' data not gathered
+(`fecheck.contact.broadphase.region_ranks`). Masters without a compiled kernel
+(polynomial, the thesis's detectors) and a mesh master whose candidate set is new, or
+whose closest-point walk does not settle, go through the full path.
 
 Units: mm, N, MPa; forces on the slave, moments about the world origin, tangent
 d[F, M]/dξ for the slave's twist ξ = (v, ω) relative to the master.
