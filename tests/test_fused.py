@@ -8,7 +8,14 @@ import pytest
 from fecheck.contact import ContactPair, Plane, Sphere
 from fecheck.laws import blankevoort_params, blankevoort_pressure, foundation
 from fecheck.laws.calibrated import Calibration, calibrated_params, calibrated_pressure
-from fecheck.laws.fused import CompiledLaw, HotPath, compiled_law, contact_wrench, linear_law
+from fecheck.laws.fused import (
+    CompiledLaw,
+    HotPath,
+    Wrench,
+    compiled_law,
+    contact_wrench,
+    linear_law,
+)
 from fecheck.laws.kernel import BLANKEVOORT, CALIBRATED
 from fecheck.laws.layer import face_elastic_foundation
 from fecheck.statics.frames import rotation
@@ -105,3 +112,43 @@ def test_a_bound_hot_path_takes_poses_of_any_array_kind():
     for pose in kinds:
         pair.cache.reset()
         assert np.array_equal(hot.evaluate(pose, master).packed, ref.packed)
+
+
+@pytest.mark.parametrize("area", ["clipped", "whole-face"])
+def test_plane_linear_law_rebuilt_every_call_equals_the_full_path(area):
+    """The plane's linear-law pass (`plane_linear_wrench`) on a set rebuilt at every call
+    as ranks only: equal to the full path (which then gathers that set's face data) at
+    poses more than the margin apart, with a moved master; the same wrench from a set
+    that is reused instead."""
+    mesh = icosphere(25.5, 3)
+    plane = Plane([0.0, 0.0, 0.0], [0.1, -0.05, 1.0])
+    scratch, reused = (ContactPair(mesh, plane, area=area) for _ in range(2))
+    law = linear_law(1.12)
+    hot, hot_reused = HotPath(scratch, law), HotPath(reused, law)
+    master = (rotation(0.05, 0.1, -0.2), np.array([1.0, -2.0, 0.5]))
+    for i in range(4):
+        pose = (master[0] @ rotation(0.03 * i, -0.02, 0.04 * i),
+                master[1] + master[0] @ np.array([3.0 * i, -2.5 * i, 24.2 + 0.1 * i]))
+        scratch.cache.reset()
+        fast = Wrench(hot.evaluate(pose, master).packed.copy())
+        assert scratch.cache.n_rebuilds == i + 1
+        _same(fast, law(scratch.evaluate(pose, master)))
+        assert scratch.cache.n_rebuilds == i + 1             # the full path reused the set
+        _same(hot_reused.evaluate(pose, master), law(scratch.evaluate(pose, master)))
+
+
+def test_a_rank_only_rebuild_gathers_the_tree_query_when_asked():
+    """After the compiled path rebuilt the set as ranks only, the cache's `current` set is
+    the tree's region query (`PointTree.faces_in`) at that relative pose, array for array."""
+    mesh = icosphere(25.5, 4)
+    pair = ContactPair(mesh, Plane([0.0, 0.0, 0.0], [0.0, 0.0, 1.0]))
+    hot = HotPath(pair, linear_law(1.12))
+    for i in range(3):
+        R, t = rotation(0.1 * i, 0.05, -0.1 * i), np.array([4.0 * i, 0.0, 24.0])
+        pair.cache.reset()
+        hot.evaluate((R, t), (np.eye(3), np.zeros(3)))
+        kind, params = pair.cache.region
+        expected = pair.cache.tree.faces_in(kind, params, R, t)
+        for got, want in zip(pair.cache.current, expected, strict=True):
+            np.testing.assert_array_equal(got, want)
+        assert 0 < expected[0].size < mesh.n_faces / 4

@@ -26,7 +26,7 @@ from numba import njit
 from numba.core import types
 from numba.experimental import structref
 
-from fecheck.contact.bvh import BALL, HALF_SPACE, PointTree, query_faces
+from fecheck.contact.bvh import BALL, HALF_SPACE, PointTree, gather_faces, owned_faces
 from geometry.mesh import TriMesh
 
 
@@ -112,7 +112,7 @@ _STATE_FIELDS = ("points", "order", "lo", "hi", "child", "span", "owner_ptr", "e
                  "face_order", "corners", "normals", "areas", "vertex_index", "region_kind",
                  "region_params", "centroid", "radius", "limit", "ref_R", "ref_t", "counts",
                  "cand_faces", "cand_vertices", "cand_local", "cand_points", "cand_normals",
-                 "cand_areas")
+                 "cand_areas", "cand_ranks")
 
 
 @structref.register
@@ -128,7 +128,9 @@ class BroadPhaseState(structref.StructRefProxy):
     argument: the slave's tree and tables (`fecheck.contact.bvh.PointTree`), the master's
     region (kind -1: none that the tree can answer alone), the motion bound's centroid,
     radius and reuse limit (mm), the reference pose and counters of the current candidate
-    set (``counts``: has a set, rebuilds, reuses), and that set (`Candidates`' arrays)."""
+    set (``counts``: has a set, rebuilds, reuses, its arrays gathered), and that set
+    (`Candidates`' arrays, and for a region query the ranks of its faces in the tree's
+    face tables, `fecheck.contact.bvh.owner_tables`)."""
 
 
 structref.define_proxy(BroadPhaseState, BroadPhaseType, _STATE_FIELDS)
@@ -144,7 +146,7 @@ def _new_state(points, order, lo, hi, child, span, owner_ptr, extent, node_exten
                            ref_R, ref_t, counts,
                            np.zeros(0, dtype=np.int64), np.zeros(0, dtype=np.int64),
                            np.zeros((0, 3), dtype=np.int64), np.zeros((0, 3)),
-                           np.zeros((0, 3)), np.zeros(0))
+                           np.zeros((0, 3)), np.zeros(0), np.zeros(0, dtype=np.int64))
 
 
 @njit(cache=True, fastmath=False)
@@ -173,30 +175,67 @@ def store_set(state, R: np.ndarray, t: np.ndarray, faces: np.ndarray, vertices: 
     state.cand_points = points
     state.cand_normals = normals
     state.cand_areas = areas
+    state.cand_ranks = np.zeros(0, dtype=np.int64)
     counts = state.counts
     counts[0] = 1
     counts[1] += 1
+    counts[3] = 1
     return counts[1]
 
 
 @njit(cache=True, fastmath=False)
-def region_set(state, R: np.ndarray, t: np.ndarray) -> int:
+def region_ranks(state, R: np.ndarray, t: np.ndarray) -> int:
     """Make the current set serve the relative pose (R, t) for a master whose region is
     exactly reach > -margin (a half-space or a ball): reused, or rebuilt by the tree's
-    region query; the rebuild count."""
+    region query (`fecheck.contact.bvh.owned_faces`) as the ranks of its faces only,
+    ``state.cand_ranks`` (their data gathered when asked for, `gathered`); the rebuild
+    count."""
     n = reused_set(state, R, t)
     if n >= 0:
         return n
-    return store_set(state, R, t, *query_faces(
-        state.region_kind, state.region_params, R, t, state.points, state.order, state.lo,
-        state.hi, state.child, state.span, state.owner_ptr, state.extent, state.node_extent,
-        state.out, state.face_order,
-        state.corners, state.normals, state.areas, state.vertex_index))
+    m = owned_faces(state.region_kind, state.region_params, R, t, state.points, state.order,
+                    state.lo, state.hi, state.child, state.span, state.owner_ptr,
+                    state.extent, state.node_extent, state.out)
+    state.ref_R[:, :] = R
+    state.ref_t[:] = t
+    state.cand_ranks = state.out[:m].copy()
+    counts = state.counts
+    counts[0] = 1
+    counts[1] += 1
+    counts[3] = 0
+    return counts[1]
+
+
+@njit(cache=True, fastmath=False)
+def gathered(state) -> None:
+    """Gather the per-face data of a set of ranks (`region_ranks`) into the state's
+    `Candidates` arrays, unless they are already the current set's."""
+    if state.counts[3]:
+        return
+    faces, vertices, local, points, normals, areas = gather_faces(
+        state.cand_ranks, state.face_order, state.corners, state.normals, state.areas,
+        state.points, state.vertex_index)
+    state.cand_faces = faces
+    state.cand_vertices = vertices
+    state.cand_local = local
+    state.cand_points = points
+    state.cand_normals = normals
+    state.cand_areas = areas
+    state.counts[3] = 1
+
+
+@njit(cache=True, fastmath=False)
+def region_set(state, R: np.ndarray, t: np.ndarray) -> int:
+    """`region_ranks`, with the set's `Candidates` arrays gathered; the rebuild count."""
+    n = region_ranks(state, R, t)
+    gathered(state)
+    return n
 
 
 @njit(cache=True)
 def current_set(state):
     """The current set's arrays, in `Candidates`' order."""
+    gathered(state)
     return (state.cand_faces, state.cand_vertices, state.cand_local, state.cand_points,
             state.cand_normals, state.cand_areas)
 
@@ -240,7 +279,7 @@ class CandidateCache:
         self.region = region
         kind, params = region if region is not None else (-1, np.zeros(0))
         self.exact = kind in (HALF_SPACE, BALL)
-        self._counts = np.zeros(3, dtype=np.int64)
+        self._counts = np.zeros(4, dtype=np.int64)
         tree = self.tree
         self.state = _new_state(
             *tree.owned_tables, kind, np.ascontiguousarray(params, dtype=float), centroid,

@@ -139,7 +139,7 @@ def surface_quadrature(clipped: bool, moving: bool, D: np.ndarray, X: np.ndarray
 
 
 @njit(cache=True, fastmath=False, inline="always")
-def _mul(A: np.ndarray, v0: float, v1: float, v2: float) -> tuple[float, float, float]:
+def mat_vec(A: np.ndarray, v0: float, v1: float, v2: float) -> tuple[float, float, float]:
     """A v for a (3, 3) matrix A."""
     return (A[0, 0] * v0 + A[0, 1] * v1 + A[0, 2] * v2,
             A[1, 0] * v0 + A[1, 1] * v1 + A[1, 2] * v2,
@@ -162,7 +162,7 @@ def _slave_to_master(points: np.ndarray, R: np.ndarray, t: np.ndarray) -> np.nda
     """y = R p + t for the candidate points (n, 3)."""
     y = np.empty_like(points)
     for i in range(points.shape[0]):
-        y0, y1, y2 = _mul(R, points[i, 0], points[i, 1], points[i, 2])
+        y0, y1, y2 = mat_vec(R, points[i, 0], points[i, 1], points[i, 2])
         y[i, 0], y[i, 1], y[i, 2] = y0 + t[0], y1 + t[1], y2 + t[2]
     return y
 
@@ -273,7 +273,7 @@ def plane_surface(clipped: bool, moving: bool, points: np.ndarray, local_faces: 
             Dc[f, j] = dv[local_faces[f, j]]
     hit = _contact_faces(Dc)
     m = hit.size
-    nw = _mul(Rm, n0, n1, n2)
+    nw = mat_vec(Rm, n0, n1, n2)
     g = (-nw[0], -nw[1], -nw[2])
     D = np.empty((m, 3))
     X = np.empty((m, 3, 3))
@@ -287,12 +287,12 @@ def plane_surface(clipped: bool, moving: bool, points: np.ndarray, local_faces: 
         for j in range(3):
             v = local_faces[f, j]
             D[i, j] = Dc[f, j]
-            x0, x1, x2 = _mul(Rm, y[v, 0], y[v, 1], y[v, 2])
+            x0, x1, x2 = mat_vec(Rm, y[v, 0], y[v, 1], y[v, 2])
             x = (x0 + tm[0], x1 + tm[1], x2 + tm[2])
             _vertex(T, X, i, j, x, g, x)
         N[i, 0], N[i, 1], N[i, 2] = nw
         area[i] = areas[f]
-        a0, a1, a2 = _mul(Rs, normals[f, 0], normals[f, 1], normals[f, 2])
+        a0, a1, a2 = mat_vec(Rs, normals[f, 0], normals[f, 1], normals[f, 2])
         cos = a0 * nw[0] + a1 * nw[1] + a2 * nw[2]
         sign = 1.0 if cos > 0.0 else (-1.0 if cos < 0.0 else 0.0)
         cos_abs[i] = abs(cos)
@@ -328,7 +328,7 @@ def sphere_surface(clipped: bool, moving: bool, points: np.ndarray, local_faces:
     near = np.empty(n_c, dtype=np.int64)
     m = 0
     for f in range(n_c):
-        u0, u1, u2 = _mul(R, -normals[f, 0], -normals[f, 1], -normals[f, 2])
+        u0, u1, u2 = mat_vec(R, -normals[f, 0], -normals[f, 1], -normals[f, 2])
         for j in range(3):
             v = local_faces[f, j]
             b = (u0 * (y[v, 0] - center[0]) + u1 * (y[v, 1] - center[1])
@@ -341,7 +341,7 @@ def sphere_surface(clipped: bool, moving: bool, points: np.ndarray, local_faces:
     G = np.empty((m, 3, 3))                   # ∂d/∂y, master frame
     for i in range(m):
         f = near[i]
-        u0, u1, u2 = _mul(R, -normals[f, 0], -normals[f, 1], -normals[f, 2])
+        u0, u1, u2 = mat_vec(R, -normals[f, 0], -normals[f, 1], -normals[f, 2])
         for j in range(3):
             v = local_faces[f, j]
             d, g0, g1, g2, _ = sphere_ray_depth(y[v, 0], y[v, 1], y[v, 2], u0, u1, u2,
@@ -358,14 +358,14 @@ def sphere_surface(clipped: bool, moving: bool, points: np.ndarray, local_faces:
     for i in range(m):
         f = hit[i]
         k = keep[i]
-        nw = _mul(Rs, -normals[f, 0], -normals[f, 1], -normals[f, 2])   # = Rm u
+        nw = mat_vec(Rs, -normals[f, 0], -normals[f, 1], -normals[f, 2])   # = Rm u
         for j in range(3):
             v = local_faces[f, j]
             d = Dc[k, j]
             D[i, j] = d
-            x0, x1, x2 = _mul(Rm, y[v, 0], y[v, 1], y[v, 2])
+            x0, x1, x2 = mat_vec(Rm, y[v, 0], y[v, 1], y[v, 2])
             x = (x0 + tm[0], x1 + tm[1], x2 + tm[2])
-            g = _mul(Rm, G[k, j, 0], G[k, j, 1], G[k, j, 2])
+            g = mat_vec(Rm, G[k, j, 0], G[k, j, 1], G[k, j, 2])
             _vertex(T, X, i, j, x, g, (x[0] + d * nw[0], x[1] + d * nw[1], x[2] + d * nw[2]))
         N[i, 0], N[i, 1], N[i, 2] = nw
         area[i] = areas[f]
@@ -438,10 +438,10 @@ def mesh_surface(clipped: bool, moving: bool, local_faces: np.ndarray, y: np.nda
         for j in range(3):
             v = local_faces[f, j]
             D[i, j] = Dc[f, j]
-            x0, x1, x2 = _mul(Rm, y[v, 0], y[v, 1], y[v, 2])
+            x0, x1, x2 = mat_vec(Rm, y[v, 0], y[v, 1], y[v, 2])
             x = (x0 + tm[0], x1 + tm[1], x2 + tm[2])
-            _vertex(T, X, i, j, x, _mul(Rm, grad[v, 0], grad[v, 1], grad[v, 2]), x)
-        N[i, 0], N[i, 1], N[i, 2] = _mul(Rs, -normals[f, 0], -normals[f, 1], -normals[f, 2])
+            _vertex(T, X, i, j, x, mat_vec(Rm, grad[v, 0], grad[v, 1], grad[v, 2]), x)
+        N[i, 0], N[i, 1], N[i, 2] = mat_vec(Rs, -normals[f, 0], -normals[f, 1], -normals[f, 2])
         area[i] = areas[f]
     return (hit, N, D) + surface_quadrature(clipped, moving, D, X, T, area, np.ones(m),
                                             np.zeros((m, 6)))

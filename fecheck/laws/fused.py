@@ -10,9 +10,14 @@ plane or sphere master that function also checks the poses and reuses or rebuild
 candidate set (`closed_form_wrench`), so an evaluation is one compiled call; a
 `HotPath` binds a pair and a law once, so that the call is made without per-call
 lookups. The arithmetic is that of the full path, in the same order (tested equal to
-1e-12). Masters without a compiled kernel (polynomial, the thesis's detectors) and a mesh
-master whose candidate set is new, or whose closest-point walk does not settle, go
-through the full path.
+1e-12), except for the linear law on a plane master (`plane_linear_wrench`, the case
+`fecheck.studies.bench_peers` times): there the plane's normal, the same at every point,
+is taken out of the sums, so that a quadrature point adds to a few running sums and the
+tangent is formed once (the same terms regrouped; equal to 1e-12), and a rebuilt
+candidate set is read as the ranks the tree query found, its faces' data not gathered
+(`fecheck.contact.broadphase.region_ranks`). Masters without a compiled kernel
+(polynomial, the thesis's detectors) and a mesh master whose candidate set is new, or
+whose closest-point walk does not settle, go through the full path.
 
 Units: mm, N, MPa; forces on the slave, moments about the world origin, tangent
 d[F, M]/dξ for the slave's twist ξ = (v, ω) relative to the master.
@@ -25,14 +30,26 @@ from dataclasses import dataclass
 import numpy as np
 from numba import njit
 
-from fecheck.contact.broadphase import checked_relative_pose, region_set
-from fecheck.contact.kernels import plane_surface, sphere_surface, walked_mesh_surface
+from fecheck.contact.broadphase import checked_relative_pose, region_ranks, region_set
+from fecheck.contact.clip import RULE, face_rule
+from fecheck.contact.kernels import (
+    mat_vec,
+    plane_surface,
+    sphere_surface,
+    walked_mesh_surface,
+)
 from fecheck.contact.mesh_master import MAX_STEPS
 from fecheck.contact.pair import checked_poses, raise_bad_pose
 from fecheck.contact.surface import ContactSurface
 from fecheck.errors import FecheckError
 from fecheck.laws.foundation import foundation
-from fecheck.laws.kernel import LINEAR, law_function, law_values, pressure_resultant
+from fecheck.laws.kernel import (
+    LINEAR,
+    close_resultant,
+    law_function,
+    law_values,
+    pressure_resultant,
+)
 
 ORIGIN = np.zeros(3)
 PACKED = 44
@@ -156,6 +173,164 @@ def _reduce(surface, slave_normals, faces, kind, params, face_scale, about, out)
     out[43] = vertex_depth.max()
 
 
+# One fused compiled loop over the faces for speed (the cases of one face kept together).
+@njit(cache=True, fastmath=False)
+def plane_linear_wrench(clipped, ranks, corners, normals, areas, points, size, R, t,  # noqa: C901
+                        Rm, tm, Rs, plane_point, plane_normal, stiffness, about, out):
+    """The linear law p = k·d (`stiffness` k, N/mm³) against a plane master, written into
+    `out` (a `Wrench`'s packed array): `fecheck.contact.kernels.plane_surface`, its
+    `surface_quadrature` (points fixed in the face: the linear law's case) and
+    `_reduce`'s `pressure_resultant` in one pass over the candidate faces, each
+    quadrature point's contribution summed as it is formed, with no per-point arrays.
+
+    The candidates are the faces `ranks` (m,) of the broad phase's tables in rank order
+    (`fecheck.contact.bvh.owner_tables`): corners (n_faces, 3) slave vertex indices,
+    outward normals (n_faces, 3), areas (n_faces,) mm²; points (n_points, 3) the slave
+    vertices (slave frame, mm), all within `size` mm of the slave origin. A face is
+    skipped when no corner can be below the plane (its depth along the plane normal
+    carried into the slave frame, within a round-off bound); the others get the vertex
+    depths and positions of `plane_surface`, by the same arithmetic. Poses and the
+    plane as for `plane_surface`.
+    """
+    n0, n1, n2 = plane_normal[0], plane_normal[1], plane_normal[2]
+    offset = plane_point[0] * n0 + plane_point[1] * n1 + plane_point[2] * n2
+    s0, s1, s2 = (R[0, 0] * n0 + R[1, 0] * n1 + R[2, 0] * n2,      # Rᵀn, slave frame
+                  R[0, 1] * n0 + R[1, 1] * n1 + R[2, 1] * n2,
+                  R[0, 2] * n0 + R[1, 2] * n1 + R[2, 2] * n2)
+    level = offset - (t[0] * n0 + t[1] * n1 + t[2] * n2)        # depth = level - Rᵀn·p
+    slack = 1e-9 * (1.0 + abs(offset) + abs(level) + 3.0 * size)   # ≫ round-off, mm
+    w0, w1, w2 = mat_vec(Rm, n0, n1, n2)                  # the normal in the world
+    g0, g1, g2 = -w0, -w1, -w2                            # ∂d/∂x of every vertex
+    D = np.empty(3)
+    X = np.empty((3, 3))
+    bary = np.empty((6, 3))
+    frac = np.empty(6)
+    corner = np.empty((6, 3))
+    RA = np.zeros(3)                                      # Σ_f rate_f Σ_q p·a
+    RX = np.zeros((3, 3))                                 # Σ_f (Σ_q p·a·x) rate_fᵀ
+    S = S0 = S1 = S2 = area = 0.0                         # Σ_q s_q, Σ_q s_q x_q
+    Sd = Sd0 = Sd1 = Sd2 = Se0 = Se1 = Se2 = 0.0          # Σ dpw, Σ dpw x, Σ dpw e
+    M00 = M01 = M02 = M10 = M11 = M12 = M20 = M21 = M22 = 0.0   # Σ dpw x eᵀ
+    hits, deepest_vertex = 0, -np.inf
+    for f in ranks:
+        near = False
+        for j in range(3):
+            v = corners[f, j]
+            depth = level - (s0 * points[v, 0] + s1 * points[v, 1] + s2 * points[v, 2])
+            near |= depth > -slack
+        if not near:
+            continue
+        for j in range(3):
+            v = corners[f, j]
+            y0, y1, y2 = mat_vec(R, points[v, 0], points[v, 1], points[v, 2])
+            y0, y1, y2 = y0 + t[0], y1 + t[1], y2 + t[2]
+            D[j] = offset - (y0 * n0 + y1 * n1 + y2 * n2)
+            x0, x1, x2 = mat_vec(Rm, y0, y1, y2)
+            x0, x1, x2 = x0 + tm[0], x1 + tm[1], x2 + tm[2]
+            X[j, 0], X[j, 1], X[j, 2] = x0, x1, x2
+        if not (D[0] > 0.0 or D[1] > 0.0 or D[2] > 0.0):
+            continue
+        hits += 1
+        deepest_vertex = max(deepest_vertex, D[0], D[1], D[2])
+        a0, a1, a2 = mat_vec(Rs, normals[f, 0], normals[f, 1], normals[f, 2])
+        cos = a0 * w0 + a1 * w1 + a2 * w2
+        sign = 1.0 if cos > 0.0 else (-1.0 if cos < 0.0 else 0.0)
+        cos_abs = abs(cos)
+        rate3 = sign * (a1 * w2 - a2 * w1)                # ∂cos/∂ω = n_face × n
+        rate4 = sign * (a2 * w0 - a0 * w2)
+        rate5 = sign * (a0 * w1 - a1 * w0)
+        if clipped:
+            n_q = face_rule(D[0], D[1], D[2], bary, frac, 0, corner)
+        else:
+            n_q = 3
+            for q in range(3):
+                for k in range(3):
+                    bary[q, k] = RULE[q, k]
+                frac[q] = 1.0 / 3.0
+        deepest = 0
+        for j in range(1, 3):
+            if D[j] > D[deepest]:
+                deepest = j
+        pa = pa0 = pa1 = pa2 = 0.0
+        for q in range(n_q):
+            b0, b1, b2 = bary[q, 0], bary[q, 1], bary[q, 2]
+            x0 = b0 * X[0, 0] + b1 * X[1, 0] + b2 * X[2, 0]
+            x1 = b0 * X[0, 1] + b1 * X[1, 1] + b2 * X[2, 1]
+            x2 = b0 * X[0, 2] + b1 * X[1, 2] + b2 * X[2, 2]
+            if clipped:                                   # the depth and its arm e
+                depth = b0 * D[0] + b1 * D[1] + b2 * D[2]
+                e0, e1, e2 = x0, x1, x2
+            else:
+                depth = D[deepest]
+                e0, e1, e2 = X[deepest, 0], X[deepest, 1], X[deepest, 2]
+            a = frac[q] * areas[f]
+            w = a * cos_abs
+            if depth <= 0.0:
+                continue
+            p = stiffness * depth
+            dpw = stiffness * w
+            s = w * p
+            area += w
+            Sd += dpw
+            Sd0, Sd1, Sd2 = Sd0 + dpw * x0, Sd1 + dpw * x1, Sd2 + dpw * x2
+            Se0, Se1, Se2 = Se0 + dpw * e0, Se1 + dpw * e1, Se2 + dpw * e2
+            c0, c1, c2 = dpw * x0, dpw * x1, dpw * x2
+            M00, M01, M02 = M00 + c0 * e0, M01 + c0 * e1, M02 + c0 * e2
+            M10, M11, M12 = M10 + c1 * e0, M11 + c1 * e1, M12 + c1 * e2
+            M20, M21, M22 = M20 + c2 * e0, M21 + c2 * e1, M22 + c2 * e2
+            pa_q = p * a
+            pa += pa_q
+            pa0, pa1, pa2 = pa0 + pa_q * x0, pa1 + pa_q * x1, pa2 + pa_q * x2
+            S += s
+            S0 += s * x0
+            S1 += s * x1
+            S2 += s * x2
+        rate = (rate3, rate4, rate5)                      # the weight's twist, ∂w/∂ω / a
+        for k in range(3):
+            RA[k] += pa * rate[k]
+            RX[0, k] += pa0 * rate[k]
+            RX[1, k] += pa1 * rate[k]
+            RX[2, k] += pa2 * rate[k]
+    if hits == 0:
+        out[:] = 0.0
+        return
+    # gq = dpw·(g, e × g) + p·a·(0, rate) (the depth twist of a point, at arm e: the point
+    # itself on clipped faces, the deepest vertex on whole faces; g = -w the depth
+    # gradient); with the unit wrench [w, x × w], the tangent Σ [w, x × w] gqᵀ follows
+    # from G = Σ gq and XG = Σ x gqᵀ, formed from Σ dpw, Σ dpw x, Σ dpw e, M = Σ dpw x eᵀ
+    # and the rate sums RA, RX; the force, moment and Σ x Fᵀ from S = Σ s and Σ s x
+    G = np.empty(6)
+    XG = np.empty((3, 6))
+    G[0], G[1], G[2] = g0 * Sd, g1 * Sd, g2 * Sd
+    G[3] = Se1 * g2 - Se2 * g1 + RA[0]
+    G[4] = Se2 * g0 - Se0 * g2 + RA[1]
+    G[5] = Se0 * g1 - Se1 * g0 + RA[2]
+    for i, (sd, mi0, mi1, mi2) in enumerate(((Sd0, M00, M01, M02), (Sd1, M10, M11, M12),
+                                            (Sd2, M20, M21, M22))):
+        XG[i, 0], XG[i, 1], XG[i, 2] = sd * g0, sd * g1, sd * g2
+        XG[i, 3] = mi1 * g2 - mi2 * g1 + RX[i, 0]
+        XG[i, 4] = mi2 * g0 - mi0 * g2 + RX[i, 1]
+        XG[i, 5] = mi0 * g1 - mi1 * g0 + RX[i, 2]
+    tangent = np.empty((6, 6))
+    for k in range(6):
+        tangent[0, k], tangent[1, k], tangent[2, k] = w0 * G[k], w1 * G[k], w2 * G[k]
+        tangent[3, k] = XG[1, k] * w2 - XG[2, k] * w1
+        tangent[4, k] = XG[2, k] * w0 - XG[0, k] * w2
+        tangent[5, k] = XG[0, k] * w1 - XG[1, k] * w0
+    xf = np.empty((3, 3))
+    for i, si in enumerate((S0, S1, S2)):
+        xf[i, 0], xf[i, 1], xf[i, 2] = si * w0, si * w1, si * w2
+    force, moment = close_resultant(tangent, S * w0, S * w1, S * w2, S1 * w2 - S2 * w1,
+                                    S2 * w0 - S0 * w2, S0 * w1 - S1 * w0, xf, False, about)
+    out[:3] = force
+    out[3:6] = moment
+    for i in range(6):
+        for k in range(6):
+            out[6 + 6 * i + k] = tangent[i, k]
+    out[42] = area
+    out[43] = deepest_vertex
+
+
 @njit(cache=True, fastmath=False)
 def closed_form_wrench(state, Rs, ts, Rm, tm, sphere, master, clipped, kind, params,
                        face_scale, about, out):
@@ -173,10 +348,18 @@ def closed_form_wrench(state, Rs, ts, Rm, tm, sphere, master, clipped, kind, par
     R, t, slave_status, master_status = checked_relative_pose(Rs, ts, Rm, tm)
     if slave_status or master_status:
         return slave_status, master_status
+    moving = kind != LINEAR
+    if not (sphere or moving or face_scale.size):      # the set's face data not gathered
+        region_ranks(state, R, t)
+        c = state.centroid
+        size = np.sqrt(c[0] * c[0] + c[1] * c[1] + c[2] * c[2]) + state.radius
+        plane_linear_wrench(clipped, state.cand_ranks, state.corners, state.normals,
+                            state.areas, state.points, size, R, t, Rm, tm, Rs,
+                            master[:3], master[3:], params[0], about, out)
+        return 0, 0
     region_set(state, R, t)
     if state.cand_faces.size == 0:
         return 0, 0
-    moving = kind != LINEAR
     if sphere:
         surface = sphere_surface(clipped, moving, state.cand_points, state.cand_local,
                                  state.cand_normals, state.cand_areas, R, t, Rm, tm, Rs,

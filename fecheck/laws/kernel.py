@@ -18,6 +18,55 @@ from numba import njit
 from fecheck.errors import FecheckError
 
 
+@njit(cache=True, fastmath=False, inline="always")
+def close_resultant(tangent: np.ndarray, f0: float, f1: float, f2: float, m0: float,
+                    m1: float, m2: float, xf: np.ndarray, slave_normals: bool,
+                    about: np.ndarray):
+    """The terms of `pressure_resultant` after its sums: the normals' turn (if
+    `slave_normals`) and the points' motion added to `tangent` (6, 6) in place, from the
+    force (f0, f1, f2) N, the moment (m0, m1, m2) N·mm about the origin and xf (3, 3)
+    Σ x_q F_qᵀ; then the moment and tangent moved to `about` (3,) mm. Returns force (3,),
+    moment (3,)."""
+    trace = xf[0, 0] + xf[1, 1] + xf[2, 2]
+    if slave_normals:
+        # normals turning with the slave, ∂n_q/∂ω_k = e_k × n_q: Σ s_q e_k × n_q = e_k × F
+        # and Σ s_q x_q × (e_k × n_q) = e_k (Σ s_q x_q·n_q) - Σ s_q n_q x_qk
+        tangent[1, 3] -= f2
+        tangent[2, 3] += f1
+        tangent[0, 4] += f2
+        tangent[2, 4] -= f0
+        tangent[0, 5] -= f1
+        tangent[1, 5] += f0
+        for i in range(3):
+            tangent[3 + i, 3 + i] += trace
+            for k in range(3):
+                tangent[3 + i, 3 + k] -= xf[k, i]
+    # point motion: δx × F_q = −skew(F_q)(v − skew(x_q) ω)
+    tangent[3, 1] += f2
+    tangent[3, 2] -= f1
+    tangent[4, 0] -= f2
+    tangent[4, 2] += f0
+    tangent[5, 0] += f1
+    tangent[5, 1] -= f0
+    for i in range(3):
+        tangent[3 + i, 3 + i] -= trace
+        for k in range(3):
+            tangent[3 + i, 3 + k] += xf[i, k]
+    force = np.array([f0, f1, f2])
+    moment = np.array([m0, m1, m2])
+    a0, a1, a2 = about[0], about[1], about[2]
+    if a0 != 0.0 or a1 != 0.0 or a2 != 0.0:       # M_about = M − a × F
+        moment[0] -= a1 * f2 - a2 * f1
+        moment[1] -= a2 * f0 - a0 * f2
+        moment[2] -= a0 * f1 - a1 * f0
+        for k in range(6):
+            t0, t1, t2 = tangent[0, k], tangent[1, k], tangent[2, k]
+            tangent[3, k] -= a1 * t2 - a2 * t1
+            tangent[4, k] -= a2 * t0 - a0 * t2
+            tangent[5, k] -= a0 * t1 - a1 * t0
+    return force, moment
+
+
 # One fused compiled loop over the faces for speed: its branches are the cases of one
 # evaluation, kept together on purpose (hence above the complexity ceiling).
 @njit(cache=True, fastmath=False)
@@ -124,43 +173,8 @@ def pressure_resultant(stiffness: float, pressure: np.ndarray, slope: np.ndarray
                 tangent[4, k] += t1 * clip_rate[c, e, k]
                 tangent[5, k] += t2 * clip_rate[c, e, k]
     xf = np.array([[xf00, xf01, xf02], [xf10, xf11, xf12], [xf20, xf21, xf22]])
-    trace = xf00 + xf11 + xf22
-    if slave_normals:
-        # normals turning with the slave, ∂n_q/∂ω_k = e_k × n_q: Σ s_q e_k × n_q = e_k × F
-        # and Σ s_q x_q × (e_k × n_q) = e_k (Σ s_q x_q·n_q) - Σ s_q n_q x_qk
-        tangent[1, 3] -= f2
-        tangent[2, 3] += f1
-        tangent[0, 4] += f2
-        tangent[2, 4] -= f0
-        tangent[0, 5] -= f1
-        tangent[1, 5] += f0
-        for i in range(3):
-            tangent[3 + i, 3 + i] += trace
-            for k in range(3):
-                tangent[3 + i, 3 + k] -= xf[k, i]
-    # point motion: δx × F_q = −skew(F_q)(v − skew(x_q) ω)
-    tangent[3, 1] += f2
-    tangent[3, 2] -= f1
-    tangent[4, 0] -= f2
-    tangent[4, 2] += f0
-    tangent[5, 0] += f1
-    tangent[5, 1] -= f0
-    for i in range(3):
-        tangent[3 + i, 3 + i] -= trace
-        for k in range(3):
-            tangent[3 + i, 3 + k] += xf[i, k]
-    force = np.array([f0, f1, f2])
-    moment = np.array([m0, m1, m2])
-    a0, a1, a2 = about[0], about[1], about[2]
-    if a0 != 0.0 or a1 != 0.0 or a2 != 0.0:       # M_about = M − a × F
-        moment[0] -= a1 * f2 - a2 * f1
-        moment[1] -= a2 * f0 - a0 * f2
-        moment[2] -= a0 * f1 - a1 * f0
-        for k in range(6):
-            t0, t1, t2 = tangent[0, k], tangent[1, k], tangent[2, k]
-            tangent[3, k] -= a1 * t2 - a2 * t1
-            tangent[4, k] -= a2 * t0 - a0 * t2
-            tangent[5, k] -= a0 * t1 - a1 * t0
+    force, moment = close_resultant(tangent, f0, f1, f2, m0, m1, m2, xf, slave_normals,
+                                    about)
     return p_out, force, moment, tangent, area
 
 
