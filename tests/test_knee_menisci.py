@@ -154,3 +154,110 @@ def test_refused_before_any_work(monkeypatch):
     with pytest.raises(FecheckError, match="fe.cartilage = 'series' only"):
         knee_menisci.knee_menisci_fe(load_scene("femur_tibia_menisci",
                                                 ["fe.cartilage=two-layer"]))
+
+
+def test_element_stress_of_uniaxial_fibre_stress_and_shear_is_the_closed_form():
+    # On P2 tetrahedra of a box with every fibre along one oblique unit d: the field
+    # u = ε0 [(d·x) d − ν_tp (x − (d·x) d)] is uniaxial stress along the fibres,
+    # σ = E_t ε0 d⊗d; the simple shear u = γ (d·x) e (e ⟂ d) is σ = G_t γ (d⊗e + e⊗d).
+    from skfem import Basis, ElementTetP2, ElementVector, MeshTet
+
+    from fecheck.fe.anisotropy import MENISCUS as M
+
+    mesh = MeshTet.init_tensor(*(np.linspace(0.0, 2.0, 4),) * 3)
+    basis = Basis(mesh, ElementVector(ElementTetP2()), intorder=2)
+    d = np.array([1.0, 2.0, 2.0]) / 3.0
+    e = np.array([2.0, -1.0, 0.0]) / np.sqrt(5.0)
+    fibre = np.tile(d, (mesh.t.shape[1], 1))
+    mid = mesh.p[:, mesh.edges].mean(axis=1)
+
+    def nodal(f):
+        u = np.zeros(basis.N)
+        for c in range(3):
+            u[basis.nodal_dofs[c]] = f(mesh.p.T)[:, c]
+            u[basis.edge_dofs[c]] = f(mid.T)[:, c]
+        return u
+
+    eps0, gamma = 0.01, 0.02
+
+    def uniaxial(x):
+        a = (x @ d)[:, None] * d
+        return eps0 * (a - M.nu_tp * (x - a))
+
+    sigma = knee_menisci.element_stress(basis, nodal(uniaxial), fibre)
+    assert np.abs(sigma - M.E_t * eps0 * np.outer(d, d)).max() <= 1e-9 * M.E_t * eps0
+    sigma = knee_menisci.element_stress(basis, nodal(lambda x: gamma * (x @ d)[:, None] * e),
+                                        fibre)
+    expected = M.G_t * gamma * (np.outer(d, e) + np.outer(e, d))
+    assert np.abs(sigma - expected).max() <= 1e-9 * M.G_t * gamma
+
+
+def test_outline_is_the_edges_of_one_face():
+    # Two triangles on a unit square: its four sides, not the shared diagonal.
+    points = np.array([[0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [1.0, 1.0, 0.0], [0.0, 1.0, 0.0]])
+    segments = knee_menisci.outline(points, np.array([[0, 1, 2], [0, 2, 3]]))
+    lengths = np.linalg.norm(segments[:, 1] - segments[:, 0], axis=1)
+    assert np.sort(lengths) == pytest.approx([1.0, 1.0, 1.0, 1.0], abs=1e-15)
+
+
+def test_coronary_springs_add_their_k_over_l0_to_a_rigid_shift():
+    # With the coronary ligaments a rigid unit shift stores Σ k_horn + Σ k/l0 of the
+    # meniscus's COR bundles, read here from meniscal_ligaments.json.
+    folder = data_dir("fecheck:knee/smith2019_menisci", "menisci.dir")
+    items = json.loads((folder / "meniscal_ligaments.json").read_text())["ligaments"]
+    cor = sum(it["parameters"]["linear_stiffness"]["value"]
+              / (1000.0 * it["parameters"]["slack_length"]["value"])
+              for it in items if it["meniscus"] == "lateral" and it["group"] == "COR")
+    solid = meniscus_solid("fecheck:knee/smith2019_menisci", "lateral", MENISCUS_MM)
+    horns = knee_menisci.horn_stiffness(solid, "data")
+    extra = knee_menisci.coronary_springs(solid, folder)
+    assert len(extra[0]) == 3
+    basis, K = knee_menisci.meniscus_stiffness(solid, solid.mesh.points, solid.fibre, horns,
+                                               extra=extra)
+    u = np.zeros(basis.N)
+    u[basis.nodal_dofs[1]] = u[basis.edge_dofs[1]] = 1.0
+    assert u @ K @ u == pytest.approx(sum(horns.values()) + cor, rel=1e-8)
+
+
+def test_report_pressure_compression_and_near_areas(coarse, intact):
+    # The tibial pressure map times the tributary areas is the femur's and the meniscus's
+    # contact forces on the layer; the deepest compression under the femur is the deepest
+    # rigid overlap of the femur with the undeformed layer at its final place (the gap
+    # closes there); the superior area near the femur grows with the distance and holds
+    # the pressed area.
+    from fecheck.statics.newton import body_pose
+
+    _, ef, layers = coarse
+    r = intact
+    rot, t = body_pose(np.asarray(ef.menisci["poses"]["tibia"]["q"]))
+    for lay in layers:
+        c = lay.body.name
+        force = np.zeros(lay.surface.n_points)
+        for kind in ("femur-tibia", "meniscus-tibia"):
+            p = r.pairs[f"{c} {kind}"]
+            np.add.at(force, p.nodes, p.force_N)
+        assert r.pressure_MPa[c] * lay.solid.tributary_mm2 == pytest.approx(force, abs=1e-12)
+        ft = r.pairs[f"{c} femur-tibia"]
+        pressed = ft.nodes[ft.force_N > 0]
+        rigid = knee_menisci._femur_gap(lay.indenter, lay.surface.points[pressed],
+                                        lay.solid.normals[pressed], rot, t, r.approach_mm)
+        assert r.fe[c].compression_mm == pytest.approx(-rigid.min(), abs=1e-9)
+        m = r.menisci[c]
+        near = [m.near_mm2[d] for d in knee_menisci.NEAR_MM]
+        assert 0 < m.contact_mm2 <= near[0] <= near[1] <= near[2]
+
+
+def test_raising_the_superior_surface_raises_the_share(coarse, intact):
+    # The wedge 0.25 mm thicker (the femur-meniscus gaps 0.25 mm less) makes the femur
+    # meet the meniscus sooner: more of the load through each meniscus, balance and
+    # penetration still exact.
+    scene, ef, layers = coarse
+    lifted = knee_menisci.knee_menisci_fe(scene, meniscus_size_mm=MENISCUS_MM, ef=ef,
+                                          layers=layers, lift_mm=0.25)
+    for c in ("medial", "lateral"):
+        assert lifted.fe[c].share > intact.fe[c].share + 0.02
+        assert lifted.menisci[c].contact_mm2 > intact.menisci[c].contact_mm2
+        up = lifted.pairs[f"{c} femur-meniscus"]
+        assert up.gap_mm.min() >= -1e-6
+    assert abs(lifted.balance_N) <= 1e-8 * lifted.load_N
+    assert lifted.max_penetration_mm <= 1e-6
