@@ -261,3 +261,52 @@ def test_raising_the_superior_surface_raises_the_share(coarse, intact):
         assert up.gap_mm.min() >= -1e-6
     assert abs(lifted.balance_N) <= 1e-8 * lifted.load_N
     assert lifted.max_penetration_mm <= 1e-6
+
+
+@pytest.mark.parametrize("opening", ["opening +x", "opening -x"])
+def test_report_of_a_turned_torus_in_uniform_horizontal_strain(opening):
+    # A torus segment (centreline radius 15 mm, 16-gon section of circumradius 2.5 mm)
+    # turned 30 deg about z and moved, as a placed meniscus, under u = ε (x − c)_horizontal
+    # about its turned axis c: the strain ε (I − e_z e_z) is the same in every element's
+    # fibre frame, so the hoop stress is uniform, σ_θθ = (S⁻¹ (ε, 0, ε))_θ with the
+    # compliance S in (r, z, θ) written from E_p, E_t, ν_p, ν_tp; the hoop force through
+    # each section is σ_θθ times the 16-gon's area, within 1 % (the sections' tilt and
+    # the fitted fibres' spread, as in tests/test_meniscus_solid.py); each element moves
+    # out by ε times its centroid's distance from the axis (to 1e-3), whichever way the
+    # arc runs (the opening facing +x or -x).
+    from types import SimpleNamespace
+
+    import scipy.sparse as sp
+    from skfem import Basis, ElementTetP2, ElementVector, MeshTet
+
+    from fecheck.fe.anisotropy import MENISCUS as M
+    from tests.test_meniscus_solid import CENTRE, POLYGON_AREA, torus_solid
+
+    solid = torus_solid(opening)
+    a = np.radians(30.0)
+    Q = np.array([[np.cos(a), -np.sin(a), 0.0], [np.sin(a), np.cos(a), 0.0], [0.0, 0.0, 1.0]])
+    shift = np.array([3.0, -2.0, 0.5])
+    points = solid.mesh.points @ Q.T + shift
+    centre = Q @ CENTRE + shift
+    mesh = MeshTet(np.ascontiguousarray(points.T), np.ascontiguousarray(solid.mesh.tets.T))
+    basis = Basis(mesh, ElementVector(ElementTetP2()), intorder=2)
+    eps = 1e-3
+    mid = mesh.p[:, mesh.edges].mean(axis=1).T
+    u = np.zeros(basis.N)
+    for c in range(2):
+        u[basis.nodal_dofs[c]] = eps * (points[:, c] - centre[c])
+        u[basis.edge_dofs[c]] = eps * (mid[:, c] - centre[c])
+    m = SimpleNamespace(solid=solid, points=points, basis=basis, tie=sp.identity(basis.N),
+                        rotation=Q, superior=np.zeros(0, dtype=int))
+    report = knee_menisci.meniscus_report(m, u, np.zeros(0), None)
+    S = np.array([[1 / M.E_p, -M.nu_p / M.E_p, -M.nu_tp / M.E_t],
+                  [-M.nu_p / M.E_p, 1 / M.E_p, -M.nu_tp / M.E_t],
+                  [-M.nu_tp / M.E_t, -M.nu_tp / M.E_t, 1 / M.E_t]])
+    hoop = np.linalg.solve(S, [eps, 0.0, eps])[2]
+    assert report.hoop.force_N == pytest.approx(hoop * POLYGON_AREA * np.ones(5), rel=0.01)
+    centroids = points[solid.mesh.tets].mean(axis=1)
+    body = (solid.arc >= 0.25) & (solid.arc <= 0.75)
+    vol = np.abs(solid.mesh.tet_volumes)[body]
+    rho = np.linalg.norm((centroids - centre)[body, :2], axis=1)
+    assert report.radial_mm == pytest.approx(eps * (vol @ rho) / vol.sum(), rel=1e-3)
+    assert report.contact_mm2 == 0.0
