@@ -154,3 +154,159 @@ def test_refused_before_any_work(monkeypatch):
     with pytest.raises(FecheckError, match="fe.cartilage = 'series' only"):
         knee_menisci.knee_menisci_fe(load_scene("femur_tibia_menisci",
                                                 ["fe.cartilage=two-layer"]))
+
+
+def test_element_stress_of_uniaxial_fibre_stress_and_shear_is_the_closed_form():
+    # On P2 tetrahedra of a box with every fibre along one oblique unit d: the field
+    # u = ε0 [(d·x) d − ν_tp (x − (d·x) d)] is uniaxial stress along the fibres,
+    # σ = E_t ε0 d⊗d; the simple shear u = γ (d·x) e (e ⟂ d) is σ = G_t γ (d⊗e + e⊗d).
+    from skfem import Basis, ElementTetP2, ElementVector, MeshTet
+
+    from fecheck.fe.anisotropy import MENISCUS as M
+
+    mesh = MeshTet.init_tensor(*(np.linspace(0.0, 2.0, 4),) * 3)
+    basis = Basis(mesh, ElementVector(ElementTetP2()), intorder=2)
+    d = np.array([1.0, 2.0, 2.0]) / 3.0
+    e = np.array([2.0, -1.0, 0.0]) / np.sqrt(5.0)
+    fibre = np.tile(d, (mesh.t.shape[1], 1))
+    mid = mesh.p[:, mesh.edges].mean(axis=1)
+
+    def nodal(f):
+        u = np.zeros(basis.N)
+        for c in range(3):
+            u[basis.nodal_dofs[c]] = f(mesh.p.T)[:, c]
+            u[basis.edge_dofs[c]] = f(mid.T)[:, c]
+        return u
+
+    eps0, gamma = 0.01, 0.02
+
+    def uniaxial(x):
+        a = (x @ d)[:, None] * d
+        return eps0 * (a - M.nu_tp * (x - a))
+
+    sigma = knee_menisci.element_stress(basis, nodal(uniaxial), fibre)
+    assert np.abs(sigma - M.E_t * eps0 * np.outer(d, d)).max() <= 1e-9 * M.E_t * eps0
+    sigma = knee_menisci.element_stress(basis, nodal(lambda x: gamma * (x @ d)[:, None] * e),
+                                        fibre)
+    expected = M.G_t * gamma * (np.outer(d, e) + np.outer(e, d))
+    assert np.abs(sigma - expected).max() <= 1e-9 * M.G_t * gamma
+
+
+def test_outline_is_the_edges_of_one_face():
+    # Two triangles on a unit square: its four sides, not the shared diagonal.
+    points = np.array([[0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [1.0, 1.0, 0.0], [0.0, 1.0, 0.0]])
+    segments = knee_menisci.outline(points, np.array([[0, 1, 2], [0, 2, 3]]))
+    lengths = np.linalg.norm(segments[:, 1] - segments[:, 0], axis=1)
+    assert np.sort(lengths) == pytest.approx([1.0, 1.0, 1.0, 1.0], abs=1e-15)
+
+
+def test_coronary_springs_add_their_k_over_l0_to_a_rigid_shift():
+    # With the coronary ligaments a rigid unit shift stores Σ k_horn + Σ k/l0 of the
+    # meniscus's COR bundles, read here from meniscal_ligaments.json.
+    folder = data_dir("fecheck:knee/smith2019_menisci", "menisci.dir")
+    items = json.loads((folder / "meniscal_ligaments.json").read_text())["ligaments"]
+    cor = sum(it["parameters"]["linear_stiffness"]["value"]
+              / (1000.0 * it["parameters"]["slack_length"]["value"])
+              for it in items if it["meniscus"] == "lateral" and it["group"] == "COR")
+    solid = meniscus_solid("fecheck:knee/smith2019_menisci", "lateral", MENISCUS_MM)
+    horns = knee_menisci.horn_stiffness(solid, "data")
+    extra = knee_menisci.coronary_springs(solid, folder)
+    assert len(extra[0]) == 3
+    basis, K = knee_menisci.meniscus_stiffness(solid, solid.mesh.points, solid.fibre, horns,
+                                               extra=extra)
+    u = np.zeros(basis.N)
+    u[basis.nodal_dofs[1]] = u[basis.edge_dofs[1]] = 1.0
+    assert u @ K @ u == pytest.approx(sum(horns.values()) + cor, rel=1e-8)
+
+
+def test_report_pressure_compression_and_near_areas(coarse, intact):
+    # The tibial pressure map times the tributary areas is the femur's and the meniscus's
+    # contact forces on the layer; the deepest compression under the femur is the deepest
+    # rigid overlap of the femur with the undeformed layer at its final place (the gap
+    # closes there); the superior area near the femur grows with the distance and holds
+    # the pressed area.
+    from fecheck.statics.newton import body_pose
+
+    _, ef, layers = coarse
+    r = intact
+    rot, t = body_pose(np.asarray(ef.menisci["poses"]["tibia"]["q"]))
+    for lay in layers:
+        c = lay.body.name
+        force = np.zeros(lay.surface.n_points)
+        for kind in ("femur-tibia", "meniscus-tibia"):
+            p = r.pairs[f"{c} {kind}"]
+            np.add.at(force, p.nodes, p.force_N)
+        assert r.pressure_MPa[c] * lay.solid.tributary_mm2 == pytest.approx(force, abs=1e-12)
+        ft = r.pairs[f"{c} femur-tibia"]
+        pressed = ft.nodes[ft.force_N > 0]
+        rigid = knee_menisci._femur_gap(lay.indenter, lay.surface.points[pressed],
+                                        lay.solid.normals[pressed], rot, t, r.approach_mm)
+        assert r.fe[c].compression_mm == pytest.approx(-rigid.min(), abs=1e-9)
+        m = r.menisci[c]
+        near = [m.near_mm2[d] for d in knee_menisci.NEAR_MM]
+        assert 0 < m.contact_mm2 <= near[0] <= near[1] <= near[2]
+
+
+def test_raising_the_superior_surface_raises_the_share(coarse, intact):
+    # The wedge 0.25 mm thicker (the femur-meniscus gaps 0.25 mm less) makes the femur
+    # meet the meniscus sooner: more of the load through each meniscus, balance and
+    # penetration still exact.
+    scene, ef, layers = coarse
+    lifted = knee_menisci.knee_menisci_fe(scene, meniscus_size_mm=MENISCUS_MM, ef=ef,
+                                          layers=layers, lift_mm=0.25)
+    for c in ("medial", "lateral"):
+        assert lifted.fe[c].share > intact.fe[c].share + 0.02
+        assert lifted.menisci[c].contact_mm2 > intact.menisci[c].contact_mm2
+        up = lifted.pairs[f"{c} femur-meniscus"]
+        assert up.gap_mm.min() >= -1e-6
+    assert abs(lifted.balance_N) <= 1e-8 * lifted.load_N
+    assert lifted.max_penetration_mm <= 1e-6
+
+
+@pytest.mark.parametrize("opening", ["opening +x", "opening -x"])
+def test_report_of_a_turned_torus_in_uniform_horizontal_strain(opening):
+    # A torus segment (centreline radius 15 mm, 16-gon section of circumradius 2.5 mm)
+    # turned 30 deg about z and moved, as a placed meniscus, under u = ε (x − c)_horizontal
+    # about its turned axis c: the strain ε (I − e_z e_z) is the same in every element's
+    # fibre frame, so the hoop stress is uniform, σ_θθ = (S⁻¹ (ε, 0, ε))_θ with the
+    # compliance S in (r, z, θ) written from E_p, E_t, ν_p, ν_tp; the hoop force through
+    # each section is σ_θθ times the 16-gon's area, within 1 % (the sections' tilt and
+    # the fitted fibres' spread, as in tests/test_meniscus_solid.py); each element moves
+    # out by ε times its centroid's distance from the axis (to 1e-3), whichever way the
+    # arc runs (the opening facing +x or -x).
+    from types import SimpleNamespace
+
+    import scipy.sparse as sp
+    from skfem import Basis, ElementTetP2, ElementVector, MeshTet
+
+    from fecheck.fe.anisotropy import MENISCUS as M
+    from tests.test_meniscus_solid import CENTRE, POLYGON_AREA, torus_solid
+
+    solid = torus_solid(opening)
+    a = np.radians(30.0)
+    Q = np.array([[np.cos(a), -np.sin(a), 0.0], [np.sin(a), np.cos(a), 0.0], [0.0, 0.0, 1.0]])
+    shift = np.array([3.0, -2.0, 0.5])
+    points = solid.mesh.points @ Q.T + shift
+    centre = Q @ CENTRE + shift
+    mesh = MeshTet(np.ascontiguousarray(points.T), np.ascontiguousarray(solid.mesh.tets.T))
+    basis = Basis(mesh, ElementVector(ElementTetP2()), intorder=2)
+    eps = 1e-3
+    mid = mesh.p[:, mesh.edges].mean(axis=1).T
+    u = np.zeros(basis.N)
+    for c in range(2):
+        u[basis.nodal_dofs[c]] = eps * (points[:, c] - centre[c])
+        u[basis.edge_dofs[c]] = eps * (mid[:, c] - centre[c])
+    m = SimpleNamespace(solid=solid, points=points, basis=basis, tie=sp.identity(basis.N),
+                        rotation=Q, superior=np.zeros(0, dtype=int))
+    report = knee_menisci.meniscus_report(m, u, np.zeros(0), None)
+    S = np.array([[1 / M.E_p, -M.nu_p / M.E_p, -M.nu_tp / M.E_t],
+                  [-M.nu_p / M.E_p, 1 / M.E_p, -M.nu_tp / M.E_t],
+                  [-M.nu_tp / M.E_t, -M.nu_tp / M.E_t, 1 / M.E_t]])
+    hoop = np.linalg.solve(S, [eps, 0.0, eps])[2]
+    assert report.hoop.force_N == pytest.approx(hoop * POLYGON_AREA * np.ones(5), rel=0.01)
+    centroids = points[solid.mesh.tets].mean(axis=1)
+    body = (solid.arc >= 0.25) & (solid.arc <= 0.75)
+    vol = np.abs(solid.mesh.tet_volumes)[body]
+    rho = np.linalg.norm((centroids - centre)[body, :2], axis=1)
+    assert report.radial_mm == pytest.approx(eps * (vol @ rho) / vol.sum(), rel=1e-3)
+    assert report.contact_mm2 == 0.0

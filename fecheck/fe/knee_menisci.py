@@ -16,7 +16,10 @@ From the EF equilibrium of a ``menisci.dir`` scene (`fecheck.model.menisci`, e.g
   spread evenly over its nodes: ``root = "data"`` the sum of its root bundles' k / l0
   (smith2019's AHORN / PHORN, 6-13 N/mm each), ``"donahue"`` `DONAHUE_HORN_N_PER_MM`
   per horn; the springs are unstretched at that placement (the EF ligaments' tension
-  there is not carried over), the coronary and transverse ligaments are left out.
+  there is not carried over). The transverse ligament is left out; the coronary ones
+  (smith2019's COR bundles, 5-6 N/mm each) only with ``coronary=True``, each on the node
+  nearest its meniscal point. ``lift_mm`` raises the superior surface along its normals
+  (the wedge made that much thicker): the sensitivity to the placement.
 * **Femur**: the rigid femoral surface, its rotation held at the EF pose (the tibia's
   abduction is held), its translation along the tibia's free axis (world z) solved under
   the EF's axial load on the tibia (the load less the tibia's weight, along z).
@@ -29,7 +32,10 @@ displacements; the rigid gaps are re-evaluated at the femur's new place until it
 moving (1e-10 mm), so they are exact at the answer. Per compartment: axial load into the
 tibia through the meniscus (its contact and its horn springs) and through
 cartilage-cartilage contact, tibial contact area (`zero_contour_area`) and vertex p_max,
-beside the EF's and Donahue 2002's. Units: mm, N, MPa.
+beside the EF's and Donahue 2002's; per meniscus (`MeniscusReport`) where the femur
+touches it, how much of its superior surface lies near the femur, how far its body moves
+radially, and the hoop force along its arc (`element_stress`,
+`fecheck.fe.meniscus_solid.hoop_force`). Units: mm, N, MPa.
 """
 
 from __future__ import annotations
@@ -87,6 +93,9 @@ class MeniscusBody:
     horn_N_per_mm: dict[str, float]
     spring_nodes: np.ndarray
     spring_N_per_mm: np.ndarray
+    basis: object = None
+    tie: object = None
+    rotation: np.ndarray = field(default_factory=lambda: np.eye(3))
 
 
 @dataclass(frozen=True)
@@ -95,7 +104,9 @@ class CompartmentFE:
     meniscus (contact + horn springs), its horn springs alone and cartilage-cartilage;
     the femur's axial load on the meniscus; the meniscal share; tibial contact area (mm²)
     and vertex p_max (MPa); the meniscus's force balance (N, norm of the residual); how
-    far the meniscus slides in the tibial plane (mm, its vertices' mean displacement)."""
+    far the meniscus slides in the tibial plane (mm, its vertices' mean displacement); the
+    deepest compression of the tibial layer under the femur (mm, along the normals): how
+    far the femur comes down onto what lies around its contact."""
 
     meniscus_N: float
     springs_N: float
@@ -106,6 +117,21 @@ class CompartmentFE:
     p_max_MPa: float
     meniscus_balance_N: float
     meniscus_slide_mm: float = 0.0
+    compression_mm: float = 0.0
+
+
+@dataclass(frozen=True, eq=False)
+class MeniscusReport:
+    """One meniscus at the answer: the area of its superior surface (mm², vertex
+    tributary areas) the femur presses and within 0.1 / 0.5 / 1 mm of the femur
+    (`near_mm2`, keyed by the distance), the mean outward radial displacement of its body
+    (arc 0.25-0.75, volume-weighted, mm; + extruded), and the hoop stress and force along
+    its arc (`fecheck.fe.meniscus_solid.HoopResult`)."""
+
+    contact_mm2: float
+    near_mm2: dict[float, float]
+    radial_mm: float
+    hoop: object
 
 
 @dataclass(frozen=True, eq=False)
@@ -126,7 +152,10 @@ class KneeMenisciFE:
     of the same names), femur travel from the EF pose (mm) along `axis` (the tibia frame's
     unit vector along which the femur is pushed), the femur's balance along it (N), the
     worst penetration over every pair's vertices (mm), dofs, outer iterations, times (s),
-    each pair's `PairRecord`, and per meniscus the horn springs' force on it (3,) N."""
+    each pair's `PairRecord`, and per meniscus the horn springs' force on it (3,) N and
+    its `MeniscusReport`; per compartment the pressure on the tibial layer's surface
+    vertices (MPa: femur and meniscus contact) and the outline of the meniscus's
+    footprint (its inferior surface's boundary edges, (k, 2, 3) mm, tibia frame)."""
 
     load_N: float
     fe: dict[str, CompartmentFE]
@@ -140,6 +169,9 @@ class KneeMenisciFE:
     seconds: dict[str, float]
     pairs: dict[str, PairRecord] = field(default_factory=dict)
     spring_force_N: dict[str, np.ndarray] = field(default_factory=dict)
+    menisci: dict[str, MeniscusReport] = field(default_factory=dict)
+    pressure_MPa: dict[str, np.ndarray] = field(default_factory=dict)
+    outlines: dict[str, np.ndarray] = field(default_factory=dict)
 
 
 def vertex_normals(points: np.ndarray, faces: np.ndarray) -> np.ndarray:
@@ -168,15 +200,17 @@ def horn_stiffness(solid: MeniscusSolid, root: str) -> dict[str, float]:
 
 
 def meniscus_body(solid: MeniscusSolid, points: np.ndarray, fibre: np.ndarray,
-                  horns: dict[str, float], material: TransIso = MENISCUS) -> Body:
-    """The `Body` of a meniscus solid at `points` (n, 3) with element fibres `fibre`
-    (nel, 3), both in the common frame: P2 transversely isotropic stiffness, each horn's
-    stiffness (N/mm, `horns`) spread over its nodes as grounded springs in x, y and z,
-    and on the superior and inferior faces the midside normal displacement tied to its
-    edge's ends (contact at vertices only)."""
+                  horns: dict[str, float], material: TransIso = MENISCUS,
+                  extra: tuple[np.ndarray, np.ndarray] | None = None):
+    """(`Body`, basis, T) of a meniscus solid at `points` (n, 3) with element fibres
+    `fibre` (nel, 3), both in the common frame: P2 transversely isotropic stiffness, each
+    horn's stiffness (N/mm, `horns`) spread over its nodes as grounded springs in x, y and
+    z (and the springs `extra`: (nodes, N/mm)), and on the superior and inferior faces the
+    midside normal displacement tied to its edge's ends (contact at vertices only); the
+    full P2 displacement is T @ the body's kept-dof displacement."""
     from fecheck.fe.solid import edge_lookup, tie_matrix
 
-    basis, K = meniscus_stiffness(solid, points, fibre, horns, material)
+    basis, K = meniscus_stiffness(solid, points, fibre, horns, material, extra)
     mesh = basis.mesh
     find_edge = edge_lookup(mesh.edges, mesh.p.shape[1])
     edges, normals = [], []
@@ -195,31 +229,75 @@ def meniscus_body(solid: MeniscusSolid, points: np.ndarray, fibre: np.ndarray,
     T, kept = tie_matrix(basis.N, np.zeros(0, dtype=np.int64), mid, ends, normals_all)
     position = np.full(basis.N, -1)
     position[kept] = np.arange(len(kept))
-    return Body(f"{solid.side} meniscus", (T.T @ K @ T).tocsc(),
-                position[basis.nodal_dofs.T])
+    return (Body(f"{solid.side} meniscus", (T.T @ K @ T).tocsc(),
+                 position[basis.nodal_dofs.T]), basis, T)
 
 
 def meniscus_stiffness(solid: MeniscusSolid, points: np.ndarray, fibre: np.ndarray,
-                       horns: dict[str, float], material: TransIso = MENISCUS):
+                       horns: dict[str, float], material: TransIso = MENISCUS,
+                       extra: tuple[np.ndarray, np.ndarray] | None = None):
     """(basis, K N/mm): the P2 transversely isotropic stiffness of the meniscus at
     `points` with element fibres `fibre`, plus each horn's stiffness (N/mm, `horns`)
-    spread evenly over its nodes as grounded springs in x, y and z."""
+    spread evenly over its nodes as grounded springs in x, y and z, and the springs
+    `extra` ((nodes, N/mm each)) likewise."""
     from skfem import MeshTet
 
     from fecheck.fe.anisotropy import p2_transiso
 
     mesh = MeshTet(np.ascontiguousarray(points.T), np.ascontiguousarray(solid.mesh.tets.T))
     basis, K = p2_transiso(mesh, material, fibre)
-    nodes, k_node = _springs(solid, horns)
+    nodes, k_node = _springs(solid, horns, extra)
     dofs = basis.nodal_dofs[:, nodes].T.ravel()
     return basis, (K + _diagonal(basis.N, dofs, np.repeat(k_node, 3))).tocsr()
 
 
-def _springs(solid: MeniscusSolid, horns: dict[str, float]) -> tuple[np.ndarray, np.ndarray]:
-    """(nodes, N/mm per node): each horn's stiffness spread evenly over its nodes."""
+def _springs(solid: MeniscusSolid, horns: dict[str, float],
+             extra: tuple[np.ndarray, np.ndarray] | None = None
+             ) -> tuple[np.ndarray, np.ndarray]:
+    """(nodes, N/mm per node): each horn's stiffness spread evenly over its nodes, then
+    the springs `extra` ((nodes, N/mm))."""
     nodes = [solid.horns[h].nodes for h in horns]
     k = [np.full(len(n), horns[h] / len(n)) for h, n in zip(horns, nodes, strict=True)]
+    if extra is not None:
+        nodes.append(np.asarray(extra[0]))
+        k.append(np.asarray(extra[1], dtype=float))
     return np.concatenate(nodes), np.concatenate(k)
+
+
+def coronary_springs(solid: MeniscusSolid, folder) -> tuple[np.ndarray, np.ndarray]:
+    """(nodes, N/mm): the `solid`'s coronary ligaments (group ``COR`` of
+    ``meniscal_ligaments.json`` in `folder`), each a spring of its linear-region stiffness
+    k / l0 on the mesh node nearest its meniscal point."""
+    import json
+    from pathlib import Path
+
+    from scipy.spatial import cKDTree
+
+    path = Path(folder) / "meniscal_ligaments.json"
+    items = [it for it in json.loads(path.read_text(encoding="utf-8"))["ligaments"]
+             if it.get("meniscus") == solid.side and it.get("group") == "COR"]
+    if not items:
+        raise FecheckError(f"{path}: no coronary (COR) ligament of the {solid.side} meniscus; "
+                           "run without coronary=True")
+    points = np.array([it["points_mm"][1] for it in items], dtype=float)
+    k = np.array([float(it["parameters"]["linear_stiffness"]["value"])
+                  / (1000.0 * float(it["parameters"]["slack_length"]["value"]))
+                  for it in items])
+    return cKDTree(solid.mesh.points).query(points)[1], k
+
+
+def element_stress(basis, u: np.ndarray, fibre: np.ndarray,
+                   material: TransIso = MENISCUS) -> np.ndarray:
+    """(nel, 3, 3) stress (MPa) per element of the P2 displacement `u` (mm, on the
+    scikit-fem vector `basis`): the element's volume-mean strain times the transversely
+    isotropic stiffness with its fibre `fibre` (nel, 3)."""
+    from fecheck.fe.anisotropy import stiffness_tensor
+
+    grad = np.asarray(basis.interpolate(u).grad)                     # (3, 3, nel, nq)
+    dx = np.asarray(basis.dx)
+    mean = np.einsum("abeq,eq->eab", grad, dx) / dx.sum(axis=1)[:, None, None]
+    strain = 0.5 * (mean + mean.transpose(0, 2, 1))
+    return np.einsum("nabcd,ncd->nab", stiffness_tensor(material, fibre), strain)
 
 
 def _diagonal(n: int, dofs: np.ndarray, values: np.ndarray):
@@ -233,7 +311,8 @@ class _Side:
     """One compartment in the tibia frame: its layer and `Body`, the femoral surface
     (world), its meniscus or None, and per layer vertex the meniscus inferior face its
     ray meets (-1: none), the barycentric weights and the gap (mm); `under` the vertices
-    paired with the meniscus rather than the femur."""
+    paired with the meniscus rather than the femur; `lift` (mm) taken off every
+    femur-meniscus gap."""
 
     name: str
     layer: object
@@ -244,6 +323,7 @@ class _Side:
     weights: np.ndarray
     gap: np.ndarray
     under: np.ndarray
+    lift: float = 0.0
 
 
 def _disp(body: Body, u: np.ndarray, nodes: np.ndarray) -> np.ndarray:
@@ -291,20 +371,22 @@ def place_meniscus(solid: MeniscusSolid, q_meniscus: np.ndarray, q_tibia: np.nda
 
 
 def knee_menisci_fe(scene: Scene, *, meniscus_size_mm: float = DEFAULT_SIZE_MM,
-                    root: str = "data", ef=None, layers=None,
+                    root: str = "data", ef=None, layers=None, lift_mm: float = 0.0,
+                    coronary: bool = False,
                     log: Callable[[str], None] | None = None) -> KneeMenisciFE:
     """The FE of `scene`'s knee with menisci at its EF equilibrium (module docstring).
 
     `ef`: the scene's EF run (`fecheck.model.menisci.run_menisci`; run here when None);
     `layers`: its tibial layers (`fecheck.fe.press.FELayer`, built here when None);
     `meniscus_size_mm`: the meniscus tetrahedra (`fecheck.fe.meniscus_solid`); `root`:
-    the horn root stiffness (`ROOTS`). `FecheckError` on a scene without ``menisci.dir``,
-    a two-layer cartilage, a load that does not press the joint, or a contact that
-    leaves a penetration over `PENETRATION_TOL_MM`."""
+    the horn root stiffness (`ROOTS`); `lift_mm`: the superior surface raised along its
+    normals, mm; `coronary`: the coronary ligaments as springs too. `FecheckError` on a
+    scene without ``menisci.dir``, a two-layer cartilage, a load that does not press the
+    joint, or a contact that leaves a penetration over `PENETRATION_TOL_MM`."""
     from fecheck.fe.meniscus_solid import meniscus_solid
     from fecheck.fe.settings import FESettings
     from fecheck.model.assembly import applied_load
-    from fecheck.model.menisci import run_menisci
+    from fecheck.model.menisci import menisci_dir, run_menisci
     from fecheck.scene import with_values
     from fecheck.statics.newton import body_pose
 
@@ -344,28 +426,35 @@ def knee_menisci_fe(scene: Scene, *, meniscus_size_mm: float = DEFAULT_SIZE_MM,
         body = Body(f"{lay.body.name} tibia", lay.solid.K, lay.solid.vertex_dofs)
         men = None
         if f"{lay.body.name} meniscus" in poses:
-            men = _meniscus(meniscus_solid(scene, lay.body.name, meniscus_size_mm),
-                            poses[f"{lay.body.name} meniscus"]["q"], q_tibia, pts, nrm, root)
+            solid = meniscus_solid(scene, lay.body.name, meniscus_size_mm)
+            extra = coronary_springs(solid, menisci_dir(scene)) if coronary else None
+            men = _meniscus(solid, poses[f"{lay.body.name} meniscus"]["q"], q_tibia, pts, nrm,
+                            root, extra)
             say(f"{men.side} meniscus: {len(men.solid.mesh.tets)} tetrahedra, "
                 f"{men.body.K.shape[0]} dofs, raised {men.rise_mm:.3f} mm onto the layer")
-        sides.append(_side(lay, body, men, rot, t))
+        sides.append(replace(_side(lay, body, men, rot, t), lift=float(lift_mm)))
     seconds["build"] = time.perf_counter() - t0
     return _solve(sides, rot, t, load, settings.candidate_gap_mm, run, seconds, say)
 
 
 def _meniscus(solid: MeniscusSolid, q: np.ndarray, q_tibia: np.ndarray,
-              layer_points: np.ndarray, layer_normals: np.ndarray, root: str
-              ) -> MeniscusBody:
+              layer_points: np.ndarray, layer_normals: np.ndarray, root: str,
+              extra: tuple[np.ndarray, np.ndarray] | None = None) -> MeniscusBody:
+    from fecheck.statics.newton import body_pose
+
     points, fibre, rise = place_meniscus(solid, q, q_tibia, layer_points, layer_normals)
     horns = horn_stiffness(solid, root)
-    body = meniscus_body(solid, points, fibre, horns)
+    body, basis, tie = meniscus_body(solid, points, fibre, horns, extra=extra)
+    rotation = body_pose(np.asarray(q_tibia, dtype=float))[0].T @ body_pose(
+        np.asarray(q, dtype=float))[0]
     superior = np.unique(solid.faces(SUPERIOR))
     normals = vertex_normals(points, solid.faces(SUPERIOR))[superior]
     facing = normals[:, 2] >= FACING_COS
     superior, normals = superior[facing], normals[facing]
-    nodes, k_node = _springs(solid, horns)
+    nodes, k_node = _springs(solid, horns, extra)
     return MeniscusBody(solid.side, solid, points, body, superior, normals,
-                        solid.faces(INFERIOR), rise, horns, nodes, k_node)
+                        solid.faces(INFERIOR), rise, horns, nodes, k_node, basis, tie,
+                        rotation)
 
 
 def _side(lay, body: Body, men: MeniscusBody | None, rot: np.ndarray, t: np.ndarray
@@ -427,7 +516,7 @@ def _all_gaps(sides: list[_Side], rot: np.ndarray, t: np.ndarray, travel: float,
         sup = _disp(m.body, u_m, m.superior)
         out[f"{s.name} femur-meniscus"] = (
             _femur_gap(s.indenter, m.points[m.superior], m.superior_normals, rot, t, travel)
-            - np.einsum("ij,ij->i", sup, m.superior_normals))
+            - np.einsum("ij,ij->i", sup, m.superior_normals) - s.lift)
         faces = m.inferior_faces[np.maximum(s.face, 0)]
         at = np.einsum("mk,mkc->mc", s.weights, _disp(m.body, u_m, faces.ravel()).reshape(
             -1, 3, 3))
@@ -490,15 +579,77 @@ def _solve(sides: list[_Side], rot: np.ndarray, t: np.ndarray, load: float,
         raise FecheckError(f"the FE with menisci leaves a penetration of {worst:.2e} mm "
                            f"({where}); raise fe.candidate_gap_mm")
     seconds |= {"condense": t_condense, "solve": t_solve}
-    fe, balance = _report(sides, pairs, sol, axis, load)
+    fe, balance, pressure = _report(sides, pairs, sol, axis, load)
     ef = _ef_rows(run, [s.name for s in sides])
     records = {p.name: PairRecord(p.nodes, sol.pairs[p.name].force_N, sol.pairs[p.name].gap_mm,
                                   p.normals) for p in pairs}
     springs = {s.name: -(s.meniscus.spring_N_per_mm[:, None] * _disp(
         s.meniscus.body, sol.u[s.meniscus.body.name], s.meniscus.spring_nodes)).sum(axis=0)
         for s in sides if s.meniscus}
+    reports = {s.name: meniscus_report(s.meniscus, sol.u[s.meniscus.body.name],
+                                       gaps[f"{s.name} femur-meniscus"],
+                                       records[f"{s.name} femur-meniscus"])
+               for s in sides if s.meniscus}
     return KneeMenisciFE(load, fe, ef, travel, axis, balance, worst,
-                         sum(b.K.shape[0] for b in bodies), outer, seconds, records, springs)
+                         sum(b.K.shape[0] for b in bodies), outer, seconds, records, springs,
+                         reports, pressure,
+                         {s.name: outline(s.meniscus.points, s.meniscus.inferior_faces)
+                          for s in sides if s.meniscus})
+
+
+def outline(points: np.ndarray, faces: np.ndarray) -> np.ndarray:
+    """(k, 2, 3) the boundary edges of the triangles `faces` on `points` (mm): the edges
+    that belong to one face only."""
+    edges = np.sort(faces[:, [0, 1, 1, 2, 2, 0]].reshape(-1, 2), axis=1)
+    unique, count = np.unique(edges, axis=0, return_counts=True)
+    return points[unique[count == 1]]
+
+
+NEAR_MM = (0.1, 0.5, 1.0)
+"""Distances from the femur (mm) at which `MeniscusReport` measures the superior area."""
+HOOP_ARCS = (0.1, 0.25, 0.5, 0.75, 0.9)
+"""Arc coordinates (0 anterior tip, 1 posterior) of the hoop force sections."""
+
+
+def meniscus_report(m: MeniscusBody, u: np.ndarray, gaps: np.ndarray,
+                    record: PairRecord | None) -> MeniscusReport:
+    """The `MeniscusReport` of meniscus `m` at its kept-dof displacement `u` (mm), the
+    gaps (mm) of its femur-facing superior vertices `m.superior` at the answer and the
+    femur-meniscus pair's record."""
+    from fecheck.fe.meniscus_solid import hoop_force
+
+    faces = m.solid.faces(SUPERIOR)
+    tri = m.points[faces]
+    area = 0.5 * np.linalg.norm(np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0]), axis=1)
+    vertex = np.bincount(faces.ravel(), np.repeat(area / 3.0, 3), minlength=len(m.points))
+    pressed = np.zeros(len(m.points), dtype=bool)
+    if record is not None:
+        pressed[record.nodes[record.force_N > 0]] = True
+    near = {d: float(vertex[m.superior[gaps <= d]].sum()) for d in NEAR_MM}
+    full = m.tie @ u
+    sigma = element_stress(m.basis, full, m.solid.fibre @ m.rotation.T)
+    sigma = np.einsum("ai,nab,bj->nij", m.rotation, sigma, m.rotation)    # the data frame
+    return MeniscusReport(float(vertex[pressed].sum()), near,
+                          radial_displacement(m, full),
+                          hoop_force(m.solid, sigma, HOOP_ARCS))
+
+
+def radial_displacement(m: MeniscusBody, full: np.ndarray) -> float:
+    """Mean outward radial displacement (mm) of the elements of `m` between arc 0.25 and
+    0.75 (volume-weighted): each element's mean vertex displacement (from the P2 field
+    `full`) along the horizontal normal to its fibre, pointing away from the meniscus's
+    mean point."""
+    vertex = full[m.basis.nodal_dofs].T                              # (n, 3)
+    tets = m.solid.mesh.tets
+    disp = vertex[tets].mean(axis=1)
+    fibre = m.solid.fibre @ m.rotation.T
+    out = np.cross(fibre, [0.0, 0.0, 1.0])
+    centroid = m.points[tets].mean(axis=1)
+    out *= np.sign(np.einsum("ij,ij->i", out, centroid - m.points.mean(axis=0)))[:, None]
+    out /= np.linalg.norm(out, axis=1, keepdims=True)
+    body = (m.solid.arc >= 0.25) & (m.solid.arc <= 0.75)
+    vol = np.abs(m.solid.mesh.tet_volumes)[body]
+    return float(vol @ np.einsum("ij,ij->i", disp[body], out[body]) / vol.sum())
 
 
 def _worst(gaps: dict[str, np.ndarray], sides: list[_Side]) -> tuple[float, str]:
@@ -523,18 +674,18 @@ def _pair_gaps(p: Pair, sides: list[_Side], rot: np.ndarray, t: np.ndarray,
         return _femur_gap(side.indenter, side.layer.surface.points[p.nodes], p.normals,
                           rot, t, travel)
     return _femur_gap(side.indenter, side.meniscus.points[p.nodes], p.normals, rot, t,
-                      travel)
+                      travel) - side.lift
 
 
 def _report(sides: list[_Side], pairs: list[Pair], sol, axis: np.ndarray, load: float
-            ) -> tuple[dict[str, CompartmentFE], float]:
-    """Per compartment the loads, area and p_max (`CompartmentFE`) and the femur's
-    balance along its axis (N): Σ λ n·(−a) − F."""
+            ) -> tuple[dict[str, CompartmentFE], float, dict[str, np.ndarray]]:
+    """Per compartment the loads, area and p_max (`CompartmentFE`), the femur's
+    balance along its axis (N): Σ λ n·(−a) − F, and the tibial vertex pressures (MPa)."""
     from fecheck.fe.recovery import zero_contour_area
 
     by_name = {p.name: p for p in pairs}
     femur_total = 0.0
-    out = {}
+    out, pressures = {}, {}
     for s in sides:
         n_pts = len(s.layer.surface.points)
         force = np.zeros(n_pts)
@@ -563,14 +714,19 @@ def _report(sides: list[_Side], pairs: list[Pair], sol, axis: np.ndarray, load: 
                     on_men += sign * sol.pairs[p.name].force_N @ p.normals
             balance = float(np.linalg.norm(on_men))
         pressure = force / s.layer.solid.tributary_mm2
+        pressures[s.name] = pressure
+        ft = by_name[f"{s.name} femur-tibia"]
+        sink = -np.einsum("ij,ij->i", _disp(s.body, sol.u[s.body.name], ft.nodes), ft.normals)
+        pressed = sol.pairs[ft.name].force_N > 0
         area = zero_contour_area(s.layer.surface.points, s.layer.surface.faces, pressure,
                                  force > 0)
         through = axial["meniscus-tibia"] + springs
         total = through + axial["femur-tibia"]
         out[s.name] = CompartmentFE(through, springs, axial["femur-tibia"],
                                     axial["femur-meniscus"], through / total, float(area),
-                                    float(pressure.max()), balance, slide)
-    return out, femur_total - load
+                                    float(pressure.max()), balance, slide,
+                                    float(sink[pressed].max(initial=0.0)))
+    return out, femur_total - load, pressures
 
 
 def _ef_rows(run, names: list[str]) -> dict[str, dict[str, float]]:
