@@ -12,7 +12,7 @@ one run. CPU times (time.process_time), as the machine is shared.
     python validation/fe_solvers.py [--quick] [--size MM]
 
 --quick meshes 3 mm under the contact and times 20 right-hand sides, scaled to m (SuperLU
-takes minutes at 0.8 mm, 16 s CPU at 2 mm). pyamg is optional (``pip install pyamg``):
+takes minutes at 0.8 mm). pyamg is optional (``pip install pyamg``):
 without it that line is skipped.
 """
 
