@@ -62,6 +62,24 @@ if TYPE_CHECKING:
 MIN_FACES = 4
 #: Rounds of `unfold` before a remaining fold-over is an error.
 UNFOLD_ROUNDS = 10
+#: Decimated meshes `decimated` keeps in this process (the oldest is dropped first).
+KEPT = 16
+_kept: dict[tuple[str, int], TriMesh] = {}
+
+
+def decimated(mesh: TriMesh, target_faces: int) -> TriMesh:
+    """`decimate`, kept in this process by the mesh's content and the target: a scene's
+    surfaces are decimated once, not once per run (a scanned run decimates its femoral
+    sheet for the master and again for each compartment's thickness). The mesh returned
+    is shared by every caller: do not change its arrays."""
+    from geometry.cache import content_digest
+
+    key = (content_digest([mesh]), int(target_faces))
+    if key not in _kept:
+        if len(_kept) >= KEPT:
+            del _kept[next(iter(_kept))]
+        _kept[key] = decimate(mesh, target_faces)
+    return _kept[key]
 
 
 def decimate(mesh: TriMesh, target_faces: int) -> TriMesh:

@@ -7,7 +7,7 @@ import pytest
 from conftest import require_knee_data
 
 from geometry import decimate as decimate_module
-from geometry.decimate import decimate, folded, unfold
+from geometry.decimate import decimate, decimated, folded, unfold
 from geometry.distance import closest_distance
 from geometry.errors import FecheckError
 from geometry.icosphere import icosphere
@@ -217,3 +217,23 @@ def test_a_failed_qslim_is_an_error_not_an_index_error(monkeypatch):
                                                               np.zeros(0, dtype=int)))
     with pytest.raises(FecheckError, match="returned no faces.*scanned.decimate_faces = 0"):
         decimate(voxel_stair_sheet(), 1000)
+
+
+def test_decimated_is_kept_by_the_mesh_content_and_the_target(monkeypatch):
+    monkeypatch.setattr(decimate_module, "_kept", {})
+    monkeypatch.setattr(decimate_module, "KEPT", 3)
+    real, calls = decimate_module.decimate, []
+    monkeypatch.setattr(decimate_module, "decimate",
+                        lambda mesh, target: calls.append(target) or real(mesh, target))
+    sphere = icosphere(10.0, 3, method="trimesh", cache=False)          # 1,280 faces
+    first = decimated(sphere, 300)
+    assert np.array_equal(first.faces, real(sphere, 300).faces)
+    assert np.array_equal(first.points, real(sphere, 300).points)
+    assert decimated(TriMesh(sphere.points.copy(), sphere.faces.copy()), 300) is first
+    assert decimated(sphere, 200).n_faces <= 200 < first.n_faces
+    moved = TriMesh(sphere.points + 1.0, sphere.faces)
+    assert decimated(moved, 300) is not first
+    assert calls == [300, 200, 300]
+    decimated(moved, 100)                 # a fourth mesh: the oldest (the first) is dropped
+    assert len(decimate_module._kept) == 3
+    assert decimated(sphere, 300) is not first and calls == [300, 200, 300, 100, 300]

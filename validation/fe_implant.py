@@ -70,7 +70,7 @@ def cylinder_rows(quick: bool) -> list[dict]:
     """Solid, layer, axisymmetric FE of the cylinder against Hertz."""
     hertz = hertz_sphere_on_plane(F, R, E, NU)
     a_h = math.sqrt(hertz.area_mm2 / math.pi)
-    surface = cylinder_solid(RC, H, 0.9 if quick else 0.45, 1.5 * a_h, 4.0)
+    surface = cylinder_solid(RC, H, 1.2 if quick else 0.45, 1.5 * a_h, 4.0)
     top = up_facing(surface)
     rows = []
     t = time.perf_counter()
@@ -110,7 +110,7 @@ def implant_rows(out: Path, quick: bool) -> list[dict]:
         bodies["layer, uniform 7 mm"] = ["geometry.tibia_solid=''"]
     for offset in offsets:
         scene_path = write_implant(out / f"implant_y{offset:g}", offset,
-                                   fine_mm=1.5 if quick else 1.0)
+                                   fine_mm=2.0 if quick else 1.0)
         solid = {}
         for name, overrides in bodies.items():
             check = cross_check(load_scene(scene_path, overrides), log=None)

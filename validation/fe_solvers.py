@@ -11,7 +11,7 @@ one run. CPU times (time.process_time), as the machine is shared.
 
     python validation/fe_solvers.py [--quick] [--size MM]
 
---quick meshes 2 mm under the contact and times 20 right-hand sides, scaled to m (SuperLU
+--quick meshes 3 mm under the contact and times 20 right-hand sides, scaled to m (SuperLU
 takes minutes at 0.8 mm). pyamg is optional (``pip install pyamg``):
 without it that line is skipped.
 """
@@ -77,9 +77,9 @@ def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--quick", action="store_true")
     parser.add_argument("--size", type=float, help="mm under the contact (default 0.8, "
-                        "--quick 2)")
+                        "--quick 3)")
     args = parser.parse_args()
-    K, rows, dofs, normals = stiffness(args.size or (2.0 if args.quick else 0.8))
+    K, rows, dofs, normals = stiffness(args.size or (3.0 if args.quick else 0.8))
     m = rows.shape[0]
     n_rhs = min(m, 20) if args.quick else m
     rhs = rows[:n_rhs].T.toarray()

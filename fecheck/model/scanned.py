@@ -53,7 +53,7 @@ from fecheck.scene.constants import COMPARTMENTS
 from fecheck.statics.ligaments import SpringLigament, SpringSet, transition_strain_check
 from geometry.cache import cached_arrays
 from geometry.cap import spherical_cap
-from geometry.decimate import decimate
+from geometry.decimate import decimated
 
 
 def tibial_slaves(scene: Scene) -> dict:
@@ -63,7 +63,7 @@ def tibial_slaves(scene: Scene) -> dict:
     target = scene["scanned.decimate_faces"]
     if target:
         total = sum(m.n_faces for m in meshes.values())
-        meshes = {c: decimate(m, max(4, round(target * m.n_faces / total)))
+        meshes = {c: decimated(m, max(4, round(target * m.n_faces / total)))
                   for c, m in meshes.items()}
     return meshes
 
@@ -74,7 +74,7 @@ def femoral_master(scene: Scene):
     target = scene["scanned.decimate_faces"]
     if target:
         tibia = sum(m.n_faces for m in surfaces.tibial_compartments(scene).values())
-        femur = decimate(femur, max(4, round(target * femur.n_faces / tibia)))
+        femur = decimated(femur, max(4, round(target * femur.n_faces / tibia)))
     return femur
 
 

@@ -86,7 +86,7 @@ class BenchConfig:
         return cls(levels=(2, 3, 4, 5), thesis_levels=(3, 4), hertz_levels=(3, 4),
                    plateau_sizes_mm=(1.4, 0.7), fe3d_sizes_mm=(5.0, 2.0),
                    axisym_sizes_mm=(0.5, 0.2, 0.1), fe_reference_size_mm=0.05,
-                   repeats=5, slow_s=2.0,
+                   repeats=5, slow_s=0.5,
                    scaling_levels=(3, 4, 5, 6), scaling_copies=(1, 4, 16),
                    scaling_evaluations=10)
 
