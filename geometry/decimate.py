@@ -71,14 +71,17 @@ def decimated(mesh: TriMesh, target_faces: int) -> TriMesh:
     """`decimate`, kept in this process by the mesh's content and the target: a scene's
     surfaces are decimated once, not once per run (a scanned run decimates its femoral
     sheet for the master and again for each compartment's thickness). The mesh returned
-    is shared by every caller: do not change its arrays."""
+    is shared by every caller: its arrays are read-only."""
     from geometry.cache import content_digest
 
     key = (content_digest([mesh]), int(target_faces))
     if key not in _kept:
         if len(_kept) >= KEPT:
             del _kept[next(iter(_kept))]
-        _kept[key] = decimate(mesh, target_faces)
+        kept = decimate(mesh, target_faces)
+        for array in (kept.points, kept.faces, *kept.regions.values()):
+            array.flags.writeable = False
+        _kept[key] = kept
     return _kept[key]
 
 
