@@ -167,8 +167,6 @@ def store_set(state, R: np.ndarray, t: np.ndarray, faces: np.ndarray, vertices: 
               areas: np.ndarray) -> int:
     """Make (faces, …, areas) the current set, built at the relative pose (R, t); the new
     rebuild count."""
-    state.ref_R[:, :] = R
-    state.ref_t[:] = t
     state.cand_faces = faces
     state.cand_vertices = vertices
     state.cand_local = local
@@ -176,10 +174,19 @@ def store_set(state, R: np.ndarray, t: np.ndarray, faces: np.ndarray, vertices: 
     state.cand_normals = normals
     state.cand_areas = areas
     state.cand_ranks = np.zeros(0, dtype=np.int64)
+    return rebuilt(state, R, t, 1)
+
+
+@njit(cache=True, fastmath=False)
+def rebuilt(state, R: np.ndarray, t: np.ndarray, has_data: int) -> int:
+    """Record a rebuild of the current set at the relative pose (R, t), its per-face data
+    gathered (`has_data` 1) or not yet (0); the new rebuild count."""
+    state.ref_R[:, :] = R
+    state.ref_t[:] = t
     counts = state.counts
     counts[0] = 1
     counts[1] += 1
-    counts[3] = 1
+    counts[3] = has_data
     return counts[1]
 
 
@@ -196,14 +203,8 @@ def region_ranks(state, R: np.ndarray, t: np.ndarray) -> int:
     m = owned_faces(state.region_kind, state.region_params, R, t, state.points, state.order,
                     state.lo, state.hi, state.child, state.span, state.owner_ptr,
                     state.extent, state.node_extent, state.out)
-    state.ref_R[:, :] = R
-    state.ref_t[:] = t
     state.cand_ranks = state.out[:m].copy()
-    counts = state.counts
-    counts[0] = 1
-    counts[1] += 1
-    counts[3] = 0
-    return counts[1]
+    return rebuilt(state, R, t, 0)
 
 
 @njit(cache=True, fastmath=False)

@@ -140,6 +140,19 @@ def linear_law(k_N_per_mm3: float) -> CompiledLaw:
 
 
 @njit(cache=True, fastmath=False)
+def pack(out, force, moment, tangent, area, deepest) -> None:
+    """Write a wrench into `out` (44,): force, moment, the 6x6 tangent row-major, the
+    contact area (mm²) and the deepest vertex depth (mm)."""
+    out[:3] = force
+    out[3:6] = moment
+    for i in range(6):
+        for k in range(6):
+            out[6 + 6 * i + k] = tangent[i, k]
+    out[42] = area
+    out[43] = deepest
+
+
+@njit(cache=True, fastmath=False)
 def _reduce(surface, slave_normals, faces, kind, params, face_scale, about, out):
     """Resultant of the law over `surface`, the arrays a contact kernel returns, as
     `fecheck.laws.foundation.foundation` forms it, written into `out` (a `Wrench`'s
@@ -164,13 +177,7 @@ def _reduce(surface, slave_normals, faces, kind, params, face_scale, about, out)
         stiffness, p, slope, qp_depth, qp_weight, qp_depth_twist, qp_weight_twist, qp_point,
         normal, qp_face, slave_normals, slide, qp_clip, clip_share, clip_face, clip_edge,
         clip_rate, about)
-    out[:3] = force
-    out[3:6] = moment
-    for i in range(6):
-        for k in range(6):
-            out[6 + 6 * i + k] = tangent[i, k]
-    out[42] = area
-    out[43] = vertex_depth.max()
+    pack(out, force, moment, tangent, area, vertex_depth.max())
 
 
 # One fused compiled loop over the faces for speed (the cases of one face kept together).
@@ -322,13 +329,7 @@ def plane_linear_wrench(clipped, ranks, corners, normals, areas, points, size, R
         xf[i, 0], xf[i, 1], xf[i, 2] = si * w0, si * w1, si * w2
     force, moment = close_resultant(tangent, S * w0, S * w1, S * w2, S1 * w2 - S2 * w1,
                                     S2 * w0 - S0 * w2, S0 * w1 - S1 * w0, xf, False, about)
-    out[:3] = force
-    out[3:6] = moment
-    for i in range(6):
-        for k in range(6):
-            out[6 + 6 * i + k] = tangent[i, k]
-    out[42] = area
-    out[43] = deepest_vertex
+    pack(out, force, moment, tangent, area, deepest_vertex)
 
 
 @njit(cache=True, fastmath=False)
