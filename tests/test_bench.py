@@ -50,7 +50,7 @@ def test_clipped_ef_error_falls_with_subdivisions_by_about_four_per_level(result
 
 
 def test_whole_face_counting_is_biased_like_the_thesis(result):
-    """At 5,120 faces the thesis's counting underestimates p_max by 12-17% (DESIGN §5,
+    """At 5,120 faces the thesis's counting underestimates p_max by 12-17% (the thesis's
     Table 5.3: 3.59 vs the exact 4.28 MPa); clipping at the same faces is within 3%."""
     whole = next(r for r in _rows(result, "ef-whole-face") if r["resolution"] == "level 4")
     clipped = next(r for r in _rows(result, "ef-clipped") if r["resolution"] == "level 4")
@@ -63,7 +63,7 @@ def test_whole_face_counting_is_biased_like_the_thesis(result):
 
 def test_references_are_the_closed_forms_and_converged_fe(result):
     ref = result["references"]["medial"]
-    assert ref["ef_exact"]["max_pressure_MPa"] == pytest.approx(4.28, abs=0.01)   # DESIGN §5
+    assert ref["ef_exact"]["max_pressure_MPa"] == pytest.approx(4.28, abs=0.01)   # exact EF closed form
     assert ref["ef_exact"]["area_mm2"] == pytest.approx(150.1, abs=0.1)
     axisym = _rows(result, "fe-axisym")
     assert min(r["error_pmax"] for r in axisym) < 0.01

@@ -10,7 +10,7 @@ from geometry.icosphere import icosphere
 from geometry.plateau import plane_patch, polynomial_patch
 from geometry.polynomial import Polynomial2D
 
-R_LAT = 31.8   # lateral condyle radius, mm (DESIGN §4)
+R_LAT = 31.8   # lateral condyle radius, mm (the thesis's lateral condyle)
 DEPTHS = (0.1, 0.5, 1.0, 2.0)
 
 

@@ -10,7 +10,7 @@ import pytest
 from fecheck.fe.axisym import axisym_sphere_on_layer
 from fecheck.fe.sphere_layer import sphere_on_flat_layer
 
-MEDIAL = (323.71, 25.5)      # DESIGN §4: rigid-model medial load (N) and condyle radius (mm)
+MEDIAL = (323.71, 25.5)      # the thesis's rigid-model medial load (N) and condyle radius (mm)
 E, H = 20.0, 6.0             # MPa, mm
 SIZE = 1.0                   # mm under the contact: 50k dofs, ~15 s
 

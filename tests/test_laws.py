@@ -25,7 +25,7 @@ I3, O3 = np.eye(3), np.zeros(3)
 
 
 def test_ef_stiffness_matches_eq_4_3_at_baseline():
-    # (1 - 0.3)·20 / ((1.3)(0.4)·6) = 14 / 3.12 N/mm³ (DESIGN §4: 4.487)
+    # (1 - 0.3)·20 / ((1.3)(0.4)·6) = 14 / 3.12 N/mm³ (the thesis rounds it to 4.487)
     assert K == pytest.approx(14.0 / 3.12, rel=1e-12)
     assert round(K, 3) == 4.487
 
@@ -176,7 +176,7 @@ def fine_plate():
 
 
 def test_ef_sphere_on_plane_matches_cap_volume(fine_plate):
-    # DESIGN §5: F = k·π d²(R − d/3), A = π(2Rd − d²), p_max = k d. The plate's linear
+    # Exact EF sphere on plane (fecheck.reference.closed_forms): F = k·π d²(R − d/3), A = π(2Rd − d²), p_max = k d. The plate's linear
     # depth interpolation under-fills the cap by ~ h²/(8R)/d ≈ 0.03% at h = 0.25 mm.
     d = 0.955
     r = laws.elastic_foundation(_plate_surface(d, fine_plate), K)
@@ -201,7 +201,7 @@ def test_hertz_values_follow_eq_4_4_to_4_8(fine_plate):
     d = r.max_depth
     p = 4.0 / 3.0 * e_star * math.sqrt(R) * d**1.5
     assert -r.force[2] == pytest.approx(p, rel=1e-9)
-    # DESIGN §5: a = (3FR/(4E*))^(1/3), p0 = 3F/(2πa²), d = a²/R
+    # Hertz (fecheck.reference.closed_forms): a = (3FR/(4E*))^(1/3), p0 = 3F/(2πa²), d = a²/R
     a = (3 * p * R / (4 * e_star)) ** (1 / 3)
     assert r.contact_radius_mm == pytest.approx(a, rel=1e-9)
     assert r.max_pressure == pytest.approx(3 * p / (2 * math.pi * a * a), rel=1e-9)
