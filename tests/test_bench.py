@@ -63,7 +63,7 @@ def test_whole_face_counting_is_biased_like_the_thesis(result):
 
 def test_references_are_the_closed_forms_and_converged_fe(result):
     ref = result["references"]["medial"]
-    assert ref["ef_exact"]["max_pressure_MPa"] == pytest.approx(4.28, abs=0.01)   # exact EF closed form
+    assert ref["ef_exact"]["max_pressure_MPa"] == pytest.approx(4.28, abs=0.01)  # exact EF
     assert ref["ef_exact"]["area_mm2"] == pytest.approx(150.1, abs=0.1)
     axisym = _rows(result, "fe-axisym")
     assert min(r["error_pmax"] for r in axisym) < 0.01

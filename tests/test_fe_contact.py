@@ -56,7 +56,7 @@ def test_a_nonpositive_load_is_rejected():
 
 
 def test_ef_closed_form_matches_design_reference_values():
-    # Exact EF closed forms (fecheck.reference.closed_forms): medial d 0.955 mm, A 150.1 mm², p_max 4.28 MPa, p_mean 2.16 MPa;
+    # Exact EF closed forms: medial d 0.955 mm, A 150.1 mm², p_max 4.28 MPa, p_mean 2.16 MPa;
     # lateral d 1.015, A 199.5, p_max 4.55, p_mean 2.29 (printed to 3-4 digits).
     m = ef_sphere_on_plane(323.71, 25.5, 20.0, 0.3, 6.0)
     lat = ef_sphere_on_plane(456.67, 31.8, 20.0, 0.3, 6.0)

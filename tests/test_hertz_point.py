@@ -67,7 +67,7 @@ def test_depth_is_the_epa_penetration_of_the_sphere_into_the_plateau():
 
 
 def test_force_radius_and_peak_pressure_follow_the_hertz_closed_forms():
-    # Hertz (fecheck.reference.closed_forms): a = (3PR/(4E*))^(1/3), p0 = 3P/(2πa²), d = a²/R; eq. 4.4:
+    # Hertz: a = (3PR/(4E*))^(1/3), p0 = 3P/(2πa²), d = a²/R; eq. 4.4:
     # P = 4/3·E*·√R·d^{3/2}, along minus the plateau normal through the sphere centre
     about = np.array([3.0, -2.0, -40.0])
     contact = _pair().evaluate(SLAVE, (I3, O3))

@@ -176,7 +176,7 @@ def fine_plate():
 
 
 def test_ef_sphere_on_plane_matches_cap_volume(fine_plate):
-    # Exact EF sphere on plane (fecheck.reference.closed_forms): F = k·π d²(R − d/3), A = π(2Rd − d²), p_max = k d. The plate's linear
+    # Exact EF: F = k·π d²(R − d/3), A = π(2Rd − d²), p_max = k d. The plate's linear
     # depth interpolation under-fills the cap by ~ h²/(8R)/d ≈ 0.03% at h = 0.25 mm.
     d = 0.955
     r = laws.elastic_foundation(_plate_surface(d, fine_plate), K)

@@ -168,7 +168,7 @@ def test_baseline_converges_quickly_to_the_load_tolerance(baseline):
 
 
 def test_baseline_matches_the_exact_ef_values_of_design_5(baseline):
-    # Exact EF closed forms at the rigid split: medial d 0.955, A 150.1, p_max 4.28; lateral d 1.015,
+    # Exact EF at the rigid split: medial d 0.955, A 150.1, p_max 4.28; lateral d 1.015,
     # A 199.5, p_max 4.55 (2-3 printed digits); here against the closed form evaluated at
     # the solved forces, to 1 % as required, and to the printed values to their digits.
     knee = load_scene().knee
