@@ -167,14 +167,21 @@ def store_set(state, R: np.ndarray, t: np.ndarray, faces: np.ndarray, vertices: 
               areas: np.ndarray) -> int:
     """Make (faces, …, areas) the current set, built at the relative pose (R, t); the new
     rebuild count."""
+    hold_data(state, faces, vertices, local, points, normals, areas)
+    state.cand_ranks = np.zeros(0, dtype=np.int64)
+    return rebuilt(state, R, t, 1)
+
+
+@njit(cache=True, fastmath=False)
+def hold_data(state, faces: np.ndarray, vertices: np.ndarray, local: np.ndarray,
+              points: np.ndarray, normals: np.ndarray, areas: np.ndarray) -> None:
+    """Make (faces, …, areas) the current set's per-face `Candidates` arrays."""
     state.cand_faces = faces
     state.cand_vertices = vertices
     state.cand_local = local
     state.cand_points = points
     state.cand_normals = normals
     state.cand_areas = areas
-    state.cand_ranks = np.zeros(0, dtype=np.int64)
-    return rebuilt(state, R, t, 1)
 
 
 @njit(cache=True, fastmath=False)
@@ -216,12 +223,7 @@ def gathered(state) -> None:
     faces, vertices, local, points, normals, areas = gather_faces(
         state.cand_ranks, state.face_order, state.corners, state.normals, state.areas,
         state.points, state.vertex_index)
-    state.cand_faces = faces
-    state.cand_vertices = vertices
-    state.cand_local = local
-    state.cand_points = points
-    state.cand_normals = normals
-    state.cand_areas = areas
+    hold_data(state, faces, vertices, local, points, normals, areas)
     state.counts[3] = 1
 
 
