@@ -28,6 +28,12 @@ a femoral condyle), so it is prepared as one:
    heights are the least-squares fit of the samples on the lattice (h linear on its
    triangles; a vanishing penalty on second differences along the lattice lines holds
    every vertex).
+   With ``terraces`` (a `geometry.terraces.TerraceFit`) a sheet cut from voxels (a
+   staircase of flat terraces one voxel apart) is fitted instead as a whole: a thin-plate
+   height field through the level lines half-way up its risers, pulled weakly (or not)
+   toward the terraces (`geometry.terraces`); the quadric fits cannot tell where inside a
+   terrace the surface lies, and at the flat bottom of a condyle put it up to half a
+   step off.
 
 The result's triangles are all equilateral in the plane (60° angles there; tilted by
 at most ``max_tilt_deg`` in space); `transfer` interpolates values between the sheet
@@ -47,6 +53,7 @@ from geometry.errors import FecheckError
 from geometry.mesh import TriMesh
 from geometry.roughness import tributary_areas
 from geometry.subdivide import subdivide
+from geometry.terraces import Staircase, TerraceFit, staircase, terrace_heights
 
 MAX_TILT_DEG = 65.0
 """Faces whose normal turns further than this from the sheet's axis are trimmed (rims)."""
@@ -67,6 +74,7 @@ class PreparedSheet:
     axis : (3,) unit axis (the plane's normal, on the side the sheet faces)
     origin : (3,) a point of the plane; frame : (2, 3) its in-plane unit vectors
     trimmed_faces : faces of the input sheet dropped as rims or slivers
+    staircase : the voxel staircase found on the sheet (`geometry.terraces`), if any
     """
 
     mesh: TriMesh
@@ -74,6 +82,7 @@ class PreparedSheet:
     origin: np.ndarray
     frame: np.ndarray
     trimmed_faces: int
+    staircase: Staircase | None = None
 
     def plane(self, points: np.ndarray) -> np.ndarray:
         """(k, 2) in-plane coordinates of points (k, 3), mm."""
@@ -99,12 +108,14 @@ def sheet_axis(sheet: TriMesh) -> np.ndarray:
 
 def prepare_sheet(sheet: TriMesh, size_mm: float, *, axis: np.ndarray | None = None,
                   max_tilt_deg: float = MAX_TILT_DEG, smooth_mm: float = SMOOTH_MM,
-                  name: str = "sheet") -> PreparedSheet:
+                  name: str = "sheet", terraces: TerraceFit | None = None) -> PreparedSheet:
     """The sheet remeshed as a height field over its axis (module docstring).
 
     size_mm : side of the equilateral triangles, mm; axis : (3,) direction the sheet faces
     (default `sheet_axis`); max_tilt_deg : rim trimming angle; smooth_mm : smoothing
-    length, mm (0: least squares on the lattice); name : names the sheet in errors.
+    length, mm (0: least squares on the lattice); name : names the sheet in errors;
+    terraces : fit a voxel staircase, when the sheet has one, as `geometry.terraces` does
+    (None: never; the local quadric fits then, as on any sheet).
     """
     if not (np.isfinite(size_mm) and size_mm > 0):
         raise FecheckError(f"the element size of the prepared {name} must be a positive "
@@ -130,18 +141,22 @@ def prepare_sheet(sheet: TriMesh, size_mm: float, *, axis: np.ndarray | None = N
     lattice, faces = lattice[used], remap[faces]
     lines = remap[lines]
     lines = lines[(lines >= 0).all(axis=1)]
-    step = max(0.5 * size_mm, 0.25 * smooth_mm)
-    dense, _ = subdivide(TriMesh(sheet.points, sheet.faces[keep]), _splits(sheet, step))
-    used = np.unique(dense.faces)
-    rel = dense.points[used] - origin
-    suv, sz = rel @ frame.T, rel @ a
-    if smooth_mm > 0:
-        h = quadric_heights(lattice, suv, sz, tributary_areas(dense)[used], smooth_mm)
+    kept = TriMesh(sheet.points, sheet.faces[keep])
+    stair = None if terraces is None else staircase(kept, a, terraces.step_mm)
+    if stair is not None:
+        h = terrace_heights(lattice, faces, lines, kept, stair, origin, frame, a, terraces)
     else:
-        h = _least_squares_heights(lattice, faces, lines, suv, sz)
+        dense, _ = subdivide(kept, _splits(sheet, max(0.5 * size_mm, 0.25 * smooth_mm)))
+        used = np.unique(dense.faces)
+        rel = dense.points[used] - origin
+        suv, sz = rel @ frame.T, rel @ a
+        if smooth_mm > 0:
+            h = quadric_heights(lattice, suv, sz, tributary_areas(dense)[used], smooth_mm)
+        else:
+            h = _least_squares_heights(lattice, faces, lines, suv, sz)
     points = origin + lattice @ frame + h[:, None] * a
     mesh = TriMesh(points, faces)
-    return PreparedSheet(mesh, a, origin, frame, int((~keep).sum()))
+    return PreparedSheet(mesh, a, origin, frame, int((~keep).sum()), stair)
 
 
 def _splits(sheet: TriMesh, step: float) -> int:

@@ -12,6 +12,7 @@ from fecheck.scene import Scene
 
 MODES = ("joint", "compartment")
 PREPARE = ("auto", "on", "off")
+TERRACES = ("off", "on")
 CARTILAGE = ("series", "two-layer")
 NEARLY_INCOMPRESSIBLE = 0.45
 """Poisson's ratio from which the automatic level count is 3 instead of 2."""
@@ -32,6 +33,7 @@ class FESettings:
     prepare: str = "auto"
     size_mm: float = 1.0
     smooth_mm: float = 4.0
+    terraces: str = "off"
     body: str = "auto"
     solid_base_deg: float = 45.0
     cartilage: str = "series"
@@ -55,6 +57,9 @@ class FESettings:
         if self.prepare not in PREPARE:
             raise FecheckError(f"fe.prepare must be one of {', '.join(PREPARE)}, got "
                                f"{self.prepare!r}")
+        if self.terraces not in TERRACES:
+            raise FecheckError(f"fe.terraces must be one of {', '.join(TERRACES)}, got "
+                               f"{self.terraces!r}")
         if self.cartilage not in CARTILAGE:
             raise FecheckError(f"fe.cartilage must be one of {', '.join(CARTILAGE)}, got "
                                f"{self.cartilage!r}")

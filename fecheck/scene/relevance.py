@@ -318,7 +318,7 @@ RULES: tuple[tuple[tuple[str, ...], Reason], ...] = (
     (("geometry.femur_bone", "geometry.tibia_bone"), _no_bones),
     (("geometry.ligaments",), _no_bundle_file),
     (("fe.axisym_size_mm",), _no_axisymmetric),
-    (("fe.size_mm", "fe.smooth_mm"), _no_prepare),
+    (("fe.size_mm", "fe.smooth_mm", "fe.terraces"), _no_prepare),
     (_LAYER_KEYS, _one_layer),
 )
 """(keys, reason): the keys have no effect in a scene where ``reason(scene)`` is not None.

@@ -557,6 +557,12 @@ SCHEMA: dict[str, Key] = {
                         "terraces and noise shorter than it are averaged out, whatever "
                         "fe.size_mm; 0 = a least-squares fit on the elements, mm.",
                         low=0.0, high=20.0),
+    "fe.terraces": Key("str", "off", _FE + "'on' = a prepared sheet cut from voxels (flat "
+                       "terraces one step apart) is fitted as a whole: a thin-plate height "
+                       "field through the level lines half-way up its risers (the femoral "
+                       "surface too, at the tibia's step); 'off' = the local quadric fits of "
+                       "fe.smooth_mm on every sheet.",
+                       choices=("off", "on")),
     "fe.axisym_size_mm": Key("float", 0.1, _FE + "element size of the axisymmetric FE "
                              "reference under the contact, mm; that reference runs only "
                              "for flat layers (plateau.kind = 'transverse').",
