@@ -143,9 +143,10 @@ def prepare_sheet(sheet: TriMesh, size_mm: float, *, axis: np.ndarray | None = N
     lines = lines[(lines >= 0).all(axis=1)]
     kept = TriMesh(sheet.points, sheet.faces[keep])
     stair = None if terraces is None else staircase(kept, a, terraces.step_mm)
-    if stair is not None:
-        h = terrace_heights(lattice, faces, lines, kept, stair, origin, frame, a, terraces)
-    else:
+    h = None if stair is None else terrace_heights(lattice, faces, lines, kept, stair, origin,
+                                                   frame, a, terraces)
+    if h is None:
+        stair = None
         dense, _ = subdivide(kept, _splits(sheet, max(0.5 * size_mm, 0.25 * smooth_mm)))
         used = np.unique(dense.faces)
         rel = dense.points[used] - origin

@@ -151,13 +151,14 @@ def contour_points(sheet: TriMesh, stair: Staircase) -> tuple[np.ndarray, np.nda
 
 def terrace_heights(lattice: np.ndarray, faces: np.ndarray, lines: np.ndarray,
                     sheet: TriMesh, stair: Staircase, origin: np.ndarray, frame: np.ndarray,
-                    axis: np.ndarray, fit: TerraceFit) -> np.ndarray:
+                    axis: np.ndarray, fit: TerraceFit) -> np.ndarray | None:
     """(n,) heights along `axis` at the lattice vertices (n, 2) of the plane (origin, frame),
     h linear on the lattice `faces`: the least-squares fit to the mid-riser contour points
     (weight: their length, mm) and the terrace faces' centroids (weight
     ``fit.terrace_weight`` times their area, mm²), with the thin-plate energy `BEND_MM` ·
     Σ (second difference / s²)² s² over the lattice `lines` (triples of consecutive
-    vertices, spacing s) (module docstring)."""
+    vertices, spacing s) (module docstring); None when fewer than 3 weighted points fall
+    on the lattice (the field would not be held)."""
     from scipy.sparse.linalg import spsolve
 
     points, length = contour_points(sheet, stair)
@@ -165,6 +166,8 @@ def terrace_heights(lattice: np.ndarray, faces: np.ndarray, lines: np.ndarray,
     points = np.concatenate([points, sheet.points[sheet.faces[flat]].mean(axis=1)])
     weight = np.concatenate([length, fit.terrace_weight * sheet.face_areas[flat]])
     A, z, inside = _interpolation(lattice, faces, points, origin, frame, axis)
+    if (weight[inside] > 0).sum() < 3:
+        return None
     W = sp.diags(weight[inside])
     s = float(np.linalg.norm(lattice[lines[0, 1]] - lattice[lines[0, 0]]))
     rows = np.repeat(np.arange(len(lines)), 3)

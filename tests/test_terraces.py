@@ -88,3 +88,22 @@ def test_smooth_and_scanned_sheets_have_no_staircase(name):
     assert staircase(femur_mesh(), -Z) is None
     scanned = load_mesh(f"fecheck/data/knee/lenhart2015/lenhart2015_R_tibia_cartilage_{name}.stl")
     assert staircase(scanned, scanned.face_normals.mean(axis=0)) is None
+
+
+def test_a_sheet_within_one_terrace_keeps_the_local_fits():
+    """A flat sheet at a known step has a terrace but no riser: with the contours alone (the
+    femoral surface's fit) nothing holds a thin plate, so the sheet keeps the local
+    quadric fits (its plane, exactly) and no staircase."""
+    x = np.linspace(-5.0, 5.0, 11)
+    X, Y = np.meshgrid(x, x, indexing="ij")
+    points = np.column_stack([X.ravel(), Y.ravel(), np.full(X.size, 0.25)])
+    i, j = np.meshgrid(np.arange(10), np.arange(10), indexing="ij")
+    p = (i * 11 + j).ravel()
+    faces = np.concatenate([np.column_stack([p, p + 11, p + 1]),
+                            np.column_stack([p + 11, p + 12, p + 1])])
+    sheet = TriMesh(points, faces)
+    assert staircase(sheet, Z, VOXEL_MM) is not None
+    prepared = prepare_sheet(sheet, 1.0, axis=Z, terraces=TerraceFit(step_mm=VOXEL_MM,
+                                                                  terrace_weight=0.0))
+    assert prepared.staircase is None
+    np.testing.assert_allclose(prepared.mesh.points[:, 2], 0.25, atol=1e-9)

@@ -21,10 +21,12 @@ per quantity the observed order and extrapolation from the three sizes (generali
 Richardson, as validation/fe_scanned_convergence.py) and each knee's deviation
 from the smooth knee's own FE (the "exact" row) at each size.
 
-    python validation/fe_segmented.py [--quick] [--spacing MM] [--out DIR]
+    python validation/fe_segmented.py [--quick] [--spacing MM] [--terraces] [--out DIR]
 
 --quick: voxels of 0.6 mm, sizes 2 / 1.41 / 1 mm, raw variant only. Full: voxels of
 0.5 mm, sizes 2 / 1 / 0.5 mm, and the noisy and decimated variants at the default size.
+--terraces: every prepared knee with fe.terraces = 'on' (the smooth knee has no staircase:
+its rows do not change).
 Writes DIR/fe_segmented.csv.
 """
 
@@ -73,11 +75,12 @@ def smooth_knee(folder: Path) -> dict[str, Path]:
             "tibia": write_mesh(tibia_mesh(), folder / "tibia.stl")}
 
 
-def solve(scene: Path, size: float | None) -> list[dict]:
-    """The FE at element size `size` (mm; None: fe.prepare = 'off', the EF faces): one row
-    per compartment."""
+def solve(scene: Path, size: float | None, terraces: str = "off") -> list[dict]:
+    """The FE at element size `size` (mm; None: fe.prepare = 'off', the EF faces), with
+    fe.terraces = `terraces`: one row per compartment."""
     t0 = time.perf_counter()
-    keys = ["fe.prepare=off"] if size is None else [f"fe.size_mm={size}", "fe.prepare=on"]
+    keys = (["fe.prepare=off"] if size is None
+            else [f"fe.size_mm={size}", "fe.prepare=on", f"fe.terraces={terraces}"])
     chk = cross_check(load_scene(scene, keys), log=None)
     seconds = time.perf_counter() - t0
     rows = []
@@ -96,6 +99,8 @@ def main(argv: list[str] | None = None) -> int:
     p.add_argument("--quick", action="store_true", help="0.6 mm voxels, sizes 2/1.41/1 mm")
     p.add_argument("--out", type=Path, default=Path("out/validation"), help="output folder")
     p.add_argument("--spacing", type=float, help="voxel size, mm (default: the plan's)")
+    p.add_argument("--terraces", action="store_true",
+                   help="fe.terraces = 'on': voxel staircases fitted as a whole")
     args = p.parse_args(argv)
     plan = dict(PLAN["quick" if args.quick else "full"])
     if args.spacing:
@@ -110,7 +115,7 @@ def main(argv: list[str] | None = None) -> int:
     for knee, scene in knees.items():
         sizes = plan["sizes"] if knee in ("smooth", "raw") else (DEFAULT_SIZE_MM,)
         for size in sizes:
-            for row in solve(scene, size):
+            for row in solve(scene, size, "on" if args.terraces else "off"):
                 rows.append({"knee": knee, **row})
                 print(f"{knee:<9} {row['compartment']:<7} size {size:<4} p_face "
                       f"{row['p_face_MPa']:.3f} p_max {row['p_max_MPa']:.3f} area "
