@@ -98,6 +98,24 @@ class MeniscusBody:
     rotation: np.ndarray = field(default_factory=lambda: np.eye(3))
 
 
+REGION_NAMES = {0: "cartilage", 1: "anterior horn", 2: "body", 3: "posterior horn"}
+"""Tibial contact regions: 0 the cartilage-cartilage contact, 1-3 the tibia under the
+meniscus's packaged regions (its inferior face's region: anterior horn, body, posterior
+horn)."""
+
+
+@dataclass(frozen=True)
+class RegionFE:
+    """One tibial contact region: its axial contact load into the tibia (N, +
+    compressive), contact area (mm², inside the zero line of its own pressure) and vertex
+    p_max (MPa). The horn springs are no region: the regions' loads plus
+    `CompartmentFE.springs_N` make the compartment's load."""
+
+    load_N: float
+    area_mm2: float
+    p_max_MPa: float
+
+
 @dataclass(frozen=True)
 class CompartmentFE:
     """One compartment: axial loads into the tibia (N, + compressive) through the
@@ -106,7 +124,8 @@ class CompartmentFE:
     and vertex p_max (MPa); the meniscus's force balance (N, norm of the residual); how
     far the meniscus slides in the tibial plane (mm, its vertices' mean displacement); the
     deepest compression of the tibial layer under the femur (mm, along the normals): how
-    far the femur comes down onto what lies around its contact."""
+    far the femur comes down onto what lies around its contact; per tibial region
+    (`REGION_NAMES`) its `RegionFE`."""
 
     meniscus_N: float
     springs_N: float
@@ -118,6 +137,7 @@ class CompartmentFE:
     meniscus_balance_N: float
     meniscus_slide_mm: float = 0.0
     compression_mm: float = 0.0
+    regions: dict[str, RegionFE] = field(default_factory=dict)
 
 
 @dataclass(frozen=True, eq=False)
@@ -689,6 +709,8 @@ def _report(sides: list[_Side], pairs: list[Pair], sol, axis: np.ndarray, load: 
     for s in sides:
         n_pts = len(s.layer.surface.points)
         force = np.zeros(n_pts)
+        axial_at = np.zeros(n_pts)
+        region = np.zeros(n_pts, dtype=np.int64)
         axial = {}
         for kind in ("femur-tibia", "meniscus-tibia", "femur-meniscus"):
             p = by_name.get(f"{s.name} {kind}")
@@ -699,6 +721,10 @@ def _report(sides: list[_Side], pairs: list[Pair], sol, axis: np.ndarray, load: 
                 femur_total -= float(lam @ (normals @ axis))
             if p and p.slave == s.body.name:
                 force[p.nodes] += lam
+                axial_at[p.nodes] += lam * normals[:, 2]
+            if p and kind == "meniscus-tibia":
+                inferior = s.meniscus.solid.face_region[s.meniscus.solid.face_label == INFERIOR]
+                region[p.nodes] = inferior[s.face[p.nodes]]
         springs, balance, slide = 0.0, 0.0, 0.0
         if s.meniscus is not None:
             m = s.meniscus
@@ -722,11 +748,25 @@ def _report(sides: list[_Side], pairs: list[Pair], sol, axis: np.ndarray, load: 
                                  force > 0)
         through = axial["meniscus-tibia"] + springs
         total = through + axial["femur-tibia"]
+        regions = {name: _region(s.layer.surface, np.where(region == k, pressure, 0.0),
+                                 float(axial_at[region == k].sum()))
+                   for k, name in REGION_NAMES.items() if k == 0 or s.meniscus is not None}
         out[s.name] = CompartmentFE(through, springs, axial["femur-tibia"],
                                     axial["femur-meniscus"], through / total, float(area),
                                     float(pressure.max()), balance, slide,
-                                    float(sink[pressed].max(initial=0.0)))
+                                    float(sink[pressed].max(initial=0.0)), regions)
     return out, femur_total - load, pressures
+
+
+def _region(surface, pressure: np.ndarray, load: float) -> RegionFE:
+    """The `RegionFE` of the tibial vertex pressures `pressure` (MPa, zero off the
+    region) on `surface`, its axial load `load` (N)."""
+    from fecheck.fe.recovery import zero_contour_area
+
+    active = pressure > 0
+    area = zero_contour_area(surface.points, surface.faces, pressure, active) if active.any() \
+        else 0.0
+    return RegionFE(load, float(area), float(pressure.max(initial=0.0)))
 
 
 def _ef_rows(run, names: list[str]) -> dict[str, dict[str, float]]:
