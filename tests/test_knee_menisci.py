@@ -297,7 +297,7 @@ def test_report_of_a_turned_torus_in_uniform_horizontal_strain(opening):
         u[basis.nodal_dofs[c]] = eps * (points[:, c] - centre[c])
         u[basis.edge_dofs[c]] = eps * (mid[:, c] - centre[c])
     m = SimpleNamespace(solid=solid, points=points, basis=basis, tie=sp.identity(basis.N),
-                        rotation=Q, superior=np.zeros(0, dtype=int))
+                        rotation=Q, superior=np.zeros(0, dtype=int), material=M)
     report = knee_menisci.meniscus_report(m, u, np.zeros(0), None)
     S = np.array([[1 / M.E_p, -M.nu_p / M.E_p, -M.nu_tp / M.E_t],
                   [-M.nu_p / M.E_p, 1 / M.E_p, -M.nu_tp / M.E_t],

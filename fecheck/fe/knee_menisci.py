@@ -96,6 +96,7 @@ class MeniscusBody:
     basis: object = None
     tie: object = None
     rotation: np.ndarray = field(default_factory=lambda: np.eye(3))
+    material: TransIso = MENISCUS
 
 
 REGION_NAMES = {0: "cartilage", 1: "anterior horn", 2: "body", 3: "posterior horn"}
@@ -393,14 +394,16 @@ def place_meniscus(solid: MeniscusSolid, q_meniscus: np.ndarray, q_tibia: np.nda
 def knee_menisci_fe(scene: Scene, *, meniscus_size_mm: float = DEFAULT_SIZE_MM,
                     root: str = "data", ef=None, layers=None, lift_mm: float = 0.0,
                     coronary: bool = False,
-                    log: Callable[[str], None] | None = None) -> KneeMenisciFE:
+                    log: Callable[[str], None] | None = None,
+                    material: TransIso = MENISCUS) -> KneeMenisciFE:
     """The FE of `scene`'s knee with menisci at its EF equilibrium (module docstring).
 
     `ef`: the scene's EF run (`fecheck.model.menisci.run_menisci`; run here when None);
     `layers`: its tibial layers (`fecheck.fe.press.FELayer`, built here when None);
     `meniscus_size_mm`: the meniscus tetrahedra (`fecheck.fe.meniscus_solid`); `root`:
     the horn root stiffness (`ROOTS`); `lift_mm`: the superior surface raised along its
-    normals, mm; `coronary`: the coronary ligaments as springs too. `FecheckError` on a
+    normals, mm; `coronary`: the coronary ligaments as springs too; `material`: the
+    menisci's transversely isotropic constants. `FecheckError` on a
     scene without ``menisci.dir``, a two-layer cartilage, a load that does not press the
     joint, or a contact that leaves a penetration over `PENETRATION_TOL_MM`."""
     from fecheck.fe.meniscus_solid import meniscus_solid
@@ -449,7 +452,7 @@ def knee_menisci_fe(scene: Scene, *, meniscus_size_mm: float = DEFAULT_SIZE_MM,
             solid = meniscus_solid(scene, lay.body.name, meniscus_size_mm)
             extra = coronary_springs(solid, menisci_dir(scene)) if coronary else None
             men = _meniscus(solid, poses[f"{lay.body.name} meniscus"]["q"], q_tibia, pts, nrm,
-                            root, extra)
+                            root, extra, material)
             say(f"{men.side} meniscus: {len(men.solid.mesh.tets)} tetrahedra, "
                 f"{men.body.K.shape[0]} dofs, raised {men.rise_mm:.3f} mm onto the layer")
         sides.append(replace(_side(lay, body, men, rot, t), lift=float(lift_mm)))
@@ -459,12 +462,13 @@ def knee_menisci_fe(scene: Scene, *, meniscus_size_mm: float = DEFAULT_SIZE_MM,
 
 def _meniscus(solid: MeniscusSolid, q: np.ndarray, q_tibia: np.ndarray,
               layer_points: np.ndarray, layer_normals: np.ndarray, root: str,
-              extra: tuple[np.ndarray, np.ndarray] | None = None) -> MeniscusBody:
+              extra: tuple[np.ndarray, np.ndarray] | None = None,
+              material: TransIso = MENISCUS) -> MeniscusBody:
     from fecheck.statics.newton import body_pose
 
     points, fibre, rise = place_meniscus(solid, q, q_tibia, layer_points, layer_normals)
     horns = horn_stiffness(solid, root)
-    body, basis, tie = meniscus_body(solid, points, fibre, horns, extra=extra)
+    body, basis, tie = meniscus_body(solid, points, fibre, horns, material, extra)
     rotation = body_pose(np.asarray(q_tibia, dtype=float))[0].T @ body_pose(
         np.asarray(q, dtype=float))[0]
     superior = np.unique(solid.faces(SUPERIOR))
@@ -474,7 +478,7 @@ def _meniscus(solid: MeniscusSolid, q: np.ndarray, q_tibia: np.ndarray,
     nodes, k_node = _springs(solid, horns, extra)
     return MeniscusBody(solid.side, solid, points, body, superior, normals,
                         solid.faces(INFERIOR), rise, horns, nodes, k_node, basis, tie,
-                        rotation)
+                        rotation, material)
 
 
 def _side(lay, body: Body, men: MeniscusBody | None, rot: np.ndarray, t: np.ndarray
@@ -647,7 +651,7 @@ def meniscus_report(m: MeniscusBody, u: np.ndarray, gaps: np.ndarray,
         pressed[record.nodes[record.force_N > 0]] = True
     near = {d: float(vertex[m.superior[gaps <= d]].sum()) for d in NEAR_MM}
     full = m.tie @ u
-    sigma = element_stress(m.basis, full, m.solid.fibre @ m.rotation.T)
+    sigma = element_stress(m.basis, full, m.solid.fibre @ m.rotation.T, m.material)
     sigma = np.einsum("ai,nab,bj->nij", m.rotation, sigma, m.rotation)    # the data frame
     return MeniscusReport(float(vertex[pressed].sum()), near,
                           radial_displacement(m, full),
