@@ -41,7 +41,9 @@ def add_parser(subparsers) -> None:
                     "thickness, femoral surfaces, material and load: per compartment force "
                     "(magnitude and axial), p_max, p_mean, area, depth and centre of pressure "
                     "of FE and EF, the split and the pose. Scene keys [fe] set the mode, "
-                    "mesh and solver. Output paths are checked before the solves.")
+                    "mesh and solver. Output paths are checked before the solves. On a scene "
+                    "with menisci (menisci.dir): the FE of the knee with menisci at its EF "
+                    "equilibrium, per compartment and tibial region.")
     add_scene_arguments(p, "override a scene key, e.g. --set fe.layers=3")
     p.add_argument("--mode", choices=("joint", "compartment"),
                    help="joint: the FE solves the tibia's equilibrium itself (default, "
