@@ -312,16 +312,31 @@ def test_report_of_a_turned_torus_in_uniform_horizontal_strain(opening):
     assert report.contact_mm2 == 0.0
 
 
-def test_region_loads_sum_to_the_compartment_load(intact):
+def test_region_loads_sum_to_the_compartment_load(coarse, intact):
     # Per compartment the tibial contact regions split the pairs' forces: the
     # cartilage-cartilage region is the femur-tibia pair's axial force, the three meniscus
     # regions (anterior horn, body, posterior horn) sum to the meniscus-tibia pair's, and
     # with the horn springs they make the compartment's load (statics, summed here from the
-    # pair records); the compartment's p_max is its regions' largest.
+    # pair records); the compartment's p_max is its regions' largest. Each region's load is
+    # that of the tibial vertices it labels, and under the meniscus the anterior horn's
+    # vertices lie anterior (+y) of the body's, the body's anterior of the posterior horn's.
     r = intact
     z = np.array([0.0, 0.0, 1.0])
+    layers = {lay.body.name: lay for lay in coarse[2]}
     for side, fe in r.fe.items():
         regions = fe.regions
+        label = r.tibial_region[side]
+        axial = np.zeros(len(label))
+        for kind in ("femur-tibia", "meniscus-tibia"):
+            p = r.pairs[f"{side} {kind}"]
+            np.add.at(axial, p.nodes, p.force_N * p.normals[:, 2])
+        y = layers[side].surface.points[:, 1]
+        centre = {}
+        for k, name in knee_menisci.REGION_NAMES.items():
+            assert regions[name].load_N == pytest.approx(axial[label == k].sum(), rel=1e-12,
+                                                         abs=1e-12)
+            centre[k] = y[label == k].mean()
+        assert centre[1] > centre[2] > centre[3]
         assert list(regions) == list(knee_menisci.REGION_NAMES.values())
         assert regions["cartilage"].load_N == pytest.approx(
             _on(r.pairs[f"{side} femur-tibia"], z), rel=1e-12)

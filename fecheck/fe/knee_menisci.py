@@ -176,7 +176,8 @@ class KneeMenisciFE:
     each pair's `PairRecord`, and per meniscus the horn springs' force on it (3,) N and
     its `MeniscusReport`; per compartment the pressure on the tibial layer's surface
     vertices (MPa: femur and meniscus contact) and the outline of the meniscus's
-    footprint (its inferior surface's boundary edges, (k, 2, 3) mm, tibia frame)."""
+    footprint (its inferior surface's boundary edges, (k, 2, 3) mm, tibia frame); per
+    compartment the tibial region (`REGION_NAMES` key) of each layer surface vertex."""
 
     load_N: float
     fe: dict[str, CompartmentFE]
@@ -193,6 +194,7 @@ class KneeMenisciFE:
     menisci: dict[str, MeniscusReport] = field(default_factory=dict)
     pressure_MPa: dict[str, np.ndarray] = field(default_factory=dict)
     outlines: dict[str, np.ndarray] = field(default_factory=dict)
+    tibial_region: dict[str, np.ndarray] = field(default_factory=dict)
 
 
 def vertex_normals(points: np.ndarray, faces: np.ndarray) -> np.ndarray:
@@ -603,7 +605,7 @@ def _solve(sides: list[_Side], rot: np.ndarray, t: np.ndarray, load: float,
         raise FecheckError(f"the FE with menisci leaves a penetration of {worst:.2e} mm "
                            f"({where}); raise fe.candidate_gap_mm")
     seconds |= {"condense": t_condense, "solve": t_solve}
-    fe, balance, pressure = _report(sides, pairs, sol, axis, load)
+    fe, balance, pressure, region = _report(sides, pairs, sol, axis, load)
     ef = _ef_rows(run, [s.name for s in sides])
     records = {p.name: PairRecord(p.nodes, sol.pairs[p.name].force_N, sol.pairs[p.name].gap_mm,
                                   p.normals) for p in pairs}
@@ -618,7 +620,7 @@ def _solve(sides: list[_Side], rot: np.ndarray, t: np.ndarray, load: float,
                          sum(b.K.shape[0] for b in bodies), outer, seconds, records, springs,
                          reports, pressure,
                          {s.name: outline(s.meniscus.points, s.meniscus.inferior_faces)
-                          for s in sides if s.meniscus})
+                          for s in sides if s.meniscus}, region)
 
 
 def outline(points: np.ndarray, faces: np.ndarray) -> np.ndarray:
@@ -702,14 +704,16 @@ def _pair_gaps(p: Pair, sides: list[_Side], rot: np.ndarray, t: np.ndarray,
 
 
 def _report(sides: list[_Side], pairs: list[Pair], sol, axis: np.ndarray, load: float
-            ) -> tuple[dict[str, CompartmentFE], float, dict[str, np.ndarray]]:
+            ) -> tuple[dict[str, CompartmentFE], float, dict[str, np.ndarray],
+                       dict[str, np.ndarray]]:
     """Per compartment the loads, area and p_max (`CompartmentFE`), the femur's
-    balance along its axis (N): Σ λ n·(−a) − F, and the tibial vertex pressures (MPa)."""
+    balance along its axis (N): Σ λ n·(−a) − F, the tibial vertex pressures (MPa) and
+    regions (`REGION_NAMES` keys)."""
     from fecheck.fe.recovery import zero_contour_area
 
     by_name = {p.name: p for p in pairs}
     femur_total = 0.0
-    out, pressures = {}, {}
+    out, pressures, regions_at = {}, {}, {}
     for s in sides:
         n_pts = len(s.layer.surface.points)
         force = np.zeros(n_pts)
@@ -745,6 +749,7 @@ def _report(sides: list[_Side], pairs: list[Pair], sol, axis: np.ndarray, load: 
             balance = float(np.linalg.norm(on_men))
         pressure = force / s.layer.solid.tributary_mm2
         pressures[s.name] = pressure
+        regions_at[s.name] = region
         ft = by_name[f"{s.name} femur-tibia"]
         sink = -np.einsum("ij,ij->i", _disp(s.body, sol.u[s.body.name], ft.nodes), ft.normals)
         pressed = sol.pairs[ft.name].force_N > 0
@@ -759,7 +764,7 @@ def _report(sides: list[_Side], pairs: list[Pair], sol, axis: np.ndarray, load: 
                                     axial["femur-meniscus"], through / total, float(area),
                                     float(pressure.max()), balance, slide,
                                     float(sink[pressed].max(initial=0.0)), regions)
-    return out, femur_total - load, pressures
+    return out, femur_total - load, pressures, regions_at
 
 
 def _region(surface, pressure: np.ndarray, load: float) -> RegionFE:
