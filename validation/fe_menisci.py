@@ -33,7 +33,9 @@ its change, and names the factor that moves it most.
 
 --quick: tibial sheets remeshed at 2 mm (``fe.prepare = "on"``, ``fe.size_mm = 2``) and
 2.5 mm meniscus tetrahedra, without the factor table unless --factors. Writes
-DIR/fe_menisci.csv (the loads), DIR/fe_menisci_hoop.csv (hoop force per section),
+DIR/fe_menisci.csv (the loads), DIR/fe_menisci_regions.csv (per compartment the tibial
+contact under the cartilage-cartilage contact and under each meniscus region: anterior
+horn, body, posterior horn), DIR/fe_menisci_hoop.csv (hoop force per section),
 DIR/fe_menisci_factors.csv and DIR/fe_menisci_pressure.png (the tibial pressure of
 cartilage and meniscus contact, with each meniscus's footprint outlined).
 """
@@ -53,15 +55,13 @@ import numpy as np
 
 from fecheck.errors import FecheckError
 from fecheck.fe.knee_menisci import NEAR_MM, ROOTS, knee_menisci_fe
+from fecheck.fe.knee_menisci_report import DONAHUE_NOTE, region_rows, report_lines, rows
 from fecheck.fe.meniscus_solid import DEFAULT_SIZE_MM
-from fecheck.reference.closed_forms import DONAHUE_2002
 from fecheck.scene import load_scene
 
 SCENE = "femur_tibia_menisci"
 QUICK = ["fe.prepare=on", "fe.size_mm=2.0"]
 QUICK_MENISCUS_MM = 2.5
-PUBLISHED_SHARE = {"medial": 0.5, "lateral": 0.7}
-"""Meniscal share of intact knees near full extension, as usually quoted (docstring)."""
 FACTORS = (("superior surface raised 0.1 mm", {"lift_mm": 0.1}),
            ("superior surface raised 0.25 mm", {"lift_mm": 0.25}),
            ("superior surface raised 0.5 mm", {"lift_mm": 0.5}),
@@ -70,26 +70,6 @@ FACTORS = (("superior surface raised 0.1 mm", {"lift_mm": 0.1}),
            ("coronary ligaments added", {"coronary": True}),
            ("horn roots 2000 N/mm (Donahue)", {"root": "donahue"}))
 """One factor changed at a time from the script's run (its ``--root``)."""
-
-
-def rows(result) -> list[dict]:
-    """One row per compartment and model: FE, EF, Donahue 2002 (1 mm elements)."""
-    out = []
-    for c, fe in result.fe.items():
-        ef = result.ef[c]
-        ref = DONAHUE_2002[c][1.0]
-        out += [
-            {"compartment": c, "model": "FE", "meniscus_N": fe.meniscus_N,
-             "springs_N": fe.springs_N, "cartilage_N": fe.cartilage_N, "share": fe.share,
-             "area_mm2": fe.area_mm2, "p_max_MPa": fe.p_max_MPa},
-            {"compartment": c, "model": "EF", "meniscus_N": ef["meniscus_N"],
-             "springs_N": float("nan"), "cartilage_N": ef["cartilage_N"],
-             "share": ef["share"], "area_mm2": ef["area_mm2"], "p_max_MPa": ef["p_max_MPa"]},
-            {"compartment": c, "model": "Donahue 2002", "meniscus_N": float("nan"),
-             "springs_N": float("nan"), "cartilage_N": float("nan"),
-             "share": float("nan"), "area_mm2": ref.area_mm2,
-             "p_max_MPa": ref.max_pressure_MPa}]
-    return out
 
 
 def build(scene, modulus: float = 1.0):
@@ -249,33 +229,14 @@ def main(argv=None) -> int:
     table = rows(r)
     print(f"{SCENE}: FE with menisci at the EF pose, load on the tibia {r.load_N:.2f} N "
           f"(horn roots: {args.root})")
-    print(f"{'compartment':<11} {'model':<13} {'menisc. N':>9} {'springs N':>9} "
-          f"{'cart. N':>8} {'share':>6} {'area mm²':>9} {'p_max MPa':>9}")
-    for row in table:
-        print(f"{row['compartment']:<11} {row['model']:<13} {row['meniscus_N']:9.2f} "
-              f"{row['springs_N']:9.2f} {row['cartilage_N']:8.2f} {row['share']:6.3f} "
-              f"{row['area_mm2']:9.1f} {row['p_max_MPa']:9.3f}")
-    for c, fe in r.fe.items():
-        print(f"{c}: FE area {fe.area_mm2 / DONAHUE_2002[c][1.0].area_mm2:.2f}x and p_max "
-              f"{fe.p_max_MPa / DONAHUE_2002[c][1.0].max_pressure_MPa:.2f}x Donahue's; "
-              f"meniscal share {fe.share:.1%} (published for intact knees near full "
-              f"extension: about {PUBLISHED_SHARE[c]:.0%}); the meniscus slides "
-              f"{fe.meniscus_slide_mm:.3f} mm in the tibial plane; its balance "
-              f"{fe.meniscus_balance_N:.1e} N")
-    print(f"balance: femur contact along its axis - load = {r.balance_N:.2e} N "
-          f"({abs(r.balance_N) / r.load_N:.1e} of the load); worst penetration "
-          f"{r.max_penetration_mm:.2e} mm; femur travel from the EF pose "
-          f"{r.approach_mm:+.4f} mm in {r.outer_iterations} linearisations")
-    print(f"dofs {r.n_dofs}; time s: " + ", ".join(f"{k} {v:.1f}" for k, v in
-                                                 r.seconds.items()) + f", wall {wall:.1f}")
+    print("\n".join(report_lines(r, wall)[:-1]))
     print_why(r)
     if factors:
         print_factors(factors)
-    print("* Donahue 2002 is another knee (its own geometry, both cartilages deformable); "
-          "the femoral cartilage here is in the tibial layer's series thickness under the "
-          "condyles and rigid over the menisci")
+    print(DONAHUE_NOTE)
     args.out.mkdir(parents=True, exist_ok=True)
     write_csv(args.out / "fe_menisci.csv", table)
+    write_csv(args.out / "fe_menisci_regions.csv", region_rows(r))
     write_csv(args.out / "fe_menisci_hoop.csv", hoop_rows(r))
     if factors:
         write_csv(args.out / "fe_menisci_factors.csv", factors)

@@ -7,6 +7,11 @@ frictionless contact: by default the whole joint under the scene's load (the FE 
 its own split), or per compartment under the EF forces (``--mode compartment``). Only
 the standard library is imported here.
 
+On a scene with menisci (``menisci.dir`` set) it runs the FE of the knee with menisci at
+its EF equilibrium (`fecheck.fe.knee_menisci`) instead: the tibial sheets follow
+``fe.prepare`` and ``fe.size_mm``, the meniscus tetrahedra are `MENISCUS_PER_SHEET` times
+``fe.size_mm``; the flags without a meaning there are refused in one line before any work.
+
 Every output path is checked before the solves (one-line error, exit 2; missing folders
 are made when their first file is written); ``--json -`` writes the JSON to standard
 output and the report to standard error. An undefined value prints as ``n/a`` with a
@@ -36,7 +41,9 @@ def add_parser(subparsers) -> None:
                     "thickness, femoral surfaces, material and load: per compartment force "
                     "(magnitude and axial), p_max, p_mean, area, depth and centre of pressure "
                     "of FE and EF, the split and the pose. Scene keys [fe] set the mode, "
-                    "mesh and solver. Output paths are checked before the solves.")
+                    "mesh and solver. Output paths are checked before the solves. On a scene "
+                    "with menisci (menisci.dir): the FE of the knee with menisci at its EF "
+                    "equilibrium, per compartment and tibial region.")
     add_scene_arguments(p, "override a scene key, e.g. --set fe.layers=3")
     p.add_argument("--mode", choices=("joint", "compartment"),
                    help="joint: the FE solves the tibia's equilibrium itself (default, "
@@ -319,6 +326,59 @@ def _estimate(args: argparse.Namespace, scene, check, estimate, log):
         return None
 
 
+# ---------------------------------------------------------------------- menisci scenes
+MENISCUS_PER_SHEET = 1.25
+"""Meniscus tetrahedron size over the tibial sheet size ``fe.size_mm``."""
+UNSUPPORTED = (("mode", None, "--mode compartment (the FE with menisci loads the "
+                                       "whole joint)"),
+               ("refine", None, "--refine (set fe.size_mm with fe.prepare = 'on')"),
+               ("verify", False, "--verify (no error estimate of the FE with menisci)"),
+               ("plot", None, "--plot (validation/fe_menisci.py draws the pressure map)"),
+               ("vtk", None, "--vtk"))
+"""(argument, the value that asks nothing, what is refused)."""
+
+
+def refuse_unsupported(args: argparse.Namespace) -> None:
+    """A one-line `FecheckError` naming the first flag the FE with menisci does not take."""
+    from fecheck.errors import FecheckError
+
+    for name, idle, what in UNSUPPORTED:
+        value = getattr(args, name, idle)
+        if value is not None and value != idle and not (name == "mode" and value == "joint"):
+            raise FecheckError(f"fecheck fe on a scene with menisci does not take {what}")
+
+
+def run_menisci_fe(args: argparse.Namespace, scene, out) -> int:
+    """Run the FE with menisci of `scene`, print the report to `out`, write --json."""
+    import json
+    import time
+
+    from fecheck.fe import knee_menisci
+    from fecheck.fe.crosscheck import stderr_log
+    from fecheck.fe.knee_menisci_report import as_dict, report_lines
+    from fecheck.io.outputs import write_text
+    from geometry.budget import policy
+
+    refuse_unsupported(args)
+    check_outputs(args)
+    size = MENISCUS_PER_SHEET * float(scene["fe.size_mm"])
+    name = scene["name"] or str(scene.source)
+    t0 = time.perf_counter()
+    with policy("fecheck fe", force=args.force, force_hint="--force"):
+        result = knee_menisci.knee_menisci_fe(scene, meniscus_size_mm=size, log=stderr_log)
+    wall = time.perf_counter() - t0
+    print(f"{name}: FE with menisci at the EF pose, load on the tibia {result.load_N:.2f} N, "
+          f"meniscus tetrahedra {size:g} mm", file=out)
+    for line in report_lines(result, wall):
+        print(line, file=out)
+    print("error estimate: none (not made for the FE with menisci)", file=out)
+    if args.json is not None:
+        write_text(args.json, json.dumps(as_dict(result, name), indent=2) + "\n")
+        if str(args.json) != "-":
+            print(f"wrote {args.json}", file=out)
+    return 0
+
+
 def run(args: argparse.Namespace) -> int:
     from fecheck.fe.crosscheck import cross_check, stderr_log
     from fecheck.scene import load_scene
@@ -327,6 +387,8 @@ def run(args: argparse.Namespace) -> int:
 
     out = _report_stream(args)
     scene = load_scene(args.scene, args.overrides)
+    if scene["menisci.dir"]:
+        return run_menisci_fe(args, scene, out)
     check_outputs(args)
     est = None
     with policy("fecheck fe", force=args.force, force_hint="--force"):

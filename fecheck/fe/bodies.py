@@ -186,10 +186,10 @@ def refuse_unmodelled(scene: Scene) -> None:
         raise FecheckError("model.kind = 'rigid' has no cartilage: nothing to cross-check "
                            "with the FE")
     if scene["menisci.dir"]:
-        raise FecheckError("the FE cross-check does not model menisci yet (menisci.dir = "
+        raise FecheckError("the FE cross-check does not model menisci (menisci.dir = "
                            f"{scene['menisci.dir']!r}): set menisci.dir = '' to cross-check "
-                           "the knee without them (validation/fe_menisci.py runs a first FE "
-                           "with menisci)")
+                           "the knee without them (`fecheck fe` on this scene runs the FE "
+                           "with menisci, fecheck.fe.knee_menisci)")
 
 
 def scene_bodies(scene: Scene) -> list[FEBody]:

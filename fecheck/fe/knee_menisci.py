@@ -96,6 +96,25 @@ class MeniscusBody:
     basis: object = None
     tie: object = None
     rotation: np.ndarray = field(default_factory=lambda: np.eye(3))
+    material: TransIso = MENISCUS
+
+
+REGION_NAMES = {0: "cartilage", 1: "anterior horn", 2: "body", 3: "posterior horn"}
+"""Tibial contact regions: 0 the cartilage-cartilage contact, 1-3 the tibia under the
+meniscus's packaged regions (its inferior face's region: anterior horn, body, posterior
+horn)."""
+
+
+@dataclass(frozen=True)
+class RegionFE:
+    """One tibial contact region: its axial contact load into the tibia (N, +
+    compressive), contact area (mm², inside the zero line of its own pressure) and vertex
+    p_max (MPa). The horn springs are no region: the regions' loads plus
+    `CompartmentFE.springs_N` make the compartment's load."""
+
+    load_N: float
+    area_mm2: float
+    p_max_MPa: float
 
 
 @dataclass(frozen=True)
@@ -106,7 +125,8 @@ class CompartmentFE:
     and vertex p_max (MPa); the meniscus's force balance (N, norm of the residual); how
     far the meniscus slides in the tibial plane (mm, its vertices' mean displacement); the
     deepest compression of the tibial layer under the femur (mm, along the normals): how
-    far the femur comes down onto what lies around its contact."""
+    far the femur comes down onto what lies around its contact; per tibial region
+    (`REGION_NAMES`) its `RegionFE`."""
 
     meniscus_N: float
     springs_N: float
@@ -118,6 +138,7 @@ class CompartmentFE:
     meniscus_balance_N: float
     meniscus_slide_mm: float = 0.0
     compression_mm: float = 0.0
+    regions: dict[str, RegionFE] = field(default_factory=dict)
 
 
 @dataclass(frozen=True, eq=False)
@@ -155,7 +176,8 @@ class KneeMenisciFE:
     each pair's `PairRecord`, and per meniscus the horn springs' force on it (3,) N and
     its `MeniscusReport`; per compartment the pressure on the tibial layer's surface
     vertices (MPa: femur and meniscus contact) and the outline of the meniscus's
-    footprint (its inferior surface's boundary edges, (k, 2, 3) mm, tibia frame)."""
+    footprint (its inferior surface's boundary edges, (k, 2, 3) mm, tibia frame); per
+    compartment the tibial region (`REGION_NAMES` key) of each layer surface vertex."""
 
     load_N: float
     fe: dict[str, CompartmentFE]
@@ -172,6 +194,7 @@ class KneeMenisciFE:
     menisci: dict[str, MeniscusReport] = field(default_factory=dict)
     pressure_MPa: dict[str, np.ndarray] = field(default_factory=dict)
     outlines: dict[str, np.ndarray] = field(default_factory=dict)
+    tibial_region: dict[str, np.ndarray] = field(default_factory=dict)
 
 
 def vertex_normals(points: np.ndarray, faces: np.ndarray) -> np.ndarray:
@@ -373,14 +396,16 @@ def place_meniscus(solid: MeniscusSolid, q_meniscus: np.ndarray, q_tibia: np.nda
 def knee_menisci_fe(scene: Scene, *, meniscus_size_mm: float = DEFAULT_SIZE_MM,
                     root: str = "data", ef=None, layers=None, lift_mm: float = 0.0,
                     coronary: bool = False,
-                    log: Callable[[str], None] | None = None) -> KneeMenisciFE:
+                    log: Callable[[str], None] | None = None,
+                    material: TransIso = MENISCUS) -> KneeMenisciFE:
     """The FE of `scene`'s knee with menisci at its EF equilibrium (module docstring).
 
     `ef`: the scene's EF run (`fecheck.model.menisci.run_menisci`; run here when None);
     `layers`: its tibial layers (`fecheck.fe.press.FELayer`, built here when None);
     `meniscus_size_mm`: the meniscus tetrahedra (`fecheck.fe.meniscus_solid`); `root`:
     the horn root stiffness (`ROOTS`); `lift_mm`: the superior surface raised along its
-    normals, mm; `coronary`: the coronary ligaments as springs too. `FecheckError` on a
+    normals, mm; `coronary`: the coronary ligaments as springs too; `material`: the
+    menisci's transversely isotropic constants. `FecheckError` on a
     scene without ``menisci.dir``, a two-layer cartilage, a load that does not press the
     joint, or a contact that leaves a penetration over `PENETRATION_TOL_MM`."""
     from fecheck.fe.meniscus_solid import meniscus_solid
@@ -429,7 +454,7 @@ def knee_menisci_fe(scene: Scene, *, meniscus_size_mm: float = DEFAULT_SIZE_MM,
             solid = meniscus_solid(scene, lay.body.name, meniscus_size_mm)
             extra = coronary_springs(solid, menisci_dir(scene)) if coronary else None
             men = _meniscus(solid, poses[f"{lay.body.name} meniscus"]["q"], q_tibia, pts, nrm,
-                            root, extra)
+                            root, extra, material)
             say(f"{men.side} meniscus: {len(men.solid.mesh.tets)} tetrahedra, "
                 f"{men.body.K.shape[0]} dofs, raised {men.rise_mm:.3f} mm onto the layer")
         sides.append(replace(_side(lay, body, men, rot, t), lift=float(lift_mm)))
@@ -439,12 +464,13 @@ def knee_menisci_fe(scene: Scene, *, meniscus_size_mm: float = DEFAULT_SIZE_MM,
 
 def _meniscus(solid: MeniscusSolid, q: np.ndarray, q_tibia: np.ndarray,
               layer_points: np.ndarray, layer_normals: np.ndarray, root: str,
-              extra: tuple[np.ndarray, np.ndarray] | None = None) -> MeniscusBody:
+              extra: tuple[np.ndarray, np.ndarray] | None = None,
+              material: TransIso = MENISCUS) -> MeniscusBody:
     from fecheck.statics.newton import body_pose
 
     points, fibre, rise = place_meniscus(solid, q, q_tibia, layer_points, layer_normals)
     horns = horn_stiffness(solid, root)
-    body, basis, tie = meniscus_body(solid, points, fibre, horns, extra=extra)
+    body, basis, tie = meniscus_body(solid, points, fibre, horns, material, extra)
     rotation = body_pose(np.asarray(q_tibia, dtype=float))[0].T @ body_pose(
         np.asarray(q, dtype=float))[0]
     superior = np.unique(solid.faces(SUPERIOR))
@@ -454,7 +480,7 @@ def _meniscus(solid: MeniscusSolid, q: np.ndarray, q_tibia: np.ndarray,
     nodes, k_node = _springs(solid, horns, extra)
     return MeniscusBody(solid.side, solid, points, body, superior, normals,
                         solid.faces(INFERIOR), rise, horns, nodes, k_node, basis, tie,
-                        rotation)
+                        rotation, material)
 
 
 def _side(lay, body: Body, men: MeniscusBody | None, rot: np.ndarray, t: np.ndarray
@@ -579,7 +605,7 @@ def _solve(sides: list[_Side], rot: np.ndarray, t: np.ndarray, load: float,
         raise FecheckError(f"the FE with menisci leaves a penetration of {worst:.2e} mm "
                            f"({where}); raise fe.candidate_gap_mm")
     seconds |= {"condense": t_condense, "solve": t_solve}
-    fe, balance, pressure = _report(sides, pairs, sol, axis, load)
+    fe, balance, pressure, region = _report(sides, pairs, sol, axis, load)
     ef = _ef_rows(run, [s.name for s in sides])
     records = {p.name: PairRecord(p.nodes, sol.pairs[p.name].force_N, sol.pairs[p.name].gap_mm,
                                   p.normals) for p in pairs}
@@ -594,7 +620,7 @@ def _solve(sides: list[_Side], rot: np.ndarray, t: np.ndarray, load: float,
                          sum(b.K.shape[0] for b in bodies), outer, seconds, records, springs,
                          reports, pressure,
                          {s.name: outline(s.meniscus.points, s.meniscus.inferior_faces)
-                          for s in sides if s.meniscus})
+                          for s in sides if s.meniscus}, region)
 
 
 def outline(points: np.ndarray, faces: np.ndarray) -> np.ndarray:
@@ -627,7 +653,7 @@ def meniscus_report(m: MeniscusBody, u: np.ndarray, gaps: np.ndarray,
         pressed[record.nodes[record.force_N > 0]] = True
     near = {d: float(vertex[m.superior[gaps <= d]].sum()) for d in NEAR_MM}
     full = m.tie @ u
-    sigma = element_stress(m.basis, full, m.solid.fibre @ m.rotation.T)
+    sigma = element_stress(m.basis, full, m.solid.fibre @ m.rotation.T, m.material)
     sigma = np.einsum("ai,nab,bj->nij", m.rotation, sigma, m.rotation)    # the data frame
     return MeniscusReport(float(vertex[pressed].sum()), near,
                           radial_displacement(m, full),
@@ -678,17 +704,21 @@ def _pair_gaps(p: Pair, sides: list[_Side], rot: np.ndarray, t: np.ndarray,
 
 
 def _report(sides: list[_Side], pairs: list[Pair], sol, axis: np.ndarray, load: float
-            ) -> tuple[dict[str, CompartmentFE], float, dict[str, np.ndarray]]:
+            ) -> tuple[dict[str, CompartmentFE], float, dict[str, np.ndarray],
+                       dict[str, np.ndarray]]:
     """Per compartment the loads, area and p_max (`CompartmentFE`), the femur's
-    balance along its axis (N): Σ λ n·(−a) − F, and the tibial vertex pressures (MPa)."""
+    balance along its axis (N): Σ λ n·(−a) − F, the tibial vertex pressures (MPa) and
+    regions (`REGION_NAMES` keys)."""
     from fecheck.fe.recovery import zero_contour_area
 
     by_name = {p.name: p for p in pairs}
     femur_total = 0.0
-    out, pressures = {}, {}
+    out, pressures, regions_at = {}, {}, {}
     for s in sides:
         n_pts = len(s.layer.surface.points)
         force = np.zeros(n_pts)
+        axial_at = np.zeros(n_pts)
+        region = np.zeros(n_pts, dtype=np.int64)
         axial = {}
         for kind in ("femur-tibia", "meniscus-tibia", "femur-meniscus"):
             p = by_name.get(f"{s.name} {kind}")
@@ -699,6 +729,10 @@ def _report(sides: list[_Side], pairs: list[Pair], sol, axis: np.ndarray, load: 
                 femur_total -= float(lam @ (normals @ axis))
             if p and p.slave == s.body.name:
                 force[p.nodes] += lam
+                axial_at[p.nodes] += lam * normals[:, 2]
+            if p and kind == "meniscus-tibia":
+                inferior = s.meniscus.solid.face_region[s.meniscus.solid.face_label == INFERIOR]
+                region[p.nodes] = inferior[s.face[p.nodes]]
         springs, balance, slide = 0.0, 0.0, 0.0
         if s.meniscus is not None:
             m = s.meniscus
@@ -715,6 +749,7 @@ def _report(sides: list[_Side], pairs: list[Pair], sol, axis: np.ndarray, load: 
             balance = float(np.linalg.norm(on_men))
         pressure = force / s.layer.solid.tributary_mm2
         pressures[s.name] = pressure
+        regions_at[s.name] = region
         ft = by_name[f"{s.name} femur-tibia"]
         sink = -np.einsum("ij,ij->i", _disp(s.body, sol.u[s.body.name], ft.nodes), ft.normals)
         pressed = sol.pairs[ft.name].force_N > 0
@@ -722,11 +757,25 @@ def _report(sides: list[_Side], pairs: list[Pair], sol, axis: np.ndarray, load: 
                                  force > 0)
         through = axial["meniscus-tibia"] + springs
         total = through + axial["femur-tibia"]
+        regions = {name: _region(s.layer.surface, np.where(region == k, pressure, 0.0),
+                                 float(axial_at[region == k].sum()))
+                   for k, name in REGION_NAMES.items() if k == 0 or s.meniscus is not None}
         out[s.name] = CompartmentFE(through, springs, axial["femur-tibia"],
                                     axial["femur-meniscus"], through / total, float(area),
                                     float(pressure.max()), balance, slide,
-                                    float(sink[pressed].max(initial=0.0)))
-    return out, femur_total - load, pressures
+                                    float(sink[pressed].max(initial=0.0)), regions)
+    return out, femur_total - load, pressures, regions_at
+
+
+def _region(surface, pressure: np.ndarray, load: float) -> RegionFE:
+    """The `RegionFE` of the tibial vertex pressures `pressure` (MPa, zero off the
+    region) on `surface`, its axial load `load` (N)."""
+    from fecheck.fe.recovery import zero_contour_area
+
+    active = pressure > 0
+    area = zero_contour_area(surface.points, surface.faces, pressure, active) if active.any() \
+        else 0.0
+    return RegionFE(load, float(area), float(pressure.max(initial=0.0)))
 
 
 def _ef_rows(run, names: list[str]) -> dict[str, dict[str, float]]:

@@ -1,0 +1,144 @@
+"""Reports of the FE of the knee with menisci (`fecheck.fe.knee_menisci.KneeMenisciFE`):
+the per-compartment table beside the EF and Donahue et al. 2002, the per-region table of
+the tibial contact, the summary lines and the JSON dictionary. Shared by ``fecheck fe`` on
+a menisci scene and ``validation/fe_menisci.py``. Units: mm, N, MPa.
+
+The published meniscal share is the one usually quoted for intact cadaver knees near full
+extension, about 50 % medially and 70 % laterally (Seedhom & Hargreaves 1979, Eng. Med.
+8:220-228; Walker & Erkman 1975, Clin. Orthop. 109:184-192: at least half of the load).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import asdict
+
+from fecheck.reference.closed_forms import DONAHUE_2002
+
+PUBLISHED_SHARE = {"medial": 0.5, "lateral": 0.7}
+"""Meniscal share of intact knees near full extension, as usually quoted (docstring)."""
+DONAHUE_NOTE = ("* Donahue 2002 is another knee (its own geometry, both cartilages "
+                "deformable); the femoral cartilage here is in the tibial layer's series "
+                "thickness under the condyles and rigid over the menisci")
+
+
+def rows(result) -> list[dict]:
+    """One row per compartment and model: FE, EF, Donahue 2002 (1 mm elements); loads N,
+    share, area mm², p_max MPa (NaN where the model gives none)."""
+    out = []
+    for c, fe in result.fe.items():
+        ef = result.ef[c]
+        ref = DONAHUE_2002[c][1.0]
+        out += [
+            {"compartment": c, "model": "FE", "meniscus_N": fe.meniscus_N,
+             "springs_N": fe.springs_N, "cartilage_N": fe.cartilage_N, "share": fe.share,
+             "area_mm2": fe.area_mm2, "p_max_MPa": fe.p_max_MPa},
+            {"compartment": c, "model": "EF", "meniscus_N": ef["meniscus_N"],
+             "springs_N": float("nan"), "cartilage_N": ef["cartilage_N"],
+             "share": ef["share"], "area_mm2": ef["area_mm2"], "p_max_MPa": ef["p_max_MPa"]},
+            {"compartment": c, "model": "Donahue 2002", "meniscus_N": float("nan"),
+             "springs_N": float("nan"), "cartilage_N": float("nan"),
+             "share": float("nan"), "area_mm2": ref.area_mm2,
+             "p_max_MPa": ref.max_pressure_MPa}]
+    return out
+
+
+def region_rows(result) -> list[dict]:
+    """One row per compartment and tibial contact region (`REGION_NAMES`), then the horn
+    springs and the total: axial load N, its part of the compartment's load, area mm² and
+    p_max MPa (NaN for the springs, which touch no area)."""
+    out = []
+    for c, fe in result.fe.items():
+        total = fe.meniscus_N + fe.cartilage_N
+        for name, r in fe.regions.items():
+            out.append({"compartment": c, "region": name, "load_N": r.load_N,
+                        "part": r.load_N / total, "area_mm2": r.area_mm2,
+                        "p_max_MPa": r.p_max_MPa})
+        out.append({"compartment": c, "region": "horn springs", "load_N": fe.springs_N,
+                    "part": fe.springs_N / total, "area_mm2": float("nan"),
+                    "p_max_MPa": float("nan")})
+        out.append({"compartment": c, "region": "total", "load_N": total, "part": 1.0,
+                    "area_mm2": fe.area_mm2, "p_max_MPa": fe.p_max_MPa})
+    return out
+
+
+def _cell(value: float, spec: str, width: int) -> str:
+    return f"{value:{width}{spec}}" if math.isfinite(value) else f"{'-':>{width}}"
+
+
+def report_lines(result, wall_s: float | None = None) -> list[str]:
+    """The report: the compartment table, per compartment the ratios to Donahue's and
+    the share beside the published one, the region table, balance, penetration, dofs and
+    times (`wall_s`: the whole run's wall time, s)."""
+    out = [f"{'compartment':<11} {'model':<13} {'menisc. N':>9} {'springs N':>9} "
+           f"{'cart. N':>8} {'share':>6} {'area mm²':>9} {'p_max MPa':>9}"]
+    for row in rows(result):
+        out.append(f"{row['compartment']:<11} {row['model']:<13} "
+                   f"{_cell(row['meniscus_N'], '.2f', 9)} {_cell(row['springs_N'], '.2f', 9)} "
+                   f"{_cell(row['cartilage_N'], '.2f', 8)} {_cell(row['share'], '.3f', 6)} "
+                   f"{_cell(row['area_mm2'], '.1f', 9)} {_cell(row['p_max_MPa'], '.3f', 9)}")
+    for c, fe in result.fe.items():
+        ref = DONAHUE_2002[c][1.0]
+        out.append(f"{c}: FE area {fe.area_mm2 / ref.area_mm2:.2f}x and p_max "
+                   f"{fe.p_max_MPa / ref.max_pressure_MPa:.2f}x Donahue's; meniscal share "
+                   f"{fe.share:.1%} (published for intact knees near full extension: about "
+                   f"{PUBLISHED_SHARE[c]:.0%}); the meniscus slides {fe.meniscus_slide_mm:.3f} "
+                   f"mm in the tibial plane; its balance {fe.meniscus_balance_N:.1e} N")
+    out.append("tibial contact per region (axial load N, part of the compartment's load, "
+               "area mm², p_max MPa)")
+    out.append(f"{'compartment':<11} {'region':<15} {'load N':>8} {'part':>6} {'area mm²':>9} "
+               f"{'p_max MPa':>9}")
+    for row in region_rows(result):
+        out.append(f"{row['compartment']:<11} {row['region']:<15} "
+                   f"{row['load_N']:8.2f} {row['part']:6.1%} "
+                   f"{_cell(row['area_mm2'], '.1f', 9)} {_cell(row['p_max_MPa'], '.3f', 9)}")
+    out.append(f"balance: femur contact along its axis - load = {result.balance_N:.2e} N "
+               f"({abs(result.balance_N) / result.load_N:.1e} of the load); worst "
+               f"penetration {result.max_penetration_mm:.2e} mm; femur travel from the EF "
+               f"pose {result.approach_mm:+.4f} mm in {result.outer_iterations} "
+               "linearisations")
+    wall = "" if wall_s is None else f", wall {wall_s:.1f}"
+    out.append(f"dofs {result.n_dofs}; time s: " + ", ".join(
+        f"{k} {v:.1f}" for k, v in result.seconds.items()) + wall)
+    out.append(DONAHUE_NOTE)
+    return out
+
+
+def _finite(value):
+    """`value` with every non-finite float as None (JSON has no NaN)."""
+    if isinstance(value, dict):
+        return {str(k): _finite(v) for k, v in value.items()}
+    if isinstance(value, list | tuple):
+        return [_finite(v) for v in value]
+    if hasattr(value, "tolist"):
+        return _finite(value.tolist())
+    if isinstance(value, float):
+        return value if math.isfinite(value) else None
+    return value
+
+
+def as_dict(result, scene_name: str = "") -> dict:
+    """The JSON of the run: load (N), per compartment the FE (`CompartmentFE` with its
+    regions), the EF, Donahue 2002 and the published share; per meniscus its contact,
+    radial displacement and hoop force; balance, penetration, travel, dofs, times."""
+    compartments = {}
+    for c, fe in result.fe.items():
+        ref = DONAHUE_2002[c][1.0]
+        compartments[c] = {
+            "fe": asdict(fe), "ef": dict(result.ef[c]),
+            "donahue_2002": {"area_mm2": float(ref.area_mm2),
+                             "p_max_MPa": float(ref.max_pressure_MPa)},
+            "published_share": PUBLISHED_SHARE[c]}
+    menisci = {c: {"contact_mm2": m.contact_mm2,
+                   "near_mm2": {f"{d:g}": v for d, v in m.near_mm2.items()},
+                   "radial_mm": m.radial_mm,
+                   "hoop": {"arc": m.hoop.section_arc, "force_N": m.hoop.force_N,
+                            "section_mm2": m.hoop.section_area_mm2}}
+               for c, m in result.menisci.items()}
+    return _finite({"scene": scene_name, "kind": "fe with menisci", "load_N": result.load_N,
+                    "compartments": compartments, "menisci": menisci,
+                    "balance_N": result.balance_N,
+                    "max_penetration_mm": result.max_penetration_mm,
+                    "approach_mm": result.approach_mm, "n_dofs": result.n_dofs,
+                    "outer_iterations": result.outer_iterations,
+                    "seconds": dict(result.seconds)})
