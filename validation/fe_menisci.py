@@ -52,7 +52,7 @@ if __name__ == "__main__" and not __package__:  # python validation/x.py: as pyt
 import numpy as np
 
 from fecheck.errors import FecheckError
-from fecheck.fe.knee_menisci import NEAR_MM, ROOTS, knee_menisci_fe
+from fecheck.fe.knee_menisci import NEAR_MM, ROOTS, TURN_DOFS, knee_menisci_fe
 from fecheck.fe.meniscus_solid import DEFAULT_SIZE_MM
 from fecheck.reference.closed_forms import DONAHUE_2002
 from fecheck.scene import load_scene
@@ -106,7 +106,8 @@ def build(scene, modulus: float = 1.0):
                         lambda m: None)
 
 
-def factor_rows(scene, base, ef, layers, size: float, root: str, say) -> list[dict]:
+def factor_rows(scene, base, ef, layers, size: float, root: str, say,
+                hold: bool = False) -> list[dict]:
     """One row per `FACTORS` entry (and the run itself first): per compartment the meniscal
     share, its change from the run (points), the femur-meniscus contact area (mm²), the
     horn springs' part of the meniscal load and the hoop force at mid-arc (N)."""
@@ -120,7 +121,8 @@ def factor_rows(scene, base, ef, layers, size: float, root: str, say) -> list[di
         say(f"factor: {name}")
         r = base if not change else knee_menisci_fe(
             scene, meniscus_size_mm=size, ef=ef,
-            layers=layers if modulus == 1.0 else build(scene, modulus), **kw)
+            layers=layers if modulus == 1.0 else build(scene, modulus), hold_rotation=hold,
+            **kw)
         row = {"factor": name}
         for c, fe in r.fe.items():
             m = r.menisci[c]
@@ -224,6 +226,8 @@ def main(argv=None) -> int:
                    "--quick")
     p.add_argument("--root", choices=ROOTS, default="data", help="horn root stiffness: the "
                    "data's root bundles (k / l0) or Donahue's 2000 N/mm per horn")
+    p.add_argument("--hold-rotation", action="store_true", help="keep the femur at the EF's "
+                   "rotation (for comparison; by default it turns free where the tibia does)")
     p.add_argument("--out", type=Path, default=Path("out/validation"), help="output folder")
     args = p.parse_args(argv)
     scene = load_scene(SCENE, QUICK if args.quick else [])
@@ -239,9 +243,9 @@ def main(argv=None) -> int:
         ef = run_menisci(scene)
         layers = build(scene)
         r = knee_menisci_fe(scene, meniscus_size_mm=size, root=args.root, ef=ef,
-                            layers=layers, log=say)
+                            layers=layers, log=say, hold_rotation=args.hold_rotation)
         wall = time.perf_counter() - t0
-        factors = (factor_rows(scene, r, ef, layers, size, args.root, say)
+        factors = (factor_rows(scene, r, ef, layers, size, args.root, say, args.hold_rotation)
                    if args.factors or not args.quick else None)
     except FecheckError as err:
         print(f"fe_menisci: {err}", file=sys.stderr)
@@ -266,6 +270,10 @@ def main(argv=None) -> int:
           f"({abs(r.balance_N) / r.load_N:.1e} of the load); worst penetration "
           f"{r.max_penetration_mm:.2e} mm; femur travel from the EF pose "
           f"{r.approach_mm:+.4f} mm in {r.outer_iterations} linearisations")
+    for name, turn, moment in zip([d for d in scene.free_dofs if d in TURN_DOFS], r.turn_deg,
+                                  r.moment_balance_Nmm, strict=True):
+        print(f"femur {name} from the EF pose {turn:+.4f} deg; its moment balance "
+              f"{moment:.2e} N mm ({abs(moment) / r.load_N:.1e} of the load x 1 mm)")
     print(f"dofs {r.n_dofs}; time s: " + ", ".join(f"{k} {v:.1f}" for k, v in
                                                  r.seconds.items()) + f", wall {wall:.1f}")
     print_why(r)
