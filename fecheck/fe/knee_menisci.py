@@ -20,16 +20,21 @@ From the EF equilibrium of a ``menisci.dir`` scene (`fecheck.model.menisci`, e.g
   (smith2019's COR bundles, 5-6 N/mm each) only with ``coronary=True``, each on the node
   nearest its meniscal point. ``lift_mm`` raises the superior surface along its normals
   (the wedge made that much thicker): the sensitivity to the placement.
-* **Femur**: the rigid femoral surface, its rotation held at the EF pose (the tibia's
-  abduction is held), its translation along the tibia's free axis (world z) solved under
-  the EF's axial load on the tibia (the load less the tibia's weight, along z).
+* **Femur**: the rigid femoral surface, its translation along the tibia's free axis
+  (world z) solved under the EF's axial load on the tibia (the load less the tibia's
+  weight, along z), and turned about the tibia's origin along each rotation the scene
+  leaves free to the tibia (``dofs.free``: abduction for ``femur_tibia_menisci``) under
+  the moment the load and the weight put on the tibia there at the EF pose, reversed
+  (`femur_turns`): the femur balances in force and moment on the tibia's free DOFs, as the
+  EF's tibia does. ``hold_rotation=True`` keeps it at the EF's rotation (for comparison).
 
 Frictionless contact on three interfaces, node to surface with exact complementarity
 (`fecheck.fe.multibody`): femur ↔ tibial layer vertices (along their normals),
 femur ↔ meniscus superior vertices, meniscus inferior faces ↔ tibial layer vertices (a
 tibial vertex under a meniscus meets its inferior face, the others the femur). Small
-displacements; the rigid gaps are re-evaluated at the femur's new place until it stops
-moving (1e-10 mm), so they are exact at the answer. Per compartment: axial load into the
+displacements; the rigid gaps are re-evaluated at the femur's new place and turn until it
+stops moving (1e-10 mm at its farthest contact vertex), so they are exact at the answer
+(the contact moments act at the slave vertices). Per compartment: axial load into the
 tibia through the meniscus (its contact and its horn springs) and through
 cartilage-cartilage contact, tibial contact area (`zero_contour_area`) and vertex p_max,
 beside the EF's and Donahue 2002's; per meniscus (`MeniscusReport`) where the femur

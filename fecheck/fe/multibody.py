@@ -18,7 +18,8 @@ slave's ray hits, `ray_pairs`; or one matching node, weight 1). With the contact
 
     g = g0 + (Σ_a w_a u_a − u_s)·n + δ a·n (indenter pairs) = g0 + J δq + C λ,
 
-where the indenter moves by δ along its axis a (pushed with the load F), δq = (δ, t),
+where the indenter moves by δ along its axis a (pushed with the load F; it may also turn
+by small angles about given axes under given moments, `Condensed`), δq = (δ, t),
 and C = Σ_bodies D_b K_b⁻¹ D_bᵀ (D_b: the gaps' map to body b's kept dofs; one sparse
 factorization per body, K_b⁻¹ on the dofs D_b reads from its trailing block:
 `fecheck.fe.contact.condensed_compliance` along the normals for a body that is only a
