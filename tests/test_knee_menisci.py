@@ -69,6 +69,32 @@ def test_femur_and_menisci_balance_and_nothing_penetrates(intact):
         assert np.abs(p.force_N * p.gap_mm).max() <= 1e-6 * p.force_N.max()
     assert 0.0 <= r.max_penetration_mm <= 1e-6
     assert abs(r.balance_N) <= 1e-8 * load
+    # the femur turns free in the tibia's abduction: its contact moment about the tibia's
+    # origin balances the load's to 1e-8 of the load x 1 mm; the turn from the EF pose is
+    # small (the EF balanced the same moment with its rigid-layer contact): measured
+    # -0.075 deg at these meshes
+    assert r.moment_balance_Nmm.shape == (1,)
+    assert np.abs(r.moment_balance_Nmm).max() <= 1e-8 * load
+    assert 1e-3 < abs(r.turn_deg[0]) < 0.5
+
+
+def test_the_turn_is_balanced_against_the_scenes_own_moment(coarse):
+    # The moment femur_turns asks of the femur is the load's and the weight's moment on
+    # the tibia about its origin along its abduction axis, reversed, summed here by hand:
+    # 800 N up at the ankle point and the weight down at the centre of mass.
+    from fecheck.statics.frames import rot_x
+    from fecheck.statics.newton import body_pose
+
+    scene, ef, _ = coarse
+    q = np.asarray(ef.menisci["poses"]["tibia"]["q"])
+    rot, t = body_pose(q)
+    axis = rot_x(q[3])[:, 1]
+    weight = 2.65207 * 9.81
+    moment = (np.cross(np.array([-1.757, -4.2, -381.0]) - t, [0.0, 0.0, 800.0])
+              + np.cross(rot @ [-1.757, 5.85, -150.861], [0.0, 0.0, -weight]))
+    axes, moments = knee_menisci.femur_turns(scene, q)
+    np.testing.assert_allclose(axes, [rot.T @ axis], atol=1e-15)
+    assert moments[0] == pytest.approx(-axis @ moment, rel=1e-6)
 
 
 def test_compartment_loads_are_the_pairs_forces(intact):
@@ -87,10 +113,10 @@ def test_compartment_loads_are_the_pairs_forces(intact):
 
 
 def test_without_menisci_it_is_the_pressed_layers(coarse):
-    # With both menisci removed (menisci.sides = []) the FE is the tibial layers pressed by
-    # the rigid femur along the tibial z axis under the same load: `fecheck.fe.press`'s
-    # joint solver (re-linearised in the pose, its own condensation) on the same layers
-    # gives the same force at every vertex.
+    # With both menisci removed (menisci.sides = []) and the femur's rotation held, the FE
+    # is the tibial layers pressed by the rigid femur along the tibial z axis under the
+    # same load: `fecheck.fe.press`'s joint solver (re-linearised in the pose, its own
+    # condensation) on the same layers gives the same force at every vertex.
     from fecheck.fe.press import push_drive, solve_pressed
     from fecheck.fe.settings import FESettings
     from fecheck.model.menisci import run_menisci
@@ -99,7 +125,7 @@ def test_without_menisci_it_is_the_pressed_layers(coarse):
     scene, _, layers = coarse
     bare = load_scene("femur_tibia_menisci", [*COARSE, "menisci.sides=[]"])
     ef = run_menisci(bare)
-    r = knee_menisci.knee_menisci_fe(bare, ef=ef, layers=layers)
+    r = knee_menisci.knee_menisci_fe(bare, ef=ef, layers=layers, hold_rotation=True)
     assert set(r.pairs) == {"medial femur-tibia", "lateral femur-tibia"}
     rot, t = body_pose(np.asarray(ef.menisci["poses"]["tibia"]["q"]))
     sol, _, _, worst = solve_pressed(layers, push_drive(rot, t, np.array([0.0, 0.0, -r.load_N])),
@@ -112,6 +138,36 @@ def test_without_menisci_it_is_the_pressed_layers(coarse):
         assert np.abs(mine - ref.force_N).max() <= 1e-7 * ref.force_N.max()
     for c in ("medial", "lateral"):
         assert r.fe[c].meniscus_N == 0.0 and r.fe[c].share == 0.0
+
+
+def test_without_menisci_the_turning_femur_is_the_joint_solve(coarse):
+    # Free in abduction, the femur takes the pose `fecheck.fe.press`'s joint solver finds
+    # for the tibia free in z and abduction under the scene's load and weight (Newton on
+    # the pose, the load re-evaluated there): the same force at every vertex to 1e-4 of
+    # the peak (measured 3.4e-5: the joint solver moves the tibia's weight with its
+    # 0.006 deg turn, about 0.4 N mm of the 8e3 N mm each condyle's force turns about;
+    # the held femur is off by 4.8e-3) and the femur's turn is the tibia's, reversed.
+    from fecheck.fe.press import joint_drive, solve_pressed
+    from fecheck.fe.settings import FESettings
+    from fecheck.model.menisci import run_menisci
+    from fecheck.statics.newton import TIBIA_COORDINATES
+
+    _, _, layers = coarse
+    bare = load_scene("femur_tibia_menisci", [*COARSE, "menisci.sides=[]"])
+    ef = run_menisci(bare)
+    q = np.asarray(ef.menisci["poses"]["tibia"]["q"])
+    r = knee_menisci.knee_menisci_fe(bare, ef=ef, layers=layers)
+    drive = joint_drive(bare, q[list(TIBIA_COORDINATES)], [])
+    sol, _, _, worst = solve_pressed(layers, drive, 0.5, FESettings.from_scene(bare),
+                                     lambda m: None)
+    assert worst <= 1e-6
+    for lay, ref in zip(layers, sol.layers, strict=True):
+        mine = np.zeros(lay.surface.n_points)
+        p = r.pairs[f"{lay.body.name} femur-tibia"]
+        mine[p.nodes] = p.force_N
+        assert np.abs(mine - ref.force_N).max() <= 1e-4 * ref.force_N.max()
+    turned = np.degrees(drive.full(sol.q)[3] - q[4])
+    assert r.turn_deg[0] == pytest.approx(-turned, rel=0.02)
 
 
 def test_horn_springs_hold_a_rigid_shift_with_the_roots_stiffness():
@@ -222,14 +278,16 @@ def test_coronary_springs_add_their_k_over_l0_to_a_rigid_shift():
 def test_report_pressure_compression_and_near_areas(coarse, intact):
     # The tibial pressure map times the tributary areas is the femur's and the meniscus's
     # contact forces on the layer; the deepest compression under the femur is the deepest
-    # rigid overlap of the femur with the undeformed layer at its final place (the gap
-    # closes there); the superior area near the femur grows with the distance and holds
+    # rigid overlap of the femur with the undeformed layer at its final place and turn
+    # (the gap closes there); the superior area near the femur grows with the distance and holds
     # the pressed area.
     from fecheck.statics.newton import body_pose
 
-    _, ef, layers = coarse
+    scene, ef, layers = coarse
     r = intact
-    rot, t = body_pose(np.asarray(ef.menisci["poses"]["tibia"]["q"]))
+    q = np.asarray(ef.menisci["poses"]["tibia"]["q"])
+    rot, t = body_pose(q)
+    turn = np.radians(r.turn_deg) @ knee_menisci.femur_turns(scene, q)[0]
     for lay in layers:
         c = lay.body.name
         force = np.zeros(lay.surface.n_points)
@@ -240,7 +298,8 @@ def test_report_pressure_compression_and_near_areas(coarse, intact):
         ft = r.pairs[f"{c} femur-tibia"]
         pressed = ft.nodes[ft.force_N > 0]
         rigid = knee_menisci._femur_gap(lay.indenter, lay.surface.points[pressed],
-                                        lay.solid.normals[pressed], rot, t, r.approach_mm)
+                                        lay.solid.normals[pressed], rot, t, r.approach_mm,
+                                        turn)
         assert r.fe[c].compression_mm == pytest.approx(-rigid.min(), abs=1e-9)
         m = r.menisci[c]
         near = [m.near_mm2[d] for d in knee_menisci.NEAR_MM]

@@ -4,12 +4,15 @@ full extension), beside the EF and Donahue et al. 2002.
 `fecheck.fe.knee_menisci`: each meniscus a deformable transversely isotropic solid (P2
 tetrahedra, fibres along its arc) on horn springs to the tibia, each compartment's tibial
 cartilage a bonded layer as ``fecheck fe`` builds it (series thickness), the femur rigid,
-its rotation held at the EF pose and its translation along the tibial z axis solved under
-the EF's load on the tibia (800 N less the tibia's weight), frictionless contact on the
-three interfaces. Per compartment: the axial load into the tibia through the meniscus
-(its contact and its horn springs) and through cartilage-cartilage contact, the meniscal
-share, the tibial contact area and vertex p_max; then the femur's balance along its axis,
-each meniscus's balance, the worst penetration over every contact vertex, dofs and time.
+its translation along the tibial z axis and its abduction (the tibia's free DOFs) solved
+under the EF's load on the tibia (800 N less the tibia's weight) and its moment about the
+tibia's origin, frictionless contact on the three interfaces (``--hold-rotation``: the
+femur kept at the EF's rotation, for comparison). Per compartment: the axial load into
+the tibia through the meniscus (its contact and its horn springs) and through
+cartilage-cartilage contact, the meniscal share, the tibial contact area and vertex
+p_max; then the femur's balance along its axis, its turn from the EF pose and its moment
+balance, each meniscus's balance, the worst penetration over every contact vertex, dofs
+and time.
 
 Beside them: the EF of the same scene (menisci rigid, smith2019's lumped 1 MPa meniscus
 layer), Donahue et al. 2002's tibial contact area and p_max at 800 N (490 / 415 mm²,
@@ -29,7 +32,8 @@ tibial cartilage modulus halved and doubled, the data's coronary ligaments added
 springs, Donahue's 2000 N/mm horn roots; the table gives the share per compartment and
 its change, and names the factor that moves it most.
 
-    python validation/fe_menisci.py [--quick] [--factors] [--root data|donahue] [--out DIR]
+    python validation/fe_menisci.py [--quick] [--factors] [--root data|donahue]
+        [--hold-rotation] [--out DIR]
 
 --quick: tibial sheets remeshed at 2 mm (``fe.prepare = "on"``, ``fe.size_mm = 2``) and
 2.5 mm meniscus tetrahedra, without the factor table unless --factors. Writes
@@ -86,7 +90,8 @@ def build(scene, modulus: float = 1.0):
                         lambda m: None)
 
 
-def factor_rows(scene, base, ef, layers, size: float, root: str, say) -> list[dict]:
+def factor_rows(scene, base, ef, layers, size: float, root: str, say,
+                hold: bool = False) -> list[dict]:
     """One row per `FACTORS` entry (and the run itself first): per compartment the meniscal
     share, its change from the run (points), the femur-meniscus contact area (mm²), the
     horn springs' part of the meniscal load and the hoop force at mid-arc (N)."""
@@ -100,7 +105,8 @@ def factor_rows(scene, base, ef, layers, size: float, root: str, say) -> list[di
         say(f"factor: {name}")
         r = base if not change else knee_menisci_fe(
             scene, meniscus_size_mm=size, ef=ef,
-            layers=layers if modulus == 1.0 else build(scene, modulus), **kw)
+            layers=layers if modulus == 1.0 else build(scene, modulus), hold_rotation=hold,
+            **kw)
         row = {"factor": name}
         for c, fe in r.fe.items():
             m = r.menisci[c]
@@ -204,6 +210,8 @@ def main(argv=None) -> int:
                    "--quick")
     p.add_argument("--root", choices=ROOTS, default="data", help="horn root stiffness: the "
                    "data's root bundles (k / l0) or Donahue's 2000 N/mm per horn")
+    p.add_argument("--hold-rotation", action="store_true", help="keep the femur at the EF's "
+                   "rotation (for comparison; by default it turns free where the tibia does)")
     p.add_argument("--out", type=Path, default=Path("out/validation"), help="output folder")
     args = p.parse_args(argv)
     scene = load_scene(SCENE, QUICK if args.quick else [])
@@ -219,9 +227,9 @@ def main(argv=None) -> int:
         ef = run_menisci(scene)
         layers = build(scene)
         r = knee_menisci_fe(scene, meniscus_size_mm=size, root=args.root, ef=ef,
-                            layers=layers, log=say)
+                            layers=layers, log=say, hold_rotation=args.hold_rotation)
         wall = time.perf_counter() - t0
-        factors = (factor_rows(scene, r, ef, layers, size, args.root, say)
+        factors = (factor_rows(scene, r, ef, layers, size, args.root, say, args.hold_rotation)
                    if args.factors or not args.quick else None)
     except FecheckError as err:
         print(f"fe_menisci: {err}", file=sys.stderr)

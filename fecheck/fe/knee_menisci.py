@@ -20,16 +20,21 @@ From the EF equilibrium of a ``menisci.dir`` scene (`fecheck.model.menisci`, e.g
   (smith2019's COR bundles, 5-6 N/mm each) only with ``coronary=True``, each on the node
   nearest its meniscal point. ``lift_mm`` raises the superior surface along its normals
   (the wedge made that much thicker): the sensitivity to the placement.
-* **Femur**: the rigid femoral surface, its rotation held at the EF pose (the tibia's
-  abduction is held), its translation along the tibia's free axis (world z) solved under
-  the EF's axial load on the tibia (the load less the tibia's weight, along z).
+* **Femur**: the rigid femoral surface, its translation along the tibia's free axis
+  (world z) solved under the EF's axial load on the tibia (the load less the tibia's
+  weight, along z), and turned about the tibia's origin along each rotation the scene
+  leaves free to the tibia (``dofs.free``: abduction for ``femur_tibia_menisci``) under
+  the moment the load and the weight put on the tibia there at the EF pose, reversed
+  (`femur_turns`): the femur balances in force and moment on the tibia's free DOFs, as the
+  EF's tibia does. ``hold_rotation=True`` keeps it at the EF's rotation (for comparison).
 
 Frictionless contact on three interfaces, node to surface with exact complementarity
 (`fecheck.fe.multibody`): femur ↔ tibial layer vertices (along their normals),
 femur ↔ meniscus superior vertices, meniscus inferior faces ↔ tibial layer vertices (a
 tibial vertex under a meniscus meets its inferior face, the others the femur). Small
-displacements; the rigid gaps are re-evaluated at the femur's new place until it stops
-moving (1e-10 mm), so they are exact at the answer. Per compartment: axial load into the
+displacements; the rigid gaps are re-evaluated at the femur's new place and turn until it
+stops moving (1e-10 mm at its farthest contact vertex), so they are exact at the answer
+(the contact moments act at the slave vertices). Per compartment: axial load into the
 tibia through the meniscus (its contact and its horn springs) and through
 cartilage-cartilage contact, tibial contact area (`zero_contour_area`) and vertex p_max,
 beside the EF's and Donahue 2002's; per meniscus (`MeniscusReport`) where the femur
@@ -177,7 +182,9 @@ class KneeMenisciFE:
     its `MeniscusReport`; per compartment the pressure on the tibial layer's surface
     vertices (MPa: femur and meniscus contact) and the outline of the meniscus's
     footprint (its inferior surface's boundary edges, (k, 2, 3) mm, tibia frame); per
-    compartment the tibial region (`REGION_NAMES` key) of each layer surface vertex."""
+    compartment the tibial region (`REGION_NAMES` key) of each layer surface vertex; the
+    femur's turn from the EF pose about each rotation the tibia is free in (deg, `turns`)
+    and its moment balance about each (N·mm: contact moment plus the load's)."""
 
     load_N: float
     fe: dict[str, CompartmentFE]
@@ -195,6 +202,8 @@ class KneeMenisciFE:
     pressure_MPa: dict[str, np.ndarray] = field(default_factory=dict)
     outlines: dict[str, np.ndarray] = field(default_factory=dict)
     tibial_region: dict[str, np.ndarray] = field(default_factory=dict)
+    turn_deg: np.ndarray = field(default_factory=lambda: np.zeros(0))
+    moment_balance_Nmm: np.ndarray = field(default_factory=lambda: np.zeros(0))
 
 
 def vertex_normals(points: np.ndarray, faces: np.ndarray) -> np.ndarray:
@@ -397,7 +406,8 @@ def knee_menisci_fe(scene: Scene, *, meniscus_size_mm: float = DEFAULT_SIZE_MM,
                     root: str = "data", ef=None, layers=None, lift_mm: float = 0.0,
                     coronary: bool = False,
                     log: Callable[[str], None] | None = None,
-                    material: TransIso = MENISCUS) -> KneeMenisciFE:
+                    material: TransIso = MENISCUS,
+                    hold_rotation: bool = False) -> KneeMenisciFE:
     """The FE of `scene`'s knee with menisci at its EF equilibrium (module docstring).
 
     `ef`: the scene's EF run (`fecheck.model.menisci.run_menisci`; run here when None);
@@ -405,7 +415,9 @@ def knee_menisci_fe(scene: Scene, *, meniscus_size_mm: float = DEFAULT_SIZE_MM,
     `meniscus_size_mm`: the meniscus tetrahedra (`fecheck.fe.meniscus_solid`); `root`:
     the horn root stiffness (`ROOTS`); `lift_mm`: the superior surface raised along its
     normals, mm; `coronary`: the coronary ligaments as springs too; `material`: the
-    menisci's transversely isotropic constants. `FecheckError` on a
+    menisci's transversely isotropic constants; `hold_rotation`: the femur kept at the
+    EF's rotation (else it turns free in the tibia's free rotations, `femur_turns`).
+    `FecheckError` on a
     scene without ``menisci.dir``, a two-layer cartilage, a load that does not press the
     joint, or a contact that leaves a penetration over `PENETRATION_TOL_MM`."""
     from fecheck.fe.meniscus_solid import meniscus_solid
@@ -459,7 +471,34 @@ def knee_menisci_fe(scene: Scene, *, meniscus_size_mm: float = DEFAULT_SIZE_MM,
                 f"{men.body.K.shape[0]} dofs, raised {men.rise_mm:.3f} mm onto the layer")
         sides.append(replace(_side(lay, body, men, rot, t), lift=float(lift_mm)))
     seconds["build"] = time.perf_counter() - t0
-    return _solve(sides, rot, t, load, settings.candidate_gap_mm, run, seconds, say)
+    turns = femur_turns(scene, q_tibia) if not hold_rotation else (np.zeros((0, 3)),
+                                                                    np.zeros(0))
+    return _solve(sides, rot, t, load, settings.candidate_gap_mm, run, seconds, say, turns)
+
+
+TURN_DOFS = {"flexion": 0, "abduction": 1, "internal": 2}
+"""The tibia's rotational coordinates and their axis in the chain Rx·Ry·Rz of its pose."""
+
+
+def femur_turns(scene: Scene, q_tibia: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """(unit axes (r, 3) in the frame of the tibia at `q_tibia`, moments (r,) N·mm): the
+    femur turns about the tibia's origin along each rotation the scene leaves free to the
+    tibia (``dofs.free``), under the moment about it that the load and the tibia's weight
+    put on the tibia, reversed (the EF balances the tibia's moment about its origin along
+    those axes; the FE the femur's)."""
+    from fecheck.model.assembly import applied_load
+    from fecheck.statics.frames import rot_x, rot_y
+    from fecheck.statics.newton import body_pose
+
+    q = np.asarray(q_tibia, dtype=float)
+    rot, t = body_pose(q)
+    rx = rot_x(q[3])
+    axes = (np.array([1.0, 0.0, 0.0]), rx[:, 1], (rx @ rot_y(q[4]))[:, 2])
+    free = [TURN_DOFS[d] for d in scene.free_dofs if d in TURN_DOFS]
+    world = np.array([axes[i] for i in free]).reshape(-1, 3)
+    wrench = applied_load(scene)(rot, t)[0]
+    about_origin = wrench[3:] - np.cross(t, wrench[:3])
+    return world @ rot, -(world @ about_origin)
 
 
 def _meniscus(solid: MeniscusSolid, q: np.ndarray, q_tibia: np.ndarray,
@@ -499,10 +538,18 @@ def _side(lay, body: Body, men: MeniscusBody | None, rot: np.ndarray, t: np.ndar
 
 
 def _femur_gap(indenter, points: np.ndarray, normals: np.ndarray, rot: np.ndarray,
-               t: np.ndarray, travel_mm: float) -> np.ndarray:
+               t: np.ndarray, travel_mm: float, turn: np.ndarray | None = None) -> np.ndarray:
     """Rigid gaps (mm) along `normals` from tibia-frame `points` to the femoral surface,
-    the tibia at pose (R, t) raised by `travel_mm` along world z."""
-    return indenter.gap(points @ rot.T + t + [0.0, 0.0, travel_mm], normals @ rot.T).gap_mm
+    the tibia at pose (R, t), the femur turned by the rotation vector `turn` (tibia frame,
+    rad, about the tibia's origin; None: not turned) and lowered by `travel_mm` along
+    world z."""
+    lowered = points + travel_mm * (rot.T @ [0.0, 0.0, 1.0])
+    if turn is not None:
+        from scipy.spatial.transform import Rotation
+
+        back = Rotation.from_rotvec(-np.asarray(turn, dtype=float)).as_matrix()
+        lowered, normals = lowered @ back.T, normals @ back.T
+    return indenter.gap(lowered @ rot.T + t, normals @ rot.T).gap_mm
 
 
 def _pairs(sides: list[_Side], cands: dict[str, np.ndarray]) -> list[Pair]:
@@ -511,13 +558,14 @@ def _pairs(sides: list[_Side], cands: dict[str, np.ndarray]) -> list[Pair]:
     for s in sides:
         ft = cands[f"{s.name} femur-tibia"]
         out.append(Pair(f"{s.name} femur-tibia", s.body.name, ft, s.layer.solid.normals[ft],
-                        np.zeros(len(ft))))
+                        np.zeros(len(ft)), points=s.layer.surface.points[ft]))
         if s.meniscus is None:
             continue
         m = s.meniscus
         fm = cands[f"{s.name} femur-meniscus"]
         out.append(Pair(f"{s.name} femur-meniscus", m.body.name, m.superior[fm],
-                        m.superior_normals[fm], np.zeros(len(fm))))
+                        m.superior_normals[fm], np.zeros(len(fm)),
+                        points=m.points[m.superior[fm]]))
         mt = cands[f"{s.name} meniscus-tibia"]
         out.append(Pair(f"{s.name} meniscus-tibia", s.body.name, mt, s.layer.solid.normals[mt],
                         s.gap[mt], m.body.name, m.inferior_faces[s.face[mt]], s.weights[mt]))
@@ -525,15 +573,18 @@ def _pairs(sides: list[_Side], cands: dict[str, np.ndarray]) -> list[Pair]:
 
 
 def _all_gaps(sides: list[_Side], rot: np.ndarray, t: np.ndarray, travel: float,
-              u: dict[str, np.ndarray] | None) -> dict[str, np.ndarray]:
+              u: dict[str, np.ndarray] | None, turn: np.ndarray | None = None
+              ) -> dict[str, np.ndarray]:
     """Every pair's gaps (mm) over all its possible vertices (inf where none) with the
-    femur at `travel` and the bodies displaced by `u` (None: undeformed)."""
+    femur at `travel` turned by `turn` (`_femur_gap`) and the bodies displaced by `u`
+    (None: undeformed)."""
     out = {}
     for s in sides:
         pts, nrm = s.layer.surface.points, s.layer.solid.normals
         every = np.arange(len(pts))
         u_t = _disp(s.body, u[s.body.name], every) if u else np.zeros_like(pts)
-        g = _femur_gap(s.indenter, pts, nrm, rot, t, travel) - np.einsum("ij,ij->i", u_t, nrm)
+        g = (_femur_gap(s.indenter, pts, nrm, rot, t, travel, turn)
+             - np.einsum("ij,ij->i", u_t, nrm))
         out[f"{s.name} femur-tibia"] = np.where(s.under, np.inf, g)
         if s.meniscus is None:
             continue
@@ -541,7 +592,8 @@ def _all_gaps(sides: list[_Side], rot: np.ndarray, t: np.ndarray, travel: float,
         u_m = (u[m.body.name] if u else np.zeros(m.body.K.shape[0]))
         sup = _disp(m.body, u_m, m.superior)
         out[f"{s.name} femur-meniscus"] = (
-            _femur_gap(s.indenter, m.points[m.superior], m.superior_normals, rot, t, travel)
+            _femur_gap(s.indenter, m.points[m.superior], m.superior_normals, rot, t, travel,
+                       turn)
             - np.einsum("ij,ij->i", sup, m.superior_normals) - s.lift)
         faces = m.inferior_faces[np.maximum(s.face, 0)]
         at = np.einsum("mk,mkc->mc", s.weights, _disp(m.body, u_m, faces.ravel()).reshape(
@@ -552,14 +604,19 @@ def _all_gaps(sides: list[_Side], rot: np.ndarray, t: np.ndarray, travel: float,
 
 
 def _solve(sides: list[_Side], rot: np.ndarray, t: np.ndarray, load: float,
-           margin: float, run, seconds: dict, say) -> KneeMenisciFE:
+           margin: float, run, seconds: dict, say,
+           turns: tuple[np.ndarray, np.ndarray] = (np.zeros((0, 3)), np.zeros(0))
+           ) -> KneeMenisciFE:
     """Condense on the candidates (gaps under `margin` mm), move the femur until it stops,
-    widen the candidates while a vertex outside them penetrates; the answer."""
+    widen the candidates while a vertex outside them penetrates; the answer. `turns`:
+    (unit axes (r, 3) in the tibia frame about the tibia's origin, the moment (r,) N·mm
+    on the femur about each) along which the femur turns free under that moment."""
     axis = -rot.T @ np.array([0.0, 0.0, 1.0])
+    turn_axes, moments = turns
     bodies = [s.body for s in sides] + [s.meniscus.body for s in sides if s.meniscus]
     gaps = _all_gaps(sides, rot, t, 0.0, None)
     cands = {name: np.flatnonzero(g < margin) for name, g in gaps.items()}
-    travel, outer = 0.0, 0
+    travel, outer, angles = 0.0, 0, np.zeros(len(turn_axes))
     t_condense = t_solve = 0.0
     for _ in range(4):
         pairs = [p for p in _pairs(sides, cands) if len(p.nodes)]
@@ -570,7 +627,8 @@ def _solve(sides: list[_Side], rot: np.ndarray, t: np.ndarray, load: float,
                                "lower fe.candidate_gap_mm or coarsen the sheets (fe.prepare "
                                "= 'on', fe.size_mm)")
         t0 = time.perf_counter()
-        condensed = Condensed(bodies, pairs, axis)
+        condensed = Condensed(bodies, pairs, axis,
+                              turns=[(a, np.zeros(3)) for a in turn_axes])
         t_condense += time.perf_counter() - t0
         say(f"condensed {sum(len(p.nodes) for p in pairs)} contact candidates in "
             f"{condensed.seconds:.1f} s")
@@ -578,11 +636,16 @@ def _solve(sides: list[_Side], rot: np.ndarray, t: np.ndarray, load: float,
         previous = None
         for _ in range(50):
             outer += 1
-            g0 = np.concatenate([_pair_gaps(p, sides, rot, t, travel) for p in pairs])
-            sol = condensed.solve(g0, load, start=previous, displace=False)
+            turn = angles @ turn_axes
+            g0 = np.concatenate([_pair_gaps(p, sides, rot, t, travel, turn) for p in pairs])
+            sol = condensed.solve(g0, load, start=previous, displace=False,
+                                  moments_Nmm=moments)
             previous = np.concatenate([sol.pairs[p.name].active for p in pairs])
             travel += sol.approach_mm
-            if abs(sol.approach_mm) <= MOVE_TOL_MM:
+            angles = angles + sol.turns_rad
+            arm = max(float(np.linalg.norm(p.points, axis=1).max())
+                      for p in pairs if p.master is None)
+            if np.abs(np.r_[sol.approach_mm, sol.turns_rad * arm]).max() <= MOVE_TOL_MM:
                 break
         else:
             raise FecheckError("the femur of the FE with menisci does not settle in 50 "
@@ -590,7 +653,7 @@ def _solve(sides: list[_Side], rot: np.ndarray, t: np.ndarray, load: float,
         sol = replace(sol, u=condensed.displacements(
             np.concatenate([sol.pairs[p.name].force_N for p in pairs])))
         t_solve += time.perf_counter() - t0
-        gaps = _all_gaps(sides, rot, t, travel, sol.u)
+        gaps = _all_gaps(sides, rot, t, travel, sol.u, angles @ turn_axes)
         worst, where = _worst(gaps, sides)
         grown = {name: np.union1d(cands[name], np.flatnonzero(g < margin))
                  for name, g in gaps.items()}
@@ -607,6 +670,8 @@ def _solve(sides: list[_Side], rot: np.ndarray, t: np.ndarray, load: float,
     seconds |= {"condense": t_condense, "solve": t_solve}
     fe, balance, pressure, region = _report(sides, pairs, sol, axis, load)
     ef = _ef_rows(run, [s.name for s in sides])
+    on_femur = sum(np.cross(p.points, p.normals).T @ sol.pairs[p.name].force_N
+                   for p in pairs if p.master is None)
     records = {p.name: PairRecord(p.nodes, sol.pairs[p.name].force_N, sol.pairs[p.name].gap_mm,
                                   p.normals) for p in pairs}
     springs = {s.name: -(s.meniscus.spring_N_per_mm[:, None] * _disp(
@@ -620,7 +685,8 @@ def _solve(sides: list[_Side], rot: np.ndarray, t: np.ndarray, load: float,
                          sum(b.K.shape[0] for b in bodies), outer, seconds, records, springs,
                          reports, pressure,
                          {s.name: outline(s.meniscus.points, s.meniscus.inferior_faces)
-                          for s in sides if s.meniscus}, region)
+                          for s in sides if s.meniscus}, region,
+                         np.degrees(angles), turn_axes @ on_femur + moments)
 
 
 def outline(points: np.ndarray, faces: np.ndarray) -> np.ndarray:
@@ -691,16 +757,17 @@ def _worst(gaps: dict[str, np.ndarray], sides: list[_Side]) -> tuple[float, str]
 
 
 def _pair_gaps(p: Pair, sides: list[_Side], rot: np.ndarray, t: np.ndarray,
-               travel: float) -> np.ndarray:
-    """The reference gaps (mm) of pair `p` with the femur at `travel` (undeformed)."""
+               travel: float, turn: np.ndarray | None = None) -> np.ndarray:
+    """The reference gaps (mm) of pair `p` with the femur at `travel` turned by `turn`
+    (`_femur_gap`; undeformed)."""
     side = next(s for s in sides if p.name.startswith(f"{s.name} "))
     if p.master is not None:
         return p.gap0_mm
     if p.slave == side.body.name:
         return _femur_gap(side.indenter, side.layer.surface.points[p.nodes], p.normals,
-                          rot, t, travel)
+                          rot, t, travel, turn)
     return _femur_gap(side.indenter, side.meniscus.points[p.nodes], p.normals, rot, t,
-                      travel) - side.lift
+                      travel, turn) - side.lift
 
 
 def _report(sides: list[_Side], pairs: list[Pair], sol, axis: np.ndarray, load: float

@@ -97,6 +97,10 @@ def report_lines(result, wall_s: float | None = None) -> list[str]:
                f"penetration {result.max_penetration_mm:.2e} mm; femur travel from the EF "
                f"pose {result.approach_mm:+.4f} mm in {result.outer_iterations} "
                "linearisations")
+    for turn, moment in zip(result.turn_deg, result.moment_balance_Nmm, strict=True):
+        out.append(f"femur turn from the EF pose (a rotation the tibia is free in) "
+                   f"{turn:+.4f} deg; its moment balance {moment:.2e} N mm "
+                   f"({abs(moment) / result.load_N:.1e} of the load x 1 mm)")
     wall = "" if wall_s is None else f", wall {wall_s:.1f}"
     out.append(f"dofs {result.n_dofs}; time s: " + ", ".join(
         f"{k} {v:.1f}" for k, v in result.seconds.items()) + wall)
@@ -120,7 +124,8 @@ def _finite(value):
 def as_dict(result, scene_name: str = "") -> dict:
     """The JSON of the run: load (N), per compartment the FE (`CompartmentFE` with its
     regions), the EF, Donahue 2002 and the published share; per meniscus its contact,
-    radial displacement and hoop force; balance, penetration, travel, dofs, times."""
+    radial displacement and hoop force; balance, penetration, travel, the femur's turns
+    and moment balance, dofs, times."""
     compartments = {}
     for c, fe in result.fe.items():
         ref = DONAHUE_2002[c][1.0]
@@ -139,6 +144,7 @@ def as_dict(result, scene_name: str = "") -> dict:
                     "compartments": compartments, "menisci": menisci,
                     "balance_N": result.balance_N,
                     "max_penetration_mm": result.max_penetration_mm,
-                    "approach_mm": result.approach_mm, "n_dofs": result.n_dofs,
+                    "approach_mm": result.approach_mm, "turn_deg": result.turn_deg,
+                    "moment_balance_Nmm": result.moment_balance_Nmm, "n_dofs": result.n_dofs,
                     "outer_iterations": result.outer_iterations,
                     "seconds": dict(result.seconds)})

@@ -18,7 +18,8 @@ slave's ray hits, `ray_pairs`; or one matching node, weight 1). With the contact
 
     g = g0 + (Σ_a w_a u_a − u_s)·n + δ a·n (indenter pairs) = g0 + J δq + C λ,
 
-where the indenter moves by δ along its axis a (pushed with the load F), δq = (δ, t),
+where the indenter moves by δ along its axis a (pushed with the load F; it may also turn
+by small angles about given axes under given moments, `Condensed`), δq = (δ, t),
 and C = Σ_bodies D_b K_b⁻¹ D_bᵀ (D_b: the gaps' map to body b's kept dofs; one sparse
 factorization per body, K_b⁻¹ on the dofs D_b reads from its trailing block:
 `fecheck.fe.contact.condensed_compliance` along the normals for a body that is only a
@@ -63,7 +64,8 @@ class Body:
 class Pair:
     """Slave `nodes` (m,) of body `slave` with unit `normals` (m, d) toward the master and
     reference gaps `gap0_mm` (m,); `master` None for the rigid indenter, else a body
-    hit at `master_nodes` (m, k) with `weights` (m, k)."""
+    hit at `master_nodes` (m, k) with `weights` (m, k); `points` (m, 3) the slave nodes'
+    places (mm), the lever arms of an indenter pair when the indenter turns."""
 
     name: str
     slave: str
@@ -73,6 +75,7 @@ class Pair:
     master: str | None = None
     master_nodes: np.ndarray | None = None
     weights: np.ndarray | None = None
+    points: np.ndarray | None = None
 
 
 @dataclass(frozen=True)
@@ -97,7 +100,8 @@ class PairContact:
 class MultibodySolution:
     """pairs: name → PairContact; approach_mm: the indenter's travel along its axis;
     translations: body → (k,) rigid translations (mm); u: body → kept-dof elastic
-    displacements (mm, without the translations); iterations; timing_s."""
+    displacements (mm, without the translations); iterations; timing_s; turns_rad (r,)
+    the indenter's turns about its `Condensed` turn axes (rad)."""
 
     pairs: dict[str, PairContact]
     approach_mm: float
@@ -105,6 +109,7 @@ class MultibodySolution:
     u: dict[str, np.ndarray]
     iterations: int
     timing_s: dict
+    turns_rad: np.ndarray = field(default_factory=lambda: np.zeros(0))
 
     @property
     def max_penetration_mm(self) -> float:
@@ -152,11 +157,22 @@ class Condensed:
     """`bodies` condensed onto the gaps of `pairs` (the costly part: one factorization and
     one block solve per body), ready to `solve` for any reference gaps and load with the
     same pairing: an outer loop that re-evaluates the rigid gaps at the indenter's new
-    place reuses it."""
+    place reuses it.
+
+    `turns`: (unit axis (3,), centre (3,) mm) about which the indenter may also turn by a
+    small angle θ, balanced by the moment `solve` is given: an indenter pair's gap then
+    changes by θ a·((x − c) × n) at its slave point x (`Pair.points`, required), and its
+    forces' moment about the axis, Σ λ a·((x − c) × n), balances the given one."""
 
     def __init__(self, bodies: Sequence[Body], pairs: Sequence[Pair], axis: np.ndarray, *,
-                 solver: str = "cholmod", block: int = 512):
+                 solver: str = "cholmod", block: int = 512,
+                 turns: Sequence[tuple[np.ndarray, np.ndarray]] = ()):
         names = _check(bodies, pairs, Indenter(np.asarray(axis, dtype=float), 1.0))
+        self.turns = [(np.asarray(a, dtype=float), np.asarray(c, dtype=float))
+                      for a, c in turns]
+        if turns and any(p.master is None and p.points is None for p in pairs):
+            raise FecheckError("an indenter that turns needs each indenter pair's slave "
+                               "points (Pair.points) for the lever arms")
         t0 = time.perf_counter()
         self.pairs = list(pairs)
         self.bodies = list(bodies)
@@ -164,6 +180,7 @@ class Condensed:
         self.offsets = np.concatenate([[0], np.cumsum(sizes)]).astype(int)
         m = int(self.offsets[-1])
         self.unknowns = ([(None, np.asarray(axis, dtype=float))]
+                         + [(None, a) for a, _ in self.turns]
                          + [(b.name, t) for b in bodies for t in b.translations])
         self.J = self._gap_map(names, m)
         C = np.zeros((m, m))
@@ -223,6 +240,8 @@ class Condensed:
                 J[row, k] -= p.normals @ unknowns[k][1]
             if p.master is None:
                 J[row, 0] = p.normals @ unknowns[0][1]
+                for i, (a, c) in enumerate(self.turns, start=1):
+                    J[row, i] = np.cross(p.points - c, p.normals) @ a
                 continue
             wn = p.weights[:, :, None] * p.normals[:, None, :]                   # (r, k, d)
             rows = np.repeat(row, p.master_nodes.shape[1])
@@ -241,11 +260,14 @@ class Condensed:
         return u
 
     def solve(self, g0: np.ndarray, load_N: float, *, max_iter: int = 200,
-              start: np.ndarray | None = None, displace: bool = True) -> MultibodySolution:
+              start: np.ndarray | None = None, displace: bool = True,
+              moments_Nmm: np.ndarray | None = None) -> MultibodySolution:
         """The contact under the indenter's load `load_N` (N, > 0) with reference gaps
         `g0` (m,) mm, the pairs' rows in order; `start` (m,) the first active set (a
         previous answer's; None: the closest gaps); without `displace` the bodies'
-        displacements are left out (u empty: `displacements` gives them later)."""
+        displacements are left out (u empty: `displacements` gives them later);
+        `moments_Nmm` (r,) the moment on the indenter about each turn axis (N·mm, zero
+        when None)."""
         if not (np.isfinite(load_N) and load_N > 0):
             raise FecheckError(f"the indenter's load must be a positive number of N, got "
                                f"{load_N}")
@@ -253,6 +275,13 @@ class Condensed:
         J, C = self.J, self.C
         Q = np.zeros(len(self.unknowns))
         Q[0] = load_N
+        r = len(self.turns)
+        if moments_Nmm is not None:
+            moments = np.asarray(moments_Nmm, dtype=float)
+            if moments.shape != (r,) or not np.all(np.isfinite(moments)):
+                raise FecheckError(f"give one finite moment (N mm) per turn axis ({r}), got "
+                                   f"{moments_Nmm}")
+            Q[1:1 + r] = moments
         first = (g0 <= g0.min() + 1e-9) | (False if start is None else start)
         for k in range(len(self.unknowns)):   # each unknown starts with a contact that holds it
             rows = J[:, k] != 0.0
@@ -269,7 +298,8 @@ class Condensed:
                for p, a, b in zip(self.pairs, off[:-1], off[1:], strict=True)}
         translations = {b.name: dq[[k for k, (who, _) in enumerate(self.unknowns)
                                     if who == b.name]] for b in self.bodies}
-        return MultibodySolution(out, float(dq[0]), translations, u, iterations, timing)
+        return MultibodySolution(out, float(dq[0]), translations, u, iterations, timing,
+                                 dq[1:1 + r].copy())
 
 
 def ray_pairs(points: np.ndarray, normals: np.ndarray, master_points: np.ndarray,
