@@ -11,10 +11,9 @@ tibial layers built once (they do not depend on the load or the meniscus):
   material kept; the EF pose is that of 800 N (the EF's meniscus layer has no
   circumferential modulus);
 * **meniscectomy**: 800 N without the medial meniscus (``menisci.sides = ['lateral']``).
-  The EF equilibrium is re-solved without it: the FE holds the femur's rotation at the
-  EF pose and solves only its axial travel, so the pose must be the one the knee takes
-  without that meniscus (an intact pose would keep the intact knee's medial/lateral
-  split). The factors on the medial tibial peak pressure and contact area are printed
+  The EF equilibrium is re-solved without it, so the FE starts from the pose the knee
+  takes without that meniscus (the FE solves the femur's travel along the tibial axis and
+  its turn in the tibia's free rotations, not its other translations). The factors on the medial tibial peak pressure and contact area are printed
   beside the cadaver factors usually quoted for a total meniscectomy: Fukubayashi &
   Kurosawa 1980 (Acta Orthop. Scand. 51:871-879: peak pressure about 2x, area about
   half) and Baratz et al. 1986 (Am. J. Sports Med. 14:270-275: peak pressure +235 %,
