@@ -47,7 +47,6 @@ cartilage and meniscus contact, with each meniscus's footprint outlined).
 from __future__ import annotations
 
 import argparse
-import csv
 import sys
 import time
 from pathlib import Path
@@ -61,6 +60,7 @@ from fecheck.errors import FecheckError
 from fecheck.fe.knee_menisci import NEAR_MM, ROOTS, knee_menisci_fe
 from fecheck.fe.knee_menisci_report import DONAHUE_NOTE, region_rows, report_lines, rows
 from fecheck.fe.meniscus_solid import DEFAULT_SIZE_MM
+from fecheck.model.results import write_rows
 from fecheck.scene import load_scene
 
 SCENE = "femur_tibia_menisci"
@@ -195,10 +195,7 @@ def plot_pressure(r, layers, path: Path) -> None:
 
 
 def write_csv(path: Path, table: list[dict]) -> None:
-    with path.open("w", newline="", encoding="utf-8") as f:
-        writer = csv.DictWriter(f, fieldnames=list(table[0]))
-        writer.writeheader()
-        writer.writerows(table)
+    write_rows(path, table)
     print(f"wrote {path}")
 
 

@@ -10,15 +10,15 @@ tibial layers built once (they do not depend on the load or the meniscus):
   (`fecheck.fe.anisotropy.MENISCUS`, 140 MPa) times 0.5, 1 and 2, the rest of the
   material kept; the EF pose is that of 800 N (the EF's meniscus layer has no
   circumferential modulus);
-* **meniscectomy**: 800 N without the medial meniscus (``menisci.sides = ['lateral']``).
-  The EF equilibrium is re-solved without it, so the FE starts from the pose the knee
-  takes without that meniscus (the FE solves the femur's travel along the tibial axis and
-  its turn in the tibia's free rotations, not its other translations). The factors on the medial tibial peak pressure and contact area are printed
-  beside the cadaver factors usually quoted for a total meniscectomy: Fukubayashi &
-  Kurosawa 1980 (Acta Orthop. Scand. 51:871-879: peak pressure about 2x, area about
-  half) and Baratz et al. 1986 (Am. J. Sports Med. 14:270-275: peak pressure +235 %,
-  area -75 %), quoted, not re-derived. Removing only the posterior horn region is not
-  modelled (the meniscus solid is meshed whole).
+* **meniscectomy**: 800 N without the medial meniscus (``menisci.sides = ['lateral']``). The
+  EF equilibrium is re-solved without it, so the FE starts from the pose the knee takes
+  without that meniscus (the FE solves the femur's travel along the tibial axis and its turn
+  in the tibia's free rotations, not its other translations). The factors on the medial
+  tibial peak pressure and contact area are printed beside the cadaver factors usually
+  quoted for a total meniscectomy: Fukubayashi & Kurosawa 1980 (Acta Orthop. Scand.
+  51:871-879: peak pressure about 2x, area about half) and Baratz et al. 1986 (Am. J. Sports
+  Med. 14:270-275: peak pressure +235 %, area -75 %), quoted, not re-derived. Removing only
+  the posterior horn region is not modelled (the meniscus solid is meshed whole).
 
 Per run and compartment: the load through the meniscus and through cartilage, the
 meniscal share, the tibial contact area and p_max. Units: N, mm², MPa.
@@ -33,7 +33,6 @@ meniscectomy. Writes DIR/fe_menisci_study.csv.
 from __future__ import annotations
 
 import argparse
-import csv
 import sys
 import time
 from dataclasses import replace
@@ -47,6 +46,7 @@ from fecheck.fe.anisotropy import MENISCUS
 from fecheck.fe.knee_menisci import knee_menisci_fe
 from fecheck.fe.knee_menisci_report import PUBLISHED_SHARE
 from fecheck.fe.meniscus_solid import DEFAULT_SIZE_MM
+from fecheck.model.results import write_rows
 from fecheck.scene import load_scene
 from validation.fe_menisci import QUICK, QUICK_MENISCUS_MM, SCENE, build
 
@@ -137,10 +137,7 @@ def main(argv=None) -> int:
     print_table(table)
     args.out.mkdir(parents=True, exist_ok=True)
     path = args.out / "fe_menisci_study.csv"
-    with path.open("w", newline="", encoding="utf-8") as f:
-        writer = csv.DictWriter(f, fieldnames=list(table[0]))
-        writer.writeheader()
-        writer.writerows(table)
+    write_rows(path, table)
     print(f"wrote {path}")
     return 0
 
