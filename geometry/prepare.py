@@ -251,7 +251,7 @@ def plane_interpolation(points: np.ndarray, faces: np.ndarray, query: np.ndarray
     query points (k, 2); the nearest vertex for points outside it."""
     from scipy.spatial import cKDTree
 
-    face, w, inside = _locate(points, faces, query)
+    face, w, inside = locate_in_plane(points, faces, query)
     _, nearest = cKDTree(points).query(query)
     cols = np.where(inside[:, None], faces[face], nearest[:, None])
     vals = np.where(inside[:, None], w, np.array([1.0, 0.0, 0.0]))
@@ -260,8 +260,8 @@ def plane_interpolation(points: np.ndarray, faces: np.ndarray, query: np.ndarray
                          shape=(len(query), len(points)))
 
 
-def _locate(points: np.ndarray, faces: np.ndarray, query: np.ndarray
-            ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+def locate_in_plane(points: np.ndarray, faces: np.ndarray, query: np.ndarray
+                    ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """For each query point (k, 2): the triangle of a 2-D triangulation it lies in (or
     comes closest to), its barycentric coordinates there (k, 3), and whether it is inside."""
     from scipy.spatial import cKDTree
@@ -285,7 +285,7 @@ def _least_squares_heights(lattice: np.ndarray, faces: np.ndarray, lines: np.nda
     from scipy.sparse.linalg import spsolve
 
     n = len(lattice)
-    face, w, inside = _locate(lattice, faces, uv)
+    face, w, inside = locate_in_plane(lattice, faces, uv)
     rows = np.repeat(np.arange(int(inside.sum())), 3)
     A = sp.csr_matrix((w[inside].ravel(), (rows, faces[face[inside]].ravel())),
                       shape=(int(inside.sum()), n))

@@ -183,10 +183,10 @@ def _interpolation(lattice: np.ndarray, faces: np.ndarray, points: np.ndarray,
     """The barycentric rows (m, n) from the lattice's vertex heights to the points (k, 3)
     that fall on the lattice, those points' heights along `axis` (m,), and which fall
     on it (k,)."""
-    from geometry.prepare import _locate
+    from geometry.prepare import locate_in_plane
 
     rel = points - origin
-    face, bary, inside = _locate(lattice, faces, rel @ frame.T)
+    face, bary, inside = locate_in_plane(lattice, faces, rel @ frame.T)
     m = int(inside.sum())
     rows = np.repeat(np.arange(m), 3)
     A = sp.csr_matrix((bary[inside].ravel(), (rows, faces[face[inside]].ravel())),
