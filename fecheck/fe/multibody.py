@@ -19,7 +19,10 @@ slave's ray hits, `ray_pairs`; or one matching node, weight 1). With the contact
     g = g0 + (Σ_a w_a u_a − u_s)·n + δ a·n (indenter pairs) = g0 + J δq + C λ,
 
 where the indenter moves by δ along its axis a (pushed with the load F; it may also turn
-by small angles about given axes under given moments, `Condensed`), δq = (δ, t),
+by small angles about given axes under given moments, `Condensed`), δq = (δ, t); a body
+`carried` by the indenter (bonded to it) adds the indenter's motion to its own, so a
+pair it masters reads δ a·n as an indenter pair does, and the forces on it load the
+indenter,
 and C = Σ_bodies D_b K_b⁻¹ D_bᵀ (D_b: the gaps' map to body b's kept dofs; one sparse
 factorization per body, K_b⁻¹ on the dofs D_b reads from its trailing block:
 `fecheck.fe.contact.condensed_compliance` along the normals for a body that is only a
@@ -52,12 +55,15 @@ from fecheck.fe.contact import (
 class Body:
     """An assembled solid: name, kept-dof stiffness K (N/mm), node_dofs (N, d) the kept
     dof of each node's displacement components (-1: fixed), translations (k, d) the unit
-    rigid translations left free (anchored out of K)."""
+    rigid translations left free (anchored out of K); `carried`: bonded to the indenter
+    (a cartilage layer on a rigid bone), so it moves and turns with it, its displacements
+    are relative to it, and the contact forces on it load the indenter."""
 
     name: str
     K: sp.spmatrix
     node_dofs: np.ndarray
     translations: np.ndarray = field(default_factory=lambda: np.zeros((0, 3)))
+    carried: bool = False
 
 
 @dataclass(frozen=True, eq=False)
@@ -170,9 +176,12 @@ class Condensed:
         names = _check(bodies, pairs, Indenter(np.asarray(axis, dtype=float), 1.0))
         self.turns = [(np.asarray(a, dtype=float), np.asarray(c, dtype=float))
                       for a, c in turns]
-        if turns and any(p.master is None and p.points is None for p in pairs):
-            raise FecheckError("an indenter that turns needs each indenter pair's slave "
-                               "points (Pair.points) for the lever arms")
+        moved = [p for p in pairs if p.master is None or names[p.slave].carried
+                 or names[p.master].carried]
+        if turns and any(p.points is None for p in moved):
+            raise FecheckError("an indenter that turns needs the slave points (Pair.points) "
+                               "of each pair it or a body it carries is in, for the lever "
+                               "arms")
         t0 = time.perf_counter()
         self.pairs = list(pairs)
         self.bodies = list(bodies)
@@ -238,10 +247,10 @@ class Condensed:
             self._entries[p.slave].append(_entries(names[p.slave], p.nodes, -p.normals, row))
             for k in (k for k, (who, _) in enumerate(unknowns) if who == p.slave):
                 J[row, k] -= p.normals @ unknowns[k][1]
+            if names[p.slave].carried:
+                self._indenter_columns(J, row, p, -1.0)
             if p.master is None:
-                J[row, 0] = p.normals @ unknowns[0][1]
-                for i, (a, c) in enumerate(self.turns, start=1):
-                    J[row, i] = np.cross(p.points - c, p.normals) @ a
+                self._indenter_columns(J, row, p, 1.0)
                 continue
             wn = p.weights[:, :, None] * p.normals[:, None, :]                   # (r, k, d)
             rows = np.repeat(row, p.master_nodes.shape[1])
@@ -249,7 +258,19 @@ class Condensed:
                                                     wn.reshape(-1, wn.shape[2]), rows))
             for k in (k for k, (who, _) in enumerate(unknowns) if who == p.master):
                 J[row, k] += p.weights.sum(axis=1) * (p.normals @ unknowns[k][1])
+            if names[p.master].carried:
+                self._indenter_columns(J, row, p, p.weights.sum(axis=1))
         return J
+
+    def _indenter_columns(self, J: np.ndarray, row: np.ndarray, p: Pair, sign) -> None:
+        """Add to the gap rows `row` of pair `p` the indenter's travel and turns, `sign`
+        +1 (per row) where the indenter or a body it carries is the master, -1 the slave:
+        a turn θ about (a, c) moves the contact point x by θ a × (x − c), and
+        (a × (x − c))·n = a·((x − c) × n) is the same at the slave point and at the point
+        its ray hits (they differ along n)."""
+        J[row, 0] += sign * (p.normals @ self.unknowns[0][1])
+        for i, (a, c) in enumerate(self.turns, start=1):
+            J[row, i] += sign * (np.cross(p.points - c, p.normals) @ a)
 
     def displacements(self, lam: np.ndarray) -> dict[str, np.ndarray]:
         """Each body's kept-dof displacements (mm) under the contact forces `lam` (m,) N."""
