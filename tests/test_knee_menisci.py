@@ -197,8 +197,9 @@ def test_horn_springs_hold_a_rigid_shift_with_the_roots_stiffness():
 
 
 def test_refused_before_any_work(monkeypatch):
-    # A scene without menisci, or with two cartilage layers, is refused on one line
-    # before the EF run.
+    # A scene without menisci, or with two cartilage layers on remeshed sheets (the
+    # femoral layer is extruded from the sheet as read), is refused on one line before
+    # the EF run.
     import fecheck.model.menisci as model
 
     def never(*args, **kwargs):
@@ -207,9 +208,9 @@ def test_refused_before_any_work(monkeypatch):
     monkeypatch.setattr(model, "run_menisci", never)
     with pytest.raises(FecheckError, match="needs a scene with menisci.dir"):
         knee_menisci.knee_menisci_fe(load_scene("femur_tibia"))
-    with pytest.raises(FecheckError, match="fe.cartilage = 'series' only"):
+    with pytest.raises(FecheckError, match="meshes the sheets as read"):
         knee_menisci.knee_menisci_fe(load_scene("femur_tibia_menisci",
-                                                ["fe.cartilage=two-layer"]))
+                                                ["fe.cartilage=two-layer", "fe.prepare=on"]))
 
 
 def test_element_stress_of_uniaxial_fibre_stress_and_shear_is_the_closed_form():

@@ -3,7 +3,9 @@ full extension), beside the EF and Donahue et al. 2002.
 
 `fecheck.fe.knee_menisci`: each meniscus a deformable transversely isotropic solid (P2
 tetrahedra, fibres along its arc) on horn springs to the tibia, each compartment's tibial
-cartilage a bonded layer as ``fecheck fe`` builds it (series thickness), the femur rigid,
+cartilage a bonded layer as ``fecheck fe`` builds it (series thickness; ``--cartilage
+two-layer``: the tibial cartilage alone, the femoral cartilage a layer of its own bonded
+to the femur, as ``fe.cartilage = "two-layer"``), the femur rigid,
 its translation along the tibial z axis and its abduction (the tibia's free DOFs) solved
 under the EF's load on the tibia (800 N less the tibia's weight) and its moment about the
 tibia's origin, frictionless contact on the three interfaces (``--hold-rotation``: the
@@ -33,10 +35,11 @@ springs, Donahue's 2000 N/mm horn roots; the table gives the share per compartme
 its change, and names the factor that moves it most.
 
     python validation/fe_menisci.py [--quick] [--factors] [--root data|donahue]
-        [--hold-rotation] [--out DIR]
+        [--hold-rotation] [--cartilage series|two-layer] [--out DIR]
 
---quick: tibial sheets remeshed at 2 mm (``fe.prepare = "on"``, ``fe.size_mm = 2``) and
-2.5 mm meniscus tetrahedra, without the factor table unless --factors. Writes
+--quick: tibial sheets remeshed at 2 mm (``fe.prepare = "on"``, ``fe.size_mm = 2``; with
+``--cartilage two-layer`` the sheets decimated to 1500 faces, ``scanned.decimate_faces``)
+and 2.5 mm meniscus tetrahedra, without the factor table unless --factors. Writes
 DIR/fe_menisci.csv (the loads), DIR/fe_menisci_regions.csv (per compartment the tibial
 contact under the cartilage-cartilage contact and under each meniscus region: anterior
 horn, body, posterior horn), DIR/fe_menisci_hoop.csv (hoop force per section),
@@ -58,13 +61,17 @@ import numpy as np
 
 from fecheck.errors import FecheckError
 from fecheck.fe.knee_menisci import NEAR_MM, ROOTS, knee_menisci_fe
-from fecheck.fe.knee_menisci_report import DONAHUE_NOTE, region_rows, report_lines, rows
+from fecheck.fe.knee_menisci_report import donahue_note, region_rows, report_lines, rows
 from fecheck.fe.meniscus_solid import DEFAULT_SIZE_MM
+from fecheck.fe.settings import CARTILAGE
 from fecheck.model.results import write_rows
 from fecheck.scene import load_scene
 
 SCENE = "femur_tibia_menisci"
-QUICK = ["fe.prepare=on", "fe.size_mm=2.0"]
+QUICK = {"series": ["fe.prepare=on", "fe.size_mm=2.0"],
+         "two-layer": ["scanned.decimate_faces=1500"]}
+"""The quick run's coarse sheets per ``fe.cartilage``: remeshed at 2 mm, or (two deformable
+layers are extruded from the sheets as read) decimated."""
 QUICK_MENISCUS_MM = 2.5
 FACTORS = (("superior surface raised 0.1 mm", {"lift_mm": 0.1}),
            ("superior surface raised 0.25 mm", {"lift_mm": 0.25}),
@@ -209,9 +216,13 @@ def main(argv=None) -> int:
                    "data's root bundles (k / l0) or Donahue's 2000 N/mm per horn")
     p.add_argument("--hold-rotation", action="store_true", help="keep the femur at the EF's "
                    "rotation (for comparison; by default it turns free where the tibia does)")
+    p.add_argument("--cartilage", choices=CARTILAGE, default="series", help="the femoral "
+                   "cartilage in the tibial layer's series thickness, or a deformable layer "
+                   "of its own on the femur (fe.cartilage)")
     p.add_argument("--out", type=Path, default=Path("out/validation"), help="output folder")
     args = p.parse_args(argv)
-    scene = load_scene(SCENE, QUICK if args.quick else [])
+    scene = load_scene(SCENE, [f"fe.cartilage={args.cartilage}",
+                               *(QUICK[args.cartilage] if args.quick else [])])
     size = QUICK_MENISCUS_MM if args.quick else DEFAULT_SIZE_MM
 
     def say(m):
@@ -238,7 +249,7 @@ def main(argv=None) -> int:
     print_why(r)
     if factors:
         print_factors(factors)
-    print(DONAHUE_NOTE)
+    print(donahue_note(r.cartilage))
     args.out.mkdir(parents=True, exist_ok=True)
     write_csv(args.out / "fe_menisci.csv", table)
     write_csv(args.out / "fe_menisci_regions.csv", region_rows(r))

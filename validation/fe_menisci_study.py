@@ -72,7 +72,7 @@ def run_all(quick: bool, say) -> list[dict]:
     """Every run of the study (module docstring), its rows."""
     from fecheck.model.menisci import run_menisci
 
-    sets = QUICK if quick else []
+    sets = QUICK["series"] if quick else []
     size = QUICK_MENISCUS_MM if quick else DEFAULT_SIZE_MM
     layers = build(load_scene(SCENE, sets))
     runs: dict[tuple[str, float], object] = {}

@@ -70,6 +70,12 @@ PENETRATION_TOL_MM = 1e-6
 """Largest overlap accepted at any contact vertex after the solve, mm."""
 MOVE_TOL_MM = 1e-10
 """The outer loop stops when the femur's step is below this, mm."""
+MAX_CONDENSATIONS = 6
+"""Most condensations (each widening the candidates or re-pairing them on the femoral
+layer) before a penetration is reported."""
+REPAIR_WEIGHT = 1e-3
+"""A candidate is paired afresh with the femoral layer when a barycentric weight of the
+point its ray hits has moved by more than this since the pairing in use."""
 MAX_CANDIDATES = 12000
 """Most contact candidates in all (their dense compliance: 12000² doubles are 1.2 GB)."""
 FACING_COS = 0.5
@@ -184,7 +190,8 @@ class KneeMenisciFE:
     footprint (its inferior surface's boundary edges, (k, 2, 3) mm, tibia frame); per
     compartment the tibial region (`REGION_NAMES` key) of each layer surface vertex; the
     femur's turn from the EF pose about each rotation the tibia is free in (deg, `turns`)
-    and its moment balance about each (N·mm: contact moment plus the load's)."""
+    and its moment balance about each (N·mm: contact moment plus the load's); the
+    cartilage model (``fe.cartilage``: "series" or "two-layer")."""
 
     load_N: float
     fe: dict[str, CompartmentFE]
@@ -204,6 +211,7 @@ class KneeMenisciFE:
     tibial_region: dict[str, np.ndarray] = field(default_factory=dict)
     turn_deg: np.ndarray = field(default_factory=lambda: np.zeros(0))
     moment_balance_Nmm: np.ndarray = field(default_factory=lambda: np.zeros(0))
+    cartilage: str = "series"
 
 
 def vertex_normals(points: np.ndarray, faces: np.ndarray) -> np.ndarray:
@@ -344,7 +352,10 @@ class _Side:
     (world), its meniscus or None, and per layer vertex the meniscus inferior face its
     ray meets (-1: none), the barycentric weights and the gap (mm); `under` the vertices
     paired with the meniscus rather than the femur; `lift` (mm) taken off every
-    femur-meniscus gap."""
+    femur-meniscus gap; with two deformable layers the femoral layer (tibia frame,
+    `fecheck.fe.joint.FemoralLayer`), its `Body` (carried by the femur) and `hits`: per
+    femur pair (its name's kind) the femoral layer's MeshIndenter hits (face (k,),
+    weights (k, 3)) of every vertex it may pair, at the pairing in use."""
 
     name: str
     layer: object
@@ -356,6 +367,9 @@ class _Side:
     gap: np.ndarray
     under: np.ndarray
     lift: float = 0.0
+    femoral: object = None
+    femoral_body: Body | None = None
+    hits: dict = field(default_factory=dict)
 
 
 def _disp(body: Body, u: np.ndarray, nodes: np.ndarray) -> np.ndarray:
@@ -420,6 +434,7 @@ def knee_menisci_fe(scene: Scene, *, meniscus_size_mm: float = DEFAULT_SIZE_MM,
     `FecheckError` on a
     scene without ``menisci.dir``, a two-layer cartilage, a load that does not press the
     joint, or a contact that leaves a penetration over `PENETRATION_TOL_MM`."""
+    from fecheck.fe.femoral import refuse_two_layer
     from fecheck.fe.meniscus_solid import meniscus_solid
     from fecheck.fe.settings import FESettings
     from fecheck.model.assembly import applied_load
@@ -433,9 +448,7 @@ def knee_menisci_fe(scene: Scene, *, meniscus_size_mm: float = DEFAULT_SIZE_MM,
                            "femur_tibia_menisci)")
     plain = with_values(scene, menisci__dir="")
     settings = FESettings.from_scene(plain)
-    if settings.cartilage != "series":
-        raise FecheckError("the FE with menisci models fe.cartilage = 'series' only (the "
-                           "femoral cartilage in the tibial layer); set it")
+    refuse_two_layer(plain, settings)
     seconds: dict[str, float] = {}
     t0 = time.perf_counter()
     run = ef if ef is not None else run_menisci(scene)
@@ -470,10 +483,45 @@ def knee_menisci_fe(scene: Scene, *, meniscus_size_mm: float = DEFAULT_SIZE_MM,
             say(f"{men.side} meniscus: {len(men.solid.mesh.tets)} tetrahedra, "
                 f"{men.body.K.shape[0]} dofs, raised {men.rise_mm:.3f} mm onto the layer")
         sides.append(replace(_side(lay, body, men, rot, t), lift=float(lift_mm)))
+    if settings.cartilage == "two-layer":
+        sides = _with_femoral_layers(plain, sides, rot, t, settings, say)
     seconds["build"] = time.perf_counter() - t0
     turns = femur_turns(scene, q_tibia) if not hold_rotation else (np.zeros((0, 3)),
                                                                     np.zeros(0))
     return _solve(sides, rot, t, load, settings.candidate_gap_mm, run, seconds, say, turns)
+
+
+def _with_femoral_layers(scene: Scene, sides: list[_Side], rot: np.ndarray, t: np.ndarray,
+                         settings, say: Callable[[str], None]) -> list[_Side]:
+    """`sides` each with the femoral cartilage as a layer of its own (tibia frame, bonded
+    to the femur and carried by it: `fecheck.fe.femoral.femoral_layer`) over the points
+    where the normals of its femur pairs' vertices within the candidate gap meet the
+    femoral sheet."""
+    from fecheck.fe.femoral import femoral_layer, femoral_sheet
+    from fecheck.fe.indenter import MeshIndenter
+
+    world = sides[0].indenter.mesh
+    sheet = femoral_sheet(scene, world)
+    sheet = replace(sheet, mesh=TriMesh((world.points - t) @ rot, world.faces))
+    indenter = MeshIndenter(sheet.mesh)
+    out = []
+    for s in sides:
+        points, faces = [], []
+        for kind in FEMUR_PAIRS if s.meniscus is not None else FEMUR_PAIRS[:1]:
+            pts, nrm = _pair_points(s, kind)
+            gap, face, _ = indenter.hits(pts, nrm)
+            near = (face >= 0) & (gap.gap_mm < settings.candidate_gap_mm)
+            if kind == "femur-tibia":
+                near &= ~s.under
+            points.append(pts[near] + gap.gap_mm[near, None] * nrm[near])
+            faces.append(face[near])
+        layer = femoral_layer(sheet, s.name, np.concatenate(points), np.concatenate(faces),
+                              settings, say)
+        side = replace(s, femoral=layer, femoral_body=Body(
+            f"{s.name} femoral", layer.solid.K, layer.solid.vertex_dofs, carried=True))
+        side.hits = _femoral_hits(side, rot, 0.0, None)
+        out.append(side)
+    return out
 
 
 TURN_DOFS = {"flexion": 0, "abduction": 1, "internal": 2}
@@ -543,13 +591,54 @@ def _femur_gap(indenter, points: np.ndarray, normals: np.ndarray, rot: np.ndarra
     the tibia at pose (R, t), the femur turned by the rotation vector `turn` (tibia frame,
     rad, about the tibia's origin; None: not turned) and lowered by `travel_mm` along
     world z."""
-    lowered = points + travel_mm * (rot.T @ [0.0, 0.0, 1.0])
-    if turn is not None:
-        from scipy.spatial.transform import Rotation
-
-        back = Rotation.from_rotvec(-np.asarray(turn, dtype=float)).as_matrix()
-        lowered, normals = lowered @ back.T, normals @ back.T
+    lowered, normals = _in_femur(points, normals, rot, travel_mm, turn)
     return indenter.gap(lowered @ rot.T + t, normals @ rot.T).gap_mm
+
+
+def _in_femur(points: np.ndarray, normals: np.ndarray, rot: np.ndarray, travel_mm: float,
+              turn: np.ndarray | None) -> tuple[np.ndarray, np.ndarray]:
+    """Tibia-frame `points` and `normals` carried into the femur's frame at the EF pose:
+    the femur lowered by `travel_mm` along world z and turned by `turn` (`_femur_gap`)."""
+    lowered = points + travel_mm * (rot.T @ [0.0, 0.0, 1.0])
+    if turn is None:
+        return lowered, normals
+    from scipy.spatial.transform import Rotation
+
+    back = Rotation.from_rotvec(-np.asarray(turn, dtype=float)).as_matrix()
+    return lowered @ back.T, normals @ back.T
+
+
+FEMUR_PAIRS = ("femur-tibia", "femur-meniscus")
+"""The pairs the femur presses (rigid, or through its cartilage layer)."""
+
+
+def _femur_pair(name: str) -> bool:
+    return name.endswith(FEMUR_PAIRS)
+
+
+def _pair_points(s: _Side, kind: str) -> tuple[np.ndarray, np.ndarray]:
+    """(points, unit normals) in the tibia frame of every vertex the femur pair `kind`
+    may pair: the tibial layer's surface vertices or the meniscus's femur-facing superior
+    vertices."""
+    if kind == "femur-tibia":
+        return s.layer.surface.points, s.layer.solid.normals
+    m = s.meniscus
+    return m.points[m.superior], m.superior_normals
+
+
+def _femoral_hits(s: _Side, rot: np.ndarray, travel: float, turn: np.ndarray | None
+                  ) -> dict[str, tuple[np.ndarray, np.ndarray]]:
+    """Per femur pair of `s` the femoral layer's face (-1: a miss) and barycentric
+    weights where each of its vertices' normal rays meets it (either way along the ray),
+    the femur at `travel` turned by `turn`."""
+    from fecheck.fe.indenter import MeshIndenter
+
+    surface = MeshIndenter(s.femoral.solid.surface)
+    out = {}
+    for kind in FEMUR_PAIRS if s.meniscus is not None else FEMUR_PAIRS[:1]:
+        _, face, weights = surface.hits(*_in_femur(*_pair_points(s, kind), rot, travel, turn))
+        out[kind] = (face, weights)
+    return out
 
 
 def _pairs(sides: list[_Side], cands: dict[str, np.ndarray]) -> list[Pair]:
@@ -558,17 +647,55 @@ def _pairs(sides: list[_Side], cands: dict[str, np.ndarray]) -> list[Pair]:
     for s in sides:
         ft = cands[f"{s.name} femur-tibia"]
         out.append(Pair(f"{s.name} femur-tibia", s.body.name, ft, s.layer.solid.normals[ft],
-                        np.zeros(len(ft)), points=s.layer.surface.points[ft]))
+                        np.zeros(len(ft)), points=s.layer.surface.points[ft],
+                        **_femoral_master(s, "femur-tibia", ft)))
         if s.meniscus is None:
             continue
         m = s.meniscus
         fm = cands[f"{s.name} femur-meniscus"]
         out.append(Pair(f"{s.name} femur-meniscus", m.body.name, m.superior[fm],
                         m.superior_normals[fm], np.zeros(len(fm)),
-                        points=m.points[m.superior[fm]]))
+                        points=m.points[m.superior[fm]],
+                        **_femoral_master(s, "femur-meniscus", fm)))
         mt = cands[f"{s.name} meniscus-tibia"]
         out.append(Pair(f"{s.name} meniscus-tibia", s.body.name, mt, s.layer.solid.normals[mt],
                         s.gap[mt], m.body.name, m.inferior_faces[s.face[mt]], s.weights[mt]))
+    return out
+
+
+def _femoral_master(s: _Side, kind: str, rows: np.ndarray) -> dict:
+    """The master of femur pair `kind` on its vertices `rows`: none (the rigid femur), or
+    the femoral layer's faces and weights its rays hit (`_Side.hits`)."""
+    if s.femoral is None:
+        return {}
+    face, weights = s.hits[kind]
+    if (face[rows] < 0).any():
+        k = rows[np.argmax(face[rows] < 0)]
+        x = _pair_points(s, kind)[0][k]
+        raise FecheckError(f"the normal of a {s.name} {kind} contact candidate at "
+                           f"({', '.join(f'{v:.1f}' for v in x)}) mm (tibia frame) misses "
+                           "the femoral layer: lower fe.candidate_gap_mm, or use "
+                           "fe.cartilage = 'series'")
+    return {"master": s.femoral_body.name,
+            "master_nodes": s.femoral.solid.surface.faces[face[rows]],
+            "weights": weights[rows]}
+
+
+def _femoral_lift(s: _Side, kind: str, u: dict[str, np.ndarray] | None) -> np.ndarray:
+    """How far the femoral layer's displacement (u, its kept dofs; None: undeformed)
+    moves its surface along the normals of femur pair `kind` where they hit it, mm (0
+    with a rigid femur or a miss)."""
+    n = len(_pair_points(s, kind)[0])
+    if s.femoral is None or not u:
+        return np.zeros(n)
+    face, weights = s.hits[kind]
+    hit = face >= 0
+    nodes = s.femoral.solid.surface.faces[face[hit]]
+    at = np.einsum("mk,mkc->mc", weights[hit],
+                   _disp(s.femoral_body, u[s.femoral_body.name], nodes.ravel()).reshape(
+                       -1, 3, 3))
+    out = np.zeros(n)
+    out[hit] = np.einsum("ij,ij->i", at, _pair_points(s, kind)[1][hit])
     return out
 
 
@@ -584,7 +711,7 @@ def _all_gaps(sides: list[_Side], rot: np.ndarray, t: np.ndarray, travel: float,
         every = np.arange(len(pts))
         u_t = _disp(s.body, u[s.body.name], every) if u else np.zeros_like(pts)
         g = (_femur_gap(s.indenter, pts, nrm, rot, t, travel, turn)
-             - np.einsum("ij,ij->i", u_t, nrm))
+             - np.einsum("ij,ij->i", u_t, nrm) + _femoral_lift(s, "femur-tibia", u))
         out[f"{s.name} femur-tibia"] = np.where(s.under, np.inf, g)
         if s.meniscus is None:
             continue
@@ -594,7 +721,8 @@ def _all_gaps(sides: list[_Side], rot: np.ndarray, t: np.ndarray, travel: float,
         out[f"{s.name} femur-meniscus"] = (
             _femur_gap(s.indenter, m.points[m.superior], m.superior_normals, rot, t, travel,
                        turn)
-            - np.einsum("ij,ij->i", sup, m.superior_normals) - s.lift)
+            - np.einsum("ij,ij->i", sup, m.superior_normals) - s.lift
+            + _femoral_lift(s, "femur-meniscus", u))
         faces = m.inferior_faces[np.maximum(s.face, 0)]
         at = np.einsum("mk,mkc->mc", s.weights, _disp(m.body, u_m, faces.ravel()).reshape(
             -1, 3, 3))
@@ -613,12 +741,13 @@ def _solve(sides: list[_Side], rot: np.ndarray, t: np.ndarray, load: float,
     on the femur about each) along which the femur turns free under that moment."""
     axis = -rot.T @ np.array([0.0, 0.0, 1.0])
     turn_axes, moments = turns
-    bodies = [s.body for s in sides] + [s.meniscus.body for s in sides if s.meniscus]
+    bodies = ([s.body for s in sides] + [s.meniscus.body for s in sides if s.meniscus]
+              + [s.femoral_body for s in sides if s.femoral_body is not None])
     gaps = _all_gaps(sides, rot, t, 0.0, None)
     cands = {name: np.flatnonzero(g < margin) for name, g in gaps.items()}
     travel, outer, angles = 0.0, 0, np.zeros(len(turn_axes))
     t_condense = t_solve = 0.0
-    for _ in range(4):
+    for _ in range(MAX_CONDENSATIONS):
         pairs = [p for p in _pairs(sides, cands) if len(p.nodes)]
         count = sum(len(p.nodes) for p in pairs)
         if count > MAX_CANDIDATES:
@@ -644,7 +773,7 @@ def _solve(sides: list[_Side], rot: np.ndarray, t: np.ndarray, load: float,
             travel += sol.approach_mm
             angles = angles + sol.turns_rad
             arm = max(float(np.linalg.norm(p.points, axis=1).max())
-                      for p in pairs if p.master is None)
+                      for p in pairs if _femur_pair(p.name))
             if np.abs(np.r_[sol.approach_mm, sol.turns_rad * arm]).max() <= MOVE_TOL_MM:
                 break
         else:
@@ -653,16 +782,22 @@ def _solve(sides: list[_Side], rot: np.ndarray, t: np.ndarray, load: float,
         sol = replace(sol, u=condensed.displacements(
             np.concatenate([sol.pairs[p.name].force_N for p in pairs])))
         t_solve += time.perf_counter() - t0
+        paired = {s.name: s.hits for s in sides}
+        for s in sides:
+            if s.femoral is not None:
+                s.hits = _femoral_hits(s, rot, travel, angles @ turn_axes)
         gaps = _all_gaps(sides, rot, t, travel, sol.u, angles @ turn_axes)
         worst, where = _worst(gaps, sides)
         grown = {name: np.union1d(cands[name], np.flatnonzero(g < margin))
                  for name, g in gaps.items()}
         if worst <= PENETRATION_TOL_MM:
             break
-        if all(len(grown[k]) == len(cands[k]) for k in cands):
+        moved = _moved_hits(paired, sides, cands)
+        if all(len(grown[k]) == len(cands[k]) for k in cands) and not moved:
             break
-        say(f"a vertex outside the candidates penetrates by {worst:.2e} mm ({where}): "
-            "widening them")
+        say(f"a vertex penetrates by {worst:.2e} mm ({where}): "
+            + (f"re-pairing the {moved} contact candidates whose ray has moved on the femoral "
+               "layer" if moved else "widening the candidates"))
         cands = grown
     if worst > PENETRATION_TOL_MM:
         raise FecheckError(f"the FE with menisci leaves a penetration of {worst:.2e} mm "
@@ -671,7 +806,7 @@ def _solve(sides: list[_Side], rot: np.ndarray, t: np.ndarray, load: float,
     fe, balance, pressure, region = _report(sides, pairs, sol, axis, load)
     ef = _ef_rows(run, [s.name for s in sides])
     on_femur = sum(np.cross(p.points, p.normals).T @ sol.pairs[p.name].force_N
-                   for p in pairs if p.master is None)
+                   for p in pairs if _femur_pair(p.name))
     records = {p.name: PairRecord(p.nodes, sol.pairs[p.name].force_N, sol.pairs[p.name].gap_mm,
                                   p.normals) for p in pairs}
     springs = {s.name: -(s.meniscus.spring_N_per_mm[:, None] * _disp(
@@ -686,7 +821,24 @@ def _solve(sides: list[_Side], rot: np.ndarray, t: np.ndarray, load: float,
                          reports, pressure,
                          {s.name: outline(s.meniscus.points, s.meniscus.inferior_faces)
                           for s in sides if s.meniscus}, region,
-                         np.degrees(angles), turn_axes @ on_femur + moments)
+                         np.degrees(angles), turn_axes @ on_femur + moments,
+                         "two-layer" if any(s.femoral is not None for s in sides) else "series")
+
+
+def _moved_hits(paired: dict[str, dict], sides: list[_Side], cands: dict[str, np.ndarray]
+                ) -> int:
+    """How many femur-pair candidates' rays hit the femoral layer elsewhere (another face,
+    or weights moved by over `REPAIR_WEIGHT`) than at the pairing `paired` (per side,
+    `_Side.hits`) the solve used."""
+    count = 0
+    for s in sides:
+        for kind, (face, weights) in s.hits.items():
+            rows = cands[f"{s.name} {kind}"]
+            old_face, old_weights = paired[s.name][kind]
+            count += int(((face[rows] != old_face[rows])
+                          | (np.abs(weights[rows] - old_weights[rows]).max(axis=1)
+                             > REPAIR_WEIGHT)).sum())
+    return count
 
 
 def outline(points: np.ndarray, faces: np.ndarray) -> np.ndarray:
@@ -761,7 +913,7 @@ def _pair_gaps(p: Pair, sides: list[_Side], rot: np.ndarray, t: np.ndarray,
     """The reference gaps (mm) of pair `p` with the femur at `travel` turned by `turn`
     (`_femur_gap`; undeformed)."""
     side = next(s for s in sides if p.name.startswith(f"{s.name} "))
-    if p.master is not None:
+    if not _femur_pair(p.name):
         return p.gap0_mm
     if p.slave == side.body.name:
         return _femur_gap(side.indenter, side.layer.surface.points[p.nodes], p.normals,
@@ -792,7 +944,7 @@ def _report(sides: list[_Side], pairs: list[Pair], sol, axis: np.ndarray, load: 
             lam = sol.pairs[p.name].force_N if p else np.zeros(0)
             normals = p.normals if p else np.zeros((0, 3))
             axial[kind] = float(lam @ normals[:, 2])
-            if p and p.master is None:
+            if p and _femur_pair(p.name):
                 femur_total -= float(lam @ (normals @ axis))
             if p and p.slave == s.body.name:
                 force[p.nodes] += lam

@@ -17,9 +17,19 @@ from fecheck.reference.closed_forms import DONAHUE_2002
 
 PUBLISHED_SHARE = {"medial": 0.5, "lateral": 0.7}
 """Meniscal share of intact knees near full extension, as usually quoted (docstring)."""
-DONAHUE_NOTE = ("* Donahue 2002 is another knee (its own geometry, both cartilages "
-                "deformable); the femoral cartilage here is in the tibial layer's series "
-                "thickness under the condyles and rigid over the menisci")
+CARTILAGE_NOTES = {
+    "series": "the femoral cartilage here is in the tibial layer's series thickness under "
+              "the condyles and rigid over the menisci",
+    "two-layer": "both cartilages here are deformable layers too (fe.cartilage = "
+                 "'two-layer')"}
+"""How the run's cartilage model (``fe.cartilage``) differs from Donahue's, or not."""
+
+
+def donahue_note(cartilage: str) -> str:
+    """The note under the table: Donahue 2002 is another knee; the run's cartilage model
+    (``fe.cartilage``) beside its two deformable layers."""
+    return ("* Donahue 2002 is another knee (its own geometry, both cartilages deformable); "
+            + CARTILAGE_NOTES[cartilage])
 
 
 def rows(result) -> list[dict]:
@@ -104,7 +114,7 @@ def report_lines(result, wall_s: float | None = None) -> list[str]:
     wall = "" if wall_s is None else f", wall {wall_s:.1f}"
     out.append(f"dofs {result.n_dofs}; time s: " + ", ".join(
         f"{k} {v:.1f}" for k, v in result.seconds.items()) + wall)
-    out.append(DONAHUE_NOTE)
+    out.append(donahue_note(result.cartilage))
     return out
 
 
@@ -124,8 +134,8 @@ def _finite(value):
 def as_dict(result, scene_name: str = "") -> dict:
     """The JSON of the run: load (N), per compartment the FE (`CompartmentFE` with its
     regions), the EF, Donahue 2002 and the published share; per meniscus its contact,
-    radial displacement and hoop force; balance, penetration, travel, the femur's turns
-    and moment balance, dofs, times."""
+    radial displacement and hoop force; the cartilage model; balance, penetration,
+    travel, the femur's turns and moment balance, dofs, times."""
     compartments = {}
     for c, fe in result.fe.items():
         ref = DONAHUE_2002[c][1.0]
@@ -140,7 +150,8 @@ def as_dict(result, scene_name: str = "") -> dict:
                    "hoop": {"arc": m.hoop.section_arc, "force_N": m.hoop.force_N,
                             "section_mm2": m.hoop.section_area_mm2}}
                for c, m in result.menisci.items()}
-    return _finite({"scene": scene_name, "kind": "fe with menisci", "load_N": result.load_N,
+    return _finite({"scene": scene_name, "kind": "fe with menisci",
+                    "cartilage": result.cartilage, "load_N": result.load_N,
                     "compartments": compartments, "menisci": menisci,
                     "balance_N": result.balance_N,
                     "max_penetration_mm": result.max_penetration_mm,
