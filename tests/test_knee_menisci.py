@@ -412,16 +412,22 @@ def test_region_loads_sum_to_the_compartment_load(coarse, intact):
 def test_cli_fe_runs_a_menisci_scene_and_writes_its_json(intact, monkeypatch, tmp_path,
                                                          capsys):
     # `fecheck fe` on a scene with menisci runs the FE with menisci (here its answer is the
-    # coarse run's, the solver replaced), the meniscus tetrahedra 1.25 x fe.size_mm, prints
-    # the compartment and region tables and writes a JSON of finite numbers that are the
-    # run's; a flag it does not take is refused in one line before any work.
+    # coarse run's, the solver replaced), the meniscus tetrahedra 1.25 x fe.size_mm, asks
+    # for the knee without menisci beside it, prints the compartment and region tables and
+    # writes a JSON of finite numbers that are the run's; a flag it does not take is
+    # refused in one line before any work.
+    from dataclasses import replace
+
     from fecheck.cli import main
 
     sizes = []
 
-    def solved(scene, *, meniscus_size_mm, log=None, **kwargs):
+    def solved(scene, *, meniscus_size_mm, log=None, without=False, **kwargs):
         sizes.append(meniscus_size_mm)
-        return intact
+        assert without
+        bare = {c: replace(fe, share=0.0, p_max_MPa=2 * fe.p_max_MPa)
+                for c, fe in intact.fe.items()}
+        return replace(intact, without_menisci=bare)
 
     monkeypatch.setattr(knee_menisci, "knee_menisci_fe", solved)
     path = tmp_path / "fe.json"
@@ -430,6 +436,7 @@ def test_cli_fe_runs_a_menisci_scene_and_writes_its_json(intact, monkeypatch, tm
     assert sizes == [2.5]
     out = capsys.readouterr().out
     assert "Donahue 2002" in out and "posterior horn" in out and "balance:" in out
+    assert out.count("FE no menisci") == 2
 
     def no_nan(text):
         raise AssertionError(f"{text} in the JSON")
@@ -440,6 +447,7 @@ def test_cli_fe_runs_a_menisci_scene_and_writes_its_json(intact, monkeypatch, tm
         got = data["compartments"][side]
         assert got["fe"]["share"] == fe.share
         assert got["fe"]["regions"]["body"]["load_N"] == fe.regions["body"].load_N
+        assert got["fe_without_menisci"]["p_max_MPa"] == 2 * fe.p_max_MPa
         assert got["published_share"] in (0.5, 0.7)
         assert got["donahue_2002"]["area_mm2"] > 0
     assert data["max_penetration_mm"] == intact.max_penetration_mm

@@ -16,8 +16,9 @@ p_max; then the femur's balance along its axis, its turn from the EF pose and it
 balance, each meniscus's balance, the worst penetration over every contact vertex, dofs
 and time.
 
-Beside them: the EF of the same scene (menisci rigid, smith2019's lumped 1 MPa meniscus
-layer), Donahue et al. 2002's tibial contact area and p_max at 800 N (490 / 415 mm²,
+Beside them: the same FE without the menisci (``menisci.sides = []``, at that scene's own
+EF pose, on the same tibial layers), the EF of the same scene (menisci rigid, smith2019's
+lumped 1 MPa meniscus layer), Donahue et al. 2002's tibial contact area and p_max at 800 N (490 / 415 mm²,
 2.55 / 2.36 MPa medial / lateral, thesis Tables 5.7a-5.8a: another knee), and the meniscal
 share usually quoted for intact cadaver knees near full extension, about 50 % medially
 and 70 % laterally (Seedhom & Hargreaves 1979, Eng. Med. 8:220-228; Walker & Erkman
@@ -235,7 +236,8 @@ def main(argv=None) -> int:
         ef = run_menisci(scene)
         layers = build(scene)
         r = knee_menisci_fe(scene, meniscus_size_mm=size, root=args.root, ef=ef,
-                            layers=layers, log=say, hold_rotation=args.hold_rotation)
+                            layers=layers, log=say, hold_rotation=args.hold_rotation,
+                            without=True)
         wall = time.perf_counter() - t0
         factors = (factor_rows(scene, r, ef, layers, size, args.root, say, args.hold_rotation)
                    if args.factors or not args.quick else None)

@@ -365,7 +365,8 @@ def run_menisci_fe(args: argparse.Namespace, scene, out) -> int:
     name = scene["name"] or str(scene.source)
     t0 = time.perf_counter()
     with policy("fecheck fe", force=args.force, force_hint="--force"):
-        result = knee_menisci.knee_menisci_fe(scene, meniscus_size_mm=size, log=stderr_log)
+        result = knee_menisci.knee_menisci_fe(scene, meniscus_size_mm=size, log=stderr_log,
+                                              without=True)
     wall = time.perf_counter() - t0
     print(f"{name}: FE with menisci at the EF pose, load on the tibia {result.load_N:.2f} N, "
           f"meniscus tetrahedra {size:g} mm", file=out)

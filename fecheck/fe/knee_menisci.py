@@ -191,7 +191,8 @@ class KneeMenisciFE:
     compartment the tibial region (`REGION_NAMES` key) of each layer surface vertex; the
     femur's turn from the EF pose about each rotation the tibia is free in (deg, `turns`)
     and its moment balance about each (N·mm: contact moment plus the load's); the
-    cartilage model (``fe.cartilage``: "series" or "two-layer")."""
+    cartilage model (``fe.cartilage``: "series" or "two-layer"); per compartment the FE of
+    the same knee without menisci (empty unless asked for, `knee_menisci_fe`)."""
 
     load_N: float
     fe: dict[str, CompartmentFE]
@@ -212,6 +213,7 @@ class KneeMenisciFE:
     turn_deg: np.ndarray = field(default_factory=lambda: np.zeros(0))
     moment_balance_Nmm: np.ndarray = field(default_factory=lambda: np.zeros(0))
     cartilage: str = "series"
+    without_menisci: dict[str, CompartmentFE] = field(default_factory=dict)
 
 
 def vertex_normals(points: np.ndarray, faces: np.ndarray) -> np.ndarray:
@@ -421,7 +423,7 @@ def knee_menisci_fe(scene: Scene, *, meniscus_size_mm: float = DEFAULT_SIZE_MM,
                     coronary: bool = False,
                     log: Callable[[str], None] | None = None,
                     material: TransIso = MENISCUS,
-                    hold_rotation: bool = False) -> KneeMenisciFE:
+                    hold_rotation: bool = False, without: bool = False) -> KneeMenisciFE:
     """The FE of `scene`'s knee with menisci at its EF equilibrium (module docstring).
 
     `ef`: the scene's EF run (`fecheck.model.menisci.run_menisci`; run here when None);
@@ -430,10 +432,12 @@ def knee_menisci_fe(scene: Scene, *, meniscus_size_mm: float = DEFAULT_SIZE_MM,
     the horn root stiffness (`ROOTS`); `lift_mm`: the superior surface raised along its
     normals, mm; `coronary`: the coronary ligaments as springs too; `material`: the
     menisci's transversely isotropic constants; `hold_rotation`: the femur kept at the
-    EF's rotation (else it turns free in the tibia's free rotations, `femur_turns`).
-    `FecheckError` on a
-    scene without ``menisci.dir``, a two-layer cartilage, a load that does not press the
-    joint, or a contact that leaves a penetration over `PENETRATION_TOL_MM`."""
+    EF's rotation (else it turns free in the tibia's free rotations, `femur_turns`);
+    `without`: the same FE of the knee without its menisci too (``menisci.sides = []``, at
+    that scene's own EF equilibrium, on the same tibial layers), in
+    `KneeMenisciFE.without_menisci`. `FecheckError` on a scene without ``menisci.dir``,
+    a two-layer cartilage on remeshed sheets, a load that does not press the joint, or a
+    contact that leaves a penetration over `PENETRATION_TOL_MM`."""
     from fecheck.fe.femoral import refuse_two_layer
     from fecheck.fe.meniscus_solid import meniscus_solid
     from fecheck.fe.settings import FESettings
@@ -488,7 +492,13 @@ def knee_menisci_fe(scene: Scene, *, meniscus_size_mm: float = DEFAULT_SIZE_MM,
     seconds["build"] = time.perf_counter() - t0
     turns = femur_turns(scene, q_tibia) if not hold_rotation else (np.zeros((0, 3)),
                                                                     np.zeros(0))
-    return _solve(sides, rot, t, load, settings.candidate_gap_mm, run, seconds, say, turns)
+    result = _solve(sides, rot, t, load, settings.candidate_gap_mm, run, seconds, say, turns)
+    if not without:
+        return result
+    say("the same knee without its menisci")
+    bare = with_values(scene, menisci__sides=[])
+    alone = knee_menisci_fe(bare, layers=layers, log=log, hold_rotation=hold_rotation)
+    return replace(result, without_menisci=alone.fe)
 
 
 def _with_femoral_layers(scene: Scene, sides: list[_Side], rot: np.ndarray, t: np.ndarray,

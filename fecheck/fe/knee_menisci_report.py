@@ -33,16 +33,22 @@ def donahue_note(cartilage: str) -> str:
 
 
 def rows(result) -> list[dict]:
-    """One row per compartment and model: FE, EF, Donahue 2002 (1 mm elements); loads N,
-    share, area mm², p_max MPa (NaN where the model gives none)."""
+    """One row per compartment and model: FE, the FE without menisci (where the run has
+    it), EF, Donahue 2002 (1 mm elements); loads N, share, area mm², p_max MPa (NaN where
+    the model gives none)."""
     out = []
     for c, fe in result.fe.items():
         ef = result.ef[c]
         ref = DONAHUE_2002[c][1.0]
+        out.append({"compartment": c, "model": "FE", "meniscus_N": fe.meniscus_N,
+                    "springs_N": fe.springs_N, "cartilage_N": fe.cartilage_N,
+                    "share": fe.share, "area_mm2": fe.area_mm2, "p_max_MPa": fe.p_max_MPa})
+        bare = result.without_menisci.get(c)
+        if bare is not None:
+            out.append({"compartment": c, "model": "FE no menisci", "meniscus_N": 0.0,
+                        "springs_N": 0.0, "cartilage_N": bare.cartilage_N, "share": 0.0,
+                        "area_mm2": bare.area_mm2, "p_max_MPa": bare.p_max_MPa})
         out += [
-            {"compartment": c, "model": "FE", "meniscus_N": fe.meniscus_N,
-             "springs_N": fe.springs_N, "cartilage_N": fe.cartilage_N, "share": fe.share,
-             "area_mm2": fe.area_mm2, "p_max_MPa": fe.p_max_MPa},
             {"compartment": c, "model": "EF", "meniscus_N": ef["meniscus_N"],
              "springs_N": float("nan"), "cartilage_N": ef["cartilage_N"],
              "share": ef["share"], "area_mm2": ef["area_mm2"], "p_max_MPa": ef["p_max_MPa"]},
@@ -141,6 +147,8 @@ def as_dict(result, scene_name: str = "") -> dict:
         ref = DONAHUE_2002[c][1.0]
         compartments[c] = {
             "fe": asdict(fe), "ef": dict(result.ef[c]),
+            "fe_without_menisci": (asdict(result.without_menisci[c])
+                                   if c in result.without_menisci else None),
             "donahue_2002": {"area_mm2": float(ref.area_mm2),
                              "p_max_MPa": float(ref.max_pressure_MPa)},
             "published_share": PUBLISHED_SHARE[c]}
