@@ -18,8 +18,9 @@ and time.
 
 Beside them: the same FE without the menisci (``menisci.sides = []``, at that scene's own
 EF pose, on the same tibial layers), the EF of the same scene (menisci rigid, smith2019's
-lumped 1 MPa meniscus layer), Donahue et al. 2002's tibial contact area and p_max at 800 N (490 / 415 mm²,
-2.55 / 2.36 MPa medial / lateral, thesis Tables 5.7a-5.8a: another knee), and the meniscal
+lumped 1 MPa meniscus layer), Donahue et al. 2002's tibial contact area and p_max at
+800 N (490 / 415 mm², 2.55 / 2.36 MPa medial / lateral, thesis Tables 5.7a-5.8a: another
+knee), and the meniscal
 share usually quoted for intact cadaver knees near full extension, about 50 % medially
 and 70 % laterally (Seedhom & Hargreaves 1979, Eng. Med. 8:220-228; Walker & Erkman
 1975, Clin. Orthop. 109:184-192: at least half of the load; quoted, not re-derived).
