@@ -67,3 +67,30 @@ def test_a_carried_pad_turns_with_the_platen(pad_slave):
     assert sol.approach_mm == pytest.approx(0.09, rel=1e-12)
     np.testing.assert_allclose(sol.turns_rad, [-0.003], rtol=1e-12)
     np.testing.assert_allclose(sol.pairs["pad-bed"].gap_mm, 0.0, atol=1e-14)
+
+
+def test_a_condensation_reused_after_re_pairing_is_a_fresh_one():
+    # Re-pairing moves the master's weights among the dofs it condensed: the compliance
+    # taken from the earlier condensation is the one a fresh condensation gives.
+    bed, pad = _springs("bed", K_BED, False), _springs("pad", K_PAD, True)
+    points = np.array([[-L_MM, 0.0, 0.0], [L_MM, 0.0, 0.0]])
+    up = np.tile([0.0, 0.0, 1.0], (2, 1))
+
+    def pair(nodes, weights):
+        return Pair("pad-bed", "bed", np.array([0, 1]), up, np.zeros(2), "pad",
+                    np.asarray(nodes), np.asarray(weights), points=points)
+
+    axis = np.array([0.0, 0.0, -1.0])
+    first = Condensed([bed, pad], [pair([[0, 1], [0, 1]], [[0.5, 0.5], [0.5, 0.5]])], axis)
+    for nodes, weights in (([[0, 1], [0, 1]], [[0.9, 0.1], [0.2, 0.8]]),
+                           ([[1], [1]], [[1.0], [1.0]])):      # on a part of those dofs
+        again = Condensed([bed, pad], [pair(nodes, weights)], axis, reuse=first)
+        fresh = Condensed([bed, pad], [pair(nodes, weights)], axis)
+        assert again.kept["pad"][2] is first.kept["pad"][2]    # no new factorization
+        np.testing.assert_allclose(again.C, fresh.C, rtol=1e-14)
+        # by hand: the pad's tips are independent springs, C_ij = Σ_a w_ia w_ja / k_a,
+        # plus the bed's 1 / K_i on the diagonal
+        w = np.zeros((2, 2))
+        np.put_along_axis(w, np.asarray(nodes), np.asarray(weights), axis=1)
+        by_hand = w @ np.diag(1.0 / np.asarray(K_PAD)) @ w.T + np.diag(1.0 / np.asarray(K_BED))
+        np.testing.assert_allclose(fresh.C, by_hand, rtol=1e-12)

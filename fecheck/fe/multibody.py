@@ -168,11 +168,18 @@ class Condensed:
     `turns`: (unit axis (3,), centre (3,) mm) about which the indenter may also turn by a
     small angle θ, balanced by the moment `solve` is given: an indenter pair's gap then
     changes by θ a·((x − c) × n) at its slave point x (`Pair.points`, required), and its
-    forces' moment about the axis, Σ λ a·((x − c) × n), balances the given one."""
+    forces' moment about the axis, Σ λ a·((x − c) × n), balances the given one.
+
+    `reuse`: an earlier condensation of the same bodies (their stiffness unchanged): a
+    body whose gaps read the same node directions, or node dofs among those it condensed
+    (a master's weights moved: re-pairing), takes its compliance from there instead of a
+    new factorization; a master whose dofs are not among them is condensed on the union
+    of both, so that the next re-pairing is likely to find them."""
 
     def __init__(self, bodies: Sequence[Body], pairs: Sequence[Pair], axis: np.ndarray, *,
                  solver: str = "cholmod", block: int = 512,
-                 turns: Sequence[tuple[np.ndarray, np.ndarray]] = ()):
+                 turns: Sequence[tuple[np.ndarray, np.ndarray]] = (),
+                 reuse: Condensed | None = None):
         names = _check(bodies, pairs, Indenter(np.asarray(axis, dtype=float), 1.0))
         self.turns = [(np.asarray(a, dtype=float), np.asarray(c, dtype=float))
                       for a, c in turns]
@@ -193,21 +200,36 @@ class Condensed:
                          + [(b.name, t) for b in bodies for t in b.translations])
         self.J = self._gap_map(names, m)
         C = np.zeros((m, m))
-        self.D, self.solves = {}, {}
+        self.D, self.solves, self.kept = {}, {}, {}
+        before = reuse.kept if reuse is not None else {}
         for b in bodies:
             if not self._entries[b.name]:
                 continue
             r, c, v = (np.concatenate(x) for x in zip(*self._entries[b.name], strict=True))
             self.D[b.name] = D = sp.csr_matrix((v, (r, c)), shape=(m, b.K.shape[0]))
             normal = self._normal_gaps(b) if solver == "cholmod" else None
+            old = before.get(b.name)
             if normal is not None:        # one direction per node: the normal compliance
                 rows, dofs, directions = normal
-                block, self.solves[b.name] = condensed_compliance(b.K, dofs, directions)
+                if (old is not None and old[0] == "normal" and np.array_equal(old[1], dofs)
+                        and np.array_equal(old[2], directions)):
+                    block, self.solves[b.name] = old[3], old[4]
+                else:
+                    block, self.solves[b.name] = condensed_compliance(b.K, dofs, directions)
+                self.kept[b.name] = ("normal", dofs, directions, block, self.solves[b.name])
                 C[np.ix_(rows, rows)] += block
                 continue
             if solver == "cholmod":       # (K⁻¹) on the dofs the gaps read, one factorization
                 cols = np.unique(c)
-                inverse, self.solves[b.name] = nodal_compliance(b.K, cols)
+                if old is not None and old[0] == "nodal" and np.isin(cols, old[1]).all():
+                    held, whole, self.solves[b.name] = old[1], old[2], old[3]
+                else:
+                    held = cols if old is None or old[0] != "nodal" else np.union1d(old[1],
+                                                                                     cols)
+                    whole, self.solves[b.name] = nodal_compliance(b.K, held)
+                self.kept[b.name] = ("nodal", held, whole, self.solves[b.name])
+                at = np.searchsorted(held, cols)
+                inverse = whole[np.ix_(at, at)]
                 Dc = D[:, cols]
                 C += (Dc @ (Dc @ inverse).T).T
                 continue
