@@ -16,8 +16,9 @@ from fecheck.fe.meniscus_solid import DONAHUE_HORN_N_PER_MM, meniscus_solid
 from fecheck.scene import load_scene, with_values
 from fecheck.scene.packaged import data_dir
 
-COARSE = ["fe.prepare=on", "fe.size_mm=2.0"]
-"""Tibial sheets remeshed at 2 mm (11k dofs per layer instead of 100k)."""
+COARSE = ["fe.cartilage=series", "fe.prepare=on", "fe.size_mm=2.0"]
+"""The one-layer series model on tibial sheets remeshed at 2 mm (11k dofs per layer
+instead of 100k); tests/test_knee_menisci_two_layer.py takes two deformable layers."""
 MENISCUS_MM = 2.5
 
 

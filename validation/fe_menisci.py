@@ -3,9 +3,10 @@ full extension), beside the EF and Donahue et al. 2002.
 
 `fecheck.fe.knee_menisci`: each meniscus a deformable transversely isotropic solid (P2
 tetrahedra, fibres along its arc) on horn springs to the tibia, each compartment's tibial
-cartilage a bonded layer as ``fecheck fe`` builds it (series thickness; ``--cartilage
-two-layer``: the tibial cartilage alone, the femoral cartilage a layer of its own bonded
-to the femur, as ``fe.cartilage = "two-layer"``), the femur rigid,
+cartilage a bonded layer as ``fecheck fe`` builds it and the femoral cartilage a layer of
+its own bonded to the femur (the scene's ``fe.cartilage = "two-layer"``; ``--cartilage
+series``: one tibial layer of both cartilages' thickness, the femoral cartilage rigid over
+the menisci), the femur rigid,
 its translation along the tibial z axis and its abduction (the tibia's free DOFs) solved
 under the EF's load on the tibia (800 N less the tibia's weight) and its moment about the
 tibia's origin, frictionless contact on the three interfaces (``--hold-rotation``: the
@@ -37,14 +38,15 @@ springs, Donahue's 2000 N/mm horn roots; the table gives the share per compartme
 its change, and names the factor that moves it most.
 
     python validation/fe_menisci.py [--quick] [--factors] [--root data|donahue]
-        [--hold-rotation] [--cartilage series|two-layer] [--out DIR]
+        [--hold-rotation] [--cartilage two-layer|series] [--out DIR]
 
---quick: tibial sheets remeshed at 2 mm (``fe.prepare = "on"``, ``fe.size_mm = 2``; with
-``--cartilage two-layer`` the sheets decimated to 1500 faces, ``scanned.decimate_faces``)
-and 2.5 mm meniscus tetrahedra, without the factor table unless --factors. Writes
-DIR/fe_menisci.csv (the loads), DIR/fe_menisci_regions.csv (per compartment the tibial
-contact under the cartilage-cartilage contact and under each meniscus region: anterior
-horn, body, posterior horn), DIR/fe_menisci_hoop.csv (hoop force per section),
+--quick: the sheets decimated to 1500 faces (``scanned.decimate_faces``: two deformable
+layers are extruded from the sheets as read; with ``--cartilage series`` the tibial sheets
+remeshed at 2 mm, ``fe.prepare = "on"``, ``fe.size_mm = 2``) and 2.5 mm meniscus
+tetrahedra, without the factor table unless --factors. Writes DIR/fe_menisci.csv (the
+loads), DIR/fe_menisci_regions.csv (per compartment the tibial contact under the
+cartilage-cartilage contact and under each meniscus region: anterior horn, body,
+posterior horn), DIR/fe_menisci_hoop.csv (hoop force per section),
 DIR/fe_menisci_factors.csv and DIR/fe_menisci_pressure.png (the tibial pressure of
 cartilage and meniscus contact, with each meniscus's footprint outlined).
 """
@@ -83,6 +85,14 @@ FACTORS = (("superior surface raised 0.1 mm", {"lift_mm": 0.1}),
            ("coronary ligaments added", {"coronary": True}),
            ("horn roots 2000 N/mm (Donahue)", {"root": "donahue"}))
 """One factor changed at a time from the script's run (its ``--root``)."""
+
+
+def quick_scene(quick: bool, cartilage: str | None = None, extra: tuple[str, ...] = ()):
+    """The scene, with ``fe.cartilage = cartilage`` (None: the scene's) and, `quick`, its
+    coarse sheets (`QUICK`), then the overrides `extra`."""
+    sets = [] if cartilage is None else [f"fe.cartilage={cartilage}"]
+    chosen = load_scene(SCENE, sets)["fe.cartilage"]
+    return load_scene(SCENE, [*sets, *(QUICK[chosen] if quick else []), *extra])
 
 
 def build(scene, modulus: float = 1.0):
@@ -218,13 +228,12 @@ def main(argv=None) -> int:
                    "data's root bundles (k / l0) or Donahue's 2000 N/mm per horn")
     p.add_argument("--hold-rotation", action="store_true", help="keep the femur at the EF's "
                    "rotation (for comparison; by default it turns free where the tibia does)")
-    p.add_argument("--cartilage", choices=CARTILAGE, default="series", help="the femoral "
-                   "cartilage in the tibial layer's series thickness, or a deformable layer "
-                   "of its own on the femur (fe.cartilage)")
+    p.add_argument("--cartilage", choices=CARTILAGE, help="the femoral cartilage a "
+                   "deformable layer of its own on the femur (two-layer: the scene's), or in "
+                   "the tibial layer's series thickness (fe.cartilage)")
     p.add_argument("--out", type=Path, default=Path("out/validation"), help="output folder")
     args = p.parse_args(argv)
-    scene = load_scene(SCENE, [f"fe.cartilage={args.cartilage}",
-                               *(QUICK[args.cartilage] if args.quick else [])])
+    scene = quick_scene(args.quick, args.cartilage)
     size = QUICK_MENISCUS_MM if args.quick else DEFAULT_SIZE_MM
 
     def say(m):

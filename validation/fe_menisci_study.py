@@ -1,8 +1,10 @@
 """FE studies of the knee with menisci: meniscal share against load and against the
 meniscal circumferential modulus, and a medial meniscectomy.
 
-`fecheck.fe.knee_menisci` on the packaged ``femur_tibia_menisci`` (full extension), the
-tibial layers built once (they do not depend on the load or the meniscus):
+`fecheck.fe.knee_menisci` on the packaged ``femur_tibia_menisci`` (full extension; both
+cartilages deformable layers, its ``fe.cartilage = "two-layer"``), the tibial layers built
+once (they do not depend on the load or the meniscus; each run builds its femoral layers
+over its own contact):
 
 * **load**: 200, 800 and 2000 N, the EF equilibrium re-solved at each load (the FE runs at
   the EF pose of its own load);
@@ -25,9 +27,9 @@ meniscal share, the tibial contact area and p_max. Units: N, mm², MPa.
 
     python validation/fe_menisci_study.py [--quick] [--out DIR]
 
---quick: 2 mm tibial sheets and 2.5 mm meniscus tetrahedra (as ``fe_menisci.py
---quick``), loads 800 and 2000 N, moduli x0.5 and x2 (beside the 800 N run's x1), the
-meniscectomy. Writes DIR/fe_menisci_study.csv.
+--quick: sheets decimated to 1500 faces and 2.5 mm meniscus tetrahedra (as
+``fe_menisci.py --quick``), loads 800 and 2000 N, moduli x0.5 and x2 (beside the 800 N
+run's x1), the meniscectomy. Writes DIR/fe_menisci_study.csv.
 """
 
 from __future__ import annotations
@@ -47,8 +49,7 @@ from fecheck.fe.knee_menisci import knee_menisci_fe
 from fecheck.fe.knee_menisci_report import PUBLISHED_SHARE
 from fecheck.fe.meniscus_solid import DEFAULT_SIZE_MM
 from fecheck.model.results import write_rows
-from fecheck.scene import load_scene
-from validation.fe_menisci import QUICK, QUICK_MENISCUS_MM, SCENE, build
+from validation.fe_menisci import QUICK_MENISCUS_MM, SCENE, build, quick_scene
 
 LOADS_N = (200.0, 800.0, 2000.0)
 QUICK_LOADS_N = (800.0, 2000.0)
@@ -72,13 +73,12 @@ def run_all(quick: bool, say) -> list[dict]:
     """Every run of the study (module docstring), its rows."""
     from fecheck.model.menisci import run_menisci
 
-    sets = QUICK["series"] if quick else []
     size = QUICK_MENISCUS_MM if quick else DEFAULT_SIZE_MM
-    layers = build(load_scene(SCENE, sets))
+    layers = build(quick_scene(quick))
     runs: dict[tuple[str, float], object] = {}
 
     def fe(label: tuple[str, float], extra: list[str], material=MENISCUS):
-        scene = load_scene(SCENE, sets + extra)
+        scene = quick_scene(quick, extra=tuple(extra))
         say(f"{label[0]} {label[1]:g}")
         runs[label] = knee_menisci_fe(scene, meniscus_size_mm=size, ef=run_menisci(scene),
                                       layers=layers, material=material)
