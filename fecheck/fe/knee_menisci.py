@@ -1,13 +1,19 @@
-"""The FE of the knee with menisci at the EF equilibrium (issue 28): a first working path.
+"""The FE of the knee with menisci at the EF equilibrium.
 
 From the EF equilibrium of a ``menisci.dir`` scene (`fecheck.model.menisci`, e.g.
 ``femur_tibia_menisci`` at 800 N), in the tibia frame of that equilibrium:
 
 * **Tibial cartilage**: each compartment's bonded layer as `fecheck fe` builds it
   (`fecheck.fe.press.build_layers` on the scene's bodies, ``fe.*`` keys, the contact
-  material): with ``fe.cartilage = "series"`` (the only one taken here) its thickness holds
-  the femoral cartilage too, under the femoral condyle; over the menisci the femoral
-  cartilage is then rigid.
+  material): with ``fe.cartilage = "series"`` its thickness holds the femoral cartilage
+  too, under the femoral condyle; over the menisci the femoral cartilage is then rigid.
+  With ``"two-layer"`` it is the tibial cartilage alone, and the femoral cartilage is a
+  layer of its own (`fecheck.fe.femoral.femoral_layer`: the femoral sheet within
+  `fecheck.fe.femoral.CROP_MM` of the points where the femur pairs' candidate rays meet
+  it, extruded toward the femoral bone by its thickness and bonded there, the femoral
+  material), carried by the femur (`fecheck.fe.multibody.Body.carried`): the master of
+  the femur-tibia and femur-meniscus pairs, hit where each slave's ray meets it, paired
+  afresh where those rays have moved while a vertex still penetrates (`REPAIR_WEIGHT`).
 * **Menisci**: each a deformable solid (`fecheck.fe.meniscus_solid`, P2 tetrahedra,
   `fecheck.fe.anisotropy.MENISCUS`, fibres along the arc) at its EF pose, raised along
   the tibial axis until it just touches the tibial layer (the EF's meniscus layer is
@@ -29,18 +35,18 @@ From the EF equilibrium of a ``menisci.dir`` scene (`fecheck.model.menisci`, e.g
   EF's tibia does. ``hold_rotation=True`` keeps it at the EF's rotation (for comparison).
 
 Frictionless contact on three interfaces, node to surface with exact complementarity
-(`fecheck.fe.multibody`): femur ↔ tibial layer vertices (along their normals),
-femur ↔ meniscus superior vertices, meniscus inferior faces ↔ tibial layer vertices (a
-tibial vertex under a meniscus meets its inferior face, the others the femur). Small
-displacements; the rigid gaps are re-evaluated at the femur's new place and turn until it
-stops moving (1e-10 mm at its farthest contact vertex), so they are exact at the answer
-(the contact moments act at the slave vertices). Per compartment: axial load into the
-tibia through the meniscus (its contact and its horn springs) and through
-cartilage-cartilage contact, tibial contact area (`zero_contour_area`) and vertex p_max,
-beside the EF's and Donahue 2002's; per meniscus (`MeniscusReport`) where the femur
-touches it, how much of its superior surface lies near the femur, how far its body moves
-radially, and the hoop force along its arc (`element_stress`,
-`fecheck.fe.meniscus_solid.hoop_force`). Units: mm, N, MPa.
+(`fecheck.fe.multibody`): femur (its surface, or its cartilage layer) ↔ tibial layer
+vertices (along their normals), femur ↔ meniscus superior vertices, meniscus inferior
+faces ↔ tibial layer vertices (a tibial vertex under a meniscus meets its inferior face,
+the others the femur). Small displacements; the rigid gaps are re-evaluated at the femur's
+new place and turn until it stops moving (1e-10 mm at its farthest contact vertex), so
+they are exact at the answer (the contact moments act at the slave vertices). Per
+compartment: axial load into the tibia through the meniscus (its contact and its horn
+springs) and through cartilage-cartilage contact, tibial contact area
+(`zero_contour_area`) and vertex p_max, beside the EF's and Donahue 2002's; per meniscus
+(`MeniscusReport`) where the femur touches it, how much of its superior surface lies near
+the femur, how far its body moves radially, and the hoop force along its arc
+(`element_stress`, `fecheck.fe.meniscus_solid.hoop_force`). Units: mm, N, MPa.
 """
 
 from __future__ import annotations
