@@ -9,6 +9,7 @@ import json
 
 import numpy as np
 import pytest
+from menisci_helpers import assert_balanced
 
 from fecheck.errors import FecheckError
 from fecheck.fe import knee_menisci
@@ -49,33 +50,15 @@ def _on(record, direction: np.ndarray) -> float:
 
 
 def test_femur_and_menisci_balance_and_nothing_penetrates(intact):
-    # The femur's contact forces (femur-tibia and femur-meniscus pairs, summed here along
-    # the axis it is pushed along) balance the load, and each meniscus's contact forces
-    # and horn springs cancel, to 1e-8 of the load; every pair is complementary with no
-    # gap below -1e-6 mm, and no vertex outside the pairs penetrates either.
+    # Forces, moments, complementarity and penetration (`menisci_helpers.assert_balanced`)
+    # of the series model; the load is the scene's less the tibia's weight.
     r = intact
-    load = r.load_N
-    assert load == pytest.approx(800.0 - 2.65207 * 9.81, rel=1e-3)   # load less the weight
-    femur = sum(_on(p, -r.axis) for name, p in r.pairs.items() if "femur" in name)
-    assert femur == pytest.approx(load, abs=1e-8 * load)
-    for side in ("medial", "lateral"):
-        up, down = r.pairs[f"{side} femur-meniscus"], r.pairs[f"{side} meniscus-tibia"]
-        on_meniscus = (-up.force_N @ up.normals + down.force_N @ down.normals
-                       + r.spring_force_N[side])
-        assert np.abs(on_meniscus).max() <= 1e-8 * load
-        assert up.force_N.sum() > 0 and down.force_N.sum() > 0        # the meniscus carries
-    for p in r.pairs.values():
-        assert p.force_N.min() >= 0.0
-        assert p.gap_mm.min() >= -1e-6
-        assert np.abs(p.force_N * p.gap_mm).max() <= 1e-6 * p.force_N.max()
-    assert 0.0 <= r.max_penetration_mm <= 1e-6
-    assert abs(r.balance_N) <= 1e-8 * load
-    # the femur turns free in the tibia's abduction: its contact moment about the tibia's
-    # origin balances the load's to 1e-8 of the load x 1 mm; the turn from the EF pose is
-    # small (the EF balanced the same moment with its rigid-layer contact): measured
-    # -0.075 deg at these meshes
+    assert r.load_N == pytest.approx(800.0 - 2.65207 * 9.81, rel=1e-3)
+    assert_balanced(r)
+    # the femur turns free in the tibia's abduction; the turn from the EF pose is small
+    # (the EF balanced the same moment with its rigid-layer contact): measured -0.075 deg
+    # at these meshes
     assert r.moment_balance_Nmm.shape == (1,)
-    assert np.abs(r.moment_balance_Nmm).max() <= 1e-8 * load
     assert 1e-3 < abs(r.turn_deg[0]) < 0.5
 
 

@@ -812,15 +812,19 @@ def _solve(sides: list[_Side], rot: np.ndarray, t: np.ndarray, load: float,
         if worst <= PENETRATION_TOL_MM:
             break
         moved = _moved_hits(paired, sides, cands)
-        if all(len(grown[k]) == len(cands[k]) for k in cands) and not moved:
+        stuck = all(len(grown[k]) == len(cands[k]) for k in cands) and not moved
+        if stuck:
             break
         say(f"a vertex penetrates by {worst:.2e} mm ({where}): "
             + (f"re-pairing the {moved} contact candidates whose ray has moved on the femoral "
                "layer" if moved else "widening the candidates"))
         cands = grown
     if worst > PENETRATION_TOL_MM:
+        fix = ("raise fe.candidate_gap_mm" if stuck else
+               f"the contact did not settle in {MAX_CONDENSATIONS} condensations; refine "
+               "the sheets at the contact, or use fe.cartilage = 'series'")
         raise FecheckError(f"the FE with menisci leaves a penetration of {worst:.2e} mm "
-                           f"({where}); raise fe.candidate_gap_mm")
+                           f"({where}); {fix}")
     seconds |= {"condense": t_condense, "solve": t_solve}
     fe, balance, pressure, region = _report(sides, pairs, sol, axis, load)
     ef = _ef_rows(run, [s.name for s in sides])
