@@ -76,6 +76,10 @@ PENETRATION_TOL_MM = 1e-6
 """Largest overlap accepted at any contact vertex after the solve, mm."""
 MOVE_TOL_MM = 1e-10
 """The outer loop stops when the femur's step is below this, mm."""
+REACH_MM = 0.5
+"""The femoral layer covers the sheet where the rays of the femur pairs' vertices within
+this distance beyond the candidate gap meet it (and `fecheck.fe.femoral.CROP_MM` around):
+room for the candidates the femur's travel adds, mm."""
 MAX_CONDENSATIONS = 6
 """Most condensations (each widening the candidates or re-pairing them on the femoral
 layer) before a penetration is reported."""
@@ -513,8 +517,8 @@ def _with_femoral_layers(scene: Scene, sides: list[_Side], rot: np.ndarray, t: n
                          settings, say: Callable[[str], None]) -> list[_Side]:
     """`sides` each with the femoral cartilage as a layer of its own (tibia frame, bonded
     to the femur and carried by it: `fecheck.fe.femoral.femoral_layer`) over the points
-    where the normals of its femur pairs' vertices within the candidate gap meet the
-    femoral sheet."""
+    where the normals of its femur pairs' vertices within `REACH_MM` of the candidate gap
+    (the meniscus's less its lift) meet the femoral sheet."""
     from fecheck.fe.femoral import femoral_layer, femoral_sheet
     from fecheck.fe.indenter import MeshIndenter
 
@@ -528,7 +532,8 @@ def _with_femoral_layers(scene: Scene, sides: list[_Side], rot: np.ndarray, t: n
         for kind in FEMUR_PAIRS if s.meniscus is not None else FEMUR_PAIRS[:1]:
             pts, nrm = _pair_points(s, kind)
             gap, face, _ = indenter.hits(pts, nrm)
-            near = (face >= 0) & (gap.gap_mm < settings.candidate_gap_mm)
+            lift = s.lift if kind == "femur-meniscus" else 0.0
+            near = (face >= 0) & (gap.gap_mm - lift < settings.candidate_gap_mm + REACH_MM)
             if kind == "femur-tibia":
                 near &= ~s.under
             points.append(pts[near] + gap.gap_mm[near, None] * nrm[near])
@@ -692,8 +697,8 @@ def _femoral_master(s: _Side, kind: str, rows: np.ndarray) -> dict:
         x = _pair_points(s, kind)[0][k]
         raise FecheckError(f"the normal of a {s.name} {kind} contact candidate at "
                            f"({', '.join(f'{v:.1f}' for v in x)}) mm (tibia frame) misses "
-                           "the femoral layer: lower fe.candidate_gap_mm, or use "
-                           "fe.cartilage = 'series'")
+                           "the femoral layer built over the first candidates: lower "
+                           "fe.candidate_gap_mm, or use fe.cartilage = 'series'")
     return {"master": s.femoral_body.name,
             "master_nodes": s.femoral.solid.surface.faces[face[rows]],
             "weights": weights[rows]}
