@@ -206,8 +206,8 @@ def plot_pressure(r, layers, path: Path) -> None:
     ax.autoscale_view()
     ax.set_xlabel("x mm (right)")
     ax.set_ylabel("y mm (anterior)")
-    ax.set_title(f"FE with menisci, {r.load_N:.0f} N: tibial pressure, meniscus footprints "
-                 "(white)", fontsize=10)
+    ax.set_title(f"FE with menisci ({r.cartilage} cartilage), {r.load_N:.0f} N: tibial "
+                 "pressure, meniscus footprints (white)", fontsize=10)
     fig.tight_layout()
     fig.savefig(path, dpi=120)
     plt.close(fig)
