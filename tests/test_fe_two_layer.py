@@ -209,3 +209,43 @@ def test_scenes_the_two_layer_fe_does_not_model_are_refused_before_the_ef_run(
     scene = load_scene(SCENES / name, [*overrides, "fe.cartilage='two-layer'"])
     with pytest.raises(FecheckError, match=message):
         crosscheck.cross_check(scene, log=None)
+
+
+def _pleated_sheet(pleat_x_mm: float):
+    """A flat 24 x 24 mm femoral sheet (1 mm grid, 2 mm thick) with a pleat along y at
+    x = `pleat_x_mm`: that row of vertices pushed 1.6 mm back under its neighbour, so the
+    faces beside it invert when extruded."""
+    from fecheck.fe.femoral import FemoralSheet
+
+    n = 25
+    x, y = np.meshgrid(np.linspace(-12.0, 12.0, n), np.linspace(-12.0, 12.0, n))
+    points = np.column_stack([x.ravel(), y.ravel(), np.zeros(n * n)])
+    a = (np.arange(n - 1)[:, None] * n + np.arange(n - 1)).ravel()
+    faces = np.concatenate([np.column_stack([a, a + 1, a + n + 1]),
+                            np.column_stack([a, a + n + 1, a + n])])
+    row = np.isclose(points[:, 0], pleat_x_mm)
+    points[row] += [-1.6, 0.0, -0.6]
+    return FemoralSheet(TriMesh(points, faces), np.full(n * n, 2.0), "uniform", E, NU)
+
+
+def test_a_fold_of_the_femoral_sheet_away_from_the_contact_is_left_out():
+    # The femoral layer ends 0.5 mm before the nearest face that inverts (measured 5.6 mm
+    # from the contact for a pleat at x = 7 mm: the layer ends at 5.1 mm, the pleat out),
+    # and refuses, naming the place, when that face lies nearer the contact than
+    # MIN_CROP_MM + 0.5 mm (3.6 mm for a pleat at x = 5 mm).
+    from fecheck.fe.femoral import MIN_CROP_MM, TRIM_MM, femoral_layer
+    from fecheck.fe.settings import FESettings
+
+    settings = FESettings.from_scene(load_scene(SCENES / "femur_tibia.toml"))
+    said = []
+    hits = np.array([[0.0, y, 0.0] for y in np.linspace(-3.0, 3.0, 7)])
+    layer = femoral_layer(_pleated_sheet(7.0), "medial", hits, np.zeros(7, dtype=int),
+                          settings, said.append)
+    assert any("invert in extrusion" in line for line in said)
+    centroids = layer.solid.surface.face_centroids
+    reach = np.linalg.norm(centroids[:, None, :2] - hits[None, :, :2], axis=2).min(axis=1)
+    assert MIN_CROP_MM < reach.max() <= 5.6 - TRIM_MM
+    assert centroids[:, 0].max() < 5.4                  # every face short of the pleat
+    with pytest.raises(FecheckError, match=r"faces invert, e\.g\. at \(3\.6, .*3\.6 mm from"):
+        femoral_layer(_pleated_sheet(5.0), "medial", hits, np.zeros(7, dtype=int), settings,
+                      said.append)

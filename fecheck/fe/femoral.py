@@ -7,8 +7,10 @@ with ``scanned.thickness = "bone-distance"``, else ``contact.femoral_share`` of
 ``contact.thickness_mm``, the series model's total) and bonded there, with the same levels
 and grading as the tibial layers and the femoral cartilage's material
 (``contact.femoral_youngs_MPa`` and ``contact.femoral_poisson``, where unset the tibial
-one's); its cut walls are free. The vertices of the faces hit and
-those within `RING_MM` of the hit points are condensed in three dofs for the node-to-surface contact
+one's); its cut walls are free. Where faces of that crop invert in extrusion (a fold of a
+coarse or rough sheet), the crop ends `TRIM_MM` before the nearest of them, down to
+`MIN_CROP_MM` from the contact. The vertices of the faces hit and those within `RING_MM`
+of the hit points are condensed in three dofs for the node-to-surface contact
 (`fecheck.fe.joint.FemoralLayer`).
 
 Units: mm, N, MPa.
@@ -36,6 +38,10 @@ CROP_MM = 6.0
 """The femoral layer covers the femoral faces whose centroid lies within this distance of
 a point a tibial candidate's ray hits, mm (several cartilage thicknesses beyond the
 contact: its free cut walls barely change the compliance under the contact)."""
+MIN_CROP_MM = 4.0
+"""Where faces of the sheet invert in extrusion, the layer ends `TRIM_MM` before the nearest
+of them, but no nearer the contact than this (else the two-layer FE is refused), mm."""
+TRIM_MM = 0.5
 RING_MM = 0.5
 """The vertices of the faces the candidates' rays hit, and those within this distance of a
 hit point, are condensed (three dofs each): the faces a ray can hit as the pose settles
@@ -121,18 +127,28 @@ def femoral_layer(sheet: FemoralSheet, name: str, hit_points: np.ndarray,
         raise FecheckError(f"no {name} tibial contact candidate's normal meets the femoral "
                            "sheet: nothing for the femoral layer to carry")
     tree = cKDTree(hit_points)
-    near, _ = tree.query(sheet.mesh.face_centroids, distance_upper_bound=CROP_MM)
-    crop, used, remap = _crop(sheet.mesh, np.flatnonzero(np.isfinite(near)))
-    h = sheet.thickness_mm[used]
     levels = settings.levels(sheet.poisson)
-    try:
-        directions, rounds = extrusion_directions(crop, h, layers=levels, ratio=settings.grading)
-    except ExtrusionError as err:
-        x, y, z = densest(err.where)
-        raise FecheckError(f"the femoral sheet over the {name} compartment cannot be extruded "
-                           f"into a cartilage layer: {len(err.where)} faces invert, e.g. at "
-                           f"({x:.1f}, {y:.1f}, {z:.1f}) mm; use fe.cartilage = 'series'"
-                           ) from None
+    radius = CROP_MM
+    while True:
+        near, _ = tree.query(sheet.mesh.face_centroids, distance_upper_bound=radius)
+        crop, used, remap = _crop(sheet.mesh, np.flatnonzero(np.isfinite(near)))
+        h = sheet.thickness_mm[used]
+        try:
+            directions, rounds = extrusion_directions(crop, h, layers=levels,
+                                                      ratio=settings.grading)
+            break
+        except ExtrusionError as err:
+            x, y, z = densest(err.where)
+            reach = float(tree.query(err.where)[0].min()) - TRIM_MM
+            if reach < MIN_CROP_MM:
+                raise FecheckError(
+                    f"the femoral sheet over the {name} compartment cannot be extruded into "
+                    f"a cartilage layer: {len(err.where)} faces invert, e.g. at ({x:.1f}, "
+                    f"{y:.1f}, {z:.1f}) mm, {reach + TRIM_MM:.1f} mm from the contact; use "
+                    "fe.cartilage = 'series'") from None
+            log(f"{name} femoral layer: {len(err.where)} faces at ({x:.1f}, {y:.1f}, {z:.1f}) "
+                f"mm invert in extrusion: the layer ends {reach:.1f} mm from the contact")
+            radius = reach
     solid = layer_solid(crop, h, sheet.youngs_MPa, sheet.poisson, layers=levels,
                         ratio=settings.grading,
                         offsets=extrusion_offsets(crop, h, directions),
@@ -141,7 +157,7 @@ def femoral_layer(sheet: FemoralSheet, name: str, hit_points: np.ndarray,
     ring, _ = tree.query(crop.points, distance_upper_bound=RING_MM)
     candidates = np.union1d(np.flatnonzero(np.isfinite(ring)),
                             remap[sheet.mesh.faces[hit_faces]].ravel())
-    log(f"{name} femoral layer: {crop.n_faces} faces within {CROP_MM:g} mm of the contact, "
+    log(f"{name} femoral layer: {crop.n_faces} faces within {radius:.3g} mm of the contact, "
         f"{len(solid.mesh.tets)} quadratic tetrahedra, {solid.n_dofs} dofs, thickness "
         f"{h.min():.2f}-{h.max():.2f} mm ({sheet.source})"
         + (f" (extruded along normals smoothed {rounds} times)" if rounds else ""))
