@@ -367,7 +367,8 @@ class _Side:
     ray meets (-1: none), the barycentric weights and the gap (mm); `under` the vertices
     paired with the meniscus rather than the femur; `lift` (mm) taken off every
     femur-meniscus gap; with two deformable layers the femoral layer (tibia frame,
-    `fecheck.fe.joint.FemoralLayer`), its `Body` (carried by the femur) and `hits`: per
+    `fecheck.fe.joint.FemoralLayer`), its `Body` (carried by the femur), its surface as a
+    `fecheck.fe.indenter.MeshIndenter` (what the rays hit) and `hits`: per
     femur pair (its name's kind) the femoral layer's MeshIndenter hits (face (k,),
     weights (k, 3)) of every vertex it may pair, at the pairing in use."""
 
@@ -383,6 +384,7 @@ class _Side:
     lift: float = 0.0
     femoral: object = None
     femoral_body: Body | None = None
+    femoral_surface: object = None
     hits: dict = field(default_factory=dict)
 
 
@@ -529,7 +531,7 @@ def _with_femoral_layers(scene: Scene, sides: list[_Side], rot: np.ndarray, t: n
     out = []
     for s in sides:
         points, faces = [], []
-        for kind in FEMUR_PAIRS if s.meniscus is not None else FEMUR_PAIRS[:1]:
+        for kind in _femur_kinds(s):
             pts, nrm = _pair_points(s, kind)
             gap, face, _ = indenter.hits(pts, nrm)
             lift = s.lift if kind == "femur-meniscus" else 0.0
@@ -541,7 +543,8 @@ def _with_femoral_layers(scene: Scene, sides: list[_Side], rot: np.ndarray, t: n
         layer = femoral_layer(sheet, s.name, np.concatenate(points), np.concatenate(faces),
                               settings, say)
         side = replace(s, femoral=layer, femoral_body=Body(
-            f"{s.name} femoral", layer.solid.K, layer.solid.vertex_dofs, carried=True))
+            f"{s.name} femoral", layer.solid.K, layer.solid.vertex_dofs, carried=True),
+            femoral_surface=MeshIndenter(layer.solid.surface))
         side.hits = _femoral_hits(side, rot, 0.0, None)
         out.append(side)
     return out
@@ -649,17 +652,21 @@ def _pair_points(s: _Side, kind: str) -> tuple[np.ndarray, np.ndarray]:
     return m.points[m.superior], m.superior_normals
 
 
+def _femur_kinds(s: _Side) -> tuple[str, ...]:
+    """The femur pairs of compartment `s`: femur-tibia, and femur-meniscus with a
+    meniscus."""
+    return FEMUR_PAIRS if s.meniscus is not None else FEMUR_PAIRS[:1]
+
+
 def _femoral_hits(s: _Side, rot: np.ndarray, travel: float, turn: np.ndarray | None
                   ) -> dict[str, tuple[np.ndarray, np.ndarray]]:
     """Per femur pair of `s` the femoral layer's face (-1: a miss) and barycentric
     weights where each of its vertices' normal rays meets it (either way along the ray),
     the femur at `travel` turned by `turn`."""
-    from fecheck.fe.indenter import MeshIndenter
-
-    surface = MeshIndenter(s.femoral.solid.surface)
     out = {}
-    for kind in FEMUR_PAIRS if s.meniscus is not None else FEMUR_PAIRS[:1]:
-        _, face, weights = surface.hits(*_in_femur(*_pair_points(s, kind), rot, travel, turn))
+    for kind in _femur_kinds(s):
+        _, face, weights = s.femoral_surface.hits(*_in_femur(*_pair_points(s, kind), rot,
+                                                              travel, turn))
         out[kind] = (face, weights)
     return out
 
@@ -704,7 +711,7 @@ def _femoral_master(s: _Side, kind: str, rows: np.ndarray) -> dict:
             "weights": weights[rows]}
 
 
-def _femoral_lift(s: _Side, kind: str, u: dict[str, np.ndarray] | None) -> np.ndarray:
+def _femoral_give(s: _Side, kind: str, u: dict[str, np.ndarray] | None) -> np.ndarray:
     """How far the femoral layer's displacement (u, its kept dofs; None: undeformed)
     moves its surface along the normals of femur pair `kind` where they hit it, mm (0
     with a rigid femur or a miss)."""
@@ -734,7 +741,7 @@ def _all_gaps(sides: list[_Side], rot: np.ndarray, t: np.ndarray, travel: float,
         every = np.arange(len(pts))
         u_t = _disp(s.body, u[s.body.name], every) if u else np.zeros_like(pts)
         g = (_femur_gap(s.indenter, pts, nrm, rot, t, travel, turn)
-             - np.einsum("ij,ij->i", u_t, nrm) + _femoral_lift(s, "femur-tibia", u))
+             - np.einsum("ij,ij->i", u_t, nrm) + _femoral_give(s, "femur-tibia", u))
         out[f"{s.name} femur-tibia"] = np.where(s.under, np.inf, g)
         if s.meniscus is None:
             continue
@@ -745,7 +752,7 @@ def _all_gaps(sides: list[_Side], rot: np.ndarray, t: np.ndarray, travel: float,
             _femur_gap(s.indenter, m.points[m.superior], m.superior_normals, rot, t, travel,
                        turn)
             - np.einsum("ij,ij->i", sup, m.superior_normals) - s.lift
-            + _femoral_lift(s, "femur-meniscus", u))
+            + _femoral_give(s, "femur-meniscus", u))
         faces = m.inferior_faces[np.maximum(s.face, 0)]
         at = np.einsum("mk,mkc->mc", s.weights, _disp(m.body, u_m, faces.ravel()).reshape(
             -1, 3, 3))

@@ -94,6 +94,18 @@ class Indenter:
 
 
 @dataclass(frozen=True, eq=False)
+class Compliance:
+    """A body's condensed compliance, kept for `Condensed(reuse=...)`: its dofs (the node
+    dof triplets along `directions` (m, 3), or with `directions` None the sorted dofs
+    (k,) of (K⁻¹) on them), the block (mm/N) and the solver of its K."""
+
+    dofs: np.ndarray
+    block: np.ndarray
+    solve: object
+    directions: np.ndarray | None = None
+
+
+@dataclass(frozen=True, eq=False)
 class PairContact:
     """One pair at the solution: force_N (m,) N, gap_mm (m,) mm, active (m,)."""
 
@@ -201,7 +213,7 @@ class Condensed:
         self.J = self._gap_map(names, m)
         C = np.zeros((m, m))
         self.D, self.solves, self.kept = {}, {}, {}
-        before = reuse.kept if reuse is not None else {}
+        before: dict[str, Compliance] = reuse.kept if reuse is not None else {}
         for b in bodies:
             if not self._entries[b.name]:
                 continue
@@ -211,23 +223,24 @@ class Condensed:
             old = before.get(b.name)
             if normal is not None:        # one direction per node: the normal compliance
                 rows, dofs, directions = normal
-                if (old is not None and old[0] == "normal" and np.array_equal(old[1], dofs)
-                        and np.array_equal(old[2], directions)):
-                    block, self.solves[b.name] = old[3], old[4]
+                if (old is not None and old.directions is not None
+                        and np.array_equal(old.dofs, dofs)
+                        and np.array_equal(old.directions, directions)):
+                    block, self.solves[b.name] = old.block, old.solve
                 else:
                     block, self.solves[b.name] = condensed_compliance(b.K, dofs, directions)
-                self.kept[b.name] = ("normal", dofs, directions, block, self.solves[b.name])
+                self.kept[b.name] = Compliance(dofs, block, self.solves[b.name], directions)
                 C[np.ix_(rows, rows)] += block
                 continue
             if solver == "cholmod":       # (K⁻¹) on the dofs the gaps read, one factorization
                 cols = np.unique(c)
-                if old is not None and old[0] == "nodal" and np.isin(cols, old[1]).all():
-                    held, whole, self.solves[b.name] = old[1], old[2], old[3]
+                nodal = old is not None and old.directions is None
+                if nodal and np.isin(cols, old.dofs).all():
+                    held, whole, self.solves[b.name] = old.dofs, old.block, old.solve
                 else:
-                    held = cols if old is None or old[0] != "nodal" else np.union1d(old[1],
-                                                                                     cols)
+                    held = np.union1d(old.dofs, cols) if nodal else cols
                     whole, self.solves[b.name] = nodal_compliance(b.K, held)
-                self.kept[b.name] = ("nodal", held, whole, self.solves[b.name])
+                self.kept[b.name] = Compliance(held, whole, self.solves[b.name])
                 at = np.searchsorted(held, cols)
                 inverse = whole[np.ix_(at, at)]
                 Dc = D[:, cols]
