@@ -46,12 +46,9 @@ class _Version(argparse.Action):
 
 def package_version() -> str:
     """The installed version of the fecheck package (its metadata), or "unknown"."""
-    from importlib.metadata import PackageNotFoundError, version
+    from fecheck.scene.provenance import fecheck_version
 
-    try:
-        return version("fecheck")
-    except PackageNotFoundError:
-        return "unknown"
+    return fecheck_version()
 
 
 def build_parser() -> argparse.ArgumentParser:
@@ -106,6 +103,9 @@ def main(argv: list[str] | None = None) -> int:
         return 0
     warnings.showwarning = _one_line_warning
     from fecheck.io import outputs
+    from fecheck.scene.provenance import start_clock
+
+    start_clock()
 
     outputs.forget_checked()
     try:

@@ -303,7 +303,7 @@ def write_outputs(args: argparse.Namespace, check, scene, out, est=None) -> None
     if args.plot:
         from fecheck.io.fe_plots import write_fe_plots
 
-        for path in write_fe_plots(check, args.plot, scene["name"] or str(scene.source)):
+        for path in write_fe_plots(check, args.plot, scene.label):
             print(f"wrote {path}", file=out)
 
 
@@ -362,7 +362,7 @@ def run_menisci_fe(args: argparse.Namespace, scene, out) -> int:
     refuse_unsupported(args)
     check_outputs(args)
     size = MENISCUS_PER_SHEET * float(scene["fe.size_mm"])
-    name = scene["name"] or str(scene.source)
+    name = scene.label
     t0 = time.perf_counter()
     with policy("fecheck fe", force=args.force, force_hint="--force"):
         result = knee_menisci.knee_menisci_fe(scene, meniscus_size_mm=size, log=stderr_log,

@@ -34,7 +34,13 @@ def add_parser(subparsers) -> None:
                     "JSON or CSV to standard output (the table then goes to standard error).")
     add_scene_arguments(p, "override a scene key, value as a TOML literal "
                            "(e.g. --set contact.poisson=0.4 --set contact.law=hertz)")
-    p.add_argument("--json", metavar="PATH", help="write the result as JSON ('-': stdout)")
+    p.add_argument("--from", dest="from_json", type=Path, metavar="RESULT.json",
+                   help="run again the scene a result JSON of `fecheck run --json` recorded "
+                        "(every key's value, with its --set overrides); refused when an "
+                        "input file it read has changed since (its sha256)")
+    p.add_argument("--json", metavar="PATH", help="write the result as JSON ('-': stdout); "
+                   "it records the fecheck version, the resolved scene, the sha256 of "
+                   "every input file and the run's wall and CPU time (provenance)")
     p.add_argument("--csv", metavar="PATH", help="write the result as a CSV row ('-': stdout)")
     p.add_argument("--faces-csv", metavar="PATH",
                    help="write one CSV row per slave face: compartment, face, centroid x/y/z "
@@ -114,15 +120,17 @@ def _write(path, text: str, out) -> None:
         print(f"wrote {path}", file=out)
 
 
-def write_text_outputs(args: argparse.Namespace, result, out) -> None:
-    """The --json, --csv and --faces-csv outputs (no faces CSV without per-face results:
-    `write_surface_outputs` says so)."""
+def write_text_outputs(args: argparse.Namespace, result, out, scene=None) -> None:
+    """The --json (with the provenance of `scene`), --csv and --faces-csv outputs (no
+    faces CSV without per-face results: `write_surface_outputs` says so)."""
     import json
 
     from fecheck.io.plots import has_pressure_map
+    from fecheck.scene.provenance import with_provenance
 
     if args.json is not None:
-        _write(args.json, json.dumps(result.as_dict(), indent=2) + "\n", out)
+        data = with_provenance(result.as_dict(), scene)
+        _write(args.json, json.dumps(data, indent=2) + "\n", out)
     if args.csv is not None:
         _write(args.csv, _csv_row_text(result), out)
     if args.faces_csv is not None and has_pressure_map(result):
@@ -156,12 +164,45 @@ def write_surface_outputs(args: argparse.Namespace, result, out) -> None:
             print(f"wrote {path}", file=out)
 
 
+def recorded_scene(args: argparse.Namespace):
+    """The scene `args.from_json` recorded; `FecheckError` with a scene or ``--set`` beside
+    it, or when an input file it read changed (the numbers would not be reproduced); a
+    warning when another fecheck version wrote it."""
+    import json
+    import warnings
+
+    from fecheck.errors import FecheckError
+    from fecheck.scene import provenance
+
+    path = args.from_json
+    if args.scene is not None or args.overrides:
+        raise FecheckError("--from runs the scene a result recorded: give no SCENE and no "
+                           "--set with it (run the scene itself to change it)")
+    try:
+        data = json.loads(path.read_text(encoding="utf-8"))
+    except (OSError, UnicodeDecodeError, ValueError) as err:
+        raise FecheckError(f"--from {path}: cannot read a result JSON "
+                           f"({type(err).__name__}: {err})") from None
+    scene = provenance.recorded_scene(data, str(path))
+    changed = provenance.changed_inputs(data, scene)
+    if changed:
+        raise FecheckError(f"--from {path}: the inputs differ from the recorded run, so its "
+                           f"numbers would not be reproduced: {'; '.join(changed)}; restore "
+                           "them, or run the scene itself to use today's files")
+    then = data["provenance"].get("fecheck_version")
+    if then != provenance.fecheck_version():
+        warnings.warn(f"--from {path}: written by fecheck {then}, this is "
+                      f"{provenance.fecheck_version()}: the numbers may differ", stacklevel=2)
+    return scene
+
+
 def run(args: argparse.Namespace) -> int:
     from fecheck.model.run import run_scene
     from fecheck.scene import load_scene
 
     out = _report_stream(args)
-    scene = load_scene(args.scene, args.overrides)
+    scene = (load_scene(args.scene, args.overrides) if args.from_json is None
+             else recorded_scene(args))
     if has_no_pressure_map(scene):
         _drop_per_face_outputs(args, out)
     check_outputs(args)
@@ -172,7 +213,7 @@ def run(args: argparse.Namespace) -> int:
         print(plan.text(), file=out, flush=True)
     result = run_scene(scene)
     print(result.table(), file=out, flush=True)
-    write_text_outputs(args, result, out)
+    write_text_outputs(args, result, out, scene)
     write_surface_outputs(args, result, out)
     if args.explain:
         deviations = plan.audit()

@@ -86,7 +86,7 @@ def _pair_modules(pair) -> set[str]:
 def plan_scene(scene, plot: bool = False) -> Plan:
     """The plan of `run_scene(scene)` (the mesh step is done here, so timed for real)."""
     kind = scene["model.kind"]
-    plan = Plan(scene["name"] or scene.source, kind)
+    plan = Plan(scene.label, kind)
     before = set(sys.modules)
     if kind != "rigid":
         if kind == "sphere-plane":

@@ -52,6 +52,6 @@ def run_rigid(scene: Scene, warm_start: np.ndarray | None = None) -> RunResult:
     ligs = {k: LigamentResult(v, sol.ligament_length_mm[k])
             for k, v in sol.ligament_force_N.items()}
     elapsed = time.perf_counter() - t0
-    return RunResult(scene["name"] or scene.source, "rigid", "none", True, 1, sol.residual_N,
+    return RunResult(scene.label, "rigid", "none", True, 1, sol.residual_N,
                      Pose.of(q, theta_x), comps, ligs, {"total": elapsed, "solve": elapsed})
 

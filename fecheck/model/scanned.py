@@ -240,7 +240,7 @@ def run_scanned(scene: Scene, warm_start: np.ndarray | None = None,
     timing = {"total": time.perf_counter() - t_start, "build": t_built - t_start,
               "solve": eq.seconds, "contact": contact.contact_seconds,
               "per_evaluation_us": 1e6 * contact.contact_seconds / max(contact.evaluations, 1)}
-    return RunResult(scene["name"] or scene.source, scene["model.kind"], scene["contact.law"],
+    return RunResult(scene.label, scene["model.kind"], scene["contact.law"],
                      sol.converged, sol.iterations, sol.residual_norm,
                      Pose.of(eq.q, math.radians(scene["dofs.flexion_deg"]) if flexion is None
                              else flexion[0]), compartments,

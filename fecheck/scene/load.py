@@ -16,7 +16,7 @@ import difflib
 import math
 import warnings
 from collections.abc import Iterable, Mapping, Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from importlib import resources
 from pathlib import Path
 from typing import Any
@@ -33,13 +33,29 @@ from fecheck.scene.schema import SCHEMA, Key
 
 @dataclass(frozen=True)
 class Scene:
-    """A validated scene: `values` maps every dotted key of `SCHEMA` to its value."""
+    """A validated scene: `values` maps every dotted key of `SCHEMA` to its value;
+    `overrides` are the ``KEY=VALUE`` texts (``--set``) applied to the file's values."""
 
     values: Mapping[str, Any]
     source: str
+    overrides: tuple[str, ...] = ()
 
     def __getitem__(self, key: str) -> Any:
         return self.values[key]
+
+    @property
+    def set_keys(self) -> tuple[str, ...]:
+        """The keys `overrides` set, in order, each once."""
+        return tuple(dict.fromkeys(parse_override(text)[0] for text in self.overrides))
+
+    @property
+    def label(self) -> str:
+        """The name shown in reports and results: ``name`` (else the file), followed by
+        the ``--set`` overrides when there are any (a modified scene is not its file)."""
+        name = self["name"] or self.source
+        if not self.overrides:
+            return name
+        return f"{name} (modified: " + ", ".join(self.overrides) + ")"
 
     @property
     def knee(self) -> Knee:
@@ -355,7 +371,9 @@ def _overridden(scene: Scene, overrides: Sequence[str]) -> tuple[Scene, list[str
             raise _unknown(key, "--set")
         values[key] = _check(key, value, "--set")
         keys.append(key)
-    out = Scene(values, scene.source)
+    out = Scene(values, scene.source, scene.overrides + tuple(
+        f"{key}={text.partition('=')[2].strip()}" for key, text in zip(keys, overrides,
+                                                                       strict=True)))
     _check_consistent(out, f"--set on {scene.source}")
     return out, keys
 
@@ -365,7 +383,14 @@ def with_values(scene: Scene, **dotted: Any) -> Scene:
     values = dict(scene.values)
     for k, v in dotted.items():
         values[k.replace("__", ".")] = v
-    return validate(_nest(values), scene.source)
+    return replace(validate(_nest(values), scene.source), overrides=scene.overrides)
+
+
+def scene_from_values(values: Mapping[str, Any], source: str, overrides: Sequence[str] = (),
+                      where: str = "") -> Scene:
+    """The scene of resolved dotted `values` (a recorded scene), validated again, with the
+    ``--set`` texts that made it; messages start with `where`."""
+    return replace(validate(_nest(values), source, where), overrides=tuple(overrides))
 
 
 def _nest(values: Mapping[str, Any]) -> dict[str, Any]:

@@ -219,7 +219,7 @@ def fit_warnings(fit: CalibrationFit, scene_name: str) -> list[str]:
 
 def write(fit: CalibrationFit, scene: Scene, path: str | Path) -> Path:
     """The calibration file of `fit` (contact.calibration reads it)."""
-    info = {"scene": scene["name"] or scene.source, "fe_mode": scene["fe.mode"],
+    info = {"scene": scene.label, "fe_mode": scene["fe.mode"],
             "fingerprint": fit.fingerprint, "loads_N": fit.loads_N,
             "fe": [a.values for a in fit.fe],
             "errors": {"linear_ef": fit.errors("linear"), "calibrated_ef": fit.errors("fitted")},
