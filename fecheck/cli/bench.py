@@ -56,7 +56,7 @@ def run(args: argparse.Namespace) -> int:
 
     result = bench.run(quick=args.quick,
                        progress=lambda m: print(f"  {m}", file=sys.stderr, flush=True))
-    _report(args, bench.table(result), json.dumps(result, indent=1) + "\n",
+    _report(args, bench.table(result), json.dumps(_stamped(result), indent=1) + "\n",
             lambda: bench.plot(result, args.plot))
     return 0
 
@@ -66,7 +66,7 @@ def _pareto(args: argparse.Namespace) -> int:
 
     config = bench.BenchConfig.quick() if args.quick else bench.BenchConfig()
     result = bench.run_bench(config, log=lambda m: print(f"  {m}", file=sys.stderr, flush=True))
-    _report(args, bench.table(result), bench.json_text(result),
+    _report(args, bench.table(result), bench.json_text(_stamped(result)),
             lambda: bench.plot(result, str(args.plot)))
     return 0
 
@@ -80,8 +80,15 @@ def _unplotted(args: argparse.Namespace, suite: str) -> int:
         print(f"bench {suite} draws no plots: --plot ignored", file=sys.stderr)
     result = module.run(quick=args.quick,
                         progress=lambda m: print(f"  {m}", file=sys.stderr, flush=True))
-    _report(args, module.table(result), json.dumps(result, indent=1) + "\n", list)
+    _report(args, module.table(result), json.dumps(_stamped(result), indent=1) + "\n", list)
     return 0
+
+
+def _stamped(result: dict) -> dict:
+    """`result` with its provenance (version, command, wall and CPU time)."""
+    from fecheck.scene.provenance import with_provenance
+
+    return with_provenance(result)
 
 
 def _report(args: argparse.Namespace, table: str, json_text: str, plot) -> None:

@@ -289,9 +289,11 @@ def write_outputs(args: argparse.Namespace, check, scene, out, est=None) -> None
     import json
 
     from fecheck.io.outputs import write_text
+    from fecheck.scene.provenance import with_provenance
 
     if args.json is not None:
-        data = check.as_dict() | {"error_estimate": None if est is None else est.as_dict()}
+        data = with_provenance(check.as_dict() | {
+            "error_estimate": None if est is None else est.as_dict()}, scene)
         write_text(args.json, json.dumps(data, indent=2) + "\n")
         if str(args.json) != STDOUT:
             print(f"wrote {args.json}", file=out)
@@ -357,6 +359,7 @@ def run_menisci_fe(args: argparse.Namespace, scene, out) -> int:
     from fecheck.fe.crosscheck import stderr_log
     from fecheck.fe.knee_menisci_report import as_dict, report_lines
     from fecheck.io.outputs import write_text
+    from fecheck.scene.provenance import with_provenance
     from geometry.budget import policy
 
     refuse_unsupported(args)
@@ -374,7 +377,8 @@ def run_menisci_fe(args: argparse.Namespace, scene, out) -> int:
         print(line, file=out)
     print("error estimate: none (not made for the FE with menisci)", file=out)
     if args.json is not None:
-        write_text(args.json, json.dumps(as_dict(result, name), indent=2) + "\n")
+        data = with_provenance(as_dict(result, name), scene)
+        write_text(args.json, json.dumps(data, indent=2) + "\n")
         if str(args.json) != "-":
             print(f"wrote {args.json}", file=out)
     return 0

@@ -103,14 +103,15 @@ def _fe_table(rows: list[dict], out) -> None:
               f"{r['fe_seconds']:.1f} s", file=out)
 
 
-def _write_outputs(args: argparse.Namespace, run_, out) -> None:
+def _write_outputs(args: argparse.Namespace, run_, out, scene) -> None:
     from fecheck.io.outputs import write_text
     from fecheck.studies import flex_outputs
 
     if not run_.points:
         print("no angle solved: nothing written", file=out)
         return
-    for path, text in ((args.csv, flex_outputs.csv_text), (args.json, flex_outputs.json_text)):
+    for path, text in ((args.csv, flex_outputs.csv_text),
+                       (args.json, lambda r: flex_outputs.json_text(r, scene))):
         if path is not None:
             write_text(path, text(run_))
             if str(path) != "-":
@@ -148,7 +149,7 @@ def run(args: argparse.Namespace) -> int:
           f" s, then {result.sweep_seconds:.2f} s wall for the angles (Newton {solve:.2f} s)",
           file=err)
     _fe_table(result.fe, err)
-    _write_outputs(args, result, err)
+    _write_outputs(args, result, err, scene)
     if result.stopped is None:
         return 0
     if result.stopped.startswith("interrupted"):

@@ -205,6 +205,7 @@ def format_table(rows: list[dict]) -> str:
 def _info(args) -> int:
     from fecheck.errors import FecheckError
     from fecheck.io.outputs import STDOUT, check_output, write_text
+    from fecheck.scene.provenance import provenance
     from geometry.checks import mesh_report, tet_surface
     from geometry.io import load_mesh
     from geometry.mesh import TetMesh
@@ -222,6 +223,9 @@ def _info(args) -> int:
     to_stdout = args.json is not None and str(args.json) == STDOUT
     print(format_table(rows), file=sys.stderr if to_stdout else sys.stdout)
     if args.json is not None:
+        stamp = provenance(files=[("mesh", path) for path in args.files])
+        rows = [row | {"sha256": rec["sha256"], "provenance": stamp}
+                for row, rec in zip(rows, stamp["input_files"], strict=True)]
         write_text(args.json, json.dumps(rows, indent=2) + "\n")
     return 0
 

@@ -42,6 +42,7 @@ def run(args: argparse.Namespace) -> int:
 
     from fecheck.errors import FecheckError
     from fecheck.io.outputs import STDOUT, check_output, write_text
+    from fecheck.scene.provenance import with_provenance
     from fecheck.studies import verify
 
     chosen = verify.select(args.only)
@@ -67,8 +68,8 @@ def run(args: argparse.Namespace) -> int:
     print(f"{len(rows)} cases: {counts['pass']} pass, {counts['known']} known, "
           f"{counts['FAIL']} fail", file=table)
     if args.json is not None:
-        write_text(args.json, json.dumps({"cases": [r.as_dict() for r in rows]}, indent=1)
-                   + "\n")
+        data = with_provenance({"cases": [r.as_dict() for r in rows]}, scene)
+        write_text(args.json, json.dumps(data, indent=1) + "\n")
     if args.out is not None:
         estimate = (verify.scene_estimate(scene, args.scene_levels, str(args.scene))
                     if scene else "")

@@ -30,6 +30,7 @@ from fecheck.laws.calibrated import Calibration
 from fecheck.laws.materials import ef_stiffness
 from fecheck.scene import Scene, with_values
 from fecheck.scene.constants import COMPARTMENTS
+from fecheck.scene.provenance import provenance
 
 LOAD_FACTORS = (0.6, 1.0, 1.4)
 """Loads calibrated at by default, as multiples of the scene's load.force_N."""
@@ -223,7 +224,7 @@ def write(fit: CalibrationFit, scene: Scene, path: str | Path) -> Path:
             "fingerprint": fit.fingerprint, "loads_N": fit.loads_N,
             "fe": [a.values for a in fit.fe],
             "errors": {"linear_ef": fit.errors("linear"), "calibrated_ef": fit.errors("fitted")},
-            "seconds": fit.seconds}
+            "seconds": fit.seconds, "provenance": provenance(scene)}
     return calibrated.write_calibration(path, fit.parameters, info)
 
 

@@ -18,6 +18,8 @@ from xml.sax.saxutils import quoteattr
 
 import numpy as np
 
+from fecheck.scene import Scene
+from fecheck.scene.provenance import provenance
 from fecheck.studies.flex import LIGAMENT_GROUPS, FlexRun
 from geometry.files import write_output
 
@@ -38,8 +40,9 @@ def _num(v: float) -> float | None:
     return None if not math.isfinite(v) else float(v)
 
 
-def json_text(run: FlexRun) -> str:
-    """The axis, the build time, how the run ended and every angle (bundles by name)."""
+def json_text(run: FlexRun, scene: Scene | None = None) -> str:
+    """The axis, the build time, how the run ended, every angle (bundles by name) and the
+    provenance of `scene` (`fecheck.scene.provenance`)."""
     axis = run.axis
     doc = {"axis": {"point_mm": axis.point.tolist(), "direction": axis.direction.tolist(),
                     "source": axis.source,
@@ -48,7 +51,8 @@ def json_text(run: FlexRun) -> str:
            "build_seconds": run.build_seconds, "stopped": run.stopped,
            "angles": [{**{k: _num(v) for k, v in p.row().items()},
                        "ligaments_N": p.ligaments} for p in run.points],
-           "fe": [{k: _num(v) for k, v in r.items() if k != "check"} for r in run.fe]}
+           "fe": [{k: _num(v) for k, v in r.items() if k != "check"} for r in run.fe],
+           "provenance": provenance(scene)}
     return json.dumps(doc, indent=2) + "\n"
 
 

@@ -37,6 +37,7 @@ import numpy as np
 
 from fecheck.errors import FecheckError
 from fecheck.laws.registry import spec_of
+from fecheck.scene.provenance import provenance
 from fecheck.statics.load_control import NotConverged
 from fecheck.studies.pool import die_with, interrupts_held
 
@@ -639,5 +640,6 @@ def write_json(results: list[CaseResult], path: str | Path) -> None:
         return {k: (None if isinstance(v, float) and not math.isfinite(v) else v)
                 for k, v in d.items()}
 
-    doc = {"cases": [clean(asdict(r)) for r in results], "summary": summary(results)}
+    doc = {"cases": [clean(asdict(r)) for r in results], "summary": summary(results),
+           "provenance": provenance()}
     write_text(path, json.dumps(doc, indent=2) + "\n")
