@@ -1,4 +1,4 @@
-"""Meniscus solids for the FE with menisci (issue 28): tetrahedra, surfaces, fibres, horns.
+"""Meniscus solids for the FE with menisci: tetrahedra, surfaces, fibres, horns.
 
 `meniscus_solid` turns one meniscus of the smith2019 data set (``menisci.dir``, e.g. the
 packaged ``fecheck:knee/smith2019_menisci``) into plain data for a deformable meniscus:

@@ -1,4 +1,4 @@
-"""The scanned knee with menisci (issue 28): tibia and both menisci as rigid bodies.
+"""The scanned knee with menisci: tibia and both menisci as rigid bodies.
 
 ``menisci.dir`` (a folder, or ``"fecheck:knee/smith2019_menisci"``) adds the menisci of the
 smith2019 model (OpenSim-JAM; Smith, Brandon & Thelen 2019, J. Biomech. 82:124-133) to a
@@ -329,6 +329,13 @@ def _shares(interfaces: Sequence[Interface], poses, sides) -> dict[str, dict[str
     return out
 
 
+def pose_record(q: np.ndarray) -> dict[str, list[float]]:
+    """A body's solved coordinates (6,) for the result: ``q`` as solved (x y z mm, θx θy
+    θz rad), and the same as ``translation_mm`` and ``rotation_deg``."""
+    q = [float(v) for v in q]
+    return {"q": q, "translation_mm": q[:3], "rotation_deg": [math.degrees(v) for v in q[3:]]}
+
+
 def run_menisci(scene: Scene, warm_start: np.ndarray | None = None) -> RunResult:
     """Solve a femur-tibia scene with its menisci (module docstring). `warm_start` is not
     taken (the menisci have their own coordinates)."""
@@ -351,7 +358,7 @@ def run_menisci(scene: Scene, warm_start: np.ndarray | None = None) -> RunResult
         shares[side]["meniscus_tibia_max_pressure_MPa"] = m["max_pressure_MPa"]
     menisci = {"compartments": shares,
                "balance_N": balance(problem, sol.q),
-               "poses": {b.name: {"q": [float(v) for v in q]}
+               "poses": {b.name: pose_record(q)
                          for b, q in zip(problem.bodies, sol.q, strict=True) if b.free},
                "ligaments_N": {n: s.tension(poses) for n, s in springs.items()}}
     q_tibia = sol.q[TIBIA][list(TIBIA_COORDINATES)]

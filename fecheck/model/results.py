@@ -19,6 +19,8 @@ import numpy as np
 from geometry.files import write_output
 
 POSE_KEYS = ("x_mm", "y_mm", "z_mm", "abduction_deg", "internal_deg")
+LEGACY_TIMING = ("per_evaluation", "per_evaluation_us")
+"""Timing keys kept for older readers beside ``per_evaluation_s`` (same time, s and µs)."""
 
 
 @dataclass(frozen=True, eq=False)
@@ -198,8 +200,9 @@ class RunResult:
     ligaments : {name: LigamentResult}
     timing_s : {"total", "solve", …} wall-clock seconds (solve = the equilibrium solve
         with its contact evaluations, without mesh building and imports; build = meshes
-        and contact pairs; contact = all contact-and-tangent evaluations; per_evaluation
-        = one evaluation of every compartment)
+        and contact pairs; contact = all contact-and-tangent evaluations; per_evaluation_s
+        = one evaluation of every compartment; the older ``per_evaluation`` (s, sphere-
+        plane) and ``per_evaluation_us`` (µs, scanned) hold the same, `LEGACY_TIMING`)
     exact : closed-form references and deviations (sphere-plane EF), else {}
     record : the Newton solve's record (`SolveRecord`); None for the rigid model, which
         solves one linear system
@@ -312,7 +315,9 @@ class RunResult:
                      "tibia; axial force its component along the tibia's long axis "
                      "(+ compressive)")
         lines.extend(f"note: {n}" for n in self.notes)
-        lines.append("time s: " + "  ".join(f"{k} {v:.4f}" for k, v in self.timing_s.items()))
+        lines.append("time s: " + "  ".join(
+            f"{k.removesuffix('_s')} {v:.4f}" for k, v in self.timing_s.items()
+            if k not in LEGACY_TIMING))
         return "\n".join(lines)
 
 
@@ -332,8 +337,9 @@ def _menisci_lines(menisci: Mapping[str, Any]) -> list[str]:
     out.append("balance N (free DOFs): " + "  ".join(
         f"{k} {v:.2g}" for k, v in menisci["balance_N"].items()))
     for name, pose in menisci["poses"].items():
-        out.append(f"pose {name}: q " + " ".join(f"{v:+.4f}" for v in pose["q"])
-                   + " (x y z mm, θx θy θz rad)")
+        out.append(f"pose {name}: translation mm " + " ".join(
+            f"{v:+.4f}" for v in pose["translation_mm"]) + ", rotation deg (θx θy θz) "
+            + " ".join(f"{v:+.3f}" for v in pose["rotation_deg"]))
     return out
 
 

@@ -12,6 +12,7 @@ from collections.abc import Callable
 import numpy as np
 
 from fecheck.errors import FecheckError
+from fecheck.laws.coldstart import announce_cold_kernels
 from fecheck.model.plausibility import after_solve
 from fecheck.model.results import RunResult
 from fecheck.model.rigid import run_rigid
@@ -48,6 +49,8 @@ def run_scene(scene: Scene, warm_start: np.ndarray | None = None) -> RunResult:
     else:
         raise FecheckError(f"model.kind {kind!r} has no runner; known: "
                            f"{', '.join(MODEL_RUNNERS)}")
+    if runner is not run_rigid:
+        announce_cold_kernels()
     result = runner(scene, warm_start)
     after_solve(scene, result)
     return with_layer_compression(scene, result)

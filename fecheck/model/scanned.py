@@ -239,7 +239,8 @@ def run_scanned(scene: Scene, warm_start: np.ndarray | None = None,
                                    "load_and_gravity": applied_load(scene)(rot, t)[0]})
     timing = {"total": time.perf_counter() - t_start, "build": t_built - t_start,
               "solve": eq.seconds, "contact": contact.contact_seconds,
-              "per_evaluation_us": 1e6 * contact.contact_seconds / max(contact.evaluations, 1)}
+              "per_evaluation_us": 1e6 * contact.contact_seconds / max(contact.evaluations, 1),
+              "per_evaluation_s": contact.contact_seconds / max(contact.evaluations, 1)}
     return RunResult(scene.label, scene["model.kind"], scene["contact.law"],
                      sol.converged, sol.iterations, sol.residual_norm,
                      Pose.of(eq.q, math.radians(scene["dofs.flexion_deg"]) if flexion is None

@@ -154,7 +154,8 @@ def run_contact_model(scene: Scene, warm_start: np.ndarray | None = None) -> Run
                          else None)
     timing = {"total": time.perf_counter() - t_start, "build": t_built - t_start,
               "solve": eq.seconds, "contact": contact.contact_seconds,
-              "per_evaluation": contact.contact_seconds / max(contact.evaluations, 1)}
+              "per_evaluation": contact.contact_seconds / max(contact.evaluations, 1),
+              "per_evaluation_s": contact.contact_seconds / max(contact.evaluations, 1)}
     return RunResult(scene.label, scene["model.kind"], scene["contact.law"],
                      sol.converged, sol.iterations, sol.residual_norm,
                      Pose.of(eq.q, math.radians(scene["dofs.flexion_deg"])), compartments,

@@ -24,12 +24,14 @@ from __future__ import annotations
 
 import csv
 import io
+import math
 import os
 import queue
 import re
 import socket
 import sys
 import threading
+import time
 import uuid
 from collections.abc import Callable, Iterator, Sequence
 from concurrent.futures import Executor, Future
@@ -62,6 +64,8 @@ _INDEXED = re.compile(r"^(?P<key>[\w.]+)\[(?P<index>\d+)\]$")
 _SET_PREFIX = re.compile(r"^--set( on [^:]*)?: ")
 """How `apply_overrides` starts its messages; a sweep's values are not ``--set``."""
 _POLL_S = 0.25
+PLAIN_PROGRESS_S = 10.0
+"""Without a terminal, a sweep's progress line is written at most this often, s."""
 """Longest wait for a finished point before the main thread looks at signals again, s."""
 
 
@@ -234,34 +238,60 @@ def _solve_on_worker(scene: Scene, override: str, value: float, label: str,
     return SweepPoint(value, None, f"{label} failed on {where}: {point.error}")
 
 
-def _progress(show: bool, done: int, total: int) -> None:
-    """Redraw the text progress bar on stderr (when `show`)."""
-    if not show:
-        return
-    stream = sys.stderr
-    width = 30
-    filled = width * done // total
-    stream.write(f"\rsweep [{'#' * filled}{'.' * (width - filled)}] {done}/{total}")
-    if done == total:
-        stream.write("\n")
-    stream.flush()
+def _is_terminal(stream) -> bool:
+    try:
+        return bool(stream.isatty())
+    except (AttributeError, ValueError, OSError):
+        return False
+
+
+class Progress:
+    """A sweep's progress on `stream` (default stderr): on a terminal a bar redrawn in
+    place (``\r``); otherwise (a redirected log) a plain line ``sweep: done/total points``
+    at the start, at most every `every_s` seconds, and at the end."""
+
+    def __init__(self, total: int, stream=None, every_s: float = PLAIN_PROGRESS_S):
+        self.stream = sys.stderr if stream is None else stream
+        self.total, self.every_s = total, every_s
+        self.terminal = _is_terminal(self.stream)
+        self._last = -math.inf
+
+    def show(self, done: int) -> None:
+        """Say that `done` of the points are finished."""
+        if self.terminal:
+            width = 30
+            filled = width * done // self.total
+            self.stream.write(f"\rsweep [{'#' * filled}{'.' * (width - filled)}] "
+                              f"{done}/{self.total}" + ("\n" if done == self.total else ""))
+        elif done == self.total or time.monotonic() - self._last >= self.every_s:
+            self._last = time.monotonic()
+            self.stream.write(f"sweep: {done}/{self.total} points\n")
+        self.stream.flush()
+
+    def end(self, done: int) -> None:
+        """End a bar left unfinished (an interrupted or failed sweep)."""
+        if self.terminal and done < self.total:
+            self.stream.write("\n")
+            self.stream.flush()
 
 
 class _Finished:
-    """The finished points of a sweep: progress bar and `on_point` after each one."""
+    """The finished points of a sweep: progress (`Progress`) and `on_point` after each."""
 
     def __init__(self, total: int, progress: bool,
                  on_point: Callable[[list[SweepPoint]], None] | None):
         self.total = total
-        self._progress = progress
+        self._progress = Progress(total) if progress else None
         self._on_point = on_point
         self._points: dict[int, SweepPoint] = {}
-        _progress(progress, 0, total)
+        if self._progress is not None:
+            self._progress.show(0)
 
     def add(self, index: int, point: SweepPoint) -> None:
         """Record the point of value number `index`."""
         self._points[index] = point
-        _progress(self._progress, len(self._points), self.total)
+        if self._progress is not None:
+            self._progress.show(len(self._points))
         if self._on_point is not None:
             self._on_point(self.points())
 
@@ -271,9 +301,8 @@ class _Finished:
 
     def end_line(self) -> None:
         """End an unfinished progress bar's line."""
-        if self._progress and len(self._points) < self.total:
-            sys.stderr.write("\n")
-            sys.stderr.flush()
+        if self._progress is not None:
+            self._progress.end(len(self._points))
 
 
 def _run_serial(scene: Scene, values: Sequence[float], overrides: Sequence[str],
@@ -401,7 +430,7 @@ def run_sweep(scene: Scene, param: str, values: Sequence[float], *, workers: int
         Run the points on this executor (threads, Dask); the caller
         owns it.
     progress
-        Draw a text bar on stderr.
+        Show the progress on stderr (`Progress`: a bar on a terminal, else plain lines).
     fail_fast
         Stop at the first failing point (the points not yet run are left out).
     on_point
