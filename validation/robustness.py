@@ -593,7 +593,8 @@ def first_line(answer: Answer) -> str:
 
 
 def _cell(text: str) -> str:
-    return text.replace("|", "\\|").replace("`", "'")
+    """`text` for a table cell: pipes escaped, the repository's path shortened."""
+    return text.replace(str(ROOT), "<repo>").replace("|", "\\|").replace("`", "'")
 
 
 def report(answers: list[Answer], quick: bool, seconds: float) -> str:
