@@ -30,6 +30,8 @@ def _answer(code, out="", err="", case=CASE, texts=None) -> Answer:
     (_answer(None, "", ""), False, "no answer within 60 s"),
     (_answer(-9, "", ""), False, "killed by signal 9"),
     (_answer(0, "p_max nan MPa"), False, "NaN in the output"),
+    (_answer(0, "tibia mesh 4,244 faces; no NaN, no degenerate face"), True, "result"),
+    (_answer(0, "", "flex [1/3] -10°: medial 690 N"), True, "result"),
     (_answer(0, "", ""), False, "exit 0 in silence"),
     (_answer(2, "", ERROR + "\n" + ERROR), False, "2 error lines"),
     (_answer(2, "", "something went wrong"), False, "no error line"),

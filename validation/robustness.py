@@ -54,7 +54,10 @@ REFUSE_S, QUICK_S, SOLVE_S, HEAVY_S = 30, 60, 150, 240
 solve, one that solves a decimated scanned knee, one that runs an FE or a study."""
 DECIMATE = ["--set", "scanned.decimate_faces=1500"]
 """Cheap scanned knees: the tibial sheets decimated to 1500 faces."""
-NAN = re.compile(r"(?<![\w.])nan(?![\w])", re.IGNORECASE)
+NAN = re.compile(r"(?<!no )(?<![\w.])nan(?![\w])", re.IGNORECASE)
+"""A NaN printed as a value (not "no NaN" in a check's line)."""
+WORK = "{work}"
+"""Stands for the scratch folder in an input's arguments (absolute paths of its files)."""
 ANSWER_CHARS = 160
 
 
@@ -279,14 +282,15 @@ def _run_cases() -> list[Case]:
         c(["run", "scanned-knee", *DECIMATE, "--set", "geometry.translation_mm=[0,0,50]"],
           "femur 50 mm away", SOLVE_S),
         c(["run", "scanned-knee", *DECIMATE, "--set", "contact.law='ef-calibrated'",
-           "--set", "contact.calibration='cal_medial.json'"],
+           "--set", f"contact.calibration='{WORK}/cal_medial.json'"],
           "calibration without the lateral compartment (issue list)", SOLVE_S),
         c(["run", "scanned-knee", *DECIMATE, "--set", "contact.law='ef-calibrated'",
-           "--set", "contact.calibration='cal_text.json'"], "calibration not JSON", SOLVE_S),
+           "--set", f"contact.calibration='{WORK}/cal_text.json'"], "calibration not JSON",
+          SOLVE_S),
         c(["run", "scanned-knee", *DECIMATE, "--set", "contact.law='ef-calibrated'",
-           "--set", "contact.calibration='cal_nan.json'"], "calibration with NaN", SOLVE_S),
+           "--set", f"contact.calibration='{WORK}/cal_nan.json'"], "calibration with NaN", SOLVE_S),
         c(["run", "scanned-knee", *DECIMATE, "--set", "contact.law='ef-calibrated'",
-           "--set", "contact.calibration='cal_negative.json'"],
+           "--set", f"contact.calibration='{WORK}/cal_negative.json'"],
           "calibration with a negative C", SOLVE_S),
         c(["run", "scanned-knee", *DECIMATE, "--set", "contact.law='ef-calibrated'"],
           "calibrated law without a file", SOLVE_S),
@@ -331,6 +335,9 @@ def _fe_cases() -> list[Case]:
           "an FE mesh far too fine", HEAVY_S),
         c(["fe", "scanned-knee", *DECIMATE, "--set", "geometry.tibia=''",
            "--set", "geometry.tibia_lateral=''", *solid],
+          "a decimated knee's tibial solid without a sheet", HEAVY_S),
+        c(["fe", "scanned-knee", "--set", "geometry.tibia=''", "--set",
+           "geometry.tibia_lateral=''", *solid],
           "a tibial solid without a sheet (issue list)", HEAVY_S),
         c(["fe", "femur_tibia_menisci", *DECIMATE, "--set", "menisci.youngs_MPa=1e6"],
           "a stiff meniscus in the FE (issue list)", HEAVY_S),
@@ -351,7 +358,7 @@ def _flex_cases() -> list[Case]:
         c([*ft, "--angles", "a:b:c"], "angles not numbers"),
         c([*ft, "--angles", "0:10"], "two fields"),
         c([*ft, "--angles", "nan:10:5"], "NaN angle"),
-        c([*ft, "--angles", "0:10:5", "--axis-point", "nan,0,0"],
+        c([*ft, "--angles", "0:10:5", "--axis-point", "nan,0,0", "--axis-dir", "1,0,0"],
           "NaN in --axis-point (issue list)", HEAVY_S),
         c([*ft, "--angles", "0:10:5", "--axis-point", "-0.48,0,0"],
           "a negative --axis-point read as an option (issue list)"),
@@ -397,15 +404,17 @@ def _knee_cases() -> list[Case]:
     imp = ["knee", "import"]
     return [
         c([*imp, "--femur", "tibia_medial.stl", "--tibia", "femur.stl", "-o", "swap.toml"],
-          "femur and tibia files swapped (issue list)", SOLVE_S),
+          "femur and tibia files swapped, one tibia file", SOLVE_S),
+        c([*imp, "--femur", "tibia_medial.stl", "--tibia", "femur.stl", "--split", "sagittal",
+           "-o", "swap2.toml"], "femur and tibia files swapped (issue list)", SOLVE_S),
         c([*imp, "--femur", "femur.stl", "--tibia", "tibia_medial.stl", "--tibia-lateral",
            "tibia_lateral.stl", "-o", "own.toml"], "the packaged knee's files", SOLVE_S),
         c([*imp, "--femur", "femur.stl", "--tibia", "tibia_medial.stl", "--tibia-lateral",
            "tibia_lateral.stl", "--femur-bone", str(TIBIA_BONE), "--tibia-bone",
            str(FEMUR_BONE), "-o",
            "bones_swapped.toml"], "femoral and tibial bones swapped (issue list)", SOLVE_S),
-        c([*imp, "--femur", "femur.stl", "--tibia", "huge_sheet.stl", "-o", "huge.toml"],
-          "a 2-million-face tibial sheet (issue list)", SOLVE_S),
+        c([*imp, "--femur", "femur.stl", "--tibia", "huge_sheet.stl", "--split", "sagittal",
+           "-o", "huge.toml"], "a 2-million-face tibial sheet (issue list)", SOLVE_S),
         c([*imp, "--femur", "femur.stl", "--tibia", "empty.stl", "-o", "e.toml"],
           "an empty tibia file", quick=True),
         c([*imp, "--femur", "femur.stl", "--tibia", "text.stl", "-o", "t.toml"],
@@ -517,8 +526,9 @@ def run_case(case: Case, work: Path) -> Answer:
                VTK_DEFAULT_OPENGL_WINDOW="vtkEGLRenderWindow")
     for name in case.json_out:
         (work / name).unlink(missing_ok=True)
+    args = [a.replace(WORK, str(work)) for a in case.args]
     t0 = time.perf_counter()
-    proc = subprocess.Popen([sys.executable, "-m", "fecheck", *case.args], cwd=work, env=env,
+    proc = subprocess.Popen([sys.executable, "-m", "fecheck", *args], cwd=work, env=env,
                             stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
                             errors="replace", start_new_session=True,
                             preexec_fn=_limit_memory)
@@ -531,7 +541,8 @@ def run_case(case: Case, work: Path) -> Answer:
         code = None
     texts = {n: (work / n).read_text(errors="replace") for n in case.json_out
              if (work / n).is_file()}
-    return Answer(case, code, out, err, time.perf_counter() - t0, texts)
+    return Answer(case, code, out.replace(str(work), WORK), err.replace(str(work), WORK),
+                  time.perf_counter() - t0, texts)
 
 
 def _error_lines(stderr: str) -> list[str]:
@@ -560,9 +571,9 @@ def verdict(answer: Answer) -> tuple[bool, str]:
     if "Traceback" in answer.stderr:
         return False, "traceback"
     if answer.returncode == 0:
-        if not (answer.stdout.strip() or answer.json_texts):
+        if not (answer.stdout.strip() or answer.stderr.strip() or answer.json_texts):
             return False, "exit 0 in silence"
-        if NAN.search(answer.stdout):
+        if NAN.search(answer.stdout) or NAN.search(answer.stderr):
             return False, "NaN in the output"
         problem = _json_problem(answer)
         return (False, problem) if problem else (True, "result")
@@ -594,7 +605,8 @@ def first_line(answer: Answer) -> str:
 
 def _cell(text: str) -> str:
     """`text` for a table cell: pipes escaped, the repository's path shortened."""
-    return text.replace(str(ROOT), "<repo>").replace("|", "\\|").replace("`", "'")
+    return (text.replace(str(ROOT), "<repo>").replace(WORK, "<scratch>")
+            .replace("|", "\\|").replace("`", "'"))
 
 
 def report(answers: list[Answer], quick: bool, seconds: float) -> str:
