@@ -630,8 +630,10 @@ def report(answers: list[Answer], quick: bool, seconds: float) -> str:
         "provenance), or exit 2 with one error line and no traceback. Unclear: anything "
         "else: a traceback, exit 1, a signal (such as the memory cap), no answer within "
         "the timeout, NaN in the output, an error over more than one line, a JSON "
-        "without provenance. The scenes are cheap: scanned knees decimated to 1500 "
-        "tibial faces (`--set scanned.decimate_faces=1500`).",
+        "without provenance. A verdict judges the form of the answer, not its numbers: "
+        "a result that is wrong but well formed counts as clean. The scenes are cheap: "
+        "scanned knees decimated to 1500 tibial faces (`--set "
+        "scanned.decimate_faces=1500`).",
         "",
         "| # | input | what it tries | exit | s | answer (first line) | verdict |",
         "|---|---|---|---|---|---|---|",
