@@ -280,9 +280,11 @@ def run_flex(scene: Scene, angles: Sequence[float], axis: FlexionAxis,
     the femoral cartilage ran out) stops the run with `stopped` naming the angle; Ctrl-C
     stops it with the finished angles kept (`stopped` says so).
     """
+    from fecheck.laws.coldstart import announce_cold_kernels
     from fecheck.model.scanned import build_compartments, bundle_springs
 
     check_kind(scene)
+    announce_cold_kernels()
     t0 = time.perf_counter()
     comps = build_compartments(scene)
     names, springs = bundle_springs(scene)
