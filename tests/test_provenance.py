@@ -133,3 +133,38 @@ def test_mesh_info_json_carries_each_file_hash(tmp_path):
     rows = json.loads(out.read_text())
     assert rows[0]["sha256"] == hashlib.sha256(stl.read_bytes()).hexdigest()
     assert rows[0]["provenance"]["fecheck_version"] == version("fecheck")
+
+
+AUDIT = """
+import json, os, sys
+opened = set()
+def hook(event, args):
+    if event == "open" and isinstance(args[0], (str, os.PathLike)):
+        opened.add(os.path.realpath(args[0]))
+sys.addaudithook(hook)
+from fecheck.cli import main
+code = main(sys.argv[1:])
+print(json.dumps({"code": code, "opened": sorted(opened)}))
+"""
+
+
+@pytest.mark.parametrize("scene", ["femur_tibia_ligaments", "femur_tibia_menisci"])
+def test_every_data_file_a_run_opens_is_recorded(scene, tmp_path):
+    # an independent witness: Python's audit hook sees every file the run opens
+    import os
+    import subprocess
+    import sys
+
+    overrides = ["scanned.decimate_faces=1500"]
+    args = ["run", scene, *[a for o in overrides for a in ("--set", o)]]
+    env = dict(os.environ, PYTHONPATH=str(Path(__file__).resolve().parents[1]),
+               OPENBLAS_NUM_THREADS="1")
+    done = subprocess.run([sys.executable, "-c", AUDIT, *args], capture_output=True,
+                          text=True, env=env, cwd=tmp_path, timeout=600)
+    report = json.loads(done.stdout.strip().splitlines()[-1])
+    assert report["code"] == 0, done.stderr[-2000:]
+    package = Path(__file__).resolve().parents[1] / "fecheck"
+    data = {p for p in report["opened"]
+            if p.startswith((str(package / "data"), str(package / "scenes")))}
+    recorded = {str(p) for _, p in input_files(load_scene(scene, overrides))}
+    assert data and data <= recorded, sorted(data - recorded)
