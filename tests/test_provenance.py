@@ -40,6 +40,7 @@ def test_a_run_json_records_version_scene_inputs_and_times(modified_run):
     _, data = modified_run
     prov = data["provenance"]
     assert prov["fecheck_version"] == version("fecheck")
+    assert prov["command"][:3] == ["fecheck", "run", "baseline"]
     scene = prov["scene"]
     assert scene["set_keys"] == ["contact.poisson", "load.force_N"]
     assert scene["overrides"] == OVERRIDES

@@ -105,7 +105,7 @@ def main(argv: list[str] | None = None) -> int:
     from fecheck.io import outputs
     from fecheck.scene.provenance import start_clock
 
-    start_clock()
+    start_clock(sys.argv[1:] if argv is None else argv)
 
     outputs.forget_checked()
     try:

@@ -19,7 +19,7 @@ import os
 import platform
 import sys
 import time
-from collections.abc import Iterable, Mapping
+from collections.abc import Iterable, Mapping, Sequence
 from pathlib import Path
 from typing import Any
 
@@ -37,12 +37,15 @@ FILE_KEYS = ("geometry.femur", "geometry.tibia", "geometry.tibia_lateral",
 """Scene keys that name one input file."""
 
 _started = (time.perf_counter(), time.process_time(), os.times())
+_command: list[str] | None = None
 
 
-def start_clock() -> None:
-    """Start the wall and CPU clocks of `provenance` now."""
-    global _started
+def start_clock(command: Sequence[str] | None = None) -> None:
+    """Start the wall and CPU clocks of `provenance` now; `command` is the command line's
+    arguments after ``fecheck`` (default: the process's own)."""
+    global _started, _command
     _started = (time.perf_counter(), time.process_time(), os.times())
+    _command = None if command is None else list(command)
 
 
 def elapsed() -> tuple[float, float]:
@@ -150,7 +153,7 @@ def provenance(scene: Scene | None = None,
     wall, cpu = elapsed()
     return {"fecheck_version": fecheck_version(),
             "python_version": platform.python_version(),
-            "command": ["fecheck", *sys.argv[1:]],
+            "command": ["fecheck", *(sys.argv[1:] if _command is None else _command)],
             "scene": None if scene is None else scene_record(scene),
             "input_files": records, "wall_s": wall, "cpu_s": cpu}
 
