@@ -3,6 +3,7 @@ compile, progress that suits a log."""
 
 from __future__ import annotations
 
+import ast
 import io
 import json
 import math
@@ -62,7 +63,7 @@ def test_menisci_poses_print_degrees_with_the_unit_named():
 
 def _user_texts() -> dict[str, str]:
     """Every text a user reads: help of every verb, scene list, scene files, key docs,
-    the docs pages."""
+    the docs pages, the validation scripts' descriptions."""
     parser = build_parser()
     texts = {"help": parser.format_help()}
     verbs = next(a for a in parser._actions if a.dest == "verb").choices
@@ -74,6 +75,8 @@ def _user_texts() -> dict[str, str]:
     texts["keys"] = keys_text("") + keys_markdown("")
     for page in (REPO / "docs").glob("*.md"):
         texts[str(page)] = page.read_text(encoding="utf-8")
+    for script in (REPO / "validation").glob("*.py"):      # their --help prints it
+        texts[str(script)] = ast.get_docstring(ast.parse(script.read_text("utf-8"))) or ""
     return texts
 
 

@@ -1,4 +1,4 @@
-"""Speed of one contact-and-tangent evaluation and of the whole baseline solve (issues 3, 4).
+"""Speed of one contact-and-tangent evaluation and of the whole baseline solve.
 
 Measured together, interleaved (the machine is shared: compare ratios within one run):
 
@@ -217,7 +217,7 @@ def _subprocess_measure(tree: Path, budget_s: float) -> dict:
 
 
 def report(sec: dict) -> list[str]:
-    """The ratios asked for by issues 3 and 4, from median seconds."""
+    """The speed ratios, from median seconds."""
     us = {k: 1e6 * v for k, v in sec.items()}
     lines = [("one evaluation (µs, median; plane: 5,120-face icosphere slave, sphere: the "
               "baseline plateau slave):")]

@@ -1,4 +1,4 @@
-"""Run time against error of every way to get contact pressure and area (issue 8).
+"""Run time against error of every way to get contact pressure and area.
 
 The same study as ``fecheck bench``: EF (clipped, whole-face, analytic master), the
 thesis's fcl stack, Hertz and FE (3D, axisymmetric) on the baseline compartments, against

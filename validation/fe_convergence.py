@@ -1,5 +1,5 @@
 """FE mesh convergence and cost of the general FE path on the baseline compartments
-(issue 5; Donahue 2002's 5, 2, 1 mm and finer).
+(Donahue 2002's 5, 2, 1 mm and finer).
 
 Both compartments of the baseline knee (rigid Table 5.1 loads: medial 323.71 N on R 25.5
 mm, lateral 456.67 N on R 31.8 mm; E 20 MPa, ν 0.3, h 6 mm) are solved by the general

@@ -1,4 +1,4 @@
-"""FE on a thick block against Hertz (issue 5 acceptance: p_max and contact radius to 3%).
+"""FE on a thick block against Hertz (acceptance: p_max and contact radius to 3%).
 
 Scene `validation/scenes/fe_hertz_block.toml`: the medial condyle sphere pressed with
 load.force_N on a layer of thickness contact.thickness_mm (60 mm: contact radius / h ≈

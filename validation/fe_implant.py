@@ -1,5 +1,5 @@
 """Closed tibial solid against the extruded layer: a sphere in a thick cylinder against
-Hertz, and a generated total knee replacement (issue 26).
+Hertz, and a generated total knee replacement.
 
 1. Cylinder (radius 15 mm, height 15 mm, base fixed, wall free) under a rigid sphere
    (R 25.5 mm, E 20 MPa, ν 0.3, 18 N: Hertz contact radius 2.50 mm, a/h 0.17): the

@@ -1,4 +1,4 @@
-"""How EF, Hertz and FE differ with the cartilage's material and thickness (issue 5).
+"""How EF, Hertz and FE differ with the cartilage's material and thickness.
 
 1. Materials (thesis Tables 5.4, 5.5): ν = 0.15, 0.3, 0.45, 0.49 at E 20 MPa and E = 9,
    15, 20, 30 MPa at ν 0.3, both baseline compartments under the rigid Table 5.1 loads

@@ -1,4 +1,4 @@
-"""Sparse solvers for the FE contact condensation, measured (issue 5: pick by numbers).
+"""Sparse solvers for the FE contact condensation, measured (picked by numbers).
 
 The contact solve needs the layer's normal compliance at the m contact candidates,
 C = R K⁻¹ Rᵀ (`fecheck.fe.joint`). On the baseline medial layer of the general path

@@ -1,5 +1,5 @@
-"""Speed of the EF equilibrium with menisci (issue 28: "EF equilibrium with menisci under 1 s
-after the build").
+"""Speed of the EF equilibrium with menisci (the target: "EF equilibrium with menisci under
+1 s after the build").
 
 Builds and solves the packaged scene ``femur_tibia_menisci`` (800 N, both menisci free)
 several times in one process and reports the solve after the build (`fecheck.statics.

@@ -1,4 +1,4 @@
-"""Speed of the scanned femur-on-tibia equilibrium (issue 6, item 4; thesis Fig. 3.25).
+"""Speed of the scanned femur-on-tibia equilibrium (thesis Fig. 3.25).
 
 For the full meshes (8,602 tibial and 29,782 femoral cartilage faces) and decimated ones,
 solves ``validation/scenes/femur_tibia.toml`` and reports the Newton iterations, contact

@@ -4,8 +4,8 @@ An interface is a contact pair (a slave surface on one body, a master on another
 its body's frame) with its law. At the bodies' poses it gives the `Part` of the wrench:
 W on the slave and -W on the master (N, N·mm about the world origin) with the tangent
 blocks for both bodies' twists (`fecheck.statics.newton.interface_part`), through the
-compiled hot path (`fecheck.laws.fused.HotPath`). For a meniscus between femur and tibia
-(issue 28): one interface femur ↔ meniscus superior surface, one meniscus inferior surface
+compiled hot path (`fecheck.laws.fused.HotPath`). For a meniscus between femur and tibia:
+one interface femur ↔ meniscus superior surface, one meniscus inferior surface
 ↔ tibia, each with its own law.
 """
 
