@@ -86,6 +86,9 @@ def test_cli_prints_the_table_and_writes_the_json(timed, tmp_path, monkeypatch, 
     monkeypatch.setattr(bench_sweeps, "run", lambda quick, progress: result)
     out = tmp_path / "sweeps.json"
     assert main(["bench", "sweeps", "--quick", "--json", str(out)]) == 0
-    assert json.loads(out.read_text()) == result
+    written = json.loads(out.read_text())
+    assert written.pop("provenance")["command"] == ["fecheck", "bench", "sweeps", "--quick",
+                                                    "--json", str(out)]
+    assert written == result
     text = capsys.readouterr().out
     assert "baseline    serial" in text and "points not converged: none" in text
