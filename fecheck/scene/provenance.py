@@ -117,14 +117,13 @@ def input_files(scene: Scene) -> list[tuple[str, Path]]:
     source = Path(scene.source)
     if source.is_file():
         out.append(("scene", source.resolve()))
-    set_keys = [k for k in FILE_KEYS if scene[k]]
+    set_keys = [k for k in (*FILE_KEYS, "menisci.dir") if scene[k]]
     inert = {k for k, _ in inert_keys(scene, set_keys)}
     for key in set_keys:
-        path = None if key in inert else _file(scene, key)
+        path = None if key in inert or key == "menisci.dir" else _file(scene, key)
         if path is not None:
             out.append((key, path.resolve()))
-    folder = _folder(scene, "menisci.dir") if "menisci.dir" not in {
-        k for k, _ in inert_keys(scene, ["menisci.dir"])} else None
+    folder = _folder(scene, "menisci.dir") if "menisci.dir" not in inert else None
     if folder is not None:
         out += [("menisci.dir", p.resolve()) for p in sorted(folder.rglob("*"))
                 if p.is_file() and p.suffix.lower() in DATA_SUFFIXES]
@@ -167,8 +166,8 @@ def with_provenance(data: Mapping[str, Any], scene: Scene | None = None,
 def recorded_scene(result: Mapping[str, Any], where: str) -> Scene:
     """The scene a result file's provenance records (values and ``--set`` texts), checked
     again; `FecheckError` when `result` (read from `where`) carries none."""
-    record = (result.get("provenance") or {}).get("scene") if isinstance(result, Mapping) \
-        else None
+    stamp = result.get("provenance") if isinstance(result, Mapping) else None
+    record = stamp.get("scene") if isinstance(stamp, Mapping) else None
     if not isinstance(record, Mapping) or not isinstance(record.get("values"), Mapping):
         raise FecheckError(f"{where} holds no recorded scene (no provenance.scene.values): "
                            "give a JSON written by `fecheck run --json` of this version")
@@ -179,14 +178,19 @@ def recorded_scene(result: Mapping[str, Any], where: str) -> Scene:
 def changed_inputs(result: Mapping[str, Any], scene: Scene) -> list[str]:
     """What differs between the input files a result recorded and those `scene` reads
     now (the scene file aside: its values are recorded): one text per file."""
-    recorded = {(r["role"], r["path"]): r["sha256"]
-                for r in result["provenance"].get("input_files", []) if r["role"] != "scene"}
-    now = {(role, str(path)): path for role, path in input_files(scene) if role != "scene"}
+    listed = result["provenance"].get("input_files") or []
+    recorded = {(r["role"], r["path"]): r["sha256"] for r in listed
+                if isinstance(r, Mapping) and {"role", "path", "sha256"} <= set(r)
+                and r["role"] != "scene"}
+    now = {(role, str(path)): sha256(path) for role, path in input_files(scene)
+           if role != "scene"}
     out = [f"{path} ({role}) is gone or no longer read" for (role, path) in recorded
            if (role, path) not in now]
-    out += [f"{path} ({role}) is read now but was not then" for (role, path) in now
-            if (role, path) not in recorded]
-    out += [f"{path} ({role}) changed (sha256 {recorded[k][:12]}… then, {sha256(p)[:12]}… "
-            f"now)" for k, p in now.items() if k in recorded
-            for role, path in [k] if sha256(p) != recorded[k]]
+    for (role, path), digest in now.items():
+        then = recorded.get((role, path))
+        if then is None:
+            out.append(f"{path} ({role}) is read now but was not then")
+        elif then != digest:
+            out.append(f"{path} ({role}) changed (sha256 {then[:12]}… then, {digest[:12]}… "
+                       "now)")
     return out
