@@ -263,6 +263,7 @@ def _run_cases() -> list[Case]:
         c("run --from result_list.json", "--from a JSON list"),
         c("run --from not_json.json", "--from broken JSON"),
         c("run --from nowhere.json", "--from a missing file"),
+        c("run --from r_changed.json", "--from a run whose femur file changed since"),
         c("run --from r_modified.json --json r_from.json", "--from a modified run",
           SOLVE_S, json_out=("r_from.json",)),
         c(["run", "scanned-knee", *DECIMATE, "--json", "r_scan.json"],
@@ -653,11 +654,17 @@ def report(answers: list[Answer], quick: bool, seconds: float) -> str:
 
 
 def _prepare_from(work: Path) -> None:
-    """The result file that ``run --from`` replays: a modified baseline, with JSON."""
+    """The result files that ``run --from`` replays: a modified baseline, and a scanned
+    knee read from a copy of its files whose femur then changes by one byte."""
     env = dict(os.environ, PYTHONPATH=str(ROOT), OPENBLAS_NUM_THREADS="1")
-    subprocess.run([sys.executable, "-m", "fecheck", "run", "baseline", "--set",
-                    "contact.poisson=0.35", "--json", "r_modified.json"], cwd=work, env=env,
-                   capture_output=True, timeout=SOLVE_S, check=False)
+    shutil.copytree(KNEE, work / "knee")
+    for args in (["baseline", "--set", "contact.poisson=0.35", "--json", "r_modified.json"],
+                 ["scanned-knee", *DECIMATE, "--set", f"geometry.dir='{work / 'knee'}'",
+                  "--json", "r_changed.json"]):
+        subprocess.run([sys.executable, "-m", "fecheck", "run", *args], cwd=work, env=env,
+                       capture_output=True, timeout=SOLVE_S, check=False)
+    femur = work / "knee" / "lenhart2015_R_femur_cartilage.stl"
+    femur.write_bytes(femur.read_bytes() + b"\n")
 
 
 def main(argv: list[str] | None = None) -> int:
