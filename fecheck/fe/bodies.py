@@ -141,8 +141,8 @@ def _tibial_thickness(scene: Scene, surface: TriMesh) -> np.ndarray:
     from fecheck.laws.layer import bone_distance_thickness, uniform_sides
 
     if scene["scanned.thickness"] == "bone-distance":
-        return vertex_values(surface, bone_distance_thickness(surface,
-                                                              surfaces.bone(scene, "tibia")))
+        return vertex_values(surface, bone_distance_thickness(
+            surface, surfaces.bone(scene, "tibia"), name="geometry.tibia_bone"))
     return np.full(surface.n_points, uniform_sides(scene)[0])
 
 

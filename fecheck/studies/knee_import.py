@@ -101,6 +101,8 @@ def import_knee(files: dict[str, Path], output: Path, opts: Options) -> Path:
     write the scene `output` (*.toml), the repaired copies and the preview beside it,
     printing one line per check; the scene's path. `FecheckError` on one line naming the
     file and the fix for what no scene can run."""
+    import warnings
+
     from fecheck.errors import FecheckError
     from fecheck.io.knee_preview import write_knee_preview
     from fecheck.io.outputs import check_output, write_text
@@ -117,9 +119,11 @@ def import_knee(files: dict[str, Path], output: Path, opts: Options) -> Path:
     parts = _split(surf, split, 0.0 if opts.split_x is None else opts.split_x, opts.side)
     tibia = _tibia_normals(surf, parts)
     gaps = _rest_gaps(surf["femur"].mesh, tibia)
+    bones = [r for r in ("femur_bone", "tibia_bone") if r in surf]
+    if len(bones) == 2:
+        _check_bones(surf, tibia)
     for s in surf.values():
         _write_repaired(s, out, opts.units)
-    bones = [r for r in ("femur_bone", "tibia_bone") if r in surf]
     if len(bones) == 1:
         print(f"note: {_option(bones[0])} alone: the bone-distance thickness needs both "
               f"bones; the scene uses a uniform {THICKNESS_MM:g} mm layer")
@@ -127,8 +131,10 @@ def import_knee(files: dict[str, Path], output: Path, opts: Options) -> Path:
     write_text(out, scene_text(out, scene_files, opts, tibia, gaps,
                                is_closed(surf["femur"].mesh)))
     _say("scene", "written", f"{out}  (run it: fecheck run {out})")
-    _reload(out, tibia)
-    fe_checks(out, {c: surf[role].source for c, (role, _) in parts.items()})
+    with warnings.catch_warnings():      # a bone's defect: warned once above, in our words
+        warnings.filterwarnings("ignore", message=r"geometry\.(femur|tibia)_bone ")
+        _reload(out, tibia)
+        fe_checks(out, {c: surf[role].source for c, (role, _) in parts.items()})
     names = " + ".join(surf[r].source.name for r in ("tibia", "tibia_lateral") if r in surf)
     png = write_knee_preview(
         out.with_name(f"{out.stem}_preview.png"), surf["femur"].mesh, tibia, gaps,
@@ -142,18 +148,27 @@ def import_knee(files: dict[str, Path], output: Path, opts: Options) -> Path:
 # ------------------------------------------------------------------------- reading
 def _read(role: str, path: Path, units: str) -> Surface:
     """Read one file as a scene would and print its checks; `FecheckError` naming the
-    option and the file when it is missing, unreadable or not a knee surface in `units`."""
+    option and the file when it is missing, unreadable or not a knee surface in `units`
+    (a bone's non-manifold edges: a warning, `fecheck.scene.surfaces.BONE_KEYS`)."""
+    import warnings
+
     import numpy as np
 
     from fecheck.errors import FecheckError
-    from fecheck.scene.surfaces import MIN_COMPONENT_SHARE, components, read_surface
+    from fecheck.scene.surfaces import (
+        BONE_KEYS,
+        MIN_COMPONENT_SHARE,
+        bone_defect,
+        components,
+        read_surface,
+    )
     from geometry.checks import edge_counts
 
     who = _option(role)
     if not path.is_file():
         raise FecheckError(f"{who} {path}: file not found")
     try:
-        mesh = read_surface(path, units)
+        mesh = read_surface(path, units, manifold=role not in BONE_KEYS)
     except FecheckError as err:            # the scene's wording names its key: name ours
         text = str(err)
         for unit in ("m", "mm"):
@@ -167,9 +182,12 @@ def _read(role: str, path: Path, units: str) -> Surface:
     _say(name, "file", str(path))
     _say(name, "units", f"read in {units}: extent {ext[0]:.1f} x {ext[1]:.1f} x {ext[2]:.1f} "
          f"mm (diagonal {np.linalg.norm(ext):.0f} mm; a knee surface spans 5-1000 mm): ok")
+    defect = bone_defect(mesh, f"{who} {path}") if role in BONE_KEYS else ""
     _say(name, "mesh", f"{mesh.n_points:,} vertices, {mesh.n_faces:,} faces; no NaN, no "
-         "degenerate or duplicate face, no edge shared by 3+ faces")
-    boundary, _, opposed = edge_counts(mesh.faces)   # no non-manifold edge: read_surface
+         "degenerate or duplicate face" + ("" if defect else ", no edge shared by 3+ faces"))
+    if defect:
+        warnings.warn(defect, stacklevel=2)
+    boundary, _, opposed = edge_counts(mesh.faces)
     closure = ("closed (every edge shared by two faces)" if boundary == 0
                else f"open sheet ({boundary:,} boundary edges)")
     winding = (f"; {opposed:,} edges join faces of opposite winding (normals flip across "
@@ -426,6 +444,44 @@ def _rest_gaps(femur: TriMesh, tibia: dict[str, TriMesh]) -> dict[str, np.ndarra
                 "different frames or units; export femur and tibia in one frame at the "
                 "rest pose (check --units)")
     return gaps
+
+
+# ------------------------------------------------------------------------- bones
+def _check_bones(surf: dict[str, Surface], tibia: dict[str, TriMesh]) -> None:
+    """Each bone on the far side of its articular sheet (the femoral bone above the
+    femoral sheet, the tibial bone below the tibial sheet; `FecheckError` naming the swap
+    otherwise), and the bone-distance thickness of each sheet (refused where its rays meet
+    a bone's non-manifold edge), printed."""
+    import numpy as np
+
+    from fecheck.errors import FecheckError
+    from fecheck.laws.layer import bone_distance_thickness
+
+    def z(mesh: TriMesh) -> float:
+        return float(np.average(mesh.face_centroids[:, 2], weights=mesh.face_areas))
+
+    femur, tibia_z = surf["femur"].mesh, min(z(m) for m in tibia.values())
+    above, below = z(surf["femur_bone"].mesh) - z(femur), z(surf["tibia_bone"].mesh) - tibia_z
+    if above <= 0 or below >= 0:
+        f, t = surf["femur_bone"].source, surf["tibia_bone"].source
+        swapped = above <= 0 and below >= 0
+        where = (f"--femur-bone {f} lies {-above:.1f} mm below the femoral sheet and "
+                 f"--tibia-bone {t} {below:.1f} mm above the tibial sheet" if swapped else
+                 f"--femur-bone {f} lies {-above:.1f} mm below the femoral sheet" if above <= 0
+                 else f"--tibia-bone {t} lies {below:.1f} mm above the tibial sheet")
+        fix = ("the bone files look swapped: give --femur-bone "
+               f"{t} --tibia-bone {f}" if swapped else
+               "each bone must lie on the far side of its cartilage (the femoral bone above "
+               "the femoral sheet, the tibial bone below the tibial sheet): check the files "
+               "and their frame")
+        raise FecheckError(f"{where}; {fix}")
+    sheets = {"femoral sheet": (femur, "femur_bone")} | {
+        f"{c} tibial sheet": (m, "tibia_bone") for c, m in tibia.items()}
+    for what, (mesh, role) in sheets.items():
+        bone = surf[role]
+        h = bone_distance_thickness(mesh, bone.mesh, name=f"{_option(role)} {bone.source}")
+        _say(role.replace("_", "-"), "thickness", f"{what}: {np.median(h):.2f} mm median "
+             f"({h.min():.2f}-{h.max():.2f}) to the bone along its inward normals")
 
 
 # ------------------------------------------------------------------------- FE

@@ -1,0 +1,112 @@
+"""Inputs as real data brings them: a bone with a non-manifold edge, swapped files, an implant
+sheet whose rim overhangs its solid, a closed solid in the FE.
+
+The knee is `test_knee_import`'s synthetic knee (femoral caps over tibial dishes at z ≈ 0,
+a right knee) with two closed bones of 1-3 mm triangles: the tibial one a flat ellipsoid
+3 mm under the dishes' lowest points, the femoral one a sphere 3 mm inside each cap. Units
+mm.
+"""
+
+from __future__ import annotations
+
+import warnings
+from pathlib import Path
+
+import numpy as np
+import pytest
+from test_knee_import import CENTRES, GAPS_MM, _merge, femur_cap, knee, tibia_patch, write  # noqa: F401
+
+from fecheck.cli import main
+from fecheck.model.scanned import slave_thickness, tibial_slaves
+from fecheck.scene import load_scene
+from geometry.checks import non_manifold_faces
+from geometry.icosphere import icosphere
+from geometry.mesh import TriMesh
+
+TIBIA_BONE_TOP_MM = -3.0
+
+
+def _ellipsoid(centre, axes) -> TriMesh:
+    """A closed ellipsoid of semi-axes `axes` (mm) about `centre`, outward normals."""
+    unit = icosphere(1.0, 4)
+    return TriMesh(unit.points * np.asarray(axes) + np.asarray(centre), unit.faces)
+
+
+def tibia_bone() -> TriMesh:
+    """Proximal tibia: a flat ellipsoid whose top lies 3 mm under the dishes' lowest points
+    (x = ±20 mm) and whose bottom lies 60 mm lower."""
+    axes = np.array([70.0, 35.0, 30.0])
+    top = axes[2] * np.sqrt(1.0 - (20.0 / axes[0]) ** 2)
+    return _ellipsoid((0.0, 0.5, TIBIA_BONE_TOP_MM - top), axes)
+
+
+def femur_bone() -> TriMesh:
+    """Distal femur: a sphere 3 mm inside each condyle cap (the caps' spheres, R 20 mm)."""
+    spheres = [icosphere(17.0, 4, (*CENTRES[c], 20.0 + GAPS_MM[c])) for c in CENTRES]
+    return _merge(spheres)
+
+
+def with_fin(bone: TriMesh, near) -> tuple[TriMesh, np.ndarray]:
+    """`bone` with one extra face standing on its edge nearest `near` (mm): that edge is
+    then shared by three faces; the edge's midpoint."""
+    edges = bone.edges_unique
+    mid = bone.points[edges].mean(axis=1)
+    a, b = edges[int(np.argmin(np.linalg.norm(mid - np.asarray(near), axis=1)))]
+    tip = 0.5 * (bone.points[a] + bone.points[b]) + [0.0, 0.0, -1.0]     # into the bone
+    points = np.vstack([bone.points, tip])
+    out = TriMesh(points, np.vstack([bone.faces, [a, b, len(points) - 1]]))
+    assert len(non_manifold_faces(out)) == 3
+    return out, 0.5 * (bone.points[a] + bone.points[b])
+
+
+def _import(knee_files, out: Path, femur_bone_file: str, tibia_bone_file: str) -> int:
+    return main(["knee", "import", "--femur", knee_files["femur"], "--tibia", knee_files["tibia"],
+                 "--femur-bone", femur_bone_file, "--tibia-bone", tibia_bone_file,
+                 "-o", str(out)])
+
+
+def _one_line_error(capsys) -> str:
+    err = capsys.readouterr().err.strip().splitlines()
+    errors = [e for e in err if e.startswith("fecheck: error:")]
+    assert len(errors) == 1, err
+    return errors[0]
+
+
+# ------------------------------------------------------------------ a bone's defect
+def test_a_bone_defect_far_below_the_plateau_warns_with_its_place_and_runs(knee, tmp_path,
+                                                                           capsys):
+    bone, at = with_fin(tibia_bone(), (10.0, 0.5, -60.0))         # 60 mm below the dishes
+    data = tmp_path / "data"
+    femur_file = write(data, "femur_bone.stl", femur_bone())
+    out = tmp_path / "knee.toml"
+    assert _import(knee, out, femur_file, write(data, "tibia_bone.stl", bone)) == 0
+    captured = capsys.readouterr()
+    warned = [w for w in captured.err.splitlines() if "non-manifold" in w]
+    assert len(warned) == 1 and "tibia_bone.stl" in warned[0], captured.err
+    x, y, z = (float(v) for v in warned[0].split("around (")[1].split(")")[0].split(", "))
+    assert np.allclose((x, y, z), at, atol=1.5)
+    assert "tibia-bone    thickness" in captured.out, captured.out
+    # the scene's thickness maps are the clean bone's: the fin is 60 mm from every ray
+    clean = tmp_path / "clean.toml"
+    assert _import(knee, clean, femur_file, write(data, "clean.stl", tibia_bone())) == 0
+    with warnings.catch_warnings(record=True) as seen:
+        warnings.simplefilter("always")
+        maps = [[slave_thickness(s, m) for m in tibial_slaves(s).values()]
+                for s in (load_scene(out), load_scene(clean))]
+    assert any("geometry.tibia_bone (tibia_bone.stl)" in str(w.message) for w in seen)
+    for a, b in zip(*maps, strict=True):
+        assert np.array_equal(a, b) and 3.0 < np.median(a) < 9.0
+
+
+def test_a_bone_defect_under_the_sheet_is_refused_with_its_place(knee, tmp_path, capsys):
+    # the edge of the tibial bone's top right under the medial dish's middle
+    bone, at = with_fin(tibia_bone(), (-20.0, 0.0, TIBIA_BONE_TOP_MM))
+    data = tmp_path / "data"
+    out = tmp_path / "knee.toml"
+    assert _import(knee, out, write(data, "femur_bone.stl", femur_bone()),
+                   write(data, "tibia_bone.stl", bone)) == 2
+    err = _one_line_error(capsys)
+    assert "--tibia-bone" in err and "tibia_bone.stl" in err and "non-manifold" in err
+    assert "Non Manifold" in err and not out.exists()
+    x, y, z = (float(v) for v in err.split("around (")[1].split(")")[0].split(", "))
+    assert np.allclose((x, y, z), at, atol=1.5)
