@@ -14,7 +14,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from test_knee_import import CENTRES, GAPS_MM, _merge, femur_cap, knee, tibia_patch, write  # noqa: F401
+from test_knee_import import CENTRES, GAPS_MM, _merge, femur_cap, tibia_patch, write
 
 from fecheck.cli import main
 from fecheck.model.scanned import slave_thickness, tibial_slaves
@@ -57,6 +57,14 @@ def with_fin(bone: TriMesh, near) -> tuple[TriMesh, np.ndarray]:
     out = TriMesh(points, np.vstack([bone.faces, [a, b, len(points) - 1]]))
     assert len(non_manifold_faces(out)) == 3
     return out, 0.5 * (bone.points[a] + bone.points[b])
+
+
+@pytest.fixture
+def knee(tmp_path) -> dict[str, str]:
+    """The synthetic knee's femoral and tibial sheets (one file each), mm."""
+    data = tmp_path / "data"
+    return {"femur": write(data, "femur.stl", _merge([femur_cap(c) for c in CENTRES])),
+            "tibia": write(data, "tibia.stl", _merge([tibia_patch(c) for c in CENTRES]))}
 
 
 def _import(knee_files, out: Path, femur_bone_file: str, tibia_bone_file: str) -> int:
