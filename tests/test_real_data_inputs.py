@@ -118,3 +118,57 @@ def test_a_bone_defect_under_the_sheet_is_refused_with_its_place(knee, tmp_path,
     assert "Non Manifold" in err and not out.exists()
     x, y, z = (float(v) for v in err.split("around (")[1].split(")")[0].split(", "))
     assert np.allclose((x, y, z), at, atol=1.5)
+
+
+# ------------------------------------------------------------------ swapped files
+def test_swapped_bone_files_are_refused_with_the_swap_to_make(knee, tmp_path, capsys):
+    data = tmp_path / "data"
+    femur_file = write(data, "femur_bone.stl", femur_bone())
+    tibia_file = write(data, "tibia_bone.stl", tibia_bone())
+    out = tmp_path / "knee.toml"
+    assert _import(knee, out, tibia_file, femur_file) == 2
+    err = _one_line_error(capsys)
+    assert "look swapped" in err and not out.exists()
+    assert f"give --femur-bone {femur_file} --tibia-bone {tibia_file}" in err
+    assert _import(knee, out, femur_file, tibia_file) == 0
+
+
+def test_a_bone_on_the_wrong_side_of_its_sheet_is_refused(knee, tmp_path, capsys):
+    # both bones under the tibia: the femoral one is on the near side of its sheet
+    data = tmp_path / "data"
+    tibia_file = write(data, "tibia_bone.stl", tibia_bone())
+    assert _import(knee, tmp_path / "k.toml", tibia_file, tibia_file) == 2
+    err = _one_line_error(capsys)
+    assert "--femur-bone" in err and "below the femoral sheet" in err
+    assert "far side of its cartilage" in err and "--tibia-bone " not in err
+
+
+def test_swapped_sheet_files_say_they_look_swapped(knee, tmp_path, capsys):
+    out = tmp_path / "knee.toml"
+    assert main(["knee", "import", "--femur", knee["tibia"], "--tibia", knee["femur"],
+                 "-o", str(out)]) == 2
+    err = _one_line_error(capsys)
+    assert "look swapped" in err and "overlaps" not in err and not out.exists()
+    assert f"give --femur {knee['femur']} --tibia {knee['tibia']}" in err
+
+
+def test_the_preview_draws_each_bone_in_its_own_colour_with_a_legend():
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+    from matplotlib.colors import to_rgba
+
+    from fecheck.io.knee_preview import _section_panel
+
+    fig, ax = plt.subplots()
+    tibia = {c: tibia_patch(c) for c in CENTRES}
+    femur = _merge([femur_cap(c) for c in CENTRES])
+    _section_panel(ax, "frontal", 1, 0.5, femur, tibia,
+                   {"femur": femur_bone(), "tibia": tibia_bone()})
+    legend = {t.get_text(): to_rgba(h.get_color()) for t, h in
+              zip(ax.get_legend().get_texts(), ax.get_legend().legend_handles, strict=True)}
+    plt.close(fig)
+    assert legend["femoral bone"] != legend["tibial bone"]
+    colours = set(legend.values())
+    assert len(colours) == 4 and to_rgba("0.6") not in colours

@@ -115,6 +115,7 @@ def import_knee(files: dict[str, Path], output: Path, opts: Options) -> Path:
         raise FecheckError(f"-o {output}: the scene is a TOML file; name it *.toml")
     out = check_output(output)
     surf = {r: _read(r, Path(p), opts.units) for r, p in files.items()}
+    _check_order(surf)
     _femur_normals(surf["femur"])
     parts = _split(surf, split, 0.0 if opts.split_x is None else opts.split_x, opts.side)
     tibia = _tibia_normals(surf, parts)
@@ -199,6 +200,32 @@ def _read(role: str, path: Path, units: str) -> Surface:
     _say(name, "components", f"{len(parts)} ({', '.join(f'{len(p):,}' for p in parts)} faces)"
          + (f" + {specks} specks under 1% of the faces (left out)" if specks else ""))
     return Surface(role, path, mesh, parts, path)
+
+
+# ------------------------------------------------------------------------- order
+def _height(mesh: TriMesh) -> float:
+    """Area-weighted mean z of the faces of `mesh`, mm."""
+    import numpy as np
+
+    return float(np.average(mesh.face_centroids[:, 2], weights=mesh.face_areas))
+
+
+def _check_order(surf: dict[str, Surface]) -> None:
+    """`FecheckError` when the femoral surface does not lie above the tibial one (their
+    area-weighted mean heights): the files look swapped."""
+    from fecheck.errors import FecheckError
+
+    tibia = [surf[r] for r in ("tibia", "tibia_lateral") if r in surf]
+    below = max(_height(s.mesh) for s in tibia) - _height(surf["femur"].mesh)
+    if below < 0:
+        return
+    f = surf["femur"].source
+    fix = (f"give --femur {tibia[0].source} --tibia {f}" if len(tibia) == 1 else
+           "give the femoral surface in --femur and the tibial compartments in --tibia "
+           "and --tibia-lateral")
+    raise FecheckError(f"--femur {f} lies {below:.1f} mm below the tibial surface (mean "
+                       f"heights; z is superior): the femoral and tibial files look swapped: "
+                       f"{fix}")
 
 
 # ------------------------------------------------------------------------- normals
@@ -457,11 +484,9 @@ def _check_bones(surf: dict[str, Surface], tibia: dict[str, TriMesh]) -> None:
     from fecheck.errors import FecheckError
     from fecheck.laws.layer import bone_distance_thickness
 
-    def z(mesh: TriMesh) -> float:
-        return float(np.average(mesh.face_centroids[:, 2], weights=mesh.face_areas))
-
-    femur, tibia_z = surf["femur"].mesh, min(z(m) for m in tibia.values())
-    above, below = z(surf["femur_bone"].mesh) - z(femur), z(surf["tibia_bone"].mesh) - tibia_z
+    femur, tibia_z = surf["femur"].mesh, min(_height(m) for m in tibia.values())
+    above = _height(surf["femur_bone"].mesh) - _height(femur)
+    below = _height(surf["tibia_bone"].mesh) - tibia_z
     if above <= 0 or below >= 0:
         f, t = surf["femur_bone"].source, surf["tibia_bone"].source
         swapped = above <= 0 and below >= 0
