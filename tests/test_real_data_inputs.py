@@ -172,3 +172,37 @@ def test_the_preview_draws_each_bone_in_its_own_colour_with_a_legend():
     assert legend["femoral bone"] != legend["tibial bone"]
     colours = set(legend.values())
     assert len(colours) == 4 and to_rgba("0.6") not in colours
+
+
+# ------------------------------------------------------------------ what the FE meets
+def test_the_import_says_what_the_fe_does_with_a_sheet_that_inverts(tmp_path, capsys):
+    """A curled rim inverts the layer as read: the import says the FE meshes a prepared
+    copy (fe.prepare 'auto'), and the FE does; with fe.prepare 'off' it warns that the FE
+    will refuse the sheet, and the FE does."""
+    from test_knee_import import _curled
+
+    from fecheck.errors import FecheckError
+    from fecheck.fe.bodies import scene_bodies
+    from fecheck.fe.press import _sheet
+    from fecheck.fe.settings import FESettings
+    from fecheck.studies.knee_import import _inversion
+
+    data = tmp_path / "data"
+    femur = write(data, "femur.stl", _merge([femur_cap(c) for c in CENTRES]))
+    tibia = write(data, "both_curled.stl", _merge([_curled(c) for c in CENTRES]))
+    out = tmp_path / "knee.toml"
+    assert main(["knee", "import", "--femur", femur, "--tibia", tibia, "-o", str(out)]) == 0
+    captured = capsys.readouterr()
+    assert "will refuse" not in captured.err and "will fail" not in captured.err
+    assert captured.out.count("mesh a prepared copy of the sheet instead") == 2
+    scene = load_scene(out)
+    bodies = scene_bodies(scene)
+    auto, off = FESettings.from_scene(scene), FESettings.from_scene(scene, prepare="off")
+    levels = auto.levels(scene["contact.poisson"])
+    for body in bodies:
+        sheet, prepared, _, _ = _sheet(body, auto, levels, lambda s: None)
+        assert prepared is not None and sheet.surface.n_faces < body.surface.n_faces
+        warned, note = _inversion(body, levels, off, scene)
+        assert note == "" and "will refuse it" in warned and "fe.prepare = 'off'" in warned
+        with pytest.raises(FecheckError, match="cannot be extruded"):
+            _sheet(body, off, levels, lambda s: None)

@@ -513,9 +513,10 @@ def _check_bones(surf: dict[str, Surface], tibia: dict[str, TriMesh]) -> None:
 def fe_checks(out: Path, files: dict[str, Path]) -> None:
     """What `fecheck fe` and `fecheck calibrate` meet in the written scene: per tibial
     compartment the layer's extrusion (`geometry.extrude.extrusion_directions`, as the FE
-    calls it, with the scene's thickness and levels), rim curl (faces facing down) and
-    slivers; a check line when all is well, else one warning line per finding naming the
-    file, the place (mm) and the key to change."""
+    calls it, with the scene's thickness and levels, and where that inverts the FE's
+    prepared copy, ``fe.prepare``), rim curl (faces facing down) and slivers; a check line
+    when all is well (or the FE prepares the sheet), else one warning line per finding
+    naming the file, the place (mm) and the key to change."""
     import warnings
 
     import numpy as np
@@ -530,47 +531,71 @@ def fe_checks(out: Path, files: dict[str, Path]) -> None:
     for body in scene_bodies(scene):
         c, mesh, h = body.name, body.surface, body.thickness_mm
         where = f"the {c} tibial sheet ({files[c].name})"
-        found = [_inversion(mesh, h, levels, settings.grading, scene), _curl(mesh),
-                 _slivers(mesh), _rough(c, files[c].name, mesh)]
+        inverted, prepared = _inversion(body, levels, settings, scene)
+        found = [inverted, _curl(mesh), _slivers(mesh), _rough(c, files[c].name, mesh)]
         for text in filter(None, found):
             warnings.warn(f"{where}: {text}", stacklevel=2)
-        if not any(found):
+        if prepared:
+            _say(c, "FE layer", prepared)
+        elif not any(found):
             _say(c, "FE layer", f"{np.median(h):.2f} mm layer (median) extrudes with no "
                  f"inverted prism; no face down, no sliver: ok")
 
 
-def _inversion(mesh: TriMesh, h: np.ndarray, levels: int, grading: float,
-               scene) -> str:
-    """Why the FE cannot extrude the layer under `mesh` (and the thickness that it can),
-    or ""."""
+def _inversion(body, levels: int, settings, scene) -> tuple[str, str]:
+    """(warning, note) on the FE's extrusion of `body`'s layer (an `FEBody`): both "" when
+    it extrudes as read; a note when it does not but the FE's prepared copy of the sheet
+    does (``fe.prepare`` 'auto' or 'on', `fecheck.fe.press.prepared_body`: what `fecheck
+    fe` and `fecheck calibrate` then mesh); else a warning naming the place and a thickness
+    that extrudes."""
     import numpy as np
 
     from fecheck.errors import FecheckError
+    from fecheck.fe.press import prepared_body
     from fecheck.scene.surfaces import around
     from geometry.extrude import extrusion_directions, extrusion_offsets
 
-    def inverts(thickness) -> bool:
+    mesh, h = body.surface, body.thickness_mm
+
+    def inverts(surface, thickness) -> bool:
         try:
-            extrusion_directions(mesh, thickness, layers=levels, ratio=grading)
+            extrusion_directions(surface, thickness, layers=levels, ratio=settings.grading)
         except FecheckError:
             return True
         return False
 
-    if not inverts(h):
-        return ""
+    if not inverts(mesh, h):
+        return "", ""
     bottom = mesh.points - extrusion_offsets(mesh, h)
     t = bottom[mesh.faces]
     crossed = np.einsum("ij,ij->i", np.cross(t[:, 1] - t[:, 0], t[:, 2] - t[:, 0]),
                         mesh.face_cross) <= 0
     place = (f" {around(mesh.face_centroids[crossed])}" if crossed.any() else "")
+    layer = f"its {np.median(h):.2f} mm layer (median)"
+    if settings.prepare != "off":
+        try:
+            sheet, prepared = prepared_body(body, settings.size_mm, settings.smooth_mm,
+                                            settings.terraces == "on")
+            ready = not inverts(sheet.surface, sheet.thickness_mm)
+        except FecheckError:
+            ready = False
+        if ready:
+            return "", (f"{layer} has prisms that invert as read{place}: `fecheck fe` and "
+                        "`fecheck calibrate` mesh a prepared copy of the sheet instead "
+                        f"(fe.prepare = '{settings.prepare}': {prepared.trimmed_faces} rim or "
+                        f"sliver faces trimmed, remeshed at fe.size_mm = {settings.size_mm:g} "
+                        f"mm, smoothed over fe.smooth_mm = {settings.smooth_mm:g} mm), which "
+                        "extrudes: ok")
     thinner = [f * float(np.median(h)) for f in (0.75, 0.5, 0.25)]
-    works = next((t for t in thinner if not inverts(t)), None)
+    works = next((t for t in thinner if not inverts(mesh, t)), None)
     key = ("contact.thickness_mm" if scene["scanned.thickness"] == "uniform" else
            "scanned.thickness = 'uniform' with contact.thickness_mm")
     fix = (f"set {key} = {works:g} (that layer extrudes)" if works is not None else
            f"smooth the sheet (even a {thinner[-1]:g} mm layer inverts)")
-    return (f"its {np.median(h):.2f} mm layer (median) has prisms that invert under the "
-            f"FE's extrusion{place}: `fecheck fe` and `fecheck calibrate` will fail; {fix}")
+    how = ("as read (fe.prepare = 'off')" if settings.prepare == "off" else
+           "as read and as the FE prepares it (fe.prepare)")
+    return (f"{layer} has prisms that invert under the FE's extrusion {how}{place}: "
+            f"`fecheck fe` and `fecheck calibrate` will refuse it; {fix}"), ""
 
 
 def _rough(compartment: str, name: str, mesh: TriMesh) -> str:
@@ -596,8 +621,8 @@ def _curl(mesh: TriMesh) -> str:
     if not down.any():
         return ""
     return (f"{int(down.sum()):,} of {mesh.n_faces:,} faces face down (a rim curled over, "
-            f"{around(mesh.face_centroids[down])}): the FE's layer inverts there and the "
-            "contact meets them from below; trim them from the sheet")
+            f"{around(mesh.face_centroids[down])}): the contact meets them from below; "
+            "trim them from the sheet")
 
 
 def _slivers(mesh: TriMesh) -> str:
