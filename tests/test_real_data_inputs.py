@@ -206,3 +206,63 @@ def test_the_import_says_what_the_fe_does_with_a_sheet_that_inverts(tmp_path, ca
         assert note == "" and "will refuse it" in warned and "fe.prepare = 'off'" in warned
         with pytest.raises(FecheckError, match="cannot be extruded"):
             _sheet(body, off, levels, lambda s: None)
+
+
+# ------------------------------------------------------------------ an implant's rim
+def _implant_with_rim(folder: Path, overhang_mm: float) -> tuple[Path, np.ndarray]:
+    """The generated implant (`validation.implant_pair`, 2 mm triangles) whose insert
+    sheet's border vertices are moved `overhang_mm` out past the solid's walls (in x and
+    y, the rim is flat there); the scene and the moved vertices' (x, y, z), mm."""
+    from geometry.io import load_mesh, save_mesh
+    from validation.implant_pair import HALF_DEPTH_MM, HALF_WIDTH_MM, write_implant
+
+    scene = write_implant(folder, fine_mm=2.0)
+    sheet = load_mesh(folder / "insert_top.stl")
+    p = sheet.points.copy()
+    for axis, half in ((0, HALF_WIDTH_MM), (1, HALF_DEPTH_MM)):
+        edge = np.isclose(np.abs(p[:, axis]), half)
+        p[edge, axis] += overhang_mm * np.sign(p[edge, axis])
+    moved = ~np.isclose(p, sheet.points).all(axis=1)
+    save_mesh(TriMesh(p, sheet.faces), folder / "insert_top.stl")
+    return scene, p[moved]
+
+
+def test_an_insert_rim_overhanging_its_solid_by_0_2_mm_is_tolerated(tmp_path):
+    from fecheck.fe.bodies import scene_bodies
+    from fecheck.fe.volume import RIM_OVERHANG_MM
+
+    clean = {b.name: b.thickness_mm for b in
+             scene_bodies(load_scene(_implant_with_rim(tmp_path / "clean", 0.0)[0]))}
+    scene, rim = _implant_with_rim(tmp_path / "rim", 0.2)
+    with warnings.catch_warnings(record=True) as seen:
+        warnings.simplefilter("always")
+        bodies = scene_bodies(load_scene(scene))
+    said = [str(w.message) for w in seen if "overhang the solid" in str(w.message)]
+    assert len(said) == 2                                    # medial and lateral
+    for body, text in zip(bodies, said, strict=True):
+        assert f"the {body.name} sheet" in text
+        on_rim = np.isin(body.surface.faces, np.flatnonzero(
+            (np.abs(body.surface.points[:, None, :2] - rim[None, :, :2]) < 1e-6)
+            .all(axis=2).any(axis=1))).any(axis=1)
+        assert f"{int(on_rim.sum())} rim faces" in text
+        # furthest at a corner, moved 0.2 mm out in x and in y: 0.2·√2 from the solid
+        assert f"by up to {0.2 * np.sqrt(2):.2f} mm" in text
+        assert f"{RIM_OVERHANG_MM:g} mm" in text
+        h = body.thickness_mm                  # the rim's taken from the clean sheet's
+        assert clean[body.name].min() <= h.min() and h.max() <= clean[body.name].max()
+
+
+def test_an_insert_rim_overhanging_its_solid_by_2_mm_is_refused_with_the_place(tmp_path):
+    from fecheck.errors import FecheckError
+    from fecheck.fe.bodies import scene_bodies
+
+    scene, rim = _implant_with_rim(tmp_path, 2.0)
+    with pytest.raises(FecheckError) as err:
+        scene_bodies(load_scene(scene))
+    text = str(err.value)
+    assert "leaves the solid nowhere" in text and "more than 0.5 mm" in text
+    place = np.array([float(v) for v in text.split(" at (")[1].split(")")[0].split(", ")])
+    assert np.linalg.norm(rim - place, axis=1).min() < 0.1
+    # the furthest vertex is a corner, 2 mm out in x and y
+    assert float(text.split("lies ")[1].split(" mm")[0]) == pytest.approx(2 * np.sqrt(2),
+                                                                          rel=0.01)

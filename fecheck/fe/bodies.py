@@ -117,7 +117,7 @@ def _scanned_bodies(scene: Scene) -> list[FEBody]:
     for c in COMPARTMENTS:
         surface = slaves[c]
         if solid is not None:
-            h = solid_thickness(solid, surface)
+            h = solid_thickness(solid, surface, c)
         elif scene["fe.cartilage"] == "two-layer":
             h = _tibial_thickness(scene, surface)
         elif source == "uniform":

@@ -35,6 +35,7 @@ from dataclasses import dataclass, field
 from typing import Any
 
 import numpy as np
+from scipy.spatial import cKDTree
 
 from fecheck.errors import FecheckError
 from fecheck.fe.bodies import FEBody, refuse_unmodelled, scene_bodies
@@ -234,7 +235,9 @@ def ef_metrics(res: CompartmentResult, rot: np.ndarray, t: np.ndarray) -> SideMe
 
 
 def _on_ef_faces(layer: FELayer, pressure: np.ndarray) -> np.ndarray:
-    """FE vertex pressure averaged onto the EF faces (over each face's FE children), or
+    """FE vertex pressure averaged onto the EF faces (over each face's FE children; an EF
+    face with none, as where a closed solid's articular face stops short of the sheet's
+    rim or is coarser than the sheet, takes the FE face nearest its centroid), or
     interpolated at their centroids from a prepared sheet."""
     if layer.to_ef is not None:
         return layer.to_ef @ pressure
@@ -242,6 +245,11 @@ def _on_ef_faces(layer: FELayer, pressure: np.ndarray) -> np.ndarray:
     n = layer.body.surface.n_faces
     total = np.bincount(layer.parent, weights=face * layer.surface.face_areas, minlength=n)
     area = np.bincount(layer.parent, weights=layer.surface.face_areas, minlength=n)
+    childless = area <= 0
+    if childless.any():
+        ef = layer.body.surface.face_centroids[childless]
+        nearest = cKDTree(layer.surface.face_centroids).query(ef)[1]
+        total[childless], area[childless] = face[nearest], 1.0
     return total / area
 
 

@@ -23,10 +23,12 @@ from __future__ import annotations
 
 import math
 import time
+import warnings
 from dataclasses import dataclass
 
 import numpy as np
 import scipy.sparse as sp
+from scipy.spatial import cKDTree
 
 from fecheck.errors import FecheckError
 from fecheck.fe.recovery import tributary_areas
@@ -38,8 +40,14 @@ from fecheck.fe.solid import (
     tie_matrix,
 )
 from fecheck.scene.surfaces import components
+from geometry.distance import closest_distance, ray_hits
 from geometry.mesh import TetMesh, TriMesh
 from geometry.subdivide import subdivide
+
+RIM_OVERHANG_MM = 0.5
+"""A tibial sheet's rim may overhang its closed solid by up to this, mm: an implant's insert
+sheet and solid exported apart differ by up to 0.25 mm at the rim; beyond it the sheet is
+refused (`solid_thickness`)."""
 
 
 @dataclass(frozen=True, eq=False)
@@ -177,15 +185,17 @@ def _vertex_normals(points: np.ndarray, faces: np.ndarray) -> np.ndarray:
     return TriMesh(points, faces).vertex_normals
 
 
-def solid_thickness(solid: TibiaSolid, sheet: TriMesh) -> np.ndarray:
+def solid_thickness(solid: TibiaSolid, sheet: TriMesh, compartment: str = "") -> np.ndarray:
     """(n,) distance from each sheet vertex along its inward normal to the far side of
     `solid` (its faces off the articular face), mm: the thickness map of the layer
-    equivalent to it (each
-    ray starts a thousandth of the way toward the vertex's adjacent face centroids, so a
-    vertex on the solid's rim or corner does not run down its wall).
-    `FecheckError` where the ray leaves the solid nowhere (the sheet is not on it)."""
-    from geometry.distance import ray_hits
+    equivalent to it (each ray starts a thousandth of the way toward the vertex's adjacent
+    face centroids, so a vertex on the solid's rim or corner does not run down its wall).
 
+    A rim of the sheet may overhang the solid (the two exported apart): vertices whose ray
+    leaves the solid nowhere but which lie within `RIM_OVERHANG_MM` of it take the
+    thickness of the nearest vertex over the solid, with a warning naming how many faces
+    of the `compartment` sheet, how far and where (the solid FE's articular face has none
+    there). `FecheckError` with the place beyond that (the sheet is not on the solid)."""
     far = np.setdiff1d(np.arange(solid.surface.n_faces),
                        np.concatenate(list(solid.articular.values())))
     far_side = TriMesh(solid.surface.points, solid.surface.faces[far])
@@ -196,17 +206,37 @@ def solid_thickness(solid: TibiaSolid, sheet: TriMesh) -> np.ndarray:
     inward = inward / np.bincount(sheet.faces.ravel(), minlength=sheet.n_points)[:, None]
     start = sheet.points + 1e-3 * (inward - sheet.points) - eps * n   # off rims and corners
     dist, _ = ray_hits(start, -n, far_side, facing=-n)
-    if not np.all(np.isfinite(dist)):
-        where = sheet.points[np.flatnonzero(~np.isfinite(dist))[0]]
-        raise FecheckError("geometry.tibia_solid: a ray down from the sheet geometry.tibia "
-                           f"at ({', '.join(f'{v:.1f}' for v in where)}) mm leaves the solid "
-                           "nowhere: the sheet does not lie on the solid")
+    missed = np.flatnonzero(~np.isfinite(dist))
+    if len(missed) == 0:
+        return dist + eps
+    off = closest_distance(sheet.points[missed], solid.surface)[0]
+    where = sheet.points[missed[int(np.argmax(off))]]
+    place = ", ".join(f"{v:.1f}" for v in where)
+    if off.max() > RIM_OVERHANG_MM:
+        raise FecheckError(f"geometry.tibia_solid: a ray down from the sheet geometry.tibia at "
+                           f"({place}) mm leaves the solid nowhere, and the sheet lies "
+                           f"{off.max():.2f} mm from the solid there (more than "
+                           f"{RIM_OVERHANG_MM:g} mm): the sheet does not lie on the solid; "
+                           "export both from one model in one frame, or trim the sheet there")
+    hit = np.flatnonzero(np.isfinite(dist))
+    if len(hit) == 0:
+        raise FecheckError("geometry.tibia_solid: no ray down from the sheet geometry.tibia "
+                           "meets the solid: the sheet does not lie on the solid")
+    nearest = hit[cKDTree(sheet.points[hit]).query(sheet.points[missed])[1]]
+    dist[missed] = dist[nearest]
+    rim = np.isin(sheet.faces, missed).any(axis=1)
+    who = f"the {compartment} sheet" if compartment else "the sheet"
+    warnings.warn(f"geometry.tibia_solid: {int(rim.sum())} rim faces of {who} geometry.tibia "
+                  f"overhang the solid by up to {off.max():.2f} mm (at most "
+                  f"{RIM_OVERHANG_MM:g} mm is taken as the two files' export tolerance; "
+                  f"furthest at ({place}) mm): the solid FE has no articular face under them "
+                  "(their EF faces take the nearest FE face's pressure) and a layer "
+                  "(fe.body = 'layer') takes the thickness of the nearest vertex over the solid",
+                  stacklevel=2)
     return dist + eps
 
 
 def parent_faces(surface: TriMesh, ef_surface: TriMesh) -> np.ndarray:
     """(m,) for each face of `surface` the face of `ef_surface` closest to its centroid
     (how the FE pressure is averaged onto the EF's faces)."""
-    from geometry.distance import closest_distance
-
     return closest_distance(surface.face_centroids, ef_surface)[1]
