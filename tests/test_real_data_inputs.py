@@ -266,3 +266,80 @@ def test_an_insert_rim_overhanging_its_solid_by_2_mm_is_refused_with_the_place(t
     # the furthest vertex is a corner, 2 mm out in x and y
     assert float(text.split("lies ")[1].split(" mm")[0]) == pytest.approx(2 * np.sqrt(2),
                                                                           rel=0.01)
+
+
+# ------------------------------------------------------------------ the solid FE
+@pytest.fixture(scope="module")
+def implant_scene(tmp_path_factory) -> Path:
+    from validation.implant_pair import write_implant
+
+    return write_implant(tmp_path_factory.mktemp("implant"), fine_mm=2.0)
+
+
+def test_the_solid_dof_count_is_the_assembled_one(implant_scene):
+    from fecheck.fe.bodies import scene_bodies
+    from fecheck.fe.volume import mesh_solid, solid_layers
+
+    solid = scene_bodies(load_scene(implant_scene))[0].solid
+    meshed = mesh_solid(solid)
+    layers = solid_layers(solid, 463.0, 0.45, meshed=meshed)
+    assert meshed.n_dofs == 3 * next(iter(layers.values())).n_nodes    # scikit-fem's P2
+
+
+def test_the_dof_guard_refuses_a_large_solid_before_the_ef_run(implant_scene, monkeypatch):
+    from fecheck.errors import FecheckError
+    from fecheck.fe import budget, crosscheck
+    from fecheck.fe.bodies import scene_bodies
+    from fecheck.fe.volume import mesh_solid
+    from geometry.budget import policy
+
+    def no_ef(*args, **kwargs):
+        raise AssertionError("the EF ran before the guard")
+
+    monkeypatch.setattr(crosscheck, "_ef_run", no_ef)
+    scene = load_scene(implant_scene)
+    # the solid has about 22k dofs, about 8 times that at fe.refine 1: a limit of 100k
+    # (instead of 500k, to keep the test small) passes at level 0 and not at level 1
+    small = mesh_solid(scene_bodies(scene)[0].solid).n_dofs
+    limit = 100_000
+    assert small < limit < small * budget.SOLID_GROWTH
+    monkeypatch.setattr(budget, "MAX_DOFS", limit)
+    with policy("fecheck fe", force=False, force_hint="--force"):
+        with pytest.raises(FecheckError) as err:
+            crosscheck.cross_check(scene, refine=1, log=None)
+    text = str(err.value)
+    assert "FE dofs" in text and "use fe.refine <= 0, or --force" in text, text
+    count = float(text.split("make about ")[1].split(" FE dofs")[0].replace(",", ""))
+    assert count == pytest.approx(small * budget.SOLID_GROWTH, rel=0.35)
+
+
+def test_ef_faces_without_an_fe_face_take_the_nearest_fe_pressure():
+    from types import SimpleNamespace
+
+    from fecheck.fe.crosscheck import on_ef_faces
+
+    # the EF sheet: 4 faces in a row along x; the FE surface covers the first two only
+    strip = TriMesh(np.array([[x, y, 0.0] for x in range(5) for y in (0, 1)], dtype=float),
+                    np.array([[0, 2, 1], [1, 2, 3], [2, 4, 3], [3, 4, 5],
+                              [4, 6, 5], [5, 6, 7], [6, 8, 7], [7, 8, 9]]))
+    fe = TriMesh(strip.points[:6], strip.faces[:4])
+    layer = SimpleNamespace(to_ef=None, surface=fe, parent=np.arange(4),
+                            body=SimpleNamespace(surface=strip))
+    pressure = np.array([1.0, 1.0, 2.0, 2.0, 4.0, 4.0])
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        out = on_ef_faces(layer, pressure)
+    face = pressure[fe.faces].mean(axis=1)
+    assert np.allclose(out[:4], face)
+    # faces 4-7 lie beyond x = 2: the nearest FE face is the last one (centroid x 1.67)
+    assert np.allclose(out[4:], face[3])
+
+
+def test_the_smallest_surface_edge_prints_its_digits():
+    from fecheck.cli.fe import geometry_line
+
+    g = {"deformable_layers": 1, "tibial_surface": "solid:insert.stl",
+         "femoral_surface": "mesh:femur.stl", "thickness_source": "solid", "elements": 1,
+         "dofs": 3, "smallest_size_mm": 0.00412}
+    assert "smallest surface edge 0.00412 mm" in geometry_line(g)
+    assert "smallest surface edge 1.44 mm" in geometry_line(g | {"smallest_size_mm": 1.4413})

@@ -39,10 +39,10 @@ from scipy.spatial import cKDTree
 
 from fecheck.errors import FecheckError
 from fecheck.fe.bodies import FEBody, refuse_unmodelled, scene_bodies
-from fecheck.fe.budget import guard_layers
 from fecheck.fe.press import (
     FELayer,
     build_layers,
+    guard_bodies,
     joint_drive,
     push_drive,
     rigid_gaps,
@@ -451,10 +451,10 @@ def cross_check(scene: Scene, *, mode: str | None = None, refine: int | None = N
     E, nu = scene["contact.youngs_MPa"], scene["contact.poisson"]
     t0 = time.perf_counter()
     bodies = scene_bodies(scene)
-    guard_layers(bodies, settings, nu)                  # before the EF run, not after it
+    meshed = guard_bodies(bodies, settings, nu)         # before the EF run, not after it
     run, ef_seconds = ef if ef is not None else _ef_run(scene, say)
     t1 = time.perf_counter()
-    layers = build_layers(bodies, E, nu, settings, say)
+    layers = build_layers(bodies, E, nu, settings, say, meshed)
     t2 = time.perf_counter()
     solved, q_fe, condense, femoral_s = _solve(scene, layers, run, settings, say, flexion)
     t3 = time.perf_counter()

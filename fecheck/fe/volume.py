@@ -124,20 +124,49 @@ def base_faces(surface: TriMesh, articular: np.ndarray, base_deg: float, name: s
     return np.flatnonzero(down)
 
 
+@dataclass(frozen=True, eq=False)
+class SolidMesh:
+    """A closed tibial solid meshed: its surface split in four `refine` times (mm), each
+    split face's parent face, and the linear tetrahedra filling it."""
+
+    surface: TriMesh
+    parent: np.ndarray
+    tets: TetMesh
+
+    @property
+    def n_dofs(self) -> int:
+        """Dofs of its quadratic (P2) tetrahedra before the base is fixed: three per
+        vertex and per edge."""
+        t = self.tets.tets
+        pairs = np.sort(t[:, [0, 1, 0, 2, 0, 3, 1, 2, 1, 3, 2, 3]].reshape(-1, 2), axis=1)
+        edges = np.unique(pairs[:, 0].astype(np.int64) * len(self.tets.points) + pairs[:, 1])
+        return 3 * (len(self.tets.points) + len(edges))
+
+
+def mesh_solid(solid: TibiaSolid, refine: int = 0) -> SolidMesh:
+    """`solid`'s surface split in four `refine` times and its volume tetrahedralized
+    (`tetrahedralize`): the cheap first step of `solid_layers`, which the size guard
+    counts before anything is assembled."""
+    surface, parent = subdivide(solid.surface, refine)
+    return SolidMesh(surface, parent, tetrahedralize(surface, solid.name))
+
+
 def solid_layers(solid: TibiaSolid, youngs_MPa: float, poisson: float, *,
                  base_deg: float = 45.0, refine: int = 0,
-                 formulation: str = "displacement") -> dict[str, LayerSolid]:
+                 formulation: str = "displacement",
+                 meshed: SolidMesh | None = None) -> dict[str, LayerSolid]:
     """{compartment: the assembled solid seen from that compartment's articular face}
     (module docstring); all views share one stiffness matrix; `formulation` as in
-    `fecheck.fe.solid.p2_elasticity`."""
+    `fecheck.fe.solid.p2_elasticity`; `meshed`: `mesh_solid(solid, refine)` when already
+    made."""
     check_material(youngs_MPa, poisson)
     timing = {}
     t0 = time.perf_counter()
-    surface, parent = subdivide(solid.surface, refine)
+    meshed = meshed or mesh_solid(solid, refine)
+    surface, parent, tets = meshed.surface, meshed.parent, meshed.tets
     articular = {c: np.flatnonzero(np.isin(parent, f)) for c, f in solid.articular.items()}
     every = np.concatenate(list(articular.values()))
     fixed_faces = surface.faces[base_faces(surface, every, base_deg, solid.name)]
-    tets = tetrahedralize(surface, solid.name)
     timing["mesh"] = time.perf_counter() - t0
     t0 = time.perf_counter()
     mesh, basis, K = p2_elasticity(tets, youngs_MPa, poisson, formulation=formulation)
