@@ -211,21 +211,27 @@ def _height(mesh: TriMesh) -> float:
 
 
 def _check_order(surf: dict[str, Surface]) -> None:
-    """`FecheckError` when the femoral surface does not lie above the tibial one (their
-    area-weighted mean heights): the files look swapped."""
+    """`FecheckError` when the femoral and tibial files look swapped: the femoral surface
+    lies below the tibial one (their area-weighted mean heights) and each one's normals
+    point the way the other's should (an open femoral sheet's up, the tibia's down)."""
     from fecheck.errors import FecheckError
+    from fecheck.scene.surfaces import mean_normal_z
+    from geometry.mesh import is_closed
 
+    femur = surf["femur"].mesh
     tibia = [surf[r] for r in ("tibia", "tibia_lateral") if r in surf]
-    below = max(_height(s.mesh) for s in tibia) - _height(surf["femur"].mesh)
-    if below < 0:
+    below = max(_height(s.mesh) for s in tibia) - _height(femur)
+    facing = (not is_closed(femur) and mean_normal_z(femur) > 0
+              and all(mean_normal_z(s.mesh) < 0 for s in tibia))
+    if below < 0 or not facing:
         return
     f = surf["femur"].source
     fix = (f"give --femur {tibia[0].source} --tibia {f}" if len(tibia) == 1 else
            "give the femoral surface in --femur and the tibial compartments in --tibia "
            "and --tibia-lateral")
     raise FecheckError(f"--femur {f} lies {below:.1f} mm below the tibial surface (mean "
-                       f"heights; z is superior): the femoral and tibial files look swapped: "
-                       f"{fix}")
+                       "heights; z is superior) and each one's normals point the way the "
+                       f"other's should: the femoral and tibial files look swapped: {fix}")
 
 
 # ------------------------------------------------------------------------- normals
