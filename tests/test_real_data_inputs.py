@@ -298,7 +298,7 @@ def test_the_dof_guard_refuses_a_large_solid_before_the_ef_run(implant_scene, mo
 
     monkeypatch.setattr(crosscheck, "_ef_run", no_ef)
     scene = load_scene(implant_scene)
-    # the solid has about 22k dofs, about 8 times that at fe.refine 1: a limit of 100k
+    # the solid has about 27k dofs, about 6 times that at fe.refine 1: a limit of 100k
     # (instead of 500k, to keep the test small) passes at level 0 and not at level 1
     small = mesh_solid(scene_bodies(scene)[0].solid).n_dofs
     limit = 100_000
