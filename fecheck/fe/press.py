@@ -104,13 +104,18 @@ def _refined(coarse: TriMesh, thickness: np.ndarray, times: int, offsets: np.nda
     return surface, parent, out[:, 0], out[:, 1:]
 
 
+def _mesh_solids(bodies: Sequence[FEBody], refine: int) -> dict[int, SolidMesh]:
+    """Each distinct closed tibial solid of `bodies` meshed (`mesh_solid`), by identity."""
+    solids = {id(b.solid): b.solid for b in bodies if b.solid is not None}
+    return {key: mesh_solid(solid, refine) for key, solid in solids.items()}
+
+
 def guard_bodies(bodies: Sequence[FEBody], settings: FESettings, poisson: float
                  ) -> dict[int, SolidMesh]:
     """The closed tibial solids of `bodies` tetrahedralized (`mesh_solid`, by the solid's
     identity), and the size guard of every layer and solid before anything is assembled
     (`fecheck.fe.budget.guard_layers`)."""
-    meshed = {id(b.solid): mesh_solid(b.solid, settings.refine)
-              for b in bodies if b.solid is not None}
+    meshed = _mesh_solids(bodies, settings.refine)
     guard_layers([b for b in bodies if b.solid is None], settings, poisson,
                  solid_dofs=[m.n_dofs for m in meshed.values()])
     return meshed
@@ -126,8 +131,7 @@ def build_layers(bodies: Sequence[FEBody], youngs_MPa: float, poisson: float,
     (`fecheck.fe.budget.guard_layers`)."""
     levels = settings.levels(poisson)
     if meshed is None:
-        meshed = {id(b.solid): mesh_solid(b.solid, settings.refine)
-                  for b in bodies if b.solid is not None}
+        meshed = _mesh_solids(bodies, settings.refine)
     sheets = [None if body.solid is not None else _sheet(body, settings, levels, log)
               for body in bodies]
     layered = [s[0] for s in sheets if s is not None]
