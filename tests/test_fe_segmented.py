@@ -195,13 +195,13 @@ def test_fine_voxel_knee_fe_matches_the_smooth_knees_own_fe_within_5_percent(fin
 
 
 def test_coarse_voxel_knee_fe_stays_within_its_measured_error(voxel_fe, own_fe):
-    """Beyond 0.3 mm voxels the face p_max is off by up to 20 % and the area by up to 8
-    % (default settings, medial / lateral, against the smooth knee's own FE): 0.35 mm
-    p_max +2.3 / +6.6 %, area +1.0 / -0.0 %; 0.4 mm -13.0 / -12.4 %, +3.3 / +4.5 %; 0.5
-    mm -18.9 / -19.9 %, +6.9 / +6.1 %; 0.6 mm -2.5 / +6.5 %, -5.7 / -1.0 %. The error
-    does not shrink steadily with the voxel: it follows where the condyle bottoms fall
-    in the voxel grid (at 0.5 mm both lie on a plane of voxel centres, and the terrace
-    half a voxel above each bottom's middle leaves the prepared gap 0.2 mm too wide
-    where the FE peaks). Checked here at 0.6 mm."""
+    """Beyond 0.3 mm voxels the face p_max is off by up to 20 % and the area by up to
+    8 % (default settings, medial / lateral, against the smooth knee's own FE): 0.35 mm
+    p_max +2.3 / +6.6 %, area +1.0 / -0.0 %; 0.4 mm -13.0 / -12.4 %, +3.3 / +4.5 %;
+    0.5 mm -18.9 / -19.9 %, +6.9 / +6.1 %; 0.6 mm -2.5 / +6.5 %, -5.7 / -1.0 %. The
+    error does not shrink steadily with the voxel: it follows where the condyle bottoms
+    fall in the voxel grid (at 0.5 mm both lie on a plane of voxel centres, and the
+    terrace half a voxel above each bottom's middle leaves the prepared gap 0.2 mm too
+    wide where the FE peaks). Checked here at 0.6 mm."""
     assert np.all(np.abs(_face_peak(voxel_fe) / _face_peak(own_fe) - 1) < 0.20)
     assert np.all(np.abs(_area(voxel_fe) / _area(own_fe) - 1) < 0.08)
