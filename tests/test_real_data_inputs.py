@@ -343,3 +343,28 @@ def test_the_smallest_surface_edge_prints_its_digits():
          "dofs": 3, "smallest_size_mm": 0.00412}
     assert "smallest surface edge 0.00412 mm" in geometry_line(g)
     assert "smallest surface edge 1.44 mm" in geometry_line(g | {"smallest_size_mm": 1.4413})
+
+
+def test_the_solid_fe_on_a_finer_sheet_runs_clean_and_says_why_no_estimate(tmp_path, capsys):
+    """The insert's sheet split in four (each solid top face then lies under four sheet
+    faces, three of them with no FE face of their own): no numpy warning, finite face
+    pressures, and the report says why a closed solid has no error estimate."""
+    import json
+
+    from fecheck.cli.fe import SOLID_NO_ESTIMATE
+    from geometry.io import load_mesh, save_mesh
+    from geometry.subdivide import subdivide
+    from validation.implant_pair import write_implant
+
+    scene = write_implant(tmp_path, fine_mm=2.0)
+    fine, _ = subdivide(load_mesh(tmp_path / "insert_top.stl"), 1)
+    save_mesh(fine, tmp_path / "insert_top.stl")
+    out = tmp_path / "fe.json"
+    assert main(["fe", str(scene), "--json", str(out)]) == 0
+    captured = capsys.readouterr()
+    assert "invalid value" not in captured.err and "RuntimeWarning" not in captured.err
+    assert SOLID_NO_ESTIMATE in captured.out
+    data = json.loads(out.read_text(encoding="utf-8"))
+    assert data["error_estimate"] is None
+    for c in data["compartments"].values():          # None in the JSON where not finite
+        assert c["fe_peaks"]["face_MPa"] > 0
