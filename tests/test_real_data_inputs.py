@@ -19,6 +19,7 @@ from test_knee_import import CENTRES, GAPS_MM, _merge, femur_cap, tibia_patch, w
 from fecheck.cli import main
 from fecheck.model.scanned import slave_thickness, tibial_slaves
 from fecheck.scene import load_scene
+from fecheck.scene.document import toml_value
 from geometry.checks import non_manifold_faces
 from geometry.icosphere import icosphere
 from geometry.mesh import TriMesh
@@ -118,6 +119,15 @@ def test_a_bone_defect_under_the_sheet_is_refused_with_its_place(knee, tmp_path,
     assert "Non Manifold" in err and not out.exists()
     x, y, z = (float(v) for v in err.split("around (")[1].split(")")[0].split(", "))
     assert np.allclose((x, y, z), at, atol=1.5)
+    # a run reads the bone the same way: refused, with the scene's key
+    femur_file = write(data, "femur_bone.stl", femur_bone())
+    assert _import(knee, out, femur_file, write(data, "clean.stl", tibia_bone())) == 0
+    capsys.readouterr()
+    bad = str(data / "tibia_bone.stl")
+    assert main(["run", str(out), "--set", f"geometry.tibia_bone={toml_value(bad)}"]) == 2
+    err = _one_line_error(capsys)
+    assert err.startswith("fecheck: error: geometry.tibia_bone: the thickness rays")
+    assert "non-manifold" in err
 
 
 # ------------------------------------------------------------------ swapped files
