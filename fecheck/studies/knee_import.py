@@ -6,7 +6,11 @@ scene reads them (`fecheck.scene.surfaces.read_surface`: unit by extent, NaN, de
 and duplicate faces, edges shared by three or more faces) and checked, one printed line
 per check: extent, size, open or closed, connected pieces, normals (tibia up, femoral
 sheet down, closed femur outward) and, per tibial compartment, the signed rest gap to the
-femoral surface (+ gap, - overlap, mm) and the tibial area within `NEAR_MM` of it. The
+femoral surface (+ gap, - overlap, mm) and the tibial area within `NEAR_MM` of it; files
+that look swapped (femur and tibia, or the two bones: each bone on the far side of its
+sheet) are refused with the options to give; with both bones, each sheet's bone-distance
+thickness (a bone's non-manifold edge warned with its place, refused where the thickness
+rays meet it). The
 tibia is split into its medial and lateral compartments (connected components, a sagittal
 plane checked against the femoral condyles over the tibia, or one file each). Inverted
 normals are repaired: a copy with reversed face winding is written beside the scene
