@@ -10,9 +10,9 @@ femoral surface (+ gap, - overlap, mm) and the tibial area within `NEAR_MM` of i
 that look swapped (femur and tibia, or the two bones: each bone on the far side of its
 sheet) are refused with the options to give; with both bones, each sheet's bone-distance
 thickness (a bone's non-manifold edge warned with its place, refused where the thickness
-rays meet it). The
-tibia is split into its medial and lateral compartments (connected components, a sagittal
-plane checked against the femoral condyles over the tibia, or one file each). Inverted
+rays meet it). The tibia is split into its medial and lateral compartments (connected
+components, a sagittal plane checked against the femoral condyles over the tibia, or one
+file each). Inverted
 normals are repaired: a copy with reversed face winding is written beside the scene
 (``<scene-stem>_<role>_fixed.stl``) and the scene names it. Then a ``model.kind =
 "femur-tibia"`` scene is written with a comment above each key and reloaded as a check;
