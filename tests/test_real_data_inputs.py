@@ -84,7 +84,7 @@ def _one_line_error(capsys) -> str:
 # ------------------------------------------------------------------ a bone's defect
 def test_a_bone_defect_far_below_the_plateau_warns_with_its_place_and_runs(knee, tmp_path,
                                                                            capsys):
-    bone, at = with_fin(tibia_bone(), (10.0, 0.5, -60.0))         # 60 mm below the dishes
+    bone, at = with_fin(tibia_bone(), (0.0, 27.0, -12.0))     # 12 mm below, on its front
     data = tmp_path / "data"
     femur_file = write(data, "femur_bone.stl", femur_bone())
     out = tmp_path / "knee.toml"
@@ -95,7 +95,7 @@ def test_a_bone_defect_far_below_the_plateau_warns_with_its_place_and_runs(knee,
     x, y, z = (float(v) for v in warned[0].split("around (")[1].split(")")[0].split(", "))
     assert np.allclose((x, y, z), at, atol=1.5)
     assert "tibia-bone    thickness" in captured.out, captured.out
-    # the scene's thickness maps are the clean bone's: the fin is 60 mm from every ray
+    # the thickness maps are the clean bone's: the fin is on the front wall, under no ray
     clean = tmp_path / "clean.toml"
     assert _import(knee, clean, femur_file, write(data, "clean.stl", tibia_bone())) == 0
     with warnings.catch_warnings(record=True) as seen:
