@@ -292,8 +292,9 @@ def test_the_solid_dof_count_is_the_assembled_one(implant_scene):
 
     solid = scene_bodies(load_scene(implant_scene))[0].solid
     meshed = mesh_solid(solid)
-    layers = solid_layers(solid, 463.0, 0.45, meshed=meshed)
-    assert meshed.n_dofs == 3 * next(iter(layers.values())).n_nodes    # scikit-fem's P2
+    assembled = next(iter(solid_layers(solid, 463.0, 0.45, meshed=meshed).values()))
+    assert meshed.n_dofs == 3 * assembled.n_nodes                     # scikit-fem's P2
+    assert meshed.kept_dofs(solid, 45.0) == assembled.n_dofs          # base fixed, ties
 
 
 def test_the_dof_guard_refuses_a_large_solid_before_the_ef_run(implant_scene, monkeypatch):
@@ -308,9 +309,10 @@ def test_the_dof_guard_refuses_a_large_solid_before_the_ef_run(implant_scene, mo
 
     monkeypatch.setattr(crosscheck, "_ef_run", no_ef)
     scene = load_scene(implant_scene)
-    # the solid has about 27k dofs, about 6 times that at fe.refine 1: a limit of 100k
+    # the solid keeps about 22k dofs, about 6 times that at fe.refine 1: a limit of 100k
     # (instead of 500k, to keep the test small) passes at level 0 and not at level 1
-    small = mesh_solid(scene_bodies(scene)[0].solid).n_dofs
+    solid = scene_bodies(scene)[0].solid
+    small = mesh_solid(solid).kept_dofs(solid, scene["fe.solid_base_deg"])
     limit = 100_000
     assert small < limit < small * budget.SOLID_GROWTH
     monkeypatch.setattr(budget, "MAX_DOFS", limit)

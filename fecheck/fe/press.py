@@ -117,8 +117,15 @@ def guard_bodies(bodies: Sequence[FEBody], settings: FESettings, poisson: float
     (`fecheck.fe.budget.guard_layers`)."""
     meshed = _mesh_solids(bodies, settings.refine)
     guard_layers([b for b in bodies if b.solid is None], settings, poisson,
-                 solid_dofs=[m.n_dofs for m in meshed.values()])
+                 solid_dofs=_solid_dofs(bodies, meshed, settings))
     return meshed
+
+
+def _solid_dofs(bodies: Sequence[FEBody], meshed: dict[int, SolidMesh],
+                settings: FESettings) -> list[int]:
+    """The dofs each meshed solid of `bodies` keeps (`SolidMesh.kept_dofs`)."""
+    solids = {id(b.solid): b.solid for b in bodies if b.solid is not None}
+    return [m.kept_dofs(solids[key], settings.solid_base_deg) for key, m in meshed.items()]
 
 
 def build_layers(bodies: Sequence[FEBody], youngs_MPa: float, poisson: float,
@@ -136,7 +143,7 @@ def build_layers(bodies: Sequence[FEBody], youngs_MPa: float, poisson: float,
               for body in bodies]
     layered = [s[0] for s in sheets if s is not None]
     guard_layers(layered, settings, poisson, prepared=[False] * len(layered),
-                 solid_dofs=[m.n_dofs for m in meshed.values()])
+                 solid_dofs=_solid_dofs(bodies, meshed, settings))
     out = []
     built: dict[int, dict[str, LayerSolid]] = {}
     for body, chosen in zip(bodies, sheets, strict=True):

@@ -142,6 +142,17 @@ class SolidMesh:
         edges = np.unique(pairs[:, 0].astype(np.int64) * len(self.tets.points) + pairs[:, 1])
         return 3 * (len(self.tets.points) + len(edges))
 
+    def kept_dofs(self, solid: TibiaSolid, base_deg: float) -> int:
+        """The dofs `solid_layers` keeps: `n_dofs` less the base's nodes (vertices and
+        edge midpoints, fixed) and one per articular edge (its midside node's normal
+        displacement, tied to its ends')."""
+        every = np.flatnonzero(np.isin(self.parent,
+                                       np.concatenate(list(solid.articular.values()))))
+        base = self.surface.faces[base_faces(self.surface, every, base_deg, solid.name)]
+        fixed = len(np.unique(base)) + len(TriMesh(self.surface.points, base).edges_unique)
+        tied = len(TriMesh(self.surface.points, self.surface.faces[every]).edges_unique)
+        return self.n_dofs - 3 * fixed - tied
+
 
 def mesh_solid(solid: TibiaSolid, refine: int = 0) -> SolidMesh:
     """`solid`'s surface split in four `refine` times and its volume tetrahedralized
