@@ -64,6 +64,13 @@ def edge_counts(faces: np.ndarray) -> tuple[int, int, int]:
             int(np.count_nonzero(opposed)))
 
 
+def non_manifold_faces(mesh: TriMesh) -> np.ndarray:
+    """Indices of the faces on an edge that three or more faces share (non-manifold)."""
+    table = mesh.edge_table
+    bad = table.counts[table.sorted_edge] > 2
+    return np.unique(table.order[bad] // 3)
+
+
 def _components(n_points: int, faces: np.ndarray, edges: np.ndarray) -> int:
     from scipy.sparse import coo_matrix
     from scipy.sparse.csgraph import connected_components

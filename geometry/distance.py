@@ -13,19 +13,6 @@ import numpy as np
 from geometry.mesh import TriMesh
 
 
-def ray_distance(origins: np.ndarray, directions: np.ndarray, target: TriMesh
-                 ) -> np.ndarray:
-    """Distance (mm) along each ray to its first hit on `target`; inf where it misses.
-
-    Vectorised through Embree's BVH (trimesh's ``ray_pyembree``), no Python loop.
-    """
-    hits, index_ray, _ = target.ray_intersector.intersects_location(
-        origins, directions, multiple_hits=False)
-    out = np.full(len(origins), np.inf)
-    out[index_ray] = np.linalg.norm(hits - origins[index_ray], axis=1)
-    return out
-
-
 def ray_hits(origins: np.ndarray, directions: np.ndarray, target: TriMesh,
              facing: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
     """Distance (mm) along each unit ray to its nearest hit on `target` and the face hit

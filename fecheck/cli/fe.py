@@ -195,6 +195,17 @@ def peak_lines(check) -> list[str]:
     return out
 
 
+def geometry_line(g: dict) -> str:
+    """The FE geometry line of the report from the JSON's ``fe_geometry`` `g` (the smallest
+    surface edge to three significant digits: a CAD insert's can be micrometres)."""
+    two = g["deformable_layers"] == 2
+    return (f"FE geometry: tibial {g['tibial_surface']}, femoral {g['femoral_surface']} "
+            f"({'deformable' if two else 'rigid'}); thickness {g['thickness_source']}; "
+            f"{g['deformable_layers']} deformable layer{'s' if two else ''} (fe.cartilage "
+            f"{g.get('cartilage', 'series')}); {g['elements']} elements, {g['dofs']} dofs, "
+            f"smallest surface edge {g['smallest_size_mm']:.3g} mm")
+
+
 def summary_lines(check) -> list[str]:
     """Split, centres of pressure, pose, geometry, timing and notes below the table."""
     fe_split, ef_split = check.split("fe"), check.split("ef_model")
@@ -209,13 +220,7 @@ def summary_lines(check) -> list[str]:
     fe, ef = check.pose["fe"], check.pose["ef"]
     out.append(f"pose FE - EF ({check.settings.mode} mode): "
                + ", ".join(f"{k} {fe[k] - ef[k]:+.4f}" for k in fe))
-    g = check.geometry
-    two = g["deformable_layers"] == 2
-    out.append(f"FE geometry: tibial {g['tibial_surface']}, femoral {g['femoral_surface']} "
-               f"({'deformable' if two else 'rigid'}); thickness {g['thickness_source']}; "
-               f"{g['deformable_layers']} deformable layer{'s' if two else ''} (fe.cartilage "
-               f"{g.get('cartilage', 'series')}); {g['elements']} elements, {g['dofs']} dofs, "
-               f"smallest surface edge {g['smallest_size_mm']:.2f} mm")
+    out.append(geometry_line(check.geometry))
     for name, chk in check.compartments.items():
         dev = chk.deviation()
         if dev:
@@ -328,6 +333,14 @@ def _estimate(args: argparse.Namespace, scene, check, estimate, log):
         return None
 
 
+SOLID_NO_ESTIMATE = (
+    "error estimate: none for a closed tibial solid (geometry.tibia_solid): the estimate "
+    "solves a second, coarser mesh of the same geometry, and the solid's tetrahedra are "
+    "Gmsh's fill of the given surface, which is not coarsened here; for an estimate run "
+    "fe.body = 'layer' (a layer with the solid's thickness map) or compare fe.refine 0 and 1")
+"""What `fecheck fe` prints instead of the error estimate of a closed tibial solid."""
+
+
 # ---------------------------------------------------------------------- menisci scenes
 MENISCUS_PER_SHEET = 1.25
 """Meniscus tetrahedron size over the tibial sheet size ``fe.size_mm``."""
@@ -410,8 +423,11 @@ def run(args: argparse.Namespace) -> int:
               "default FE time", file=out)
     elif args.no_estimate:
         print("error estimate: skipped (--no-estimate)", file=out)
+    elif any(c.layer.body.solid is not None for c in check.compartments.values()):
+        print(SOLID_NO_ESTIMATE, file=out)
+    elif check.ef_run is None:
+        print("error estimate: none (a check without its EF run)", file=out)
     else:
-        print("error estimate: none (a closed tibial solid has no coarse level here, or the "
-              "coarse solve failed: see the warning)", file=out)
+        print("error estimate: none (its coarse level failed: see the warning)", file=out)
     write_outputs(args, check, scene, out, est)
     return 0

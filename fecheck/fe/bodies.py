@@ -117,7 +117,7 @@ def _scanned_bodies(scene: Scene) -> list[FEBody]:
     for c in COMPARTMENTS:
         surface = slaves[c]
         if solid is not None:
-            h = solid_thickness(solid, surface)
+            h = solid_thickness(solid, surface, c)
         elif scene["fe.cartilage"] == "two-layer":
             h = _tibial_thickness(scene, surface)
         elif source == "uniform":
@@ -141,8 +141,8 @@ def _tibial_thickness(scene: Scene, surface: TriMesh) -> np.ndarray:
     from fecheck.laws.layer import bone_distance_thickness, uniform_sides
 
     if scene["scanned.thickness"] == "bone-distance":
-        return vertex_values(surface, bone_distance_thickness(surface,
-                                                              surfaces.bone(scene, "tibia")))
+        return vertex_values(surface, bone_distance_thickness(
+            surface, surfaces.bone(scene, "tibia"), name="geometry.tibia_bone"))
     return np.full(surface.n_points, uniform_sides(scene)[0])
 
 

@@ -39,6 +39,11 @@ FILL_EXPONENT = 0.5
 constants above it bounds the peak RSS of layer assembly and factorization measured on
 a disc of radius 20 mm, 6 mm thick (CHOLMOD, METIS): 0.22 GB at 17.7k dofs (estimate
 0.28), 0.66 at 67.7k (0.81), 1.28 at 104k (1.37), 3.23 at 210k (3.55)."""
+SOLID_GROWTH = 6.0
+"""Growth of a closed solid's dofs per ``fe.refine`` level (its surface triangles split in
+four; Gmsh's interior sizes follow the surface's only in part): measured 5.9 on the
+generated insert of validation/implant_pair.py (2 mm top triangles: 26.9k to 158k P2 dofs,
+5,175 to 33,516 tetrahedra)."""
 EF_NARROWS_FROM = 0.495
 """Poisson's ratio from which a refusal explains that the EF's contact sizes the plateau
 mesh: the EF's column stiffness grows as 1/(1 - 2ν) and its contact radius as its -1/4
@@ -120,10 +125,22 @@ def fe_estimate(bodies: Sequence[FEBody], refine: int, levels: int,
 
 
 def guard_layers(bodies: Sequence[FEBody], settings: FESettings, poisson: float,
-                 prepared: Sequence[bool | None] | None = None) -> None:
+                 prepared: Sequence[bool | None] | None = None,
+                 solid_dofs: Sequence[int] = ()) -> None:
     """`geometry.budget.guard` of the FE layers before they are built (each sheet counted
-    as `fe_estimate` says): the remedy lowers ``fe.refine`` (``--refine``)."""
+    as `fe_estimate` says) and of the closed tibial solids tetrahedralized but not yet
+    assembled (`solid_dofs`, their P2 dofs at ``fe.refine``; at another refine level
+    `SOLID_GROWTH` per level): the remedy lowers ``fe.refine`` (``--refine``)."""
     levels = settings.levels(poisson)
+
+    def estimate(refine: int) -> budget.Estimate:
+        layers = fe_estimate(bodies, refine, levels, settings, prepared)
+        solids = [d * SOLID_GROWTH ** (refine - settings.refine) for d in solid_dofs]
+        dofs = np.array(solids, dtype=float)
+        extra = float((dofs * BYTES_PER_DOF * (dofs / REFERENCE_DOFS) ** FILL_EXPONENT).sum())
+        return replace(layers, count=layers.count + float(dofs.sum()),
+                       bytes=layers.bytes + extra)
+
     otherwise = ("lower fe.layers or coarsen the surfaces (scanned.decimate_faces, "
                  "mesh.plateau_refine_mm)")
     if poisson >= EF_NARROWS_FROM and not any(b.tibial_surface.startswith("mesh:") for b in bodies):
@@ -131,7 +148,6 @@ def guard_layers(bodies: Sequence[FEBody], settings: FESettings, poisson: float,
                       "automatic refinement follows, is several times narrower than the "
                       "FE's: set mesh.plateau_refine_mm = 0.4 (the size ν 0.49 gets; the FE's "
                       "p_max and area within 1 % there)")
-    budget.guard("fecheck fe", "fe.refine", settings.refine,
-                 lambda r: fe_estimate(bodies, int(r), levels, settings, prepared),
+    budget.guard("fecheck fe", "fe.refine", settings.refine, lambda r: estimate(int(r)),
                  unit="", level=True,
                  otherwise=otherwise)

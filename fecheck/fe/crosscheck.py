@@ -35,13 +35,14 @@ from dataclasses import dataclass, field
 from typing import Any
 
 import numpy as np
+from scipy.spatial import cKDTree
 
 from fecheck.errors import FecheckError
 from fecheck.fe.bodies import FEBody, refuse_unmodelled, scene_bodies
-from fecheck.fe.budget import guard_layers
 from fecheck.fe.press import (
     FELayer,
     build_layers,
+    guard_bodies,
     joint_drive,
     push_drive,
     rigid_gaps,
@@ -234,7 +235,9 @@ def ef_metrics(res: CompartmentResult, rot: np.ndarray, t: np.ndarray) -> SideMe
 
 
 def _on_ef_faces(layer: FELayer, pressure: np.ndarray) -> np.ndarray:
-    """FE vertex pressure averaged onto the EF faces (over each face's FE children), or
+    """FE vertex pressure averaged onto the EF faces (over each face's FE children; an EF
+    face with none, as where a closed solid's articular face stops short of the sheet's
+    rim or is coarser than the sheet, takes the FE face nearest its centroid), or
     interpolated at their centroids from a prepared sheet."""
     if layer.to_ef is not None:
         return layer.to_ef @ pressure
@@ -242,6 +245,11 @@ def _on_ef_faces(layer: FELayer, pressure: np.ndarray) -> np.ndarray:
     n = layer.body.surface.n_faces
     total = np.bincount(layer.parent, weights=face * layer.surface.face_areas, minlength=n)
     area = np.bincount(layer.parent, weights=layer.surface.face_areas, minlength=n)
+    childless = area <= 0
+    if childless.any():
+        ef = layer.body.surface.face_centroids[childless]
+        nearest = cKDTree(layer.surface.face_centroids).query(ef)[1]
+        total[childless], area[childless] = face[nearest], 1.0
     return total / area
 
 
@@ -443,10 +451,10 @@ def cross_check(scene: Scene, *, mode: str | None = None, refine: int | None = N
     E, nu = scene["contact.youngs_MPa"], scene["contact.poisson"]
     t0 = time.perf_counter()
     bodies = scene_bodies(scene)
-    guard_layers(bodies, settings, nu)                  # before the EF run, not after it
+    meshed = guard_bodies(bodies, settings, nu)         # before the EF run, not after it
     run, ef_seconds = ef if ef is not None else _ef_run(scene, say)
     t1 = time.perf_counter()
-    layers = build_layers(bodies, E, nu, settings, say)
+    layers = build_layers(bodies, E, nu, settings, say, meshed)
     t2 = time.perf_counter()
     solved, q_fe, condense, femoral_s = _solve(scene, layers, run, settings, say, flexion)
     t3 = time.perf_counter()

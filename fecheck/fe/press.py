@@ -30,6 +30,7 @@ from fecheck.fe.indenter import MeshIndenter, barycentric
 from fecheck.fe.joint import ContactLayer, JointContact, JointSolution, femoral_shift
 from fecheck.fe.settings import FESettings
 from fecheck.fe.solid import LayerSolid, layer_solid, release_freed_heap
+from fecheck.fe.volume import SolidMesh, mesh_solid, parent_faces, solid_layers
 from fecheck.model.assembly import applied_load, free_indices
 from fecheck.scene import Scene
 from fecheck.statics.newton import geometric_tangent, pose, twist_basis
@@ -103,22 +104,52 @@ def _refined(coarse: TriMesh, thickness: np.ndarray, times: int, offsets: np.nda
     return surface, parent, out[:, 0], out[:, 1:]
 
 
+def _mesh_solids(bodies: Sequence[FEBody], refine: int) -> dict[int, SolidMesh]:
+    """Each distinct closed tibial solid of `bodies` meshed (`mesh_solid`), by identity."""
+    solids = {id(b.solid): b.solid for b in bodies if b.solid is not None}
+    return {key: mesh_solid(solid, refine) for key, solid in solids.items()}
+
+
+def guard_bodies(bodies: Sequence[FEBody], settings: FESettings, poisson: float
+                 ) -> dict[int, SolidMesh]:
+    """The closed tibial solids of `bodies` tetrahedralized (`mesh_solid`, by the solid's
+    identity), and the size guard of every layer and solid before anything is assembled
+    (`fecheck.fe.budget.guard_layers`)."""
+    meshed = _mesh_solids(bodies, settings.refine)
+    guard_layers([b for b in bodies if b.solid is None], settings, poisson,
+                 solid_dofs=_solid_dofs(bodies, meshed, settings))
+    return meshed
+
+
+def _solid_dofs(bodies: Sequence[FEBody], meshed: dict[int, SolidMesh],
+                settings: FESettings) -> list[int]:
+    """The dofs each meshed solid of `bodies` keeps (`SolidMesh.kept_dofs`)."""
+    solids = {id(b.solid): b.solid for b in bodies if b.solid is not None}
+    return [m.kept_dofs(solids[key], settings.solid_base_deg) for key, m in meshed.items()]
+
+
 def build_layers(bodies: Sequence[FEBody], youngs_MPa: float, poisson: float,
-                 settings: FESettings, log: Callable[[str], None]) -> list[FELayer]:
+                 settings: FESettings, log: Callable[[str], None],
+                 meshed: dict[int, SolidMesh] | None = None) -> list[FELayer]:
     """Extrude and assemble every compartment's layer (the costly setup before contact):
     on the EF faces, or on prepared sheets (``fe.prepare``); a body with a closed tibial
-    solid gets the solid instead (`solid_layer`); refused before assembly when the sheets
-    chosen would not fit (`fecheck.fe.budget.guard_layers`)."""
+    solid gets the solid instead (`solid_layer`; `meshed` from `guard_bodies`, else meshed
+    here); refused before assembly when the sheets and solids chosen would not fit
+    (`fecheck.fe.budget.guard_layers`)."""
     levels = settings.levels(poisson)
+    if meshed is None:
+        meshed = _mesh_solids(bodies, settings.refine)
     sheets = [None if body.solid is not None else _sheet(body, settings, levels, log)
               for body in bodies]
-    guard_layers([s[0] if s else b for s, b in zip(sheets, bodies, strict=True)], settings, poisson,
-                 prepared=[False] * len(bodies))
+    layered = [s[0] for s in sheets if s is not None]
+    guard_layers(layered, settings, poisson, prepared=[False] * len(layered),
+                 solid_dofs=_solid_dofs(bodies, meshed, settings))
     out = []
     built: dict[int, dict[str, LayerSolid]] = {}
     for body, chosen in zip(bodies, sheets, strict=True):
         if chosen is None:
-            out.append(solid_layer(body, youngs_MPa, poisson, settings, log, built))
+            out.append(solid_layer(body, youngs_MPa, poisson, settings, log, built,
+                                   meshed[id(body.solid)]))
             continue
         sheet, prepared, directions, rounds = chosen
         offsets = extrusion_offsets(sheet.surface, sheet.thickness_mm, directions)
@@ -230,17 +261,15 @@ def _extrusion_failure(body: FEBody, err: ExtrusionError, settings: FESettings
 
 
 def solid_layer(body: FEBody, youngs_MPa: float, poisson: float, settings: FESettings,
-                log: Callable[[str], None], built: dict[int, dict[str, LayerSolid]]
-                ) -> FELayer:
-    """The compartment's view of its closed tibial solid (`fecheck.fe.volume`), meshed
-    and assembled once per solid (`built`, by the solid's identity)."""
-    from fecheck.fe.volume import parent_faces, solid_layers
-
+                log: Callable[[str], None], built: dict[int, dict[str, LayerSolid]],
+                meshed: SolidMesh) -> FELayer:
+    """The compartment's view of its closed tibial solid (`fecheck.fe.volume`; `meshed` by
+    `mesh_solid`), assembled once per solid (`built`, by the solid's identity)."""
     key = id(body.solid)
     if key not in built:
         built[key] = solid_layers(body.solid, youngs_MPa, poisson,
                                   base_deg=settings.solid_base_deg, refine=settings.refine,
-                                  formulation=settings.formulation_for(poisson))
+                                  formulation=settings.formulation_for(poisson), meshed=meshed)
         release_freed_heap()
         one = next(iter(built[key].values()))
         log(f"{body.solid.name}: closed solid of {len(one.mesh.tets)} quadratic tetrahedra, "

@@ -23,10 +23,12 @@ from __future__ import annotations
 
 import math
 import time
+import warnings
 from dataclasses import dataclass
 
 import numpy as np
 import scipy.sparse as sp
+from scipy.spatial import cKDTree
 
 from fecheck.errors import FecheckError
 from fecheck.fe.recovery import tributary_areas
@@ -38,8 +40,14 @@ from fecheck.fe.solid import (
     tie_matrix,
 )
 from fecheck.scene.surfaces import components
+from geometry.distance import closest_distance, ray_hits
 from geometry.mesh import TetMesh, TriMesh
 from geometry.subdivide import subdivide
+
+RIM_OVERHANG_MM = 0.5
+"""A tibial sheet's rim may overhang its closed solid by up to this, mm: an implant's insert
+sheet and solid exported apart differ by up to 0.25 mm at the rim; beyond it the sheet is
+refused (`solid_thickness`)."""
 
 
 @dataclass(frozen=True, eq=False)
@@ -116,20 +124,60 @@ def base_faces(surface: TriMesh, articular: np.ndarray, base_deg: float, name: s
     return np.flatnonzero(down)
 
 
+@dataclass(frozen=True, eq=False)
+class SolidMesh:
+    """A closed tibial solid meshed: its surface split in four `refine` times (mm), each
+    split face's parent face, and the linear tetrahedra filling it."""
+
+    surface: TriMesh
+    parent: np.ndarray
+    tets: TetMesh
+
+    @property
+    def n_dofs(self) -> int:
+        """Dofs of its quadratic (P2) tetrahedra before the base is fixed: three per
+        vertex and per edge."""
+        t = self.tets.tets
+        pairs = np.sort(t[:, [0, 1, 0, 2, 0, 3, 1, 2, 1, 3, 2, 3]].reshape(-1, 2), axis=1)
+        edges = np.unique(pairs[:, 0].astype(np.int64) * len(self.tets.points) + pairs[:, 1])
+        return 3 * (len(self.tets.points) + len(edges))
+
+    def kept_dofs(self, solid: TibiaSolid, base_deg: float) -> int:
+        """The dofs `solid_layers` keeps: `n_dofs` less the base's nodes (vertices and
+        edge midpoints, fixed) and one per articular edge (its midside node's normal
+        displacement, tied to its ends')."""
+        every = np.flatnonzero(np.isin(self.parent,
+                                       np.concatenate(list(solid.articular.values()))))
+        base = self.surface.faces[base_faces(self.surface, every, base_deg, solid.name)]
+        fixed = len(np.unique(base)) + len(TriMesh(self.surface.points, base).edges_unique)
+        tied = len(TriMesh(self.surface.points, self.surface.faces[every]).edges_unique)
+        return self.n_dofs - 3 * fixed - tied
+
+
+def mesh_solid(solid: TibiaSolid, refine: int = 0) -> SolidMesh:
+    """`solid`'s surface split in four `refine` times and its volume tetrahedralized
+    (`tetrahedralize`): the cheap first step of `solid_layers`, which the size guard
+    counts before anything is assembled."""
+    surface, parent = subdivide(solid.surface, refine)
+    return SolidMesh(surface, parent, tetrahedralize(surface, solid.name))
+
+
 def solid_layers(solid: TibiaSolid, youngs_MPa: float, poisson: float, *,
                  base_deg: float = 45.0, refine: int = 0,
-                 formulation: str = "displacement") -> dict[str, LayerSolid]:
+                 formulation: str = "displacement",
+                 meshed: SolidMesh | None = None) -> dict[str, LayerSolid]:
     """{compartment: the assembled solid seen from that compartment's articular face}
     (module docstring); all views share one stiffness matrix; `formulation` as in
-    `fecheck.fe.solid.p2_elasticity`."""
+    `fecheck.fe.solid.p2_elasticity`; `meshed`: `mesh_solid(solid, refine)` when already
+    made."""
     check_material(youngs_MPa, poisson)
     timing = {}
     t0 = time.perf_counter()
-    surface, parent = subdivide(solid.surface, refine)
+    meshed = meshed or mesh_solid(solid, refine)
+    surface, parent, tets = meshed.surface, meshed.parent, meshed.tets
     articular = {c: np.flatnonzero(np.isin(parent, f)) for c, f in solid.articular.items()}
     every = np.concatenate(list(articular.values()))
     fixed_faces = surface.faces[base_faces(surface, every, base_deg, solid.name)]
-    tets = tetrahedralize(surface, solid.name)
     timing["mesh"] = time.perf_counter() - t0
     t0 = time.perf_counter()
     mesh, basis, K = p2_elasticity(tets, youngs_MPa, poisson, formulation=formulation)
@@ -177,15 +225,17 @@ def _vertex_normals(points: np.ndarray, faces: np.ndarray) -> np.ndarray:
     return TriMesh(points, faces).vertex_normals
 
 
-def solid_thickness(solid: TibiaSolid, sheet: TriMesh) -> np.ndarray:
+def solid_thickness(solid: TibiaSolid, sheet: TriMesh, compartment: str = "") -> np.ndarray:
     """(n,) distance from each sheet vertex along its inward normal to the far side of
     `solid` (its faces off the articular face), mm: the thickness map of the layer
-    equivalent to it (each
-    ray starts a thousandth of the way toward the vertex's adjacent face centroids, so a
-    vertex on the solid's rim or corner does not run down its wall).
-    `FecheckError` where the ray leaves the solid nowhere (the sheet is not on it)."""
-    from geometry.distance import ray_hits
+    equivalent to it (each ray starts a thousandth of the way toward the vertex's adjacent
+    face centroids, so a vertex on the solid's rim or corner does not run down its wall).
 
+    A rim of the sheet may overhang the solid (the two exported apart): vertices whose ray
+    leaves the solid nowhere but which lie within `RIM_OVERHANG_MM` of it take the
+    thickness of the nearest vertex over the solid, with a warning naming how many faces
+    of the `compartment` sheet, how far and where (the solid FE's articular face has none
+    there). `FecheckError` with the place beyond that (the sheet is not on the solid)."""
     far = np.setdiff1d(np.arange(solid.surface.n_faces),
                        np.concatenate(list(solid.articular.values())))
     far_side = TriMesh(solid.surface.points, solid.surface.faces[far])
@@ -196,17 +246,37 @@ def solid_thickness(solid: TibiaSolid, sheet: TriMesh) -> np.ndarray:
     inward = inward / np.bincount(sheet.faces.ravel(), minlength=sheet.n_points)[:, None]
     start = sheet.points + 1e-3 * (inward - sheet.points) - eps * n   # off rims and corners
     dist, _ = ray_hits(start, -n, far_side, facing=-n)
-    if not np.all(np.isfinite(dist)):
-        where = sheet.points[np.flatnonzero(~np.isfinite(dist))[0]]
-        raise FecheckError("geometry.tibia_solid: a ray down from the sheet geometry.tibia "
-                           f"at ({', '.join(f'{v:.1f}' for v in where)}) mm leaves the solid "
-                           "nowhere: the sheet does not lie on the solid")
+    missed = np.flatnonzero(~np.isfinite(dist))
+    if len(missed) == 0:
+        return dist + eps
+    off = closest_distance(sheet.points[missed], solid.surface)[0]
+    where = sheet.points[missed[int(np.argmax(off))]]
+    place = ", ".join(f"{v:.1f}" for v in where)
+    if off.max() > RIM_OVERHANG_MM:
+        raise FecheckError(f"geometry.tibia_solid: a ray down from the sheet geometry.tibia at "
+                           f"({place}) mm leaves the solid nowhere, and the sheet lies "
+                           f"{off.max():.2f} mm from the solid there (more than "
+                           f"{RIM_OVERHANG_MM:g} mm): the sheet does not lie on the solid; "
+                           "export both from one model in one frame, or trim the sheet there")
+    hit = np.flatnonzero(np.isfinite(dist))
+    if len(hit) == 0:
+        raise FecheckError("geometry.tibia_solid: no ray down from the sheet geometry.tibia "
+                           "meets the solid: the sheet does not lie on the solid")
+    nearest = hit[cKDTree(sheet.points[hit]).query(sheet.points[missed])[1]]
+    dist[missed] = dist[nearest]
+    rim = np.isin(sheet.faces, missed).any(axis=1)
+    who = f"the {compartment} sheet" if compartment else "the sheet"
+    warnings.warn(f"geometry.tibia_solid: {int(rim.sum())} rim faces of {who} geometry.tibia "
+                  f"overhang the solid by up to {off.max():.2f} mm (at most "
+                  f"{RIM_OVERHANG_MM:g} mm is taken as the two files' export tolerance; "
+                  f"furthest at ({place}) mm): the solid FE has no articular face under them "
+                  "(their EF faces take the nearest FE face's pressure) and a layer "
+                  "(fe.body = 'layer') takes the thickness of the nearest vertex over the solid",
+                  stacklevel=2)
     return dist + eps
 
 
 def parent_faces(surface: TriMesh, ef_surface: TriMesh) -> np.ndarray:
     """(m,) for each face of `surface` the face of `ef_surface` closest to its centroid
     (how the FE pressure is averaged onto the EF's faces)."""
-    from geometry.distance import closest_distance
-
     return closest_distance(surface.face_centroids, ef_surface)[1]

@@ -27,7 +27,10 @@ GAP_CAP_MM = 5.0
 """Upper end of the gap colour scale, mm (larger gaps take its end colour)."""
 MARGIN_MM = 6.0
 """Margin around the cartilage in the section panels, mm."""
-COLOURS = {"femur": "tab:blue", "tibia": "tab:red", "bone": "0.6"}
+COLOURS = {"femur": "tab:blue", "tibia": "tab:red", "femur_bone": "tab:purple",
+           "tibia_bone": "tab:orange"}
+LABELS = {"femur": "femoral surface", "tibia": "tibial surface", "femur_bone": "femoral bone",
+          "tibia_bone": "tibial bone"}
 AXIS_NAMES = ("x", "y", "z")
 TITLE_ROOM = 0.96
 """Share of the figure's width a title line may take."""
@@ -106,17 +109,16 @@ def _section_panel(ax, title: str, axis: int, value: float, femur: TriMesh,
     cartilage = [("femur", femur)] + [("tibia", m) for m in tibia.values()]
     drawn = set()
     lo, hi = np.full(2, np.inf), np.full(2, -np.inf)
-    for kind, mesh in [("bone", b) for b in bones.values()] + cartilage:
+    for kind, mesh in [(f"{b}_bone", m) for b, m in bones.items()] + cartilage:
         seg = plane_section(mesh, axis, value)[..., [u, 2]]
         if not len(seg):
             continue
-        label = {"femur": "femoral surface", "tibia": "tibial surface",
-                 "bone": "bone"}[kind]
+        bone = kind.endswith("_bone")
         ax.add_collection(LineCollection(seg, colors=COLOURS[kind],
-                                         linewidths=0.8 if kind == "bone" else 1.4,
-                                         label=None if kind in drawn else label))
+                                         linewidths=0.9 if bone else 1.4,
+                                         label=None if kind in drawn else LABELS[kind]))
         drawn.add(kind)
-        if kind != "bone":
+        if not bone:
             lo, hi = np.minimum(lo, seg.min(axis=(0, 1))), np.maximum(hi, seg.max(axis=(0, 1)))
     if np.all(np.isfinite(lo)):
         ax.set_xlim(lo[0] - MARGIN_MM, hi[0] + MARGIN_MM)
@@ -184,7 +186,8 @@ def write_knee_preview(path: str | Path, femur: TriMesh, tibia: Mapping[str, Tri
     tibia : {medial, lateral} tibial compartments, mm
     gap_mm : per tibial vertex, its signed rest gap to the femoral surface, mm
         (+ gap, - overlap)
-    bones : optional {femur, tibia} bone surfaces, drawn grey in the sections
+    bones : optional {femur, tibia} bone surfaces, drawn in the sections in a colour each
+        (`COLOURS`), named in the legend
     """
     import matplotlib
 

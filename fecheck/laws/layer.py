@@ -5,7 +5,10 @@ bone mesh as its back surface (OpenSim-JAM's convention, README of the lenhart20
 The thickness under a face is then the distance from the face centroid, along the
 inward normal -n, to the bone: one ray per face through a compiled BVH (Embree, via
 trimesh). Where the ray misses the bone (sheet borders overhanging the bone edge) the
-closest-point distance to the bone (libigl AABB) is used instead. Thicknesses are
+closest-point distance to the bone (libigl AABB) is used instead. A bone face on an edge
+shared by three or more faces (a non-manifold defect of the bone file) is refused only
+when a ray (or a closest point) lands on it: elsewhere the defect changes no distance.
+Thicknesses are
 floored at `MIN_THICKNESS_MM`: a vanishing layer would make the foundation infinitely
 stiff (k ∝ 1/h).
 
@@ -32,7 +35,8 @@ from fecheck.laws.fused import compiled_law
 from fecheck.laws.kernel import LINEAR
 from fecheck.laws.materials import ef_stiffness
 from fecheck.laws.result import LawResult
-from geometry.distance import closest_distance, ray_distance
+from geometry.checks import non_manifold_faces
+from geometry.distance import closest_distance, ray_hits
 from geometry.mesh import TriMesh
 
 MIN_THICKNESS_MM = 0.5
@@ -41,22 +45,34 @@ MIN_THICKNESS_MM = 0.5
 
 def bone_distance_thickness(cartilage: TriMesh, bone: TriMesh, *,
                             max_mm: float = 10.0,
-                            min_mm: float = MIN_THICKNESS_MM) -> np.ndarray:
+                            min_mm: float = MIN_THICKNESS_MM,
+                            name: str = "the bone") -> np.ndarray:
     """Per-face cartilage thickness (mm): distance from each face centroid to the bone
     along the inward normal (closest-point distance where the ray misses or runs
     further than `max_mm`), floored at `min_mm`.
 
     `cartilage` faces must have normals pointing away from the bone (outward).
+    `FecheckError` naming `name` and the place where a ray (or closest point) lands on
+    a face of a non-manifold edge of `bone`.
     """
     if cartilage.n_faces == 0 or bone.n_faces == 0:
         raise FecheckError("thickness needs a non-empty cartilage surface and bone mesh")
     if not (0 < min_mm < max_mm):
         raise FecheckError(f"need 0 < min_mm < max_mm, got {min_mm}, {max_mm}")
     c, n = cartilage.face_centroids, cartilage.face_normals
-    along = ray_distance(c, -n, bone)
+    along, face = ray_hits(c, -n, bone)
     miss = ~(along <= max_mm)
     if miss.any():
-        along[miss] = closest_distance(c[miss], bone)[0]
+        along[miss], face[miss] = closest_distance(c[miss], bone)
+    on_defect = np.isin(face, non_manifold_faces(bone))
+    if on_defect.any():
+        x, y, z = bone.face_centroids[face[on_defect]].mean(axis=0)
+        raise FecheckError(
+            f"{name}: the thickness rays of {int(on_defect.sum())} cartilage faces land on "
+            f"faces of an edge shared by three or more faces (non-manifold), around "
+            f"({x:+.1f}, {y:+.1f}, {z:+.1f}) mm: the distance to the bone is undefined there; "
+            "remove the extra faces (e.g. MeshLab: Select Non Manifold Edges, then delete) "
+            "and export the bone again")
     return np.maximum(along, min_mm)
 
 

@@ -110,8 +110,8 @@ def slave_thickness(scene: Scene, slave) -> np.ndarray:
     femur_bone, tibia_bone = surfaces.bone(scene, "femur"), surfaces.bone(scene, "tibia")
 
     def build() -> tuple[np.ndarray]:
-        fem_h = layer.bone_distance_thickness(femur, femur_bone)
-        tib_h = layer.bone_distance_thickness(slave, tibia_bone)
+        fem_h = layer.bone_distance_thickness(femur, femur_bone, name="geometry.femur_bone")
+        tib_h = layer.bone_distance_thickness(slave, tibia_bone, name="geometry.tibia_bone")
         return (layer.series_thickness(slave, tib_h, femur, fem_h),)
 
     return cached_arrays("series-thickness", [slave, femur, femur_bone, tibia_bone], build)[0]
@@ -125,8 +125,8 @@ def slave_sides(scene: Scene, slave) -> tuple[np.ndarray, np.ndarray]:
     femur_bone, tibia_bone = surfaces.bone(scene, "femur"), surfaces.bone(scene, "tibia")
 
     def build() -> tuple[np.ndarray, np.ndarray]:
-        fem_h = layer.bone_distance_thickness(femur, femur_bone)
-        return (layer.bone_distance_thickness(slave, tibia_bone),
+        fem_h = layer.bone_distance_thickness(femur, femur_bone, name="geometry.femur_bone")
+        return (layer.bone_distance_thickness(slave, tibia_bone, name="geometry.tibia_bone"),
                 layer.opposite_thickness(slave, femur, fem_h))
 
     return cached_arrays("side-thickness", [slave, femur, femur_bone, tibia_bone], build)

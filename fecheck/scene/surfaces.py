@@ -42,6 +42,10 @@ FILE_KEYS = ("femur", "tibia", "tibia_lateral", "femur_bone", "tibia_bone", "lig
 """Keys of ``[geometry]`` that name a file."""
 SHEET_KEYS = ("femur", "tibia", "tibia_lateral")
 """Keys of the articular sheets (``geometry.smooth_mm`` smooths them, not the bones)."""
+BONE_KEYS = ("femur_bone", "tibia_bone")
+"""Keys of the bones: only rays from the articular sheets read them (the bone-distance
+thickness), so an edge shared by three or more faces is refused only where a ray meets
+it (`fecheck.laws.layer.bone_distance_thickness`), not when the file is read."""
 UNIT_SCALE = {"mm": 1.0, "m": 1000.0}
 """Millimetres per unit of each ``geometry.units``."""
 KNEE_EXTENT_MM = (5.0, 1000.0)
@@ -129,25 +133,26 @@ def _digest(path: str, mtime_ns: int, size: int) -> str:
 
 
 def read_surface(path: str | Path, units: str = "mm", rotation_deg=(0.0, 0.0, 0.0),
-                 translation_mm=(0.0, 0.0, 0.0)) -> TriMesh:
+                 translation_mm=(0.0, 0.0, 0.0), *, manifold: bool = True) -> TriMesh:
     """A triangle surface from any mesh file meshio reads, converted to mm and moved by
     the rigid transform; cached on disk by content and options, and kept in this
     process (the same mesh object for the same content and options).
 
     Raises `FecheckError` naming the file when it cannot be read, holds no triangles,
-    has degenerate (zero-area) faces, or its extent says the unit is wrong.
+    has degenerate (zero-area) faces, or its extent says the unit is wrong; and, with
+    `manifold`, when an edge is shared by three or more faces (`check_topology`).
     """
     path = Path(path)
     if not path.is_file():
         raise FecheckError(f"{path}: mesh file not found")
     return _converted(str(path), file_digest(path), units,
                       tuple(float(a) for a in rotation_deg),
-                      tuple(float(t) for t in translation_mm))
+                      tuple(float(t) for t in translation_mm), manifold)
 
 
 @lru_cache(maxsize=32)
 def _converted(path: str, digest: str, units: str, rotation_deg: tuple,
-               translation_mm: tuple) -> TriMesh:
+               translation_mm: tuple, manifold: bool) -> TriMesh:
     from geometry.io import load_mesh
 
     path = Path(path)
@@ -171,7 +176,7 @@ def _converted(path: str, digest: str, units: str, rotation_deg: tuple,
         raise FecheckError(f"{path}: {bad} of {mesh.n_faces} faces have zero area "
                            "(degenerate triangles); clean the mesh (merge duplicate "
                            "vertices, remove collapsed faces) and export it again")
-    check_topology(mesh, path)
+    check_topology(mesh, path, manifold=manifold)
     return mesh
 
 
@@ -181,10 +186,11 @@ def around(points: np.ndarray) -> str:
     return f"around ({x:+.1f}, {y:+.1f}, {z:+.1f}) mm"
 
 
-def check_topology(mesh: TriMesh, path: str | Path) -> None:
+def check_topology(mesh: TriMesh, path: str | Path, *, manifold: bool = True) -> None:
     """`FecheckError` naming the file for faces that repeat another face's three vertices
-    (counted twice by one part of a run and once by another) and for edges shared by three
-    or more faces (no sheet: its normals and sides are undefined there)."""
+    (counted twice by one part of a run and once by another) and, with `manifold`, for
+    edges shared by three or more faces (no sheet: its normals and sides are undefined
+    there)."""
     tri = np.sort(mesh.faces, axis=1)
     order = np.lexsort(tri.T[::-1])
     repeat = np.flatnonzero((tri[order[1:]] == tri[order[:-1]]).all(axis=1))
@@ -194,6 +200,8 @@ def check_topology(mesh: TriMesh, path: str | Path) -> None:
                            f"vertices of another face (duplicate faces, "
                            f"{around(mesh.face_centroids[copies])}); remove the duplicates "
                            "(e.g. MeshLab: Remove Duplicate Faces) and export it again")
+    if not manifold:
+        return
     edges = tri[:, [0, 1, 1, 2, 0, 2]].reshape(-1, 2).astype(np.int64)
     key = np.sort(edges[:, 0] * mesh.n_points + edges[:, 1])
     shared = np.unique(key[2:][key[2:] == key[:-2]])         # on three faces or more
@@ -210,7 +218,7 @@ def surface(scene: Scene, key: str, why: str) -> TriMesh:
     message when it is unset."""
     path = required_path(scene, key, why)
     mesh = read_surface(path, scene["geometry.units"], tuple(scene["geometry.rotation_deg"]),
-                        tuple(scene["geometry.translation_mm"]))
+                        tuple(scene["geometry.translation_mm"]), manifold=key not in BONE_KEYS)
     return smooth_sheet(mesh, scene["geometry.smooth_mm"]) if key in SHEET_KEYS else mesh
 
 
@@ -346,6 +354,28 @@ def femoral_surface(scene: Scene) -> TriMesh:
 
 
 def bone(scene: Scene, which: str) -> TriMesh:
-    """The femoral or tibial bone surface (``which`` "femur" or "tibia"), mm."""
-    return surface(scene, f"{which}_bone", f"scanned.thickness = 'bone-distance' (the "
-                   f"{which}'s bone, for the cartilage thickness)")
+    """The femoral or tibial bone surface (``which`` "femur" or "tibia"), mm; a warning
+    naming the place of its non-manifold edges (`bone_defect`), if any."""
+    import warnings
+
+    key = f"{which}_bone"
+    mesh = surface(scene, key, f"scanned.thickness = 'bone-distance' (the {which}'s bone, "
+                   "for the cartilage thickness)")
+    defect = bone_defect(mesh, f"geometry.{key} ({required_path(scene, key, '').name})")
+    if defect:
+        warnings.warn(defect, stacklevel=2)
+    return mesh
+
+
+def bone_defect(mesh: TriMesh, name: str) -> str:
+    """What a bone's non-manifold edges mean for the run, with their place, or "" (none)."""
+    from geometry.checks import non_manifold_faces
+
+    faces = non_manifold_faces(mesh)
+    if len(faces) == 0:
+        return ""
+    edges = int(np.count_nonzero(mesh.edge_table.counts > 2))
+    return (f"{name}: {edges} edges shared by three or more faces (non-manifold, "
+            f"{around(mesh.face_centroids[faces])}): the bone-distance thickness reads the "
+            "bone only along rays from the articular sheets, and a run is refused only where "
+            "one meets these faces")

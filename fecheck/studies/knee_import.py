@@ -6,9 +6,13 @@ scene reads them (`fecheck.scene.surfaces.read_surface`: unit by extent, NaN, de
 and duplicate faces, edges shared by three or more faces) and checked, one printed line
 per check: extent, size, open or closed, connected pieces, normals (tibia up, femoral
 sheet down, closed femur outward) and, per tibial compartment, the signed rest gap to the
-femoral surface (+ gap, - overlap, mm) and the tibial area within `NEAR_MM` of it. The
-tibia is split into its medial and lateral compartments (connected components, a sagittal
-plane checked against the femoral condyles over the tibia, or one file each). Inverted
+femoral surface (+ gap, - overlap, mm) and the tibial area within `NEAR_MM` of it; files
+that look swapped (femur and tibia, or the two bones: each bone on the far side of its
+sheet) are refused with the options to give; with both bones, each sheet's bone-distance
+thickness (a bone's non-manifold edge warned with its place, refused where the thickness
+rays meet it). The tibia is split into its medial and lateral compartments (connected
+components, a sagittal plane checked against the femoral condyles over the tibia, or one
+file each). Inverted
 normals are repaired: a copy with reversed face winding is written beside the scene
 (``<scene-stem>_<role>_fixed.stl``) and the scene names it. Then a ``model.kind =
 "femur-tibia"`` scene is written with a comment above each key and reloaded as a check;
@@ -101,6 +105,8 @@ def import_knee(files: dict[str, Path], output: Path, opts: Options) -> Path:
     write the scene `output` (*.toml), the repaired copies and the preview beside it,
     printing one line per check; the scene's path. `FecheckError` on one line naming the
     file and the fix for what no scene can run."""
+    import warnings
+
     from fecheck.errors import FecheckError
     from fecheck.io.knee_preview import write_knee_preview
     from fecheck.io.outputs import check_output, write_text
@@ -113,13 +119,16 @@ def import_knee(files: dict[str, Path], output: Path, opts: Options) -> Path:
         raise FecheckError(f"-o {output}: the scene is a TOML file; name it *.toml")
     out = check_output(output)
     surf = {r: _read(r, Path(p), opts.units) for r, p in files.items()}
+    _check_order(surf)
     _femur_normals(surf["femur"])
     parts = _split(surf, split, 0.0 if opts.split_x is None else opts.split_x, opts.side)
     tibia = _tibia_normals(surf, parts)
     gaps = _rest_gaps(surf["femur"].mesh, tibia)
+    bones = [r for r in ("femur_bone", "tibia_bone") if r in surf]
+    if len(bones) == 2:
+        _check_bones(surf, tibia)
     for s in surf.values():
         _write_repaired(s, out, opts.units)
-    bones = [r for r in ("femur_bone", "tibia_bone") if r in surf]
     if len(bones) == 1:
         print(f"note: {_option(bones[0])} alone: the bone-distance thickness needs both "
               f"bones; the scene uses a uniform {THICKNESS_MM:g} mm layer")
@@ -127,8 +136,10 @@ def import_knee(files: dict[str, Path], output: Path, opts: Options) -> Path:
     write_text(out, scene_text(out, scene_files, opts, tibia, gaps,
                                is_closed(surf["femur"].mesh)))
     _say("scene", "written", f"{out}  (run it: fecheck run {out})")
-    _reload(out, tibia)
-    fe_checks(out, {c: surf[role].source for c, (role, _) in parts.items()})
+    with warnings.catch_warnings():      # a bone's defect: warned once above, in our words
+        warnings.filterwarnings("ignore", message=r"geometry\.(femur|tibia)_bone ")
+        _reload(out, tibia)
+        fe_checks(out, {c: surf[role].source for c, (role, _) in parts.items()})
     names = " + ".join(surf[r].source.name for r in ("tibia", "tibia_lateral") if r in surf)
     png = write_knee_preview(
         out.with_name(f"{out.stem}_preview.png"), surf["femur"].mesh, tibia, gaps,
@@ -142,18 +153,27 @@ def import_knee(files: dict[str, Path], output: Path, opts: Options) -> Path:
 # ------------------------------------------------------------------------- reading
 def _read(role: str, path: Path, units: str) -> Surface:
     """Read one file as a scene would and print its checks; `FecheckError` naming the
-    option and the file when it is missing, unreadable or not a knee surface in `units`."""
+    option and the file when it is missing, unreadable or not a knee surface in `units`
+    (a bone's non-manifold edges: a warning, `fecheck.scene.surfaces.BONE_KEYS`)."""
+    import warnings
+
     import numpy as np
 
     from fecheck.errors import FecheckError
-    from fecheck.scene.surfaces import MIN_COMPONENT_SHARE, components, read_surface
+    from fecheck.scene.surfaces import (
+        BONE_KEYS,
+        MIN_COMPONENT_SHARE,
+        bone_defect,
+        components,
+        read_surface,
+    )
     from geometry.checks import edge_counts
 
     who = _option(role)
     if not path.is_file():
         raise FecheckError(f"{who} {path}: file not found")
     try:
-        mesh = read_surface(path, units)
+        mesh = read_surface(path, units, manifold=role not in BONE_KEYS)
     except FecheckError as err:            # the scene's wording names its key: name ours
         text = str(err)
         for unit in ("m", "mm"):
@@ -167,9 +187,12 @@ def _read(role: str, path: Path, units: str) -> Surface:
     _say(name, "file", str(path))
     _say(name, "units", f"read in {units}: extent {ext[0]:.1f} x {ext[1]:.1f} x {ext[2]:.1f} "
          f"mm (diagonal {np.linalg.norm(ext):.0f} mm; a knee surface spans 5-1000 mm): ok")
+    defect = bone_defect(mesh, f"{who} {path}") if role in BONE_KEYS else ""
     _say(name, "mesh", f"{mesh.n_points:,} vertices, {mesh.n_faces:,} faces; no NaN, no "
-         "degenerate or duplicate face, no edge shared by 3+ faces")
-    boundary, _, opposed = edge_counts(mesh.faces)   # no non-manifold edge: read_surface
+         "degenerate or duplicate face" + ("" if defect else ", no edge shared by 3+ faces"))
+    if defect:
+        warnings.warn(defect, stacklevel=2)
+    boundary, _, opposed = edge_counts(mesh.faces)
     closure = ("closed (every edge shared by two faces)" if boundary == 0
                else f"open sheet ({boundary:,} boundary edges)")
     winding = (f"; {opposed:,} edges join faces of opposite winding (normals flip across "
@@ -181,6 +204,38 @@ def _read(role: str, path: Path, units: str) -> Surface:
     _say(name, "components", f"{len(parts)} ({', '.join(f'{len(p):,}' for p in parts)} faces)"
          + (f" + {specks} specks under 1% of the faces (left out)" if specks else ""))
     return Surface(role, path, mesh, parts, path)
+
+
+# ------------------------------------------------------------------------- order
+def _height(mesh: TriMesh) -> float:
+    """Area-weighted mean z of the faces of `mesh`, mm."""
+    import numpy as np
+
+    return float(np.average(mesh.face_centroids[:, 2], weights=mesh.face_areas))
+
+
+def _check_order(surf: dict[str, Surface]) -> None:
+    """`FecheckError` when the femoral and tibial files look swapped: the femoral surface
+    lies below the tibial one (their area-weighted mean heights) and each one's normals
+    point the way the other's should (an open femoral sheet's up, the tibia's down)."""
+    from fecheck.errors import FecheckError
+    from fecheck.scene.surfaces import mean_normal_z
+    from geometry.mesh import is_closed
+
+    femur = surf["femur"].mesh
+    tibia = [surf[r] for r in ("tibia", "tibia_lateral") if r in surf]
+    below = max(_height(s.mesh) for s in tibia) - _height(femur)
+    facing = (not is_closed(femur) and mean_normal_z(femur) > 0
+              and all(mean_normal_z(s.mesh) < 0 for s in tibia))
+    if below < 0 or not facing:
+        return
+    f = surf["femur"].source
+    fix = (f"give --femur {tibia[0].source} --tibia {f}" if len(tibia) == 1 else
+           "give the femoral surface in --femur and the tibial compartments in --tibia "
+           "and --tibia-lateral")
+    raise FecheckError(f"--femur {f} lies {below:.1f} mm below the tibial surface (mean "
+                       "heights; z is superior) and each one's normals point the way the "
+                       f"other's should: the femoral and tibial files look swapped: {fix}")
 
 
 # ------------------------------------------------------------------------- normals
@@ -428,13 +483,50 @@ def _rest_gaps(femur: TriMesh, tibia: dict[str, TriMesh]) -> dict[str, np.ndarra
     return gaps
 
 
+# ------------------------------------------------------------------------- bones
+def _check_bones(surf: dict[str, Surface], tibia: dict[str, TriMesh]) -> None:
+    """Each bone on the far side of its articular sheet (the femoral bone above the
+    femoral sheet, the tibial bone below the tibial sheet; `FecheckError` naming the swap
+    otherwise), and the bone-distance thickness of each sheet (refused where its rays meet
+    a bone's non-manifold edge), printed."""
+    import numpy as np
+
+    from fecheck.errors import FecheckError
+    from fecheck.laws.layer import bone_distance_thickness
+
+    femur, tibia_z = surf["femur"].mesh, min(_height(m) for m in tibia.values())
+    above = _height(surf["femur_bone"].mesh) - _height(femur)
+    below = _height(surf["tibia_bone"].mesh) - tibia_z
+    if above <= 0 or below >= 0:
+        f, t = surf["femur_bone"].source, surf["tibia_bone"].source
+        swapped = above <= 0 and below >= 0
+        where = (f"--femur-bone {f} lies {-above:.1f} mm below the femoral sheet and "
+                 f"--tibia-bone {t} {below:.1f} mm above the tibial sheet" if swapped else
+                 f"--femur-bone {f} lies {-above:.1f} mm below the femoral sheet" if above <= 0
+                 else f"--tibia-bone {t} lies {below:.1f} mm above the tibial sheet")
+        fix = ("the bone files look swapped: give --femur-bone "
+               f"{t} --tibia-bone {f}" if swapped else
+               "each bone must lie on the far side of its cartilage (the femoral bone above "
+               "the femoral sheet, the tibial bone below the tibial sheet): check the files "
+               "and their frame")
+        raise FecheckError(f"{where}; {fix}")
+    sheets = {"femoral sheet": (femur, "femur_bone")} | {
+        f"{c} tibial sheet": (m, "tibia_bone") for c, m in tibia.items()}
+    for what, (mesh, role) in sheets.items():
+        bone = surf[role]
+        h = bone_distance_thickness(mesh, bone.mesh, name=f"{_option(role)} {bone.source}")
+        _say(role.replace("_", "-"), "thickness", f"{what}: {np.median(h):.2f} mm median "
+             f"({h.min():.2f}-{h.max():.2f}) to the bone along its inward normals")
+
+
 # ------------------------------------------------------------------------- FE
 def fe_checks(out: Path, files: dict[str, Path]) -> None:
     """What `fecheck fe` and `fecheck calibrate` meet in the written scene: per tibial
     compartment the layer's extrusion (`geometry.extrude.extrusion_directions`, as the FE
-    calls it, with the scene's thickness and levels), rim curl (faces facing down) and
-    slivers; a check line when all is well, else one warning line per finding naming the
-    file, the place (mm) and the key to change."""
+    calls it, with the scene's thickness and levels, and where that inverts the FE's
+    prepared copy, ``fe.prepare``), rim curl (faces facing down) and slivers; a check line
+    when all is well (or the FE prepares the sheet), else one warning line per finding
+    naming the file, the place (mm) and the key to change."""
     import warnings
 
     import numpy as np
@@ -449,47 +541,71 @@ def fe_checks(out: Path, files: dict[str, Path]) -> None:
     for body in scene_bodies(scene):
         c, mesh, h = body.name, body.surface, body.thickness_mm
         where = f"the {c} tibial sheet ({files[c].name})"
-        found = [_inversion(mesh, h, levels, settings.grading, scene), _curl(mesh),
-                 _slivers(mesh), _rough(c, files[c].name, mesh)]
+        inverted, prepared = _inversion(body, levels, settings, scene)
+        found = [inverted, _curl(mesh), _slivers(mesh), _rough(c, files[c].name, mesh)]
         for text in filter(None, found):
             warnings.warn(f"{where}: {text}", stacklevel=2)
-        if not any(found):
+        if prepared:
+            _say(c, "FE layer", prepared)
+        elif not any(found):
             _say(c, "FE layer", f"{np.median(h):.2f} mm layer (median) extrudes with no "
                  f"inverted prism; no face down, no sliver: ok")
 
 
-def _inversion(mesh: TriMesh, h: np.ndarray, levels: int, grading: float,
-               scene) -> str:
-    """Why the FE cannot extrude the layer under `mesh` (and the thickness that it can),
-    or ""."""
+def _inversion(body, levels: int, settings, scene) -> tuple[str, str]:
+    """(warning, note) on the FE's extrusion of `body`'s layer (an `FEBody`): both "" when
+    it extrudes as read; a note when it does not but the FE's prepared copy of the sheet
+    does (``fe.prepare`` 'auto' or 'on', `fecheck.fe.press.prepared_body`: what `fecheck
+    fe` and `fecheck calibrate` then mesh); else a warning naming the place and a thickness
+    that extrudes."""
     import numpy as np
 
     from fecheck.errors import FecheckError
+    from fecheck.fe.press import prepared_body
     from fecheck.scene.surfaces import around
     from geometry.extrude import extrusion_directions, extrusion_offsets
 
-    def inverts(thickness) -> bool:
+    mesh, h = body.surface, body.thickness_mm
+
+    def inverts(surface, thickness) -> bool:
         try:
-            extrusion_directions(mesh, thickness, layers=levels, ratio=grading)
+            extrusion_directions(surface, thickness, layers=levels, ratio=settings.grading)
         except FecheckError:
             return True
         return False
 
-    if not inverts(h):
-        return ""
+    if not inverts(mesh, h):
+        return "", ""
     bottom = mesh.points - extrusion_offsets(mesh, h)
     t = bottom[mesh.faces]
     crossed = np.einsum("ij,ij->i", np.cross(t[:, 1] - t[:, 0], t[:, 2] - t[:, 0]),
                         mesh.face_cross) <= 0
     place = (f" {around(mesh.face_centroids[crossed])}" if crossed.any() else "")
+    layer = f"its {np.median(h):.2f} mm layer (median)"
+    if settings.prepare != "off":
+        try:
+            sheet, prepared = prepared_body(body, settings.size_mm, settings.smooth_mm,
+                                            settings.terraces == "on")
+            ready = not inverts(sheet.surface, sheet.thickness_mm)
+        except FecheckError:
+            ready = False
+        if ready:
+            return "", (f"{layer} has prisms that invert as read{place}: `fecheck fe` and "
+                        "`fecheck calibrate` mesh a prepared copy of the sheet instead "
+                        f"(fe.prepare = '{settings.prepare}': {prepared.trimmed_faces} rim or "
+                        f"sliver faces trimmed, remeshed at fe.size_mm = {settings.size_mm:g} "
+                        f"mm, smoothed over fe.smooth_mm = {settings.smooth_mm:g} mm), which "
+                        "extrudes: ok")
     thinner = [f * float(np.median(h)) for f in (0.75, 0.5, 0.25)]
-    works = next((t for t in thinner if not inverts(t)), None)
+    works = next((t for t in thinner if not inverts(mesh, t)), None)
     key = ("contact.thickness_mm" if scene["scanned.thickness"] == "uniform" else
            "scanned.thickness = 'uniform' with contact.thickness_mm")
     fix = (f"set {key} = {works:g} (that layer extrudes)" if works is not None else
            f"smooth the sheet (even a {thinner[-1]:g} mm layer inverts)")
-    return (f"its {np.median(h):.2f} mm layer (median) has prisms that invert under the "
-            f"FE's extrusion{place}: `fecheck fe` and `fecheck calibrate` will fail; {fix}")
+    how = ("as read (fe.prepare = 'off')" if settings.prepare == "off" else
+           "as read and as the FE prepares it (fe.prepare)")
+    return (f"{layer} has prisms that invert under the FE's extrusion {how}{place}: "
+            f"`fecheck fe` and `fecheck calibrate` will refuse it; {fix}"), ""
 
 
 def _rough(compartment: str, name: str, mesh: TriMesh) -> str:
@@ -515,8 +631,8 @@ def _curl(mesh: TriMesh) -> str:
     if not down.any():
         return ""
     return (f"{int(down.sum()):,} of {mesh.n_faces:,} faces face down (a rim curled over, "
-            f"{around(mesh.face_centroids[down])}): the FE's layer inverts there and the "
-            "contact meets them from below; trim them from the sheet")
+            f"{around(mesh.face_centroids[down])}): the contact meets them from below; "
+            "trim them from the sheet")
 
 
 def _slivers(mesh: TriMesh) -> str:
