@@ -97,12 +97,20 @@ def menisci_dir(scene: Scene) -> Path:
     scene file's folder)."""
     given = scene["menisci.dir"]
     if given.startswith(PACKAGE_PREFIX):
-        return data_dir(given, "menisci.dir")
-    folder = Path(os.path.expandvars(given)).expanduser()
-    if not folder.is_absolute():
-        folder = (Path(scene.source).expanduser().resolve().parent / folder).resolve()
+        folder = data_dir(given, "menisci.dir")
+    else:
+        folder = Path(os.path.expandvars(given)).expanduser()
+        if not folder.is_absolute():
+            folder = (Path(scene.source).expanduser().resolve().parent / folder).resolve()
     if not folder.is_dir():
         raise FecheckError(f"{scene.source}: menisci.dir = {given!r}: no folder at {folder}; "
+                           "give the smith2019_menisci folder or 'fecheck:knee/"
+                           "smith2019_menisci'")
+    needed = ["menisci.json", "meniscal_ligaments.json",
+              *(VOLUME.format(side=s) for s in _sides(scene))]
+    missing = [name for name in needed if not (folder / name).is_file()]
+    if missing:
+        raise FecheckError(f"menisci.dir = {given!r}: {folder} holds no {', '.join(missing)}; "
                            "give the smith2019_menisci folder or 'fecheck:knee/"
                            "smith2019_menisci'")
     return folder

@@ -150,6 +150,8 @@ def _read(role: str, path: Path, units: str) -> Surface:
     from geometry.checks import edge_counts
 
     who = _option(role)
+    if path.is_dir():
+        raise FecheckError(f"{who} {path} is a directory: give the mesh file in it")
     if not path.is_file():
         raise FecheckError(f"{who} {path}: file not found")
     try:

@@ -85,7 +85,9 @@ def parse_values(text: str) -> list[float]:
                                    "for the table: about 0.2 MB and 0.1 s a point on the "
                                    f"baseline): give N <= {MAX_POINTS:,}, or split the range "
                                    "into several sweeps")
-            values = [float(v) for v in np.linspace(float(a), float(b), count)]
+            ends = [float(a), float(b)]
+            values = (ends if not np.all(np.isfinite(ends)) else
+                      [float(v) for v in np.linspace(*ends, count)])
         else:
             values = [float(v) for v in text.split(",")]
     except ValueError:
