@@ -8,6 +8,7 @@ import json
 import math
 import time
 
+import numpy as np
 import pytest
 
 from fecheck.cli import main, negative_value_hint
@@ -129,3 +130,101 @@ def test_a_directory_given_for_a_file_says_so(argv, tmp_path, capsys):
     assert main(argv(folder)) == 2
     line = _error(capsys)
     assert f"{folder} is a directory" in line and "not found" not in line
+
+
+def test_a_tibia_solid_without_a_sheet_meshes_its_up_facing_part(tmp_path):
+    """The README's configuration: geometry.tibia_solid and no geometry.tibia. The FE's
+    bodies are the solid's, and its articular faces are those the sheet of the same
+    implant names (the sheet is the solid's top: `validation.implant_pair`)."""
+    from fecheck.fe.bodies import scene_bodies
+    from fecheck.scene import load_scene
+    from validation.implant_pair import write_implant
+
+    with_sheet = write_implant(tmp_path, fine_mm=1.5)
+    text = with_sheet.read_text(encoding="utf-8")
+    without = tmp_path / "solid_only.toml"
+    without.write_text(text.replace('tibia = "insert_top.stl"\n', ""), encoding="utf-8")
+    assert "insert_top" not in without.read_text(encoding="utf-8")
+    ref = {b.name: b for b in scene_bodies(load_scene(with_sheet))}
+    for body in scene_bodies(load_scene(without)):
+        assert body.tibial_surface == "solid:insert.stl"
+        area = body.solid.surface.face_areas
+        faces, expected = body.solid.articular[body.name], ref[body.name].solid.articular[body.name]
+        # the up-facing part may take a few rim faces the sheet leaves out: areas within 5 %
+        assert area[faces].sum() == pytest.approx(area[expected].sum(), rel=0.05)
+        assert len(np.intersect1d(faces, expected)) >= 0.95 * len(expected)
+
+
+# ------------------------------------------------------------------ wrong or unclear numbers
+def test_the_linear_ef_is_refused_past_poisson_049(capsys):
+    """At ν 0.4999 the EF's p_max is 29x the converged FE's (baseline medial: 150 against
+    5.25 MPa); at 0.49 it is 2.9x and still answered, with the table's warning."""
+    assert main(["run", "scanned-knee", "--set", "contact.poisson=0.4999",
+                 "--set", "scanned.decimate_faces=1500"]) == 2
+    line = _error(capsys)
+    assert "contact.poisson = 0.4999" in line
+    assert "contact.law = 'ef-calibrated'" in line and "fecheck fe" in line
+    assert main(["run", "--set", "contact.poisson=0.49"]) == 0
+
+
+def test_the_ef_poisson_limit_is_where_the_ef_leaves_the_fe():
+    """The refusal's threshold against the closed forms: the EF cap's p_max (k d with
+    F = k π d² (R - d/3)) at ν 0.49 over the converged mixed FE's 5.19 MPa (baseline
+    medial, tests/test_fe_mixed.py) is near 3, and grows past 25 by 0.4999."""
+    from fecheck.laws.materials import column_stiffness
+    from fecheck.model.plausibility import EF_POISSON_MAX
+    from fecheck.reference.closed_forms import ef_cap_depth
+
+    def ef_p_max(nu):
+        k = column_stiffness(20.0, nu, 6.0)
+        return k * ef_cap_depth(323.71, 25.5, k)
+
+    assert EF_POISSON_MAX == 0.49
+    assert 2.5 < ef_p_max(0.49) / 5.18935 < 3.5
+    assert ef_p_max(0.4999) / 5.25497 > 25
+
+
+def test_a_load_the_menisci_solve_cannot_carry_exits_2_with_its_cause(capsys):
+    assert main(["run", "femur_tibia_menisci", "--set", "load.force_N=1e9",
+                 "--set", "scanned.decimate_faces=1500"]) == 2
+    line = _error(capsys)
+    assert "no headway" in line and "load.force_N" in line
+    assert "max_iterations" not in line
+
+
+def test_a_stiff_meniscus_gets_one_setting_and_its_cause(capsys):
+    assert main(["run", "femur_tibia_menisci", "--set", "menisci.youngs_MPa=1e5",
+                 "--set", "scanned.decimate_faces=1500"]) == 2
+    line = _error(capsys)
+    assert line.count("menisci.free =") == 1            # not two settings of one key
+    assert "lower menisci.youngs_MPa" in line
+
+
+def test_the_shared_free_key_advice_keeps_what_every_body_keeps():
+    """Two bodies on one key, one loose in y and z, the other in x and y: only the DOFs
+    neither needs driven stay free (here none of x, y, z)."""
+    from fecheck.statics.newton import Body, Problem, _no_stiffness_message
+
+    bodies = (Body("a", np.zeros(6), (0, 1, 2), "menisci.free", "start"),
+              Body("b", np.zeros(6), (0, 1, 2), "menisci.free", "start"))
+    problem = Problem(bodies, lambda q: [], (), 1.0)
+    null = np.zeros((6, 1))
+    null[[1, 2, 3, 4], 0] = 1.0                    # a: y, z loose; b: x, y loose
+    text = _no_stiffness_message(problem, null)
+    assert "menisci.free = []" in text and text.count("menisci.free =") == 1
+
+
+def test_menisci_held_in_z_and_a_lumped_modulus_are_warned(capsys):
+    """1e-9 MPa and 1 MPa give nearly the same lumped interface (the mean with the 20 MPa
+    cartilage: 10.0 against 10.5 MPa, -4.8 % stiffness), so the share barely moves."""
+    from fecheck.model.menisci import meniscus_stiffness
+    from fecheck.scene import load_scene
+
+    scene = load_scene("femur_tibia_menisci", ["menisci.youngs_MPa=1e-9"])
+    assert meniscus_stiffness(scene) / meniscus_stiffness(scene, 1.0) == pytest.approx(
+        10.0 / 10.5, rel=1e-6)
+    assert main(["run", "femur_tibia_menisci", "--set", "menisci.youngs_MPa=1e-9",
+                 "--set", "menisci.free=[]", "--set", "scanned.decimate_faces=1500"]) == 0
+    err = capsys.readouterr().err
+    assert "-4.8 % from the 1 MPa default's" in err and "menisci.layers = 'series'" in err
+    assert "menisci.free = [] holds each meniscus's z" in err
