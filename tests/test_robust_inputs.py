@@ -228,3 +228,63 @@ def test_menisci_held_in_z_and_a_lumped_modulus_are_warned(capsys):
     err = capsys.readouterr().err
     assert "-4.8 % from the 1 MPa default's" in err and "menisci.layers = 'series'" in err
     assert "menisci.free = [] holds each meniscus's z" in err
+
+
+# ------------------------------------------------------------------ faces before reading
+@pytest.fixture
+def small_knee(tmp_path):
+    """The tibia of tests/test_knee_import.py's synthetic knee (two dishes, 1,936 faces)
+    and the file of one of its femoral caps (968 faces)."""
+    from test_knee_import import CENTRES, _merge, femur_cap, tibia_patch, write
+
+    return {"femur": write(tmp_path / "data", "femur.stl", femur_cap("medial")),
+            "tibia": _merge([tibia_patch(c) for c in CENTRES])}
+
+
+@pytest.mark.parametrize("ext, options", [("stl", {}), ("stl", {"binary": False}),
+                                          ("obj", {}), ("ply", {}), ("off", {})])
+def test_face_count_reads_the_count_without_loading_the_mesh(small_knee, tmp_path, ext,
+                                                             options):
+    import meshio
+
+    from geometry.io import face_count
+
+    mesh = small_knee["tibia"]
+    path = tmp_path / f"tibia.{ext}"
+    meshio.write(path, meshio.Mesh(mesh.points, [("triangle", mesh.faces.astype(np.int32))]),
+                 **options)
+    assert face_count(path) == mesh.n_faces == 1936
+
+
+def test_knee_import_refuses_a_file_past_the_face_cap_before_reading_it(small_knee, tmp_path,
+                                                                       monkeypatch, capsys):
+    """With the cap lowered under the tibia's 1,936 faces the import stops before any file
+    is read (a 2-million-face sheet took 73-92 s and 18 GB, then a MemoryError)."""
+    import fecheck.scene.surfaces
+    import fecheck.studies.knee_import as knee_import
+    from geometry.io import save_mesh
+
+    def no_read(*args, **kwargs):
+        raise AssertionError("a file was read")
+
+    tibia = str(save_mesh(small_knee["tibia"], tmp_path / "data" / "tibia.stl"))
+    monkeypatch.setattr(knee_import, "MAX_FACES", 1900)
+    monkeypatch.setattr(fecheck.scene.surfaces, "read_surface", no_read)
+    assert main(["knee", "import", "--femur", small_knee["femur"], "--tibia", tibia,
+                 "-o", str(tmp_path / "k.toml")]) == 2
+    line = _error(capsys)
+    assert "--tibia" in line and "1,936 faces, more than the 1,900" in line
+    assert "decimate it to at most 1,900 faces" in line
+
+
+def test_knee_import_counts_the_faces_of_a_format_without_a_header_count_once_read(
+        small_knee, tmp_path, monkeypatch, capsys):
+    import fecheck.studies.knee_import as knee_import
+    from geometry.io import face_count, save_mesh
+
+    tibia = save_mesh(small_knee["tibia"], tmp_path / "data" / "tibia.vtu")
+    assert face_count(tibia) is None
+    monkeypatch.setattr(knee_import, "MAX_FACES", 1900)
+    assert main(["knee", "import", "--femur", small_knee["femur"], "--tibia", str(tibia),
+                 "-o", str(tmp_path / "k.toml")]) == 2
+    assert "1,936 faces, more than the 1,900" in _error(capsys)
