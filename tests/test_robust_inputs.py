@@ -288,3 +288,32 @@ def test_knee_import_counts_the_faces_of_a_format_without_a_header_count_once_re
     assert main(["knee", "import", "--femur", small_knee["femur"], "--tibia", str(tibia),
                  "-o", str(tmp_path / "k.toml")]) == 2
     assert "1,936 faces, more than the 1,900" in _error(capsys)
+
+
+def test_fe_auto_prepares_sheets_too_large_as_read_before_the_ef(monkeypatch, capsys):
+    """The full-size scanned sheets make 97k + 100k layer dofs as read and 48k + 46k
+    prepared at fe.size_mm 1 mm (exact counts, `fecheck.fe.budget`). Under a cap between
+    the two totals, 'auto' prepares both (decided from the counts, so the EF run is not
+    wasted on a refusal after it) and the estimate fits; 'off' is refused before the EF."""
+    import fecheck.fe.budget as budget
+    import fecheck.fe.crosscheck
+    from fecheck.fe.bodies import scene_bodies
+    from fecheck.fe.settings import FESettings
+    from fecheck.scene import load_scene
+
+    def no_work(*args, **kwargs):
+        raise AssertionError("the EF run started")
+
+    monkeypatch.setattr(budget, "MAX_DOFS", 150_000)
+    scene = load_scene("scanned-knee")
+    settings = FESettings.from_scene(scene)
+    levels = settings.levels(scene["contact.poisson"])
+    bodies = scene_bodies(scene)
+    raw = [budget.layer_dofs(b.surface, settings.refine, levels) for b in bodies]
+    ready = [budget.sheet_dofs(b.surface, settings, levels, True) for b in bodies]
+    assert sum(raw) > 150_000 > sum(ready)
+    assert budget.prepared_for_size(bodies, settings, levels) == [True, True]
+    assert budget.fe_estimate(bodies, settings.refine, levels, settings).count == sum(ready)
+    monkeypatch.setattr(fecheck.fe.crosscheck, "_ef_run", no_work)
+    assert main(["fe", "scanned-knee", "--set", "fe.prepare='off'", "--no-estimate"]) == 2
+    assert "FE dofs" in _error(capsys)
