@@ -317,3 +317,8 @@ def test_fe_auto_prepares_sheets_too_large_as_read_before_the_ef(monkeypatch, ca
     monkeypatch.setattr(fecheck.fe.crosscheck, "_ef_run", no_work)
     assert main(["fe", "scanned-knee", "--set", "fe.prepare='off'", "--no-estimate"]) == 2
     assert "FE dofs" in _error(capsys)
+
+
+def test_a_sweep_past_poisson_049_is_refused_before_its_first_point(capsys):
+    assert main(["sweep", "--param", "contact.poisson", "--values", "0.3,0.4999"]) == 2
+    assert "contact.poisson = 0.4999 with the linear EF" in _error(capsys)

@@ -42,6 +42,7 @@ import numpy as np
 
 from fecheck.errors import FecheckError
 from fecheck.io.outputs import write_output, write_text
+from fecheck.model.plausibility import check_ef_poisson
 from fecheck.model.results import RunResult
 from fecheck.model.reuse import reusing_builds
 from fecheck.scene import SCHEMA, Scene, apply_overrides, with_values
@@ -138,7 +139,7 @@ def sweep_overrides(scene: Scene, param: str, values: Sequence[float]) -> list[s
     for value in values:
         override = override_for(scene, param, value)
         try:
-            apply_overrides(scene, [override])
+            check_ef_poisson(apply_overrides(scene, [override]))
         except FecheckError as err:
             reason = _SET_PREFIX.sub("", str(err))
             if not reason.startswith(f"{param} ="):
