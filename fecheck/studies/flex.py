@@ -42,6 +42,8 @@ EDGE_MM = 5.0
 """A failing angle whose last contact was this close to the femoral surface's edge is
 reported as past the cartilage, mm."""
 
+AXIS_MIN_X = 0.2
+"""Smallest |x| component of a given flexion axis's unit direction (78.46° from x)."""
 MAX_ANGLES = 2_000
 """Most angles a flex run solves: 0.1° steps over the whole -30 to 160° range fit (1,901),
 and 2,000 angles take about 25 minutes on the scanned knee (`SECONDS_PER_ANGLE`); each
@@ -93,9 +95,12 @@ def given_axis(point: Sequence[float], direction: Sequence[float],
         raise FecheckError(f"{where} {list(direction)} is not a direction: give three "
                            "finite numbers, not all zero")
     e = e / norm
-    if abs(e[0]) < 0.2:
-        raise FecheckError(f"{where} {list(direction)} is more than 78° from the "
-                           "medio-lateral x axis: give the knee's flexion axis")
+    if abs(e[0]) < AXIS_MIN_X:
+        off = math.degrees(math.acos(abs(e[0])))
+        limit = math.degrees(math.acos(AXIS_MIN_X))
+        raise FecheckError(f"{where} {list(direction)} is {off:.2f}° from the medio-lateral "
+                           f"x axis, more than the {limit:.2f}° allowed: give the knee's "
+                           "flexion axis")
     return FlexionAxis(np.asarray(point, dtype=float), np.sign(e[0]) * e,
                        f"given by {where.removesuffix('-dir').removesuffix('_dir')}")
 
