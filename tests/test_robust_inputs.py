@@ -192,12 +192,17 @@ def test_a_load_the_menisci_solve_cannot_carry_exits_2_with_its_cause(capsys):
     assert "max_iterations" not in line
 
 
-def test_a_stiff_meniscus_gets_one_setting_and_its_cause(capsys):
-    assert main(["run", "femur_tibia_menisci", "--set", "menisci.youngs_MPa=1e5",
-                 "--set", "scanned.decimate_faces=1500"]) == 2
-    line = _error(capsys)
-    assert line.count("menisci.free =") == 1            # not two settings of one key
-    assert "lower menisci.youngs_MPa" in line
+def test_a_stiff_meniscus_is_named_in_the_no_stiffness_error():
+    """On the decimated scanned knee 1,000 MPa solves and 10,000 MPa stops with meniscus
+    DOFs that nothing resists (measured by hand: 46 s to that error at 1e5 MPa, too long
+    for this suite); the note names the modulus from 10 times the cartilage's."""
+    from fecheck.model.menisci import _stiff_note
+    from fecheck.scene import load_scene
+
+    note = _stiff_note(load_scene("femur_tibia_menisci", ["menisci.youngs_MPa=1e5"]))
+    assert "menisci.youngs_MPa = 100000 is 5e+03 times" in note
+    assert "lower menisci.youngs_MPa" in note
+    assert _stiff_note(load_scene("femur_tibia_menisci", ["menisci.youngs_MPa=100"])) == ""
 
 
 def test_the_shared_free_key_advice_keeps_what_every_body_keeps():
