@@ -13,6 +13,7 @@ import importlib
 import io
 import os
 import pkgutil
+import re
 import sys
 import warnings
 
@@ -51,9 +52,41 @@ def package_version() -> str:
     return fecheck_version()
 
 
+_NEGATIVE = re.compile(r"-[\d.]")
+"""A command-line word that is a negative number, range or list (-0.48,0,0 or -10:0:5)."""
+_argv: list[str] = []
+"""The words being parsed (for `_Parser.error`'s hint)."""
+
+
+def negative_value_hint(message: str, words: list[str]) -> str:
+    """A hint for argparse's "expected one argument" when the word after the option is a
+    negative value (argparse reads a word starting with '-' as an option), else "".
+
+    >>> negative_value_hint("argument --angles: expected one argument",
+    ...                     ["flex", "--angles", "-10:0:5"])
+    "; a value starting with '-' reads as an option: write --angles=-10:0:5"
+    """
+    match = re.match(r"argument (\S+?)(?:/\S+)?: expected one argument", message)
+    if not match:
+        return ""
+    names = match[1].split("/")
+    for i, word in enumerate(words[:-1]):
+        if word in names and _NEGATIVE.match(words[i + 1]):
+            return (f"; a value starting with '-' reads as an option: write "
+                    f"{word}={words[i + 1]}")
+    return ""
+
+
+class _Parser(argparse.ArgumentParser):
+    """argparse's parser, its "expected one argument" error with `negative_value_hint`."""
+
+    def error(self, message: str):
+        super().error(message + negative_value_hint(message, _argv))
+
+
 def build_parser() -> argparse.ArgumentParser:
     """The argument parser with every verb module of this package."""
-    parser = argparse.ArgumentParser(
+    parser = _Parser(
         prog="fecheck",
         description="Finite-element cross-check workbench for tibio-femoral contact "
         "(units mm, N, MPa; thesis frame: x right, y anterior, z superior). "
@@ -97,6 +130,7 @@ def main(argv: list[str] | None = None) -> int:
     """Run the CLI; returns the exit code (0 success, 2 user error, 130 interrupted, 141
     output pipe closed by its reader)."""
     parser = build_parser()
+    _argv[:] = sys.argv[1:] if argv is None else list(argv)
     args = parser.parse_args(argv)
     if args.verb is None:
         parser.print_help()

@@ -12,6 +12,7 @@ solve, stops the run and the angles solved so far are written.
 from __future__ import annotations
 
 import argparse
+import math
 import sys
 from pathlib import Path
 
@@ -56,8 +57,8 @@ def _vector(text: str | None, option: str) -> list[float] | None:
         values = [float(v) for v in text.split(",")]
     except ValueError:
         values = []
-    if len(values) != 3:
-        raise FecheckError(f"{option} {text!r}: give three numbers X,Y,Z")
+    if len(values) != 3 or not all(math.isfinite(v) for v in values):
+        raise FecheckError(f"{option} {text!r}: give three finite numbers X,Y,Z")
     return values
 
 

@@ -197,12 +197,14 @@ def recorded_scene(args: argparse.Namespace):
 
 
 def run(args: argparse.Namespace) -> int:
+    from fecheck.model.plausibility import check_ef_poisson
     from fecheck.model.run import run_scene
     from fecheck.scene import load_scene
 
     out = _report_stream(args)
     scene = (load_scene(args.scene, args.overrides) if args.from_json is None
              else recorded_scene(args))
+    check_ef_poisson(scene)
     if has_no_pressure_map(scene):
         _drop_per_face_outputs(args, out)
     check_outputs(args)

@@ -108,7 +108,8 @@ def _scanned_bodies(scene: Scene) -> list[FEBody]:
     source = scene["scanned.thickness"]
     femur_name = (surfaces.file_path(scene, "femur").name
                   if scene["model.kind"] == "femur-tibia" else "condyle hemisphere")
-    tibia_name = {c: surfaces.file_path(scene, "tibia").name for c in COMPARTMENTS}
+    sheet = surfaces.file_path(scene, "tibia") or surfaces.file_path(scene, "tibia_solid")
+    tibia_name = {c: sheet.name for c in COMPARTMENTS}      # no sheet: the solid's top
     if surfaces.file_path(scene, "tibia_lateral") is not None:
         tibia_name["lateral"] = surfaces.file_path(scene, "tibia_lateral").name
     body = _tibial_body(scene)

@@ -93,13 +93,30 @@ def sheet_dofs(surface: TriMesh, settings: FESettings, levels: int,
     return ready if prepared else min(raw, ready)
 
 
-def _prepared_flag(body: FEBody, prepare: str) -> bool | None:
-    """Whether the FE meshes `body`'s sheet prepared (``fe.prepare``): 'auto' prepares
-    only a mesh sheet that does not extrude (None: not known before trying); generated
-    plateaus always extrude."""
-    if prepare in ("on", "off"):
-        return prepare == "on"
-    return None if body.tibial_surface.startswith("mesh:") else False
+def prepared_for_size(bodies: Sequence[FEBody], settings: FESettings, levels: int
+                      ) -> list[bool]:
+    """Per body, whether ``fe.prepare = 'auto'`` prepares its mesh sheet for size alone: the
+    layers of all the sheets as they are would make more than `MAX_DOFS` dofs, and this
+    sheet prepared at ``fe.size_mm`` makes fewer than as it is (known from the counts, so
+    decided before the EF run)."""
+    mesh = [settings.prepare == "auto" and b.tibial_surface.startswith("mesh:")
+            for b in bodies]
+    raw = [layer_dofs(b.surface, settings.refine, levels) for b in bodies]
+    if not any(mesh) or sum(raw) <= MAX_DOFS:
+        return [False] * len(bodies)
+    return [m and sheet_dofs(b.surface, settings, levels, True) < r
+            for b, m, r in zip(bodies, mesh, raw, strict=True)]
+
+
+def _prepared_flags(bodies: Sequence[FEBody], settings: FESettings, levels: int
+                    ) -> list[bool | None]:
+    """Whether the FE meshes each body's sheet prepared (``fe.prepare``): 'auto' prepares a
+    mesh sheet too large as it is (`prepared_for_size`) or that does not extrude (None:
+    not known before trying); generated plateaus always extrude."""
+    if settings.prepare in ("on", "off"):
+        return [settings.prepare == "on"] * len(bodies)
+    return [True if big else (None if b.tibial_surface.startswith("mesh:") else False)
+            for b, big in zip(bodies, prepared_for_size(bodies, settings, levels), strict=True)]
 
 
 def fe_estimate(bodies: Sequence[FEBody], refine: int, levels: int,
@@ -114,8 +131,7 @@ def fe_estimate(bodies: Sequence[FEBody], refine: int, levels: int,
         counts = [layer_dofs(b.surface, refine, levels) for b in bodies]
     else:
         s = replace(settings, refine=refine)
-        flags = prepared if prepared is not None else [
-            _prepared_flag(b, settings.prepare) for b in bodies]
+        flags = prepared if prepared is not None else _prepared_flags(bodies, s, levels)
         counts = [sheet_dofs(b.surface, s, levels, p)
                   for b, p in zip(bodies, flags, strict=True)]
     dofs = np.array(counts, dtype=float)

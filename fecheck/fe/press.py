@@ -25,7 +25,7 @@ import scipy.sparse as sp
 
 from fecheck.errors import FecheckError
 from fecheck.fe.bodies import FEBody
-from fecheck.fe.budget import guard_layers
+from fecheck.fe.budget import MAX_DOFS, guard_layers, prepared_for_size
 from fecheck.fe.indenter import MeshIndenter, barycentric
 from fecheck.fe.joint import ContactLayer, JointContact, JointSolution, femoral_shift
 from fecheck.fe.settings import FESettings
@@ -139,8 +139,9 @@ def build_layers(bodies: Sequence[FEBody], youngs_MPa: float, poisson: float,
     levels = settings.levels(poisson)
     if meshed is None:
         meshed = _mesh_solids(bodies, settings.refine)
-    sheets = [None if body.solid is not None else _sheet(body, settings, levels, log)
-              for body in bodies]
+    big = prepared_for_size(bodies, settings, levels)
+    sheets = [None if body.solid is not None else _sheet(body, settings, levels, log, too_big)
+              for body, too_big in zip(bodies, big, strict=True)]
     layered = [s[0] for s in sheets if s is not None]
     guard_layers(layered, settings, poisson, prepared=[False] * len(layered),
                  solid_dofs=_solid_dofs(bodies, meshed, settings))
@@ -171,12 +172,13 @@ def build_layers(bodies: Sequence[FEBody], youngs_MPa: float, poisson: float,
     return out
 
 
-def _sheet(body: FEBody, settings: FESettings, levels: int, log: Callable[[str], None]
-           ) -> tuple[FEBody, PreparedSheet | None, np.ndarray, int]:
-    """The sheet the FE meshes for `body` (its own, or prepared: ``fe.prepare``), the
-    preparation (None for its own), its extrusion directions and smoothing rounds."""
+def _sheet(body: FEBody, settings: FESettings, levels: int, log: Callable[[str], None],
+           too_big: bool = False) -> tuple[FEBody, PreparedSheet | None, np.ndarray, int]:
+    """The sheet the FE meshes for `body` (its own, or prepared: ``fe.prepare``, or
+    `too_big` as it is: `fecheck.fe.budget.prepared_for_size`), the preparation (None for
+    its own), its extrusion directions and smoothing rounds."""
     directions, rounds = None, 0
-    if settings.prepare != "on":
+    if settings.prepare != "on" and not too_big:
         try:
             directions, rounds = extrusion_directions(
                 body.surface, body.thickness_mm, layers=levels, ratio=settings.grading)
@@ -190,7 +192,10 @@ def _sheet(body: FEBody, settings: FESettings, levels: int, log: Callable[[str],
     stair = prepared.staircase
     log(f"{body.name}: the FE meshes a prepared sheet of {sheet.surface.n_faces} faces "
         f"of {settings.size_mm:g} mm ({prepared.trimmed_faces} rim or sliver faces "
-        f"of {body.surface.n_faces} trimmed)" + ("" if stair is None else
+        f"of {body.surface.n_faces} trimmed)"
+        + (f"; the sheets as read would make more than {MAX_DOFS:,} FE dofs" if too_big
+           else "")
+        + ("" if stair is None else
         f"; voxel terraces of {stair.step:.3f} mm fitted (fe.terraces)"))
     try:
         directions, rounds = extrusion_directions(

@@ -132,6 +132,9 @@ def _trilinear(values: np.ndarray, point: list[tuple[int, float]]) -> float:
 def read_calibration(path: str | Path) -> dict[str, Calibration]:
     """{compartment: Calibration} of a file `fecheck calibrate` wrote."""
     path = Path(path)
+    if path.is_dir():
+        raise FecheckError(f"contact.calibration: {path} is a directory: give the calibration "
+                           "file `fecheck calibrate SCENE -o FILE` wrote")
     try:
         data = json.loads(path.read_text())
         out = {c: Calibration(float(v["C"]), float(v["n"]))

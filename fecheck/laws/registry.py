@@ -211,6 +211,12 @@ def _build_calibrated(inputs: LawInputs) -> LawFactory:
     own = inputs.calibration()
 
     def calibrated_law(r: float, c: str) -> Law:
+        if own is not None and c not in own:
+            raise FecheckError(
+                f"contact.calibration: {inputs.scene['contact.calibration']} holds no {c} "
+                f"compartment (it has {', '.join(own) or 'none'}): fit this scene's with "
+                "`fecheck calibrate SCENE -o FILE`, or unset contact.calibration for the "
+                "built-in table")
         cal = own[c] if own is not None else _table_calibration(inputs.scene, r)
         return compiled_law(CALIBRATED, calibrated.calibrated_params(cal))
 

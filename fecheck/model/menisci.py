@@ -52,6 +52,7 @@ import json
 import math
 import os
 import time
+import warnings
 from collections.abc import Sequence
 from pathlib import Path
 
@@ -66,7 +67,7 @@ from fecheck.model.assembly import applied_load, force_scale, free_indices, star
 from fecheck.model.equilibrium import axial_force, compartment_result, not_converged_note
 from fecheck.model.plausibility import before_solve
 from fecheck.model.results import Pose, RunResult, SolveRecord
-from fecheck.scene import Scene
+from fecheck.scene import SCHEMA, Scene
 from fecheck.scene.constants import COMPARTMENTS
 from fecheck.scene.packaged import PACKAGE_PREFIX, data_dir
 from fecheck.scene.surfaces import read_surface
@@ -77,6 +78,7 @@ from fecheck.statics.newton import (
     BODY_DOFS,
     TIBIA_COORDINATES,
     Body,
+    NoStiffness,
     Problem,
     body_basis,
     body_pose,
@@ -97,12 +99,20 @@ def menisci_dir(scene: Scene) -> Path:
     scene file's folder)."""
     given = scene["menisci.dir"]
     if given.startswith(PACKAGE_PREFIX):
-        return data_dir(given, "menisci.dir")
-    folder = Path(os.path.expandvars(given)).expanduser()
-    if not folder.is_absolute():
-        folder = (Path(scene.source).expanduser().resolve().parent / folder).resolve()
+        folder = data_dir(given, "menisci.dir")
+    else:
+        folder = Path(os.path.expandvars(given)).expanduser()
+        if not folder.is_absolute():
+            folder = (Path(scene.source).expanduser().resolve().parent / folder).resolve()
     if not folder.is_dir():
         raise FecheckError(f"{scene.source}: menisci.dir = {given!r}: no folder at {folder}; "
+                           "give the smith2019_menisci folder or 'fecheck:knee/"
+                           "smith2019_menisci'")
+    needed = ["menisci.json", "meniscal_ligaments.json",
+              *(VOLUME.format(side=s) for s in _sides(scene))]
+    missing = [name for name in needed if not (folder / name).is_file()]
+    if missing:
+        raise FecheckError(f"menisci.dir = {given!r}: {folder} holds no {', '.join(missing)}; "
                            "give the smith2019_menisci folder or 'fecheck:knee/"
                            "smith2019_menisci'")
     return folder
@@ -128,10 +138,12 @@ def start_coordinates(scene: Scene, theta_g: float, t_g: np.ndarray) -> np.ndarr
     return np.array([t[0], t[1], t[2], 0.0, q[3] - theta_g, q[4]])
 
 
-def meniscus_stiffness(scene: Scene) -> float:
-    """EF stiffness of a meniscus interface, N/mm³: the meniscus layer and one cartilage
-    layer combined as menisci.layers says (module docstring)."""
-    men = (scene["menisci.youngs_MPa"], scene["menisci.poisson"], scene["menisci.thickness_mm"])
+def meniscus_stiffness(scene: Scene, youngs_MPa: float | None = None) -> float:
+    """EF stiffness of a meniscus interface, N/mm³: the meniscus layer (modulus
+    `youngs_MPa`, default menisci.youngs_MPa) and one cartilage layer combined as
+    menisci.layers says (module docstring)."""
+    men = (scene["menisci.youngs_MPa"] if youngs_MPa is None else youngs_MPa,
+           scene["menisci.poisson"], scene["menisci.thickness_mm"])
     cart = (scene["contact.youngs_MPa"], scene["contact.poisson"],
             0.5 * scene["contact.thickness_mm"])
     if scene["menisci.layers"] == "lumped":
@@ -140,11 +152,39 @@ def meniscus_stiffness(scene: Scene) -> float:
     return 1.0 / (1.0 / ef_stiffness(*men) + 1.0 / ef_stiffness(*cart))
 
 
+LUMPED_WARN_CHANGE = 0.25
+"""With menisci.layers = 'lumped', a menisci.youngs_MPa at least twice or half the default
+that moves the interface stiffness by less than this share of the default's is told that
+the modulus barely counts there."""
+
+
+def _lumped_note(scene: Scene) -> None:
+    """Warn when the lumped interface hides a meniscus modulus set far from its default:
+    the lumped model averages it with the cartilage's, so it barely moves the share
+    (scanned knee decimated to 1,500 faces, 800 N: medial / lateral share 11.1 / 10.1 %
+    at 1e-9 MPa, 11.2 / 10.5 % at 1 MPa; 'series' 7.6 / 4.3 % at 1 MPa)."""
+    default = SCHEMA["menisci.youngs_MPa"].default
+    given = scene["menisci.youngs_MPa"]
+    if scene["menisci.layers"] != "lumped" or default / 2 < given < 2 * default:
+        return
+    k = meniscus_stiffness(scene)
+    k0 = meniscus_stiffness(scene, default)
+    if abs(k / k0 - 1.0) >= LUMPED_WARN_CHANGE:
+        return
+    warnings.warn(f"menisci.youngs_MPa = {given:g}: with menisci.layers = 'lumped' the meniscus "
+                  f"interface takes the mean of its modulus and the cartilage's "
+                  f"({scene['contact.youngs_MPa']:g} MPa), so its stiffness is only "
+                  f"{100 * (k / k0 - 1):+.1f} % from the {default:g} MPa default's and the "
+                  "share barely moves; set menisci.layers = 'series' for the meniscus's own "
+                  "modulus to count", stacklevel=2)
+
+
 def meniscus_law(scene: Scene):
     """The registry's linear EF for a meniscus interface (`meniscus_stiffness`)."""
     if not spec_of(scene).linear:
         raise FecheckError(f"menisci.dir: the meniscus interfaces use the linear EF; set "
                            f"contact.law = 'ef' (got {scene['contact.law']!r})")
+    _lumped_note(scene)
     return linear_law(meniscus_stiffness(scene))
 
 
@@ -248,6 +288,12 @@ def build_problem(scene: Scene):
     q0 = start_coordinates(scene, theta_g, t_g)
     index = {s: 2 + i for i, s in enumerate(sides)}
     free = tuple(i for i, d in enumerate(BODY_DOFS) if d in scene["menisci.free"])
+    if sides and "z" not in scene["menisci.free"]:
+        warnings.warn(f"menisci.free = {list(scene['menisci.free'])} holds each meniscus's z "
+                      "where it starts, fixed to the femur while the tibia moves: it props "
+                      "the joint, so its meniscal share is a prop's (up to 100 %), not a "
+                      "meniscus's; free 'z' at least (the default frees all six)",
+                      stacklevel=2)
     bodies = (Body("femur", np.zeros(6), ()),
               Body("tibia", q0, tibia_body(q0[list(TIBIA_COORDINATES)],
                                            free_indices(scene)).free),
@@ -336,14 +382,55 @@ def pose_record(q: np.ndarray) -> dict[str, list[float]]:
     return {"q": q, "translation_mm": q[:3], "rotation_deg": [math.degrees(v) for v in q[3:]]}
 
 
+NO_HEADWAY = 0.5
+"""A solve that stops with its residual above this share of the load made no headway
+toward a balance: no equilibrium carries that load (not an iteration budget)."""
+
+
+def _refuse_no_headway(scene: Scene, sol) -> None:
+    """`FecheckError` when the solve stopped with the load still unbalanced (residual above
+    `NO_HEADWAY` of it): more iterations would not help; say the likely cause."""
+    load = max(scene["load.force_N"], 1e-300)
+    if sol.converged or sol.residual_norm < NO_HEADWAY * load:
+        return
+    raise FecheckError(f"no equilibrium with the menisci: after {sol.iterations} iterations "
+                       f"{sol.residual_norm:.3g} N of the {scene['load.force_N']:.4g} N load "
+                       "is still unbalanced (no headway, so more iterations will not help): "
+                       "the contact cannot carry that load (a knee's load is 10 N-10 kN: "
+                       "check load.force_N and its unit) or the start pose is far from "
+                       "contact (dofs.*, solver.start_gap_mm)")
+
+
+STIFF_RATIO = 10.0
+"""A meniscus this many times stiffer than the cartilage (menisci.youngs_MPa over
+contact.youngs_MPa) gets the stiffness note on a DOF nothing resists: on the scanned knee
+(decimated to 1,500 faces, cartilage 20 MPa) 1,000 MPa solved and 10,000 MPa did not."""
+
+
+def _stiff_note(scene: Scene) -> str:
+    """Why a meniscus DOF may have no stiffness when the meniscus is much stiffer than the
+    cartilage, for the end of that error ("" otherwise)."""
+    ratio = scene["menisci.youngs_MPa"] / scene["contact.youngs_MPa"]
+    if ratio < STIFF_RATIO:
+        return ""
+    return (f"; here menisci.youngs_MPa = {scene['menisci.youngs_MPa']:g} is {ratio:.3g} "
+            "times contact.youngs_MPa: so stiff a meniscus sinks too little into the "
+            "cartilage to touch on more than a few faces, which do not hold it: lower "
+            "menisci.youngs_MPa (smith2019's EF uses 1 MPa)")
+
+
 def run_menisci(scene: Scene, warm_start: np.ndarray | None = None) -> RunResult:
     """Solve a femur-tibia scene with its menisci (module docstring). `warm_start` is not
     taken (the menisci have their own coordinates)."""
     t_start = time.perf_counter()
     problem, interfaces, springs, comps, sides = build_problem(scene)
     t_built = time.perf_counter()
-    sol = solve(problem)
+    try:
+        sol = solve(problem)
+    except NoStiffness as err:
+        raise FecheckError(f"{err}{_stiff_note(scene)}") from None
     seconds = time.perf_counter() - t_built
+    _refuse_no_headway(scene, sol)
     poses = [body_pose(q) for q in sol.q]
     rot, t = poses[TIBIA]
     compartments = {}

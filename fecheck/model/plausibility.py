@@ -53,6 +53,12 @@ P_MAX_MPA = 1000.0
 """No knee tissue or bearing carries this: cortical bone fails at ~200 MPa, UHMWPE yields
 at ~20-30 MPa, cartilage at ~25 MPa. A larger p_max is a unit mistake, never a result."""
 
+EF_POISSON_MAX = 0.49
+"""Largest contact.poisson a `fecheck run` of the linear EF answers. The EF's column
+stiffness grows as 1/(1 − 2ν) while a bonded layer's FE hardly stiffens (it bulges):
+baseline medial (323.71 N, R 25.5 mm, E 20 MPa, h 6 mm), EF p_max 7.19 / 15.25 / 150.0 MPa
+at ν 0.45 / 0.49 / 0.4999 against the converged axisymmetric mixed FE's 4.96 / 5.19 / 5.25
+(× 1.45 / 2.94 / 28.6). The built-in FE calibration of the EF stops at 0.49 too."""
 FORCE_RTOL = 1e-9
 """A compartment force below this times the load scale (N) counts as no force."""
 
@@ -143,6 +149,21 @@ def before_solve(scene: Scene, comps: Sequence[Compartment] = ()) -> None:
     for message in input_warnings(scene):
         _warn(message)
     check_meshes(scene, comps)
+
+
+def check_ef_poisson(scene: Scene) -> None:
+    """`FecheckError` for the linear EF (contact.law = 'ef') above `EF_POISSON_MAX`: its
+    pressures there are several times the FE's, growing without bound as ν → 0.5."""
+    nu = scene["contact.poisson"]
+    if scene["contact.law"] != "ef" or nu <= EF_POISSON_MAX:
+        return
+    raise FecheckError(f"contact.poisson = {nu:g} with the linear EF (contact.law = 'ef'): its "
+                       "column stiffness grows as 1/(1 - 2ν) while a bonded layer hardly "
+                       "stiffens (it bulges), so past ν 0.49 its p_max is more than 3 times "
+                       "the FE's (baseline: 15 MPa at 0.49 and 150 MPa at 0.4999, FE 5.2 and "
+                       f"5.3): use contact.poisson <= {EF_POISSON_MAX:g}, contact.law = "
+                       "'ef-calibrated' (fitted to the FE up to ν 0.49), or `fecheck fe` for a "
+                       "near-incompressible layer")
 
 
 def _unit_cause(scene: Scene) -> str:

@@ -546,8 +546,10 @@ SCHEMA: dict[str, Key] = {
                       "height field with equilateral triangles of fe.size_mm (the femoral "
                       "surface over each compartment too), FE pressures interpolated back "
                       "onto the EF faces; 'auto' = only when the EF sheet's own extrusion "
-                      "inverts (a segmentation's slivers, curled rims, terraces); 'off' = "
-                      "never.", choices=("auto", "on", "off")),
+                      "inverts (a segmentation's slivers, curled rims, terraces), or when the "
+                      "sheets as read would make more than 500,000 FE dofs and preparing "
+                      "makes fewer (decided before the EF run); 'off' = never.",
+                      choices=("auto", "on", "off")),
     "fe.size_mm": Key("float", 1.0, _FE + "element size (triangle side) of a prepared "
                       "articular sheet (fe.prepare), mm; the femoral surface is remeshed at "
                       "half of it.", low=0.05, high=10.0),

@@ -87,8 +87,10 @@ def required_path(scene: Scene, key: str, why: str) -> Path:
     if not path.is_file():
         where = (f" (geometry.dir = {scene['geometry.dir']!r})" if scene["geometry.dir"]
                  else "")
+        what = (f"{path} is a directory: give the mesh file in it" if path.is_dir()
+                else f"file not found at {path}")
         raise FecheckError(f"{scene.source}: geometry.{key} = {scene[f'geometry.{key}']!r}: "
-                           f"file not found at {path}{where}")
+                           f"{what}{where}")
     return path
 
 
@@ -143,6 +145,8 @@ def read_surface(path: str | Path, units: str = "mm", rotation_deg=(0.0, 0.0, 0.
     `manifold`, when an edge is shared by three or more faces (`check_topology`).
     """
     path = Path(path)
+    if path.is_dir():
+        raise FecheckError(f"{path} is a directory, not a mesh file: give the mesh file in it")
     if not path.is_file():
         raise FecheckError(f"{path}: mesh file not found")
     return _converted(str(path), file_digest(path), units,

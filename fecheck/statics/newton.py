@@ -68,6 +68,10 @@ class NoEquilibrium(FecheckError):
     knows of the cause (e.g. a load below the tibia's weight)."""
 
 
+class NoStiffness(FecheckError):
+    """Free DOFs that nothing resists at the current contact (`_no_stiffness_message`)."""
+
+
 def cross3(a: np.ndarray, b: np.ndarray) -> np.ndarray:
     """a × b for two 3-vectors (np.cross costs ~10x more on single vectors)."""
     return np.array([a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2],
@@ -497,7 +501,7 @@ def solve(p: Problem) -> Solution:
         converged = _converged(res, nf, f_tol, p) and step <= STEP_TOL_MM
     null = _null_space(jac)
     if null.shape[1] and (converged or sysm.touching):
-        raise FecheckError(_no_stiffness_message(p, null))
+        raise NoStiffness(_no_stiffness_message(p, null))
     return Solution(tuple(sysm.q_of(z)), z[nf:].copy(), converged, it, phi, sysm.evaluations,
                     tuple(history))
 
@@ -527,16 +531,20 @@ def _no_stiffness_message(p: Problem, null: np.ndarray) -> str:
         return (f"the {len(p.constraints)} constraints (ligament rods) over-constrain the free "
                 f"DOFs {_labels(p)}: their forces are indeterminate; free more DOFs "
                 f"({_keys(p)}) or use ligaments.model = 'spring'")
-    drive, keys = [], []
+    kept: dict[str, list[str]] = {}     # a key shared by bodies keeps what all of them keep
+    keys: dict[str, str] = {}
     for body in p.bodies:
-        held = [dof for name, dof in names if name == body.name and (name, dof) not in loose]
-        if len(held) < len(body.free):
-            drive.append(f"{body.free_key} = {held!r}")
-            keys.append(body.start_keys)
+        mine = [dof for name, dof in names if name == body.name]
+        held = [dof for dof in mine if (body.name, dof) not in loose]
+        if len(held) < len(mine):
+            before = kept.get(body.free_key, held)
+            kept[body.free_key] = [dof for dof in before if dof in held]
+            keys[body.free_key] = body.start_keys
+    drive = [f"{key} = {dofs!r}" for key, dofs in kept.items()]
     who = f"the {p.bodies[0].name} DOFs" if len(p.bodies) == 1 else "the DOFs"
     return (f"{who} {', '.join(_labels(p, loose))} have no stiffness (nothing resists "
             f"them, e.g. sliding on frictionless plateaus): drive them by setting "
-            f"{' and '.join(drive)} (their values come from {', '.join(keys)}), or add "
+            f"{' and '.join(drive)} (their values come from {', '.join(keys.values())}), or add "
             f"ligaments")
 
 
@@ -552,7 +560,7 @@ def _step(sysm: _System, z, res, jac, phi, merit):
     if touching and null.shape[1]:
         r_null = float(np.linalg.norm(null.T @ res))
         if r_null <= 1e-6 * max(phi, p.tolerance * p.force_scale_N):
-            raise FecheckError(_no_stiffness_message(p, null))
+            raise NoStiffness(_no_stiffness_message(p, null))
     if touching and sysm.nc == 0:
         lam, vec = np.linalg.eigh(-0.5 * (jac + jac.T))
         scale = float(np.abs(lam).max())
@@ -646,7 +654,7 @@ def _free_flight(sysm, z, res, jac, phi, merit, was_touching, null):
                     return z_new, res_new, jac_new, phi_new
                 delta *= 0.5
         if was_touching and null.shape[1]:
-            raise FecheckError(_no_stiffness_message(sysm.p, null))
+            raise NoStiffness(_no_stiffness_message(sysm.p, null))
         raise NoEquilibrium("no equilibrium found along the load within 1 m: check the load "
                             "direction, the start pose (solver.start_gap_mm) and dofs.free")
     for _ in range(60):

@@ -42,6 +42,15 @@ EDGE_MM = 5.0
 """A failing angle whose last contact was this close to the femoral surface's edge is
 reported as past the cartilage, mm."""
 
+AXIS_MIN_X = 0.2
+"""Smallest |x| component of a given flexion axis's unit direction (78.46° from x)."""
+MAX_ANGLES = 2_000
+"""Most angles a flex run solves: 0.1° steps over the whole -30 to 160° range fit (1,901),
+and 2,000 angles take about 25 minutes on the scanned knee (`SECONDS_PER_ANGLE`); each
+angle's face pressures stay in memory for the outputs."""
+SECONDS_PER_ANGLE = 0.8
+"""Wall time of one angle of femur_tibia_ligaments (measured 0.76 s per angle over 0:20:1,
+after the build), s."""
 LIGAMENT_GROUPS = ("ACL", "PCL", "MCL", "LCL", "PFL", "pCAP")
 """Bundle-name prefixes summed per ligament in the reports."""
 
@@ -86,9 +95,12 @@ def given_axis(point: Sequence[float], direction: Sequence[float],
         raise FecheckError(f"{where} {list(direction)} is not a direction: give three "
                            "finite numbers, not all zero")
     e = e / norm
-    if abs(e[0]) < 0.2:
-        raise FecheckError(f"{where} {list(direction)} is more than 78° from the "
-                           "medio-lateral x axis: give the knee's flexion axis")
+    if abs(e[0]) < AXIS_MIN_X:
+        off = math.degrees(math.acos(abs(e[0])))
+        limit = math.degrees(math.acos(AXIS_MIN_X))
+        raise FecheckError(f"{where} {list(direction)} is {off:.2f}° from the medio-lateral "
+                           f"x axis, more than the {limit:.2f}° allowed: give the knee's "
+                           "flexion axis")
     return FlexionAxis(np.asarray(point, dtype=float), np.sign(e[0]) * e,
                        f"given by {where.removesuffix('-dir').removesuffix('_dir')}")
 
@@ -120,7 +132,8 @@ def condyle_axis(femur: TriMesh) -> FlexionAxis:
 
 
 def parse_angles(text: str) -> np.ndarray:
-    """Flexion angles (deg) from ``A:B:STEP`` (A to B inclusive) or ``A,B,C``.
+    """Flexion angles (deg) from ``A:B:STEP`` (A to B inclusive) or ``A,B,C``: finite,
+    within -30 to 160 degrees, at most `MAX_ANGLES` of them (counted before any is made).
 
     >>> parse_angles("0:10:5").tolist()
     [0.0, 5.0, 10.0]
@@ -128,17 +141,35 @@ def parse_angles(text: str) -> np.ndarray:
     try:
         if ":" in text:
             a, b, step = (float(v) for v in text.split(":"))
-            if step <= 0 or b < a:
+            if not step > 0 or not b >= a:
                 raise ValueError
-            out = a + step * np.arange(int(math.floor((b - a) / step + 1e-9)) + 1)
         else:
             out = np.array([float(v) for v in re.split(r"[,\s]+", text.strip())])
+            a, b, step = float(out.min()), float(out.max()), None
     except ValueError:
         raise FecheckError(f"--angles {text!r}: give START:STOP:STEP (STEP > 0, STOP >= "
                            "START) or a comma list, degrees") from None
-    if not np.all(np.isfinite(out)) or np.any(out < -30.0) or np.any(out > 160.0):
-        raise FecheckError(f"--angles {text!r}: flexion angles go from -30 to 160 degrees")
-    return out
+    values = [a, b] + ([] if step is None else [step])
+    if not all(math.isfinite(v) for v in values) or a < -30.0 or b > 160.0:
+        raise FecheckError(f"--angles {text!r}: flexion angles are finite numbers from -30 to "
+                           "160 degrees")
+    if step is None:
+        count = len(out)
+    else:
+        count = math.floor((b - a) / step + 1e-9) + 1
+    if count > MAX_ANGLES and step is None:
+        raise FecheckError(f"--angles: {count:,} angles listed, more than the {MAX_ANGLES:,} a "
+                           "flex run solves: give fewer")
+    if count > MAX_ANGLES:
+        fits = (b - a) / (MAX_ANGLES - 1)
+        digits = max(0, 1 - math.floor(math.log10(fits)))
+        raise FecheckError(f"--angles {text!r} makes {count:,} angles, more than the "
+                           f"{MAX_ANGLES:,} a flex run solves (about {SECONDS_PER_ANGLE:g} s "
+                           f"each on the scanned knee): use a STEP >= "
+                           f"{math.ceil(fits * 10**digits) / 10**digits:g} degrees")
+    if step is None:
+        return out
+    return a + step * np.arange(count)
 
 
 @dataclass

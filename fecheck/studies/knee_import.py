@@ -58,6 +58,12 @@ SHORT_EDGE_SHARE = 0.1
 ROUGH_RMS_MM = 0.05
 """A sheet further than this (RMS) from its smoothed copy is rough for the FE: its vertex
 peaks follow the segmentation's terraces, mm (a smooth scanned sheet: about 0.02)."""
+MAX_FACES = 100_000
+"""Most faces of one file the import checks: its roughness and gap checks grow faster than
+the faces (measured on the synthetic test knee, two dishes under two caps, refined:
+48,400 faces a file 64 s and 0.77 GB, 193,600 a file 8.2 min and 8.0 GB; 100,000 about 3
+min and 2.6 GB by the same growth). A segmented knee's sheets have a few thousand to tens
+of thousands of faces (the packaged one: 4,244 medial)."""
 MISPLIT_SHARE = 0.1
 """A sagittal plane that puts more than this share of the tibial area under the femoral
 condyles on the other side than its condyle cuts a plateau: an error."""
@@ -110,6 +116,7 @@ def import_knee(files: dict[str, Path], output: Path, opts: Options) -> Path:
     from fecheck.errors import FecheckError
     from fecheck.io.knee_preview import write_knee_preview
     from fecheck.io.outputs import check_output, write_text
+    from geometry.io import face_count
     from geometry.mesh import is_closed
 
     split = opts.split
@@ -118,6 +125,9 @@ def import_knee(files: dict[str, Path], output: Path, opts: Options) -> Path:
     if output.suffix.lower() != ".toml":
         raise FecheckError(f"-o {output}: the scene is a TOML file; name it *.toml")
     out = check_output(output)
+    for r, p in files.items():                  # every file's size before reading any
+        if Path(p).is_file():
+            _check_faces(_option(r), Path(p), face_count(p))
     surf = {r: _read(r, Path(p), opts.units) for r, p in files.items()}
     _check_order(surf)
     _femur_normals(surf["femur"])
@@ -170,6 +180,8 @@ def _read(role: str, path: Path, units: str) -> Surface:
     from geometry.checks import edge_counts
 
     who = _option(role)
+    if path.is_dir():
+        raise FecheckError(f"{who} {path} is a directory: give the mesh file in it")
     if not path.is_file():
         raise FecheckError(f"{who} {path}: file not found")
     try:
@@ -182,6 +194,7 @@ def _read(role: str, path: Path, units: str) -> Surface:
                            else f"{who} {path}: {text}") from None
     except OSError as err:
         raise FecheckError(f"{who} {path}: cannot read: {err.strerror or err}") from None
+    _check_faces(who, path, mesh.n_faces)
     name = role.replace("_", "-")
     ext = np.ptp(mesh.points, axis=0)
     _say(name, "file", str(path))
@@ -236,6 +249,20 @@ def _check_order(surf: dict[str, Surface]) -> None:
     raise FecheckError(f"--femur {f} lies {below:.1f} mm below the tibial surface (mean "
                        "heights; z is superior) and each one's normals point the way the "
                        f"other's should: the femoral and tibial files look swapped: {fix}")
+
+
+def _check_faces(who: str, path: Path, faces: int | None) -> None:
+    """`FecheckError` before the checks when the file has more than `MAX_FACES` faces
+    (None: not known yet)."""
+    from fecheck.errors import FecheckError
+
+    if faces is None or faces <= MAX_FACES:
+        return
+    raise FecheckError(f"{who} {path}: {faces:,} faces, more than the {MAX_FACES:,} the import "
+                       f"checks in minutes (its checks grow faster than the faces: 194k "
+                       f"faces took 8 min and 8 GB): decimate it to at most {MAX_FACES:,} "
+                       "faces (a quadric edge collapse, e.g. MeshLab's or Open3D's "
+                       "simplify_quadric_decimation) and import it again")
 
 
 # ------------------------------------------------------------------------- normals
