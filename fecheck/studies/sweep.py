@@ -179,14 +179,17 @@ def _describe(err: BaseException) -> str:
     return " ".join(text.split())
 
 
-def _run_point(scene: Scene, override: str, warm_start=None) -> RunResult:
-    """Solve `scene` with one override, from `warm_start` (5,) if given."""
+def _run_point(scene: Scene, override: str | Sequence[str], warm_start=None) -> RunResult:
+    """Solve `scene` with one override (or several: a population's sample), from
+    `warm_start` (5,) if given."""
     from fecheck.model.run import run_scene
 
-    return run_scene(apply_overrides(scene, [override]), warm_start)
+    overrides = [override] if isinstance(override, str) else list(override)
+    return run_scene(apply_overrides(scene, overrides), warm_start)
 
 
-def _solve_here(scene: Scene, override: str, value: float, warm_start=None) -> SweepPoint:
+def _solve_here(scene: Scene, override: str | Sequence[str], value: float,
+                warm_start=None) -> SweepPoint:
     """Solve one point in this process (retried from the scene's start if it stalls)."""
     try:
         result = _run_point(scene, override, warm_start)
@@ -197,7 +200,7 @@ def _solve_here(scene: Scene, override: str, value: float, warm_start=None) -> S
     return SweepPoint(value, result)
 
 
-def _solve_reusing(memo: dict, scene: Scene, override: str, value: float,
+def _solve_reusing(memo: dict, scene: Scene, override: str | Sequence[str], value: float,
                    warm_start=None) -> SweepPoint:
     """`_solve_here` reusing the model parts built for earlier points (`memo`, see
     `reusing_builds`); after a failed point they are dropped, so that the next point
@@ -214,7 +217,7 @@ _worker = threading.local()
 and the equilibrium q (5,) of the last point it solved (``q``)."""
 
 
-def _solve_on_worker(scene: Scene, override: str, value: float, label: str,
+def _solve_on_worker(scene: Scene, override: str | Sequence[str], value: float, label: str,
                      sweep_id: str) -> SweepPoint:
     """Solve one point on a pool or Dask worker; an error names the point and worker.
 
