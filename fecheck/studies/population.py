@@ -49,7 +49,12 @@ from fecheck.studies.pool import (
     rearm_handlers,
 )
 from fecheck.studies.population_inputs import Varied, overrides_for
-from fecheck.studies.sweep import _completed, _describe, _solve_on_worker, pin_geometry_dir
+from fecheck.studies.sweep import (
+    describe_error,
+    finished_futures,
+    pin_geometry_dir,
+    solve_on_worker,
+)
 
 DEFAULT_OUTPUTS = ("max_pressure_MPa", "medial_share", "medial_max_pressure_MPa",
                    "lateral_max_pressure_MPa")
@@ -141,8 +146,8 @@ def slim_row(result: RunResult) -> dict[str, float]:
 def sample_on_worker(scene: Scene, overrides: tuple[str, ...], index: int, label: str,
                      study_id: str) -> Sample:
     """Run one sample on a worker (or in this process): the sweep's worker solve
-    (`_solve_on_worker`: reused parts, warm start), its result cut to `slim_row`."""
-    point = _solve_on_worker(scene, overrides, float(index), label, study_id)
+    (`solve_on_worker`: reused parts, warm start), its result cut to `slim_row`."""
+    point = solve_on_worker(scene, overrides, float(index), label, study_id)
     if point.failed:
         return Sample(index, None, point.error)
     return Sample(index, slim_row(point.result))
@@ -213,7 +218,7 @@ def _collect(future: Future, index: int) -> Sample:
     try:
         return future.result()
     except Exception as err:
-        return Sample(index, None, f"{_label(index)} failed on a worker: {_describe(err)}")
+        return Sample(index, None, f"{_label(index)} failed on a worker: {describe_error(err)}")
 
 
 def _run_on(executor: Executor, scene: Scene, plan: Plan, todo: Sequence[int],
@@ -225,7 +230,7 @@ def _run_on(executor: Executor, scene: Scene, plan: Plan, todo: Sequence[int],
             for i in todo:
                 futures[executor.submit(sample_on_worker, scene, plan.overrides[i], i,
                                         _label(i), study_id)] = i
-        for future in _completed(list(futures)):
+        for future in finished_futures(list(futures)):
             progress.add(_collect(future, futures[future]))
         complete = True
     finally:
