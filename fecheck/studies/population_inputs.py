@@ -54,14 +54,16 @@ class Distribution:
     b: float
 
     def value(self, u: np.ndarray | float, nominal: float | np.ndarray) -> np.ndarray:
-        """The value(s) at unit-cube coordinate(s) `u` (tails cut at `TAIL`); `nominal`:
-        the scene's value (used by ``scale`` only)."""
-        u = np.clip(np.asarray(u, dtype=float), TAIL, 1.0 - TAIL)
+        """The value(s) at unit-cube coordinate(s) `u` (normal tails cut at `TAIL`; LO and
+        HI themselves at u = 0 and 1); `nominal`: the scene's value (``scale`` only)."""
+        u = np.asarray(u, dtype=float)
         if self.kind == "uniform":
             return self.a + u * (self.b - self.a)
         if self.kind == "scale":
             return np.multiply.outer(self.a + u * (self.b - self.a), nominal)
         from scipy.special import ndtri
+
+        u = np.clip(u, TAIL, 1.0 - TAIL)
 
         z = ndtri(u)
         if self.kind == "normal":
