@@ -29,7 +29,7 @@ def test_error_model_predicts_a_smooth_error_within_its_stated_error(model):
     test = np.random.default_rng(5).random((200, 2))
     pred = model.predict(test)
     truth = _errors(test)
-    for name in atlas.OUTPUTS:
+    for name in model.models:
         miss = np.sqrt(np.mean((pred[name][0] - truth[name]) ** 2))
         scale = np.ptp(truth[name])
         # measured: misses below 1 % of each output's range; the stated (cross-validated)

@@ -76,18 +76,19 @@ def dependence(out: Path, varied: Sequence[Varied], model: ErrorModel, u: np.nda
     """Partial dependence of every error (rows) on every key (columns)."""
     plt = _pyplot()
     d = len(varied)
-    fig, axes = plt.subplots(len(OUTPUTS), d, figsize=(2.7 * d + 0.6, 2.2 * len(OUTPUTS) + 0.6),
+    outputs = [o for o in OUTPUTS if o in model.models]
+    fig, axes = plt.subplots(len(outputs), d, figsize=(2.7 * d + 0.6, 2.0 * len(outputs) + 0.6),
                              squeeze=False)
     g = np.linspace(0.0, 1.0, 15)
     sub = u[:: max(1, len(u) // 200)]
     for j, v in enumerate(varied):
         pd = partial_dependence(model, sub, j, g)
-        for r, name in enumerate(OUTPUTS):
+        for r, name in enumerate(outputs):
             ax = axes[r, j]
             ax.plot(_values(v, g), pd[name], "-", color="tab:blue")
             if name != "cop_mm":
                 ax.axhspan(-tolerance, tolerance, color="tab:green", alpha=0.15)
-            if r == len(OUTPUTS) - 1:
+            if r == len(outputs) - 1:
                 ax.set_xlabel(v.column(), fontsize=8)
             if j == 0:
                 ax.set_ylabel(name + (" (mm)" if name == "cop_mm" else ""), fontsize=8)
