@@ -84,15 +84,15 @@ def _design(args, scene, varied, model_u, executor, fe_done):
     u = atlas.initial_design(first, d, args.seed)
     todo = list(range(first))
     points = [tuple(o) for o in atlas.atlas_points(varied, scene, u)]
-    model = None
     while True:
         found = atlas.run_fe(scene, points, todo, executor, _say)
         fe_done.update(found)
         solved = [i for i in sorted(fe_done) if not isinstance(fe_done[i], str)]
         errors = {o: np.array([fe_done[i][o] for i in solved]) for o in atlas.OUTPUTS}
-        model = atlas.fit_error_model(u[solved], errors, args.seed)
         if len(fe_done) >= args.fe:
+            model = atlas.fit_error_model(u[solved], errors, args.seed)
             return u[solved], errors, model, [i for i in fe_done if i not in solved]
+        model = atlas.fit_error_model(u[solved], errors, args.seed, cross_validate=False)
         k = min(batch, args.fe - len(fe_done))
         pick = atlas.least_sure(model, model_u, u, k)
         start = len(u)

@@ -192,10 +192,14 @@ def _spot_checks(args, scene, plan, samples, outputs, stream) -> list[dict]:
     out = []
     for i in extreme_samples(plan, samples, outputs[0], args.fe_spot):
         try:
-            check = cross_check(apply_overrides(scene, list(plan.overrides[i])))
+            check = cross_check(apply_overrides(scene, list(plan.overrides[i])), log=None)
             entry = {"sample": i, "overrides": list(plan.overrides[i]),
                      "fe": check.as_dict()}
-            print(f"FE spot check at sample {i}: done", file=stream)
+            peaks = ", ".join(f"{c} p_max EF {k.ef_model.max_pressure_MPa:.3f} FE "
+                              f"{k.fe.max_pressure_MPa:.3f} MPa"
+                              for c, k in check.compartments.items())
+            print(f"FE spot check at sample {i} ({' '.join(plan.overrides[i])}): {peaks}",
+                  file=stream)
         except FecheckError as err:
             entry = {"sample": i, "error": str(err)}
             print(f"FE spot check at sample {i}: {err}", file=stream)

@@ -147,11 +147,12 @@ def _gp(d: int, seed: int, restarts: int = 2):
                                     random_state=seed)
 
 
-def fit_error_model(u: np.ndarray, errors: dict[str, np.ndarray], seed: int = 0
-                    ) -> ErrorModel:
+def fit_error_model(u: np.ndarray, errors: dict[str, np.ndarray], seed: int = 0,
+                    cross_validate: bool = True) -> ErrorModel:
     """Fit one GP per output to the FE design points `u` (n, d) and their `errors`; the
     k-fold (`FOLDS`, or leave-one-out below that many points) cross-validated RMSE (the
-    folds' processes fitted from one start, the final one from three).
+    folds' processes fitted from one start, the final one from three); without
+    `cross_validate` (while a design grows) the RMSEs are NaN.
 
     Raises
     ------
@@ -175,7 +176,7 @@ def fit_error_model(u: np.ndarray, errors: dict[str, np.ndarray], seed: int = 0
             if ok.sum() < 3:
                 continue
             residuals = []
-            for train, test in folds.split(u):
+            for train, test in folds.split(u) if cross_validate else ():
                 train, test = train[ok[train]], test[ok[test]]
                 if train.size < 2 or test.size == 0:
                     continue
@@ -195,12 +196,12 @@ def initial_design(n: int, d: int, seed: int) -> np.ndarray:
 
 def least_sure(model: ErrorModel, candidates: np.ndarray, taken: np.ndarray, k: int
                ) -> np.ndarray:
-    """The `k` candidate rows with the largest summed standardised predictive deviation
-    over the toleranced outputs, each at least 0.05 (unit-cube distance) from the taken
-    points and from each other."""
+    """The `k` candidate rows with the largest summed predictive deviation over the
+    toleranced outputs (each over the spread of its predicted means), each at least 0.05
+    (unit-cube distance) from the taken points and from each other."""
     pred = model.predict(candidates)
-    score = sum(pred[o][1] / max(model.cv_rmse.get(o, 1.0), 1e-12) for o in TOLERANCED
-                if o in pred)
+    score = sum(pred[o][1] / np.std(pred[o][0]) if np.std(pred[o][0]) > 0 else pred[o][1]
+                for o in TOLERANCED if o in pred)
     order = np.argsort(-score)
     chosen: list[int] = []
     for i in order:
