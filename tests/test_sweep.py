@@ -80,9 +80,9 @@ def test_a_worker_starts_from_the_last_point_it_solved_in_the_same_sweep():
     # iterations than from the scene's start, and reaches the same equilibrium
     scene = load_scene(overrides=["mesh.plateau_refine_mm=1.5"])
     first, near = (override_for(scene, "load.point_mm[0]", x) for x in (4.0, 5.0))
-    sweep._solve_on_worker(scene, first, 4.0, "x = 4", "sweep A")
-    warm = sweep._solve_on_worker(scene, near, 5.0, "x = 5", "sweep A").result
-    cold = sweep._solve_on_worker(scene, near, 5.0, "x = 5", "sweep B").result
+    sweep.solve_on_worker(scene, first, 4.0, "x = 4", "sweep A")
+    warm = sweep.solve_on_worker(scene, near, 5.0, "x = 5", "sweep A").result
+    cold = sweep.solve_on_worker(scene, near, 5.0, "x = 5", "sweep B").result
     assert warm.converged and cold.converged
     assert warm.iterations < cold.iterations
     for c in ("medial", "lateral"):

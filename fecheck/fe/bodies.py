@@ -124,7 +124,8 @@ def _scanned_bodies(scene: Scene) -> list[FEBody]:
         elif source == "uniform":
             h = np.full(surface.n_points, float(scene["contact.thickness_mm"]))
         else:
-            h = vertex_values(surface, slave_thickness(scene, surface))
+            h = scene["scanned.thickness_scale"] * vertex_values(
+                surface, slave_thickness(scene, surface))
         indenter, femoral = _indenter(masters[c], femur_name)
         if body == "solid":
             out.append(FEBody(c, surface, h, indenter, f"solid:{solid.name}", femoral,
@@ -142,7 +143,7 @@ def _tibial_thickness(scene: Scene, surface: TriMesh) -> np.ndarray:
     from fecheck.laws.layer import bone_distance_thickness, uniform_sides
 
     if scene["scanned.thickness"] == "bone-distance":
-        return vertex_values(surface, bone_distance_thickness(
+        return scene["scanned.thickness_scale"] * vertex_values(surface, bone_distance_thickness(
             surface, surfaces.bone(scene, "tibia"), name="geometry.tibia_bone"))
     return np.full(surface.n_points, uniform_sides(scene)[0])
 

@@ -90,8 +90,8 @@ def femoral_sheet(scene: Scene, femur: TriMesh) -> FemoralSheet:
     from fecheck.laws.layer import bone_distance_thickness, uniform_sides
 
     if scene["scanned.thickness"] == "bone-distance":
-        faces = bone_distance_thickness(femur, surfaces.bone(scene, "femur"),
-                                        name="geometry.femur_bone")
+        faces = scene["scanned.thickness_scale"] * bone_distance_thickness(
+            femur, surfaces.bone(scene, "femur"), name="geometry.femur_bone")
         h, source = vertex_values(femur, faces), "bone-distance"
     else:
         h = np.full(femur.n_points, uniform_sides(scene)[1])

@@ -132,17 +132,31 @@ def slave_sides(scene: Scene, slave) -> tuple[np.ndarray, np.ndarray]:
     return cached_arrays("side-thickness", [slave, femur, femur_bone, tibia_bone], build)
 
 
-def _face_thickness(scene: Scene, slave) -> np.ndarray:
-    """The per-face foundation thickness (mm) of the slave in the tibial material: the
-    series total, or with a femoral material of its own the equivalent thickness
-    (`fecheck.laws.layer.Sides.equivalent_thickness`)."""
-    sides = layer.sides(scene)
+@reusable
+def _series_thicknesses(scene: Scene) -> dict[str, np.ndarray]:
+    """{compartment: `slave_thickness` of its slave}, kept while the geometry is."""
+    return {c: slave_thickness(scene, pair.slave)
+            for c, (pair, _) in contact_pairs(scene).items()}
+
+
+@reusable
+def _side_thicknesses(scene: Scene) -> dict[str, tuple[np.ndarray, np.ndarray]]:
+    """{compartment: `slave_sides` of its slave}, kept while the geometry is."""
+    return {c: slave_sides(scene, pair.slave) for c, (pair, _) in contact_pairs(scene).items()}
+
+
+def _face_thickness(scene: Scene, compartment: str) -> np.ndarray:
+    """The per-face foundation thickness (mm) of a compartment's slave in the tibial
+    material: the series total, or with a femoral material of its own the equivalent
+    thickness (`fecheck.laws.layer.Sides.equivalent_thickness`)."""
+    sides, scale = layer.sides(scene), scene["scanned.thickness_scale"]
     if not sides.own_material:
-        return slave_thickness(scene, slave)
-    return sides.equivalent_thickness(*slave_sides(scene, slave))
+        return scale * _series_thicknesses(scene)[compartment]
+    tibial, femoral = _side_thicknesses(scene)[compartment]
+    return sides.equivalent_thickness(scale * tibial, scale * femoral)
 
 
-def _law(scene: Scene, slave, radius_mm: float, compartment: str):
+def _law(scene: Scene, radius_mm: float, compartment: str):
     """The compartment's law (`fecheck.laws.registry`): over the bone-distance thickness
     map where the scene asks for it and the law takes one (`LawSpec.per_face`)."""
     spec = spec_of(scene)
@@ -153,8 +167,22 @@ def _law(scene: Scene, slave, radius_mm: float, compartment: str):
         raise FecheckError("scanned.thickness = 'bone-distance' sets a linear EF stiffness "
                            f"per face: use contact.law = {names} (or "
                            "scanned.thickness = 'uniform')")
-    return spec.per_face(law_inputs(scene), lambda: _face_thickness(scene, slave), radius_mm,
-                         compartment)
+    return spec.per_face(law_inputs(scene), lambda: _face_thickness(scene, compartment),
+                         radius_mm, compartment)
+
+
+@reusable
+def contact_pairs(scene: Scene) -> dict[str, tuple[ContactPair, float]]:
+    """{compartment: (contact pair, condyle radius mm or NaN)} of a sphere-tibia or
+    femur-tibia scene: the geometry alone, so that a change of material or law (a
+    population's sample) keeps the pairs and their broad-phase sets."""
+    kind = scene["model.kind"]
+    slaves, masters = tibial_slaves(scene), femoral_masters(scene)
+    opts = {"method": scene["contact.detection"], "area": scene["contact.area"],
+            "margin_mm": scene["contact.margin_mm"]}
+    knee = scene_knee(scene) if kind == "sphere-tibia" else None
+    return {c: (ContactPair(slaves[c], masters[c], **opts),
+                knee.radius_mm(c) if knee is not None else math.nan) for c in COMPARTMENTS}
 
 
 @reusable
@@ -165,15 +193,9 @@ def build_compartments(scene: Scene) -> list[Compartment]:
         return sphere_plane.build_compartments(scene)
     if kind not in ("sphere-tibia", "femur-tibia"):
         raise FecheckError(f"model.kind {kind!r} is not a scanned-knee model")
-    slaves, masters = tibial_slaves(scene), femoral_masters(scene)
-    opts = {"method": scene["contact.detection"], "area": scene["contact.area"],
-            "margin_mm": scene["contact.margin_mm"]}
-    knee = scene_knee(scene) if kind == "sphere-tibia" else None
     out = []
-    for c in COMPARTMENTS:
-        radius = knee.radius_mm(c) if knee is not None else math.nan
-        pair = ContactPair(slaves[c], masters[c], **opts)
-        out.append(Compartment(c, pair, _law(scene, slaves[c], radius, c), True, radius))
+    for c, (pair, radius) in contact_pairs(scene).items():
+        out.append(Compartment(c, pair, _law(scene, radius, c), True, radius))
     return out
 
 
@@ -188,8 +210,10 @@ def bundle_springs(scene: Scene) -> tuple[tuple[str, ...], list[SpringLigament]]
                                               "scanned.ligaments = 'bundles'"))
     for b in out:
         transition_strain_check(b.transition_strain)
-    springs = [SpringLigament(b.femur_point, b.tibia_point, b.slack_length_mm, b.stiffness_N,
-                              b.transition_strain) for b in out]
+    stiffness, slack = (scene["scanned.ligament_stiffness_scale"],
+                        scene["scanned.ligament_slack_scale"])
+    springs = [SpringLigament(b.femur_point, b.tibia_point, slack * b.slack_length_mm,
+                              stiffness * b.stiffness_N, b.transition_strain) for b in out]
     return tuple(b.name for b in out), springs
 
 

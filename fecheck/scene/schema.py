@@ -474,6 +474,23 @@ SCHEMA: dict[str, Key] = {
         "'bundles' adds the scanned knee's 55 ligament bundles (Lenhart et al. 2015, "
         "Blankevoort 1991 springs) to any contact model; ligaments.model must then be "
         "'none'. 'none' = no bundles.", choices=("none", "bundles")),
+    "scanned.thickness_scale": Key(
+        "float", 1.0,
+        "Factor on the bone-distance cartilage thickness of every face, both layers "
+        "(scanned.thickness = 'bone-distance'), dimensionless: a thinner or thicker "
+        "cartilage on the same surfaces (`fecheck population`). 1 = as measured.",
+        low=0.0, high=5.0, low_open=True, unit=DIMENSIONLESS),
+    "scanned.ligament_stiffness_scale": Key(
+        "float", 1.0,
+        "Factor on the linear-region stiffness of every ligament bundle "
+        "(scanned.ligaments = 'bundles'), dimensionless. 1 = the file's stiffnesses.",
+        low=0.0, high=10.0, unit=DIMENSIONLESS),
+    "scanned.ligament_slack_scale": Key(
+        "float", 1.0,
+        "Factor on the slack length of every ligament bundle (scanned.ligaments = "
+        "'bundles'), dimensionless: below 1 tightens every bundle (a bundle at its rest "
+        "length l has strain l / (factor · l0) − 1). 1 = the file's slack lengths.",
+        low=0.5, high=2.0, unit=DIMENSIONLESS),
     "menisci.dir": Key(
         "str", "",
         "Femur-tibia model with menisci: the folder of the smith2019 menisci of the scanned "

@@ -197,31 +197,34 @@ def _label(param: str, value: float) -> str:
     return f"{param} = {value:g}"
 
 
-def _describe(err: BaseException) -> str:
+def describe_error(err: BaseException) -> str:
     """One line for an error: its message (a `FecheckError`) or type and message."""
     text = str(err) if isinstance(err, FecheckError) else f"{type(err).__name__}: {err}"
     return " ".join(text.split())
 
 
-def _run_point(scene: Scene, override: str, warm_start=None) -> RunResult:
-    """Solve `scene` with one override, from `warm_start` (5,) if given."""
+def _run_point(scene: Scene, override: str | Sequence[str], warm_start=None) -> RunResult:
+    """Solve `scene` with one override (or several: a population's sample), from
+    `warm_start` (5,) if given."""
     from fecheck.model.run import run_scene
 
-    return run_scene(apply_overrides(scene, [override]), warm_start)
+    overrides = [override] if isinstance(override, str) else list(override)
+    return run_scene(apply_overrides(scene, overrides), warm_start)
 
 
-def _solve_here(scene: Scene, override: str, value: float, warm_start=None) -> SweepPoint:
+def _solve_here(scene: Scene, override: str | Sequence[str], value: float,
+                warm_start=None) -> SweepPoint:
     """Solve one point in this process (retried from the scene's start if it stalls)."""
     try:
         result = _run_point(scene, override, warm_start)
         if not result.converged and warm_start is not None:
             result = _run_point(scene, override)
     except Exception as err:
-        return SweepPoint(value, None, _describe(err))
+        return SweepPoint(value, None, describe_error(err))
     return SweepPoint(value, result)
 
 
-def _solve_reusing(memo: dict, scene: Scene, override: str, value: float,
+def _solve_reusing(memo: dict, scene: Scene, override: str | Sequence[str], value: float,
                    warm_start=None) -> SweepPoint:
     """`_solve_here` reusing the model parts built for earlier points (`memo`, see
     `reusing_builds`); after a failed point they are dropped, so that the next point
@@ -238,7 +241,7 @@ _worker = threading.local()
 and the equilibrium q (5,) of the last point it solved (``q``)."""
 
 
-def _solve_on_worker(scene: Scene, override: str, value: float, label: str,
+def solve_on_worker(scene: Scene, override: str | Sequence[str], value: float, label: str,
                      sweep_id: str) -> SweepPoint:
     """Solve one point on a pool or Dask worker; an error names the point and worker.
 
@@ -341,7 +344,7 @@ def _run_serial(scene: Scene, values: Sequence[float], overrides: Sequence[str],
             return
 
 
-def _completed(futures: Sequence[Future]) -> Iterator[Future]:
+def finished_futures(futures: Sequence[Future]) -> Iterator[Future]:
     """The futures as they finish; the main thread wakes every `_POLL_S` for signals.
 
     Each future reports itself once, when it finishes (`concurrent.futures.wait` would
@@ -365,7 +368,7 @@ def _collect(future: Future, value: float, label: str) -> SweepPoint:
     try:
         return future.result()
     except Exception as err:
-        return SweepPoint(value, None, f"{label} failed on a worker: {_describe(err)}")
+        return SweepPoint(value, None, f"{label} failed on a worker: {describe_error(err)}")
 
 
 def _run_on(executor: Executor, scene: Scene, param: str, values: Sequence[float],
@@ -382,10 +385,10 @@ def _run_on(executor: Executor, scene: Scene, param: str, values: Sequence[float
     try:
         with interrupts_held():
             for i, (value, override) in enumerate(zip(values, overrides, strict=True)):
-                future = executor.submit(_solve_on_worker, scene, override, value, labels[i],
+                future = executor.submit(solve_on_worker, scene, override, value, labels[i],
                                          sweep_id)
                 futures[future] = i
-        for future in _completed(list(futures)):
+        for future in finished_futures(list(futures)):
             i = futures[future]
             point = _collect(future, values[i], labels[i])
             finished.add(i, point)
@@ -506,7 +509,7 @@ def dask_executor(address: str) -> Iterator[Executor]:
         client = Client(address)
     except Exception as err:
         raise FecheckError(f"--scheduler {address!r}: cannot reach a Dask scheduler there "
-                           f"({_describe(err)})") from None
+                           f"({describe_error(err)})") from None
     try:
         yield client.get_executor()
     finally:

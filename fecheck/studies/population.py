@@ -1,0 +1,502 @@
+"""Population studies: the EF at many samples of a scene's varied keys.
+
+The samples are a design in the unit cube (`fecheck.studies.sobol`: Saltelli's, for
+Sobol indices, or plain points) mapped to key values by each key's distribution
+(`fecheck.studies.population_inputs`). Each sample is one scene run with its overrides,
+through the sweep's machinery (`fecheck.studies.sweep`): serially in this process or
+on a local process pool or a Dask cluster, each worker reusing the model parts a
+sample's values do not change (`fecheck.model.reuse`) and starting from the last
+equilibrium it found. Only a flat row of numbers comes back from a sample (`slim_row`),
+so that 10,000 samples of the scanned knee fit in memory.
+
+A failed sample is recorded with its error and counted; a sample that did not converge
+is kept with ``converged`` false. Neither enters the statistics (NaN there), and a Sobol
+index leaves out the base rows that contain one (`fecheck.studies.sobol`).
+
+A study is resumable: its CSV holds one row per finished sample, and a study started
+again with the same keys, distributions, method, seed and sample count runs only the
+samples missing from it.
+"""
+
+from __future__ import annotations
+
+import csv
+import io
+import math
+import os
+import sys
+import time
+import uuid
+from collections.abc import Callable, Sequence
+from concurrent.futures import Executor, Future
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from fecheck.errors import FecheckError
+from fecheck.io.outputs import write_text
+from fecheck.model.results import RunResult
+from fecheck.model.reuse import reusing_builds
+from fecheck.scene import Scene, apply_overrides
+from fecheck.studies import sobol
+from fecheck.studies.pool import (
+    ProcessPool,
+    interrupts_held,
+    interrupts_ignored,
+    raise_pending_interrupt,
+    rearm_handlers,
+)
+from fecheck.studies.population_inputs import Varied, overrides_for
+from fecheck.studies.sweep import (
+    describe_error,
+    finished_futures,
+    pin_geometry_dir,
+    solve_on_worker,
+)
+
+DEFAULT_OUTPUTS = ("max_pressure_MPa", "medial_share", "medial_max_pressure_MPa",
+                   "lateral_max_pressure_MPa")
+DERIVED = {
+    "max_pressure_MPa": "the larger compartment max pressure, MPa",
+    "medial_share": "medial force / (medial + lateral force): the split",
+    "area_mm2": "medial + lateral contact area, mm²",
+}
+"""Outputs computed from the compartments (beside every column of a run's flat row)."""
+REBUILD_FACTOR = 3.0
+"""A varied key is refused (without --allow-rebuild) when rebuilding the model parts it
+changes takes longer than this many solves and more than `REBUILD_MIN_S`."""
+REBUILD_MIN_S = 0.2
+"""Rebuilds shorter than this (s) are always accepted (the baseline's laws: 0.05-0.1 s; a
+new plateau mesh: 0.3-0.6 s, measured)."""
+
+
+@dataclass(frozen=True)
+class Plan:
+    """A study's samples: varied keys, unit-cube design `u` (runs, d), its `overrides`,
+    `method`, `seed`, whether the design carries Sobol indices, and the base rows."""
+
+    varied: tuple[Varied, ...]
+    u: np.ndarray
+    overrides: tuple[tuple[str, ...], ...]
+    method: str
+    seed: int | None
+    indices: bool
+    base_rows: int
+
+    @property
+    def runs(self) -> int:
+        """Number of samples (scene runs)."""
+        return int(self.u.shape[0])
+
+    def drawn(self) -> np.ndarray:
+        """(runs, d) the reported value of each key at each sample (`Varied.drawn`)."""
+        return np.column_stack([v.drawn(self.u[:, j]) for j, v in enumerate(self.varied)])
+
+
+def make_plan(scene: Scene, varied: Sequence[Varied], samples: int, method: str,
+              seed: int | None, indices: bool) -> Plan:
+    """The samples of a study (`samples` runs at most; `sobol.runs_for`)."""
+    d = len(varied)
+    sobol.check_samples(samples, d, indices)
+    base, _ = sobol.runs_for(samples, d, indices)
+    u = (sobol.design(base, d, method, seed) if indices
+         else sobol.base_matrix(base, d, method, seed))
+    return Plan(tuple(varied), u, tuple(overrides_for(varied, scene, u)), method, seed,
+                indices, base)
+
+
+@dataclass(frozen=True)
+class Sample:
+    """One finished sample: its `index`, its output row (None when it failed) and the
+    error that stopped it ("" when solved)."""
+
+    index: int
+    row: dict[str, float] | None
+    error: str = ""
+
+    @property
+    def failed(self) -> bool:
+        """True when the sample's run raised an error."""
+        return self.row is None
+
+    @property
+    def converged(self) -> bool:
+        """True when solved and converged."""
+        return self.row is not None and bool(self.row["converged"])
+
+
+def slim_row(result: RunResult) -> dict[str, float]:
+    """The numbers of a run kept by a study: its flat row (`RunResult.flat_row`), the
+    `DERIVED` outputs and the build time ``build_s``."""
+    row = {k: float(v) for k, v in result.flat_row().items()
+           if isinstance(v, (int, float)) and v is not None}
+    comps = result.compartments
+    forces = [c.force_N for c in comps.values()]
+    row["max_pressure_MPa"] = float(max(c.max_pressure_MPa for c in comps.values()))
+    row["area_mm2"] = float(sum(c.area_mm2 for c in comps.values()))
+    total = sum(forces)
+    row["medial_share"] = (float(comps["medial"].force_N / total)
+                           if "medial" in comps and total > 0 else math.nan)
+    row["build_s"] = float(result.timing_s.get("build", math.nan))
+    return row
+
+
+def sample_on_worker(scene: Scene, overrides: tuple[str, ...], index: int, label: str,
+                     study_id: str) -> Sample:
+    """Run one sample on a worker (or in this process): the sweep's worker solve
+    (`solve_on_worker`: reused parts, warm start), its result cut to `slim_row`."""
+    point = solve_on_worker(scene, overrides, float(index), label, study_id)
+    if point.failed:
+        return Sample(index, None, point.error)
+    return Sample(index, slim_row(point.result))
+
+
+class PopulationInterrupted(KeyboardInterrupt):
+    """A study stopped by Ctrl-C or SIGTERM: the samples finished until then."""
+
+    def __init__(self, samples: dict[int, Sample]):
+        super().__init__(f"population interrupted: {len(samples)} samples finished")
+        self.samples = samples
+
+
+@dataclass
+class Progress:
+    """Finished samples, with a progress line on stderr and a callback after each."""
+
+    total: int
+    show: bool
+    on_sample: Callable[[dict[int, Sample]], None] | None = None
+    done: dict[int, Sample] = field(default_factory=dict)
+    start: float = field(default_factory=time.monotonic)
+    resumed: int = 0
+    _drawn_at: float = -math.inf
+
+    def add(self, sample: Sample) -> None:
+        """Record a finished sample."""
+        self.done[sample.index] = sample
+        self.draw()
+        if self.on_sample is not None:
+            self.on_sample(self.done)
+
+    def draw(self, final: bool = False) -> None:
+        """Redraw the progress line (at most 5 times a second, and at the end)."""
+        now = time.monotonic()
+        if not self.show or (now - self._drawn_at < 0.2 and not final):
+            return
+        self._drawn_at = now
+        n = len(self.done)
+        new = n - self.resumed
+        rate = new / max(now - self.start, 1e-9)
+        eta = (self.total - n) / rate if rate > 0 else math.inf
+        failed = sum(1 for s in self.done.values() if s.failed)
+        width = 30
+        bar = "#" * (width * n // max(self.total, 1))
+        eta_text = f"{eta:.0f} s left" if math.isfinite(eta) else ""
+        sys.stderr.write(f"\rpopulation [{bar:.<{width}s}] {n}/{self.total}  "
+                         f"{rate:.1f}/s  {failed} failed  {eta_text}   ")
+        if final:
+            sys.stderr.write("\n")
+        sys.stderr.flush()
+
+
+def _label(index: int) -> str:
+    return f"sample {index}"
+
+
+def _run_serial(scene: Scene, plan: Plan, todo: Sequence[int], progress: Progress,
+                study_id: str) -> None:
+    for i in todo:
+        sample = sample_on_worker(scene, plan.overrides[i], i, _label(i), study_id)
+        rearm_handlers()
+        raise_pending_interrupt()
+        progress.add(sample)
+
+
+def _collect(future: Future, index: int) -> Sample:
+    try:
+        return future.result()
+    except Exception as err:
+        return Sample(index, None, f"{_label(index)} failed on a worker: {describe_error(err)}")
+
+
+def _run_on(executor: Executor, scene: Scene, plan: Plan, todo: Sequence[int],
+            progress: Progress, study_id: str) -> None:
+    futures: dict[Future, int] = {}
+    complete = False
+    try:
+        with interrupts_held():
+            for i in todo:
+                futures[executor.submit(sample_on_worker, scene, plan.overrides[i], i,
+                                        _label(i), study_id)] = i
+        for future in finished_futures(list(futures)):
+            progress.add(_collect(future, futures[future]))
+        complete = True
+    finally:
+        if not complete:
+            with interrupts_ignored():
+                for future in futures:
+                    future.cancel()
+
+
+def run_population(scene: Scene, plan: Plan, *, done: dict[int, Sample] | None = None,
+                   workers: int = 1, executor: Executor | None = None,
+                   progress: bool = True,
+                   on_sample: Callable[[dict[int, Sample]], None] | None = None
+                   ) -> dict[int, Sample]:
+    """Run the samples of `plan` not in `done`; every finished sample by index.
+
+    workers : 1 and no `executor`: serial in this process; more: a local pool.
+    executor : run on it (a Dask cluster's); the caller owns it.
+
+    Raises
+    ------
+    PopulationInterrupted
+        On Ctrl-C (SIGTERM): carries every sample finished, `done` included.
+    """
+    tracker = Progress(plan.runs, progress, on_sample, dict(done or {}))
+    tracker.resumed = len(tracker.done)
+    todo = [i for i in range(plan.runs) if i not in tracker.done]
+    study_id = uuid.uuid4().hex
+    try:
+        if executor is None and workers <= 1:
+            _run_serial(scene, plan, todo, tracker, study_id)
+        elif executor is None:
+            pool = ProcessPool(workers)
+            ok = False
+            try:
+                _run_on(pool, pin_geometry_dir(scene), plan, todo, tracker, study_id)
+                ok = True
+            finally:
+                with interrupts_ignored():
+                    pool.shutdown() if ok else pool.terminate()
+        else:
+            _run_on(executor, pin_geometry_dir(scene), plan, todo, tracker, study_id)
+    except KeyboardInterrupt:
+        tracker.draw(final=True)
+        raise PopulationInterrupted(tracker.done) from None
+    tracker.draw(final=True)
+    return tracker.done
+
+
+# --- the rebuild check --------------------------------------------------------------
+
+
+@dataclass(frozen=True)
+class Probe:
+    """The scene's nominal run and the cost of the rebuilds the varied keys cause.
+
+    solve_s : the nominal run's solve time, s (parts reused)
+    rebuild_s : {varied name: build time of a run with that key moved, s} for the keys
+        the model's reusable builds read (the others rebuild nothing)
+    """
+
+    solve_s: float
+    rebuild_s: dict[str, float]
+
+
+def probe(scene: Scene, plan: Plan) -> Probe:
+    """Run the nominal scene twice (the second reuses the parts), then, for each varied
+    key that a reusable build reads, one run with that key at a random value of its
+    distribution from the nominal parts: how long the rebuild it causes takes (a random
+    value, so that no mesh cached on disk by an earlier study hides the cost)."""
+    from fecheck.model.run import run_scene
+
+    memo: dict = {}
+    with reusing_builds(memo):
+        run_scene(scene)
+        warm = run_scene(scene)
+    solve_s = float(warm.timing_s.get("total", math.nan))
+    read = set().union(*(entry[1] for entry in memo.values())) if memo else set()
+    saved = dict(memo)
+    costs = {}
+    fresh = np.random.default_rng()     # a value no earlier run cached a mesh for
+    for v in plan.varied:
+        if v.key not in read:
+            continue
+        u = np.full((1, 1), fresh.uniform(0.05, 0.95))
+        moved = apply_overrides(scene, list(overrides_for([v], scene, u)[0]))
+        memo.clear()
+        memo.update(saved)
+        with reusing_builds(memo):
+            try:
+                result = run_scene(moved)
+            except FecheckError:
+                continue                         # the sample will record its own error
+        costs[v.name] = float(result.timing_s.get("build", 0.0))
+    return Probe(solve_s, costs)
+
+
+def check_rebuilds(found: Probe, plan: Plan) -> list[str]:
+    """Refuse keys whose rebuild at every sample costs more than `REBUILD_FACTOR` solves
+    (and `REBUILD_MIN_S`); lines describing the accepted rebuilds' costs.
+
+    Raises
+    ------
+    FecheckError
+        Naming the key, the rebuild time per sample and the study's extra time.
+    """
+    lines = []
+    for name, cost in found.rebuild_s.items():
+        extra = _duration(cost * plan.runs)
+        if cost > max(REBUILD_MIN_S, REBUILD_FACTOR * found.solve_s):
+            raise FecheckError(
+                f"--vary {name} rebuilds the model's meshes and contact parts at every "
+                f"sample: {cost:.2g} s each against a {found.solve_s:.2g} s solve, about "
+                f"{extra} more for {plan.runs} samples; vary it with `fecheck sweep` over a "
+                f"few values, or pass --allow-rebuild")
+        if cost > 0.1 * found.solve_s:
+            lines.append(f"{name} rebuilds the model's contact parts at every sample: "
+                         f"{cost:.2g} s each ({extra} for {plan.runs} samples)")
+    return lines
+
+
+def _duration(seconds: float) -> str:
+    """``"40 s"``, ``"12 min"`` or ``"3.1 h"``."""
+    if seconds < 120:
+        return f"{seconds:.0f} s"
+    if seconds < 7200:
+        return f"{seconds / 60:.0f} min"
+    return f"{seconds / 3600:.1f} h"
+
+
+# --- outputs, CSV and resume --------------------------------------------------------
+
+
+def output_columns(samples: dict[int, Sample]) -> list[str]:
+    """Every output column seen in the solved samples, in first-seen order."""
+    columns: dict[str, None] = {}
+    for s in samples.values():
+        if s.row is not None:
+            columns.update(dict.fromkeys(s.row))
+    return list(columns)
+
+
+def check_outputs(names: Sequence[str], available: Sequence[str]) -> None:
+    """Refuse an output no solved sample has."""
+    for name in names:
+        if name not in available:
+            raise FecheckError(f"--outputs {name}: no such output; choose from "
+                               f"{', '.join(available)}")
+
+
+def csv_text(plan: Plan, samples: dict[int, Sample]) -> str:
+    """One row per finished sample, by index: sample, the drawn values, converged, every
+    output, error."""
+    drawn = plan.drawn()
+    outputs = [c for c in output_columns(samples) if c != "converged"]
+    columns = ["sample", *(v.column() for v in plan.varied), "converged", *outputs, "error"]
+    buffer = io.StringIO()
+    writer = csv.writer(buffer, lineterminator="\n")
+    writer.writerow(columns)
+    for i in sorted(samples):
+        s = samples[i]
+        row = s.row or {}
+        writer.writerow([i, *(repr(float(x)) for x in drawn[i]),
+                         bool(row.get("converged", False)),
+                         *(repr(row[c]) if c in row else "" for c in outputs), s.error])
+    return buffer.getvalue()
+
+
+def write_csv(plan: Plan, samples: dict[int, Sample], path: str | os.PathLike) -> None:
+    """Write the finished samples as CSV, atomically (`csv_text`)."""
+    write_text(path, csv_text(plan, samples))
+
+
+def read_done(path: str | os.PathLike, plan: Plan) -> dict[int, Sample]:
+    """The samples already in a study's CSV (none if it does not exist).
+
+    Raises
+    ------
+    FecheckError
+        When the file was written for another study (keys, values or sample count).
+    """
+    path = Path(path)
+    if not path.is_file():
+        return {}
+    try:
+        with path.open(newline="") as f:
+            table = list(csv.DictReader(f))
+    except (OSError, csv.Error, UnicodeDecodeError) as err:
+        raise FecheckError(f"--csv {path}: cannot read it to resume ({err})") from None
+    other = (f"--csv {path} holds samples of another study (other keys, distributions, "
+             "method, seed or sample count): give another --csv, or remove it to start again")
+    drawn = plan.drawn()
+    done = {}
+    for row in table:
+        try:
+            i = int(row["sample"])
+            values = [float(row[v.column()]) for v in plan.varied]
+        except (KeyError, TypeError, ValueError):
+            raise FecheckError(other) from None
+        if not 0 <= i < plan.runs or not np.allclose(values, drawn[i], rtol=1e-9, atol=0.0):
+            raise FecheckError(other)
+        done[i] = _sample_from_csv(i, row, plan)
+    return done
+
+
+def _sample_from_csv(i: int, row: dict[str, str], plan: Plan) -> Sample:
+    if row.get("error"):
+        return Sample(i, None, row["error"])
+    skip = {"sample", "error", *(v.column() for v in plan.varied)}
+    out = {k: (float(v) if v not in ("", None) else math.nan)
+           for k, v in row.items() if k not in skip and k != "converged"}
+    out["converged"] = float(row.get("converged") == "True")
+    return Sample(i, out)
+
+
+# --- statistics ---------------------------------------------------------------------
+
+
+def output_matrix(plan: Plan, samples: dict[int, Sample], name: str) -> np.ndarray:
+    """(runs,) the output at every sample; NaN where a sample is missing, failed or did
+    not converge."""
+    y = np.full(plan.runs, math.nan)
+    for i, s in samples.items():
+        if s.converged:
+            y[i] = s.row.get(name, math.nan)
+    return y
+
+
+def describe(y: np.ndarray) -> dict[str, float]:
+    """Mean, standard deviation and the 5, 50 and 95 % quantiles of the finite values."""
+    y = y[np.isfinite(y)]
+    if y.size == 0:
+        return {"n": 0}
+    q5, q50, q95 = np.percentile(y, [5, 50, 95])
+    return {"n": int(y.size), "mean": float(y.mean()), "sd": float(y.std(ddof=1))
+            if y.size > 1 else 0.0, "p5": float(q5), "median": float(q50), "p95": float(q95),
+            "min": float(y.min()), "max": float(y.max())}
+
+
+def indices_of(plan: Plan, samples: dict[int, Sample], name: str) -> sobol.Indices:
+    """Sobol indices of output `name` (the plan must carry them)."""
+    return sobol.sobol_indices(output_matrix(plan, samples, name),
+                               [v.name for v in plan.varied], seed=plan.seed)
+
+
+def extreme_samples(plan: Plan, samples: dict[int, Sample], name: str, k: int) -> list[int]:
+    """The indices of the `k` samples farthest from the median of output `name`."""
+    y = output_matrix(plan, samples, name)
+    ok = np.flatnonzero(np.isfinite(y))
+    if ok.size == 0:
+        return []
+    order = np.argsort(-np.abs(y[ok] - np.median(y[ok])), kind="stable")
+    return [int(i) for i in ok[order[:k]]]
+
+
+def report_dict(scene: Scene, plan: Plan, samples: dict[int, Sample], outputs: Sequence[str],
+                indices: dict[str, Any], notes: Sequence[str]) -> dict[str, Any]:
+    """The study as a JSON-ready dict."""
+    failed = {i: s.error for i, s in sorted(samples.items()) if s.failed}
+    stalled = [i for i, s in sorted(samples.items()) if not s.failed and not s.converged]
+    return {
+        "scene": scene.source, "method": plan.method, "seed": plan.seed,
+        "samples": plan.runs, "finished": len(samples), "base_rows": plan.base_rows,
+        "keys": {v.name: {"distribution": v.dist.text(), "unit": v.unit,
+                          "nominal": v.nominal} for v in plan.varied},
+        "failed": {"count": len(failed), "samples": failed},
+        "not_converged": {"count": len(stalled), "samples": stalled},
+        "outputs": {n: describe(output_matrix(plan, samples, n)) for n in outputs},
+        "indices": indices, "notes": list(notes)}
