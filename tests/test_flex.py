@@ -125,6 +125,64 @@ def test_the_pvd_reads_back_as_a_time_series_with_one_step_per_angle(tmp_path):
                                             -math.sin(math.radians(a))], atol=1e-6)
 
 
+def _bundled_run(angles) -> flex.FlexRun:
+    """`_toy_run` with a femur sheet and two bundles from the femur to tibial points."""
+    run = _toy_run(angles)
+    run.femur = {"articular surface": run.slaves["medial"]}
+    run.bundles = (("A", "B"), np.array([[0.0, 0.0, 5.0], [1.0, 0.0, 5.0]]),
+                   np.array([[0.0, 1.0, 0.0], [1.0, 1.0, 0.0]]))
+    for p in run.points:
+        p.ligaments = {"A": 10.0 + p.flexion_deg, "B": 2.0}
+    return run
+
+
+def test_the_pvd_has_the_femur_and_a_line_per_bundle_within_the_size_estimate(tmp_path):
+    # The bundle B runs from its femoral point (1, 0, 5) to its tibial point (1, 1, 0)
+    # turned by -a about x: (1, cos a, -sin a). The estimate bounds the files from above
+    # (uncompressed sizes; measured here about 3 times the written bytes).
+    pv = pytest.importorskip("pyvista")
+    from fecheck.studies.flex_outputs import vtk_size_bytes, write_vtk_series
+
+    angles = [0.0, 30.0]
+    run = _bundled_run(angles)
+    pvd = write_vtk_series(run, tmp_path / "vtk")
+    reader = pv.get_reader(str(pvd))
+    for a in angles:
+        reader.set_active_time_value(a)
+        tibia, femur, lines = reader.read()
+        assert femur.n_cells == 2 and np.allclose(femur.points, run.slaves["medial"].points)
+        assert lines.n_cells == 2 and np.allclose(lines.cell_data["tension_N"], [10 + a, 2])
+        b = lines.get_cell(1).points
+        c, s = math.cos(math.radians(a)), math.sin(math.radians(a))
+        assert np.allclose(b, [[1.0, 0.0, 5.0], [1.0, c, -s]], atol=1e-6)
+        assert np.allclose(lines.cell_data["length_mm"][1], np.linalg.norm(b[1] - b[0]))
+    written = sum(f.stat().st_size for f in (tmp_path / "vtk").iterdir())
+    assert written <= vtk_size_bytes(run)
+
+
+def test_a_vtk_series_over_the_cap_is_refused_unless_forced(monkeypatch):
+    from fecheck.errors import FecheckError
+    from fecheck.studies import flex_outputs
+
+    run = _bundled_run([0.0, 30.0])
+    monkeypatch.setattr(flex_outputs, "VTK_CAP_BYTES", 1000.0)
+    with pytest.raises(FecheckError, match="--vtk would write about .* --force"):
+        flex_outputs.check_vtk_size(run, None, force=False)
+    assert flex_outputs.check_vtk_size(run, None, force=True) > 1000
+
+
+def test_the_table_states_the_signs_and_has_a_row_per_angle():
+    from fecheck.studies.flex_outputs import table_text
+
+    run = _toy_run([0.0, 15.0])
+    run.points[1].abduction_deg, run.points[1].internal_deg = 1.25, -2.5
+    lines = table_text(run).splitlines()
+    assert "add° adduction (+ varus" in lines[0] and "(+ internal" in lines[0]
+    assert lines[1].split()[:3] == ["flex°", "add°", "int°"]
+    assert [line.split()[:3] for line in lines[2:]] == [["0", "0.00", "0.00"],
+                                                        ["15", "1.25", "-2.50"]]
+
+
 @pytest.fixture(scope="module")
 def knee_range():
     """The scanned knee with bundles, decimated, 20-26° in 1° steps."""
@@ -209,11 +267,15 @@ def test_cli_writes_one_row_per_angle_and_progress_on_stderr(tmp_path, capsys):
     out, err = capsys.readouterr()
     assert code == 0
     lines = out.strip().splitlines()
-    assert lines[0].startswith("flexion_deg,abduction_deg,internal_deg,ml_mm,ap_mm,si_mm")
+    assert lines[0].startswith("flexion_deg,abduction_deg,internal_deg,ml_mm,ap_mm,si_mm,"
+                               "adduction_deg,internal_rotation_deg")
+    assert "per angle: flex° knee flexion" in err     # the table, off the CSV's stdout
     assert [float(line.split(",")[0]) for line in lines[1:]] == [0.0, 1.0, 2.0]
     assert "flex [3/3] 2°" in err and "flexion axis: point" in err
     doc = json.loads((tmp_path / "f.json").read_text())
     assert [a["flexion_deg"] for a in doc["angles"]] == [0.0, 1.0, 2.0]
+    assert "varus" in doc["signs"]["adduction_deg"]
+    assert all(a["adduction_deg"] == a["abduction_deg"] for a in doc["angles"])  # right knee
     assert len(doc["angles"][0]["ligaments_N"]) == 55
 
 
