@@ -387,6 +387,24 @@ def test_fe_at_an_angle_compares_on_the_flexed_poses_tibial_faces(knee_fe):
     assert doc["fe"][0]["lateral_cop_distance_mm"] == row["lateral_cop_distance_mm"]
 
 
+def test_fe_at_settles_where_the_internal_rotation_is_soft_under_a_tibial_axis_load():
+    # 800 N along the tibial axis at 26°, near the steep passage of the internal rotation
+    # (the decimated knee's rotational stiffness vanishes at 26.6°): without the contact
+    # forces' own change with the pose in the FE's tangent, the pose updates wander (steps
+    # 0.05-0.65 mm) until the active set fails; with it they converge quadratically in 7
+    # updates (measured: 3.8e-3, 6.2e-7, 2.2e-12). Bound: 12 updates, balance 1e-8.
+    from fecheck.scene import load_scene
+
+    scene = load_scene("femur_tibia_ligaments", ["scanned.decimate_faces=1500",
+                                                 "load.frame='tibia'"])
+    axis, updates = flex.scene_axis(scene), []
+    run = flex.run_flex(scene, [26.0], axis, fe_at=[26.0],
+                        fe_log=lambda m: updates.append(m) if "pose update" in m else None)
+    assert run.stopped is None and len(run.fe) == 1
+    assert run.fe[0]["balance"] < 1e-8 and len(updates) <= 12
+    assert all(run.fe[0][f"{c}_fe_area_mm2"] > 0 for c in ("medial", "lateral"))
+
+
 def test_cli_refuses_an_fe_angle_outside_the_sweep_before_building_anything(monkeypatch,
                                                                             capsys):
     import fecheck.model.scanned as scanned

@@ -21,6 +21,12 @@ vertices that pull are released and those that penetrate are added until A stops
 changing (Hintermüller-Ito-Kunisch). The outer loop re-linearises g0, J and G at the
 new pose (rotations are finite) until the pose stops moving: the
 equilibrium is exact, with no penalty and no tolerance on penetration beyond round-off.
+The equilibrium row's tangent carries, besides ∂Q/∂q, the change of the contact forces'
+generalised force with the pose at the last forces, ∂(G(q)ᵀλ)/∂q (the forces turn and
+move with the tibia; central differences of G, which needs no contact query): without it
+the outer loop is a fixed-point iteration whose rate is the ratio of that term to the
+joint's stiffness, slow (halving the step each update) or divergent where a free
+rotation is soft, as the flexed knee's internal rotation is under a large axial load.
 
 Two deformable layers (``fe.cartilage = "two-layer"``): the femoral surface is a layer of
 its own (world frame, bonded to the femoral bone, `FemoralLayer`). Contact is
@@ -245,7 +251,7 @@ class JointContact:
         """
         t0 = time.perf_counter()
         q = np.asarray(q0, dtype=float).copy()
-        active = None
+        active = lam = None
         inner = 0
         for outer in range(1, max_outer + 1):
             g0, J, G, hits = _linearised_gaps(self.layers, pose, basis, q)
@@ -253,6 +259,8 @@ class JointContact:
             if active is None:
                 active = g0 <= np.sort(g0)[min(len(g0) - 1, 3)]
             dQ = np.zeros((len(q), len(q))) if stiffness is None else stiffness(q)
+            if lam is not None:
+                dQ = dQ + _force_stiffness(self.layers, pose, basis, q, lam)
             lam, dq, active, it = active_set(C, g0, J, G, load(q), dQ, active,
                                              max_active, "refine the layer under the "
                                              "contact or check the load")
@@ -332,6 +340,36 @@ def _pair_load(fc: _FemoralCompliance, P: sp.csr_matrix, lam: np.ndarray) -> np.
     return f
 
 
+def _contact_forces(layers: Sequence[ContactLayer], pose, basis, q: np.ndarray) -> np.ndarray:
+    """G (m, k) of `_linearised_gaps` alone (no contact query)."""
+    rot, t = pose(q)
+    b = basis(q)
+    out = []
+    for layer in layers:
+        pts = layer.solid.surface.points[layer.candidates] @ rot.T + t
+        nrm = layer.solid.normals[layer.candidates] @ rot.T
+        out.append(-np.hstack([nrm, np.cross(pts, nrm)]) @ b)
+    return np.concatenate(out)
+
+
+FORCE_STEP = 1e-6
+"""Central-difference step of `_force_stiffness` (mm, rad): G is smooth (rotations), so
+the truncation error is of order 1e-12 of the entries and round-off about 1e-10."""
+
+
+def _force_stiffness(layers: Sequence[ContactLayer], pose, basis, q: np.ndarray,
+                     lam: np.ndarray) -> np.ndarray:
+    """∂(G(q)ᵀλ)/∂q (k, k) at fixed contact forces λ (N), by central differences, N/mm and
+    N·mm/rad."""
+    cols = []
+    for j in range(len(q)):
+        h = np.zeros(len(q))
+        h[j] = FORCE_STEP
+        cols.append((_contact_forces(layers, pose, basis, q + h).T @ lam
+                     - _contact_forces(layers, pose, basis, q - h).T @ lam) / (2 * FORCE_STEP))
+    return np.column_stack(cols)
+
+
 def _linearised_gaps(layers: Sequence[ContactLayer], pose, basis, q: np.ndarray
                      ) -> tuple[np.ndarray, np.ndarray, np.ndarray, list]:
     """At pose q, for the candidates of all layers: gaps g0 (m,), J (m, k) = ∂g0/∂q,
@@ -341,7 +379,7 @@ def _linearised_gaps(layers: Sequence[ContactLayer], pose, basis, q: np.ndarray
     candidates' rays hit, the barycentric weights and the world normals."""
     rot, t = pose(q)
     b = basis(q)
-    gaps, rows, forces, hits = [], [], [], []
+    gaps, rows, hits = [], [], []
     for layer in layers:
         pts = layer.solid.surface.points[layer.candidates] @ rot.T + t
         nrm = layer.solid.normals[layer.candidates] @ rot.T
@@ -353,5 +391,5 @@ def _linearised_gaps(layers: Sequence[ContactLayer], pose, basis, q: np.ndarray
             hits.append((face, weights, nrm))
         gaps.append(g.gap_mm)
         rows.append(g.twist @ b)
-        forces.append(-np.hstack([nrm, np.cross(pts, nrm)]) @ b)
-    return np.concatenate(gaps), np.concatenate(rows), np.concatenate(forces), hits
+    return (np.concatenate(gaps), np.concatenate(rows), _contact_forces(layers, pose, basis, q),
+            hits)
