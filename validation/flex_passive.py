@@ -49,6 +49,23 @@ Measured (every variant solves every 5°; 121 angles at 1° take 6-10 s after th
   2-4 and 15-20 mm. Only the 800 N along the tibial axis gives one, to 60° (lateral facet
   centre 23.7 mm back, medial 1.4 mm, 18.6° internal rotation), through a snap of 7.7°
   between 26 and 27°, and it reverses beyond (0-120°: lateral 13.5, medial 17.4 mm).
+* The 7.7° snap under 800 N along the tibial axis (decimated to 3,000 faces: 9.46° at 26°,
+  17.39° at 27°; full size within 0.1° of it at 20 and 30°) is a limit point of the
+  model, not a solver failure: followed in 0.02° steps the lower branch ends at 26.51°
+  (12.1°, its slope rising from 2.9°/deg at 25° to 7.4°/deg at 26.5°) and the upper one,
+  followed back from 27.5°, at 26.59° (16.5°), where the Newton tangent in adduction and
+  internal rotation is singular; sweeps 20-32° forwards and backwards in 0.5° steps agree
+  to 0.01°. Only the ACL holds the rotation there (164 N at 20°, 286 N at 26.5°; MCL 2-10
+  N, the other bundles slack), and what undoes it grows with the axial load: the singular
+  tangent comes at 39.5-40° under 200 N, 26.6° under 800 N, and not over 0-60° under 30 N.
+* Against the source model's passive flexion (its axis, 30 N along the tibia, full size):
+  adduction inside the band at every angle (+0.6° at 10° to +5.0° at 90°); internal
+  rotation +4.7, +5.8, +4.8, +3.4° at 10, 20, 30, 45°, 1.0-2.0° above the band, and inside
+  it from 60° (-3.7° at 90°). Without the MCLp bundles it is inside from 10 to 75° (+3.4,
+  +3.6, +2.5, +1.1, -0.7, -3.4°) and 0.8° below at 90°; gravity off or the wrapped slack
+  lengths take it further out (up to +9.5° at 45°). The posteromedial bundles as straight
+  lines (the source model wraps them) are the measured excess; the patella and quadriceps
+  of the source model are not in this knee.
 * No setting tried gives both over the range, so the scene and `fecheck flex` keep their
   defaults. Not modelled here, and candidates: the menisci, the patella with the
   quadriceps and hamstrings, the wrapping of the bundles.
