@@ -61,11 +61,6 @@ from fecheck.fe.solid import LayerSolid
 POSE_TOL = 1e-9
 """The outer loop stops when the pose step is below this (mm, and rad × 100 mm)."""
 
-MAX_POSE_STEP = 0.5
-"""The longest pose update taken (mm, and rad × 100 mm): a longer one is shortened along its
-direction, so that the gaps are re-linearised within about the contact's depth of the last
-pose (a soft free rotation can ask for a first step of mm from the EF pose)."""
-
 
 @dataclass(frozen=True, eq=False)
 class FemoralLayer:
@@ -270,14 +265,11 @@ class JointContact:
                                              max_active, "refine the layer under the "
                                              "contact or check the load")
             inner += it
-            scale = np.where(np.abs(basis(q)[3:]).sum(axis=0) > 0, 100.0, 1.0)   # rad → mm
-            size = float(np.max(np.abs(dq) * scale))
-            if size > MAX_POSE_STEP:
-                dq = dq * (MAX_POSE_STEP / size)
             q = q + dq
             self.log(f"FE pose update {outer}: {int(active.sum())} vertices in contact, "
                      f"step {np.abs(dq).max():.2e}")
-            if size <= POSE_TOL:
+            scale = np.where(np.abs(basis(q)[3:]).sum(axis=0) > 0, 100.0, 1.0)   # rad → mm
+            if float(np.max(np.abs(dq) * scale)) <= POSE_TOL:
                 break
         else:
             raise FecheckError(f"the FE joint equilibrium did not settle in {max_outer} pose "
