@@ -256,14 +256,13 @@ class JointContact:
         for outer in range(1, max_outer + 1):
             g0, J, G, hits = _linearised_gaps(self.layers, pose, basis, q)
             C, _, _ = self._paired(hits)
-            if active is None:
-                active = g0 <= np.sort(g0)[min(len(g0) - 1, 3)]
+            fresh = g0 <= np.sort(g0)[min(len(g0) - 1, 3)]
             dQ = np.zeros((len(q), len(q))) if stiffness is None else stiffness(q)
             if lam is not None:
                 dQ = dQ + _force_stiffness(self.layers, pose, basis, q, lam)
-            lam, dq, active, it = active_set(C, g0, J, G, load(q), dQ, active,
-                                             max_active, "refine the layer under the "
-                                             "contact or check the load")
+            lam, dq, active, it = _settled(C, g0, J, G, load(q), dQ,
+                                           fresh if active is None else active, fresh,
+                                           max_active)
             inner += it
             q = q + dq
             self.log(f"FE pose update {outer}: {int(active.sum())} vertices in contact, "
@@ -338,6 +337,19 @@ def _pair_load(fc: _FemoralCompliance, P: sp.csr_matrix, lam: np.ndarray) -> np.
     f = np.zeros(fc.femur.solid.n_dofs)
     f[fc.dofs.ravel()] = P.T @ lam
     return f
+
+
+def _settled(C, g0, J, G, Q, dQ, active, fresh, max_active: int):
+    """`active_set` from the last pose's contact set `active`, and once more from the
+    deepest candidates `fresh` where that one cycles (after a long pose update the last set
+    can be far from this pose's)."""
+    hint = "refine the layer under the contact or check the load"
+    try:
+        return active_set(C, g0, J, G, Q, dQ, active, max_active, hint)
+    except FecheckError:
+        if np.array_equal(active, fresh):
+            raise
+    return active_set(C, g0, J, G, Q, dQ, fresh, max_active, hint)
 
 
 def _contact_forces(layers: Sequence[ContactLayer], pose, basis, q: np.ndarray) -> np.ndarray:
