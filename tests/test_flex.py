@@ -263,9 +263,14 @@ def _main(argv):
 def test_cli_writes_one_row_per_angle_and_progress_on_stderr(tmp_path, capsys):
     import json
 
-    code = _main(["--angles", "0:2:1", "--csv", "-", "--json", str(tmp_path / "f.json")])
+    code = _main(["--angles", "0:2:1", "--csv", "-", "--json", str(tmp_path / "f.json"),
+                  "--vtk", str(tmp_path / "vtk")])
     out, err = capsys.readouterr()
     assert code == 0
+    assert {p.name for p in (tmp_path / "vtk").iterdir()} == {
+        "flex.pvd", "femur.vtu", *(f"{k}_{i:03d}.vtu" for k in ("flex", "ligaments")
+                                   for i in range(3))}
+    assert "writing the VTK series" in err and "at most" in err
     lines = out.strip().splitlines()
     assert lines[0].startswith("flexion_deg,abduction_deg,internal_deg,ml_mm,ap_mm,si_mm,"
                                "adduction_deg,internal_rotation_deg")

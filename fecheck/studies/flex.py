@@ -323,7 +323,7 @@ def run_flex(scene: Scene, angles: Sequence[float], axis: FlexionAxis,
     comps = build_compartments(scene)
     names, springs = bundle_springs(scene)
     run = FlexRun(axis, [], time.perf_counter() - t0, {c.name: c.pair.slave for c in comps},
-                  femur={"articular surface": comps[0].pair.master},
+                  femur={"articular surface": comps[0].pair.master.mesh},
                   bundles=(tuple(names),
                            np.array([s.femur_point for s in springs]).reshape(-1, 3),
                            np.array([s.tibia_point for s in springs]).reshape(-1, 3)))
