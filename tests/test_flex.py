@@ -423,3 +423,29 @@ def test_cli_refuses_an_fe_angle_outside_the_sweep_before_building_anything(monk
     assert _main(["--angles", "0:60:2", "--fe-at", "0,30,45"]) == 2
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 1 and "--fe-at '0,30,45': 45° not among the --angles" in err[0]
+
+
+def test_the_one_at_a_time_active_set_solves_the_block_updates_complementarity():
+    # A rigid plate pushed down onto 30 springs of a symmetric positive definite
+    # compliance, one translation unknown: the complementarity has one solution, which the
+    # block (Hintermüller-Ito-Kunisch) update finds; the one-change-per-solve fallback
+    # must find the same forces (round-off ~1e-12 of the load), from every candidate in
+    # contact (releases needed) and from the deepest alone (additions needed).
+    from fecheck.fe.contact import active_set
+    from fecheck.fe.joint import _one_at_a_time
+
+    rng = np.random.default_rng(3)
+    a = rng.normal(size=(30, 30))
+    C = 0.01 * (a @ a.T / 30 + np.eye(30))
+    g0 = rng.uniform(0.0, 0.3, 30)
+    J = G = np.ones((30, 1))
+    Q, dQ = np.array([-100.0]), np.zeros((1, 1))
+    deepest = np.zeros(30, dtype=bool)
+    deepest[np.argmin(g0)] = True
+    lam_b, dq_b, set_b, _ = active_set(C, g0, J, G, Q, dQ, deepest.copy(), 200, "")
+    assert 1 < set_b.sum() < 30
+    for start in (np.ones(30, dtype=bool), deepest):
+        lam_o, dq_o, set_o, _ = _one_at_a_time(C, g0, J, G, Q, dQ, start.copy(), 600)
+        assert np.array_equal(set_o, set_b)
+        assert np.allclose(lam_o, lam_b, rtol=0, atol=1e-9) and dq_o == pytest.approx(dq_b)
+        assert lam_o.sum() == pytest.approx(100.0, rel=1e-12)

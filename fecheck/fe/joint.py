@@ -55,7 +55,13 @@ import numpy as np
 import scipy.sparse as sp
 
 from fecheck.errors import FecheckError
-from fecheck.fe.contact import active_set, condensed_compliance, factorize, nodal_compliance
+from fecheck.fe.contact import (
+    active_set,
+    condensed_compliance,
+    factorize,
+    kkt_step,
+    nodal_compliance,
+)
 from fecheck.fe.solid import LayerSolid
 
 POSE_TOL = 1e-9
@@ -256,13 +262,12 @@ class JointContact:
         for outer in range(1, max_outer + 1):
             g0, J, G, hits = _linearised_gaps(self.layers, pose, basis, q)
             C, _, _ = self._paired(hits)
-            fresh = g0 <= np.sort(g0)[min(len(g0) - 1, 3)]
+            if active is None:
+                active = g0 <= np.sort(g0)[min(len(g0) - 1, 3)]
             dQ = np.zeros((len(q), len(q))) if stiffness is None else stiffness(q)
             if lam is not None:
                 dQ = dQ + _force_stiffness(self.layers, pose, basis, q, lam)
-            lam, dq, active, it = _settled(C, g0, J, G, load(q), dQ,
-                                           fresh if active is None else active, fresh,
-                                           max_active)
+            lam, dq, active, it = _settled(C, g0, J, G, load(q), dQ, active, max_active)
             inner += it
             q = q + dq
             self.log(f"FE pose update {outer}: {int(active.sum())} vertices in contact, "
@@ -339,17 +344,36 @@ def _pair_load(fc: _FemoralCompliance, P: sp.csr_matrix, lam: np.ndarray) -> np.
     return f
 
 
-def _settled(C, g0, J, G, Q, dQ, active, fresh, max_active: int):
-    """`active_set` from the last pose's contact set `active`, and once more from the
-    deepest candidates `fresh` where that one cycles (after a long pose update the last set
-    can be far from this pose's)."""
-    hint = "refine the layer under the contact or check the load"
+def _settled(C, g0, J, G, Q, dQ, active, max_active: int):
+    """`active_set` from the last pose's contact set `active`; where it cycles (its
+    tangent is not symmetric: a follower load, the contact forces' own change with the
+    pose), `_one_at_a_time` from the set it reached."""
     try:
-        return active_set(C, g0, J, G, Q, dQ, active, max_active, hint)
+        return active_set(C, g0, J, G, Q, dQ, active, max_active,
+                          "refine the layer under the contact or check the load")
     except FecheckError:
-        if np.array_equal(active, fresh):
-            raise
-    return active_set(C, g0, J, G, Q, dQ, fresh, max_active, hint)
+        return _one_at_a_time(C, g0, J, G, Q, dQ, active, 20 * len(g0))
+
+
+def _one_at_a_time(C, g0, J, G, Q, dQ, active, max_iter: int):
+    """The complementarity of `active_set` with one change of the set per solve: the most
+    pulling active candidate released, else the most penetrating inactive one added;
+    slower (a dense solve per change) but it does not jump between sets as the block
+    update can. Returns as `active_set`."""
+    active = active.copy()
+    for it in range(1, max_iter + 1):
+        lam, dq, gap = kkt_step(C, g0, J, G, Q, dQ, active)
+        pulling = np.where(active, lam, np.inf)
+        open_gap = np.where(active, np.inf, gap)
+        if pulling.min() <= 0.0 and active.sum() > 1:
+            active[np.argmin(pulling)] = False
+        elif open_gap.min() < 0.0:
+            active[np.argmin(open_gap)] = True
+        else:
+            return lam, dq, active, it
+    raise FecheckError(f"the FE contact active set did not settle in {max_iter} one-at-a-time "
+                       "changes after the block updates cycled; refine the layer under the "
+                       "contact or check the load")
 
 
 def _contact_forces(layers: Sequence[ContactLayer], pose, basis, q: np.ndarray) -> np.ndarray:
