@@ -398,6 +398,8 @@ def test_fe_at_settles_where_the_internal_rotation_is_soft_under_a_tibial_axis_l
     # forces' own change with the pose in the FE's tangent, the pose updates wander (steps
     # 0.05-0.65 mm) until the active set fails; with it they converge quadratically in 7
     # updates (measured: 3.8e-3, 6.2e-7, 2.2e-12). Bound: 12 updates, balance 1e-8.
+    # (Full size, 20°: the second update ran 21 mm off before the 1 mm trust region; with
+    # it 5 updates, steps 4e-2, 6e-2, 3e-4, 4e-7, 4e-13.)
     from fecheck.scene import load_scene
 
     scene = load_scene("femur_tibia_ligaments", ["scanned.decimate_faces=1500",
