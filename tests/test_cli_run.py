@@ -23,7 +23,9 @@ def test_run_writes_json_with_the_documented_keys(tmp_path, capsys):
     assert "medial" in printed and "lateral" in printed and "force N" in printed
     data = json.loads(out.read_text())
     assert data["converged"] is True and data["iterations"] >= 1
-    assert set(data["pose"]) == {"x_mm", "y_mm", "z_mm", "abduction_deg", "internal_deg"}
+    assert set(data["pose"]) == {"x_mm", "y_mm", "z_mm", "abduction_deg", "internal_deg",
+                                 "adduction_deg", "internal_rotation_deg"}
+    assert "varus" in data["pose_signs"]["adduction_deg"]
     for c in ("medial", "lateral"):
         assert {"force_N", "max_pressure_MPa", "mean_pressure_MPa", "area_mm2",
                 "max_depth_mm", "torque_Nmm"} <= set(data["compartments"][c])

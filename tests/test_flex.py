@@ -125,6 +125,64 @@ def test_the_pvd_reads_back_as_a_time_series_with_one_step_per_angle(tmp_path):
                                             -math.sin(math.radians(a))], atol=1e-6)
 
 
+def _bundled_run(angles) -> flex.FlexRun:
+    """`_toy_run` with a femur sheet and two bundles from the femur to tibial points."""
+    run = _toy_run(angles)
+    run.femur = {"articular surface": run.slaves["medial"]}
+    run.bundles = (("A", "B"), np.array([[0.0, 0.0, 5.0], [1.0, 0.0, 5.0]]),
+                   np.array([[0.0, 1.0, 0.0], [1.0, 1.0, 0.0]]))
+    for p in run.points:
+        p.ligaments = {"A": 10.0 + p.flexion_deg, "B": 2.0}
+    return run
+
+
+def test_the_pvd_has_the_femur_and_a_line_per_bundle_within_the_size_estimate(tmp_path):
+    # The bundle B runs from its femoral point (1, 0, 5) to its tibial point (1, 1, 0)
+    # turned by -a about x: (1, cos a, -sin a). The estimate bounds the files from above
+    # (uncompressed sizes; measured here about 3 times the written bytes).
+    pv = pytest.importorskip("pyvista")
+    from fecheck.studies.flex_outputs import vtk_size_bytes, write_vtk_series
+
+    angles = [0.0, 30.0]
+    run = _bundled_run(angles)
+    pvd = write_vtk_series(run, tmp_path / "vtk")
+    reader = pv.get_reader(str(pvd))
+    for a in angles:
+        reader.set_active_time_value(a)
+        tibia, femur, lines = reader.read()
+        assert femur.n_cells == 2 and np.allclose(femur.points, run.slaves["medial"].points)
+        assert lines.n_cells == 2 and np.allclose(lines.cell_data["tension_N"], [10 + a, 2])
+        b = lines.get_cell(1).points
+        c, s = math.cos(math.radians(a)), math.sin(math.radians(a))
+        assert np.allclose(b, [[1.0, 0.0, 5.0], [1.0, c, -s]], atol=1e-6)
+        assert np.allclose(lines.cell_data["length_mm"][1], np.linalg.norm(b[1] - b[0]))
+    written = sum(f.stat().st_size for f in (tmp_path / "vtk").iterdir())
+    assert written <= vtk_size_bytes(run)
+
+
+def test_a_vtk_series_over_the_cap_is_refused_unless_forced(monkeypatch):
+    from fecheck.errors import FecheckError
+    from fecheck.studies import flex_outputs
+
+    run = _bundled_run([0.0, 30.0])
+    monkeypatch.setattr(flex_outputs, "VTK_CAP_BYTES", 1000.0)
+    with pytest.raises(FecheckError, match="--vtk would write about .* --force"):
+        flex_outputs.check_vtk_size(run, None, force=False)
+    assert flex_outputs.check_vtk_size(run, None, force=True) > 1000
+
+
+def test_the_table_states_the_signs_and_has_a_row_per_angle():
+    from fecheck.studies.flex_outputs import table_text
+
+    run = _toy_run([0.0, 15.0])
+    run.points[1].abduction_deg, run.points[1].internal_deg = 1.25, -2.5
+    lines = table_text(run).splitlines()
+    assert "add° adduction (+ varus" in lines[0] and "(+ internal" in lines[0]
+    assert lines[1].split()[:3] == ["flex°", "add°", "int°"]
+    assert [line.split()[:3] for line in lines[2:]] == [["0", "0.00", "0.00"],
+                                                        ["15", "1.25", "-2.50"]]
+
+
 @pytest.fixture(scope="module")
 def knee_range():
     """The scanned knee with bundles, decimated, 20-26° in 1° steps."""
@@ -205,15 +263,24 @@ def _main(argv):
 def test_cli_writes_one_row_per_angle_and_progress_on_stderr(tmp_path, capsys):
     import json
 
-    code = _main(["--angles", "0:2:1", "--csv", "-", "--json", str(tmp_path / "f.json")])
+    code = _main(["--angles", "0:2:1", "--csv", "-", "--json", str(tmp_path / "f.json"),
+                  "--vtk", str(tmp_path / "vtk")])
     out, err = capsys.readouterr()
     assert code == 0
+    assert {p.name for p in (tmp_path / "vtk").iterdir()} == {
+        "flex.pvd", "femur.vtu", *(f"{k}_{i:03d}.vtu" for k in ("flex", "ligaments")
+                                   for i in range(3))}
+    assert "writing the VTK series" in err and "at most" in err
     lines = out.strip().splitlines()
-    assert lines[0].startswith("flexion_deg,abduction_deg,internal_deg,ml_mm,ap_mm,si_mm")
+    assert lines[0].startswith("flexion_deg,abduction_deg,internal_deg,ml_mm,ap_mm,si_mm,"
+                               "adduction_deg,internal_rotation_deg")
+    assert "per angle: flex° knee flexion" in err     # the table, off the CSV's stdout
     assert [float(line.split(",")[0]) for line in lines[1:]] == [0.0, 1.0, 2.0]
     assert "flex [3/3] 2°" in err and "flexion axis: point" in err
     doc = json.loads((tmp_path / "f.json").read_text())
     assert [a["flexion_deg"] for a in doc["angles"]] == [0.0, 1.0, 2.0]
+    assert "varus" in doc["signs"]["adduction_deg"]
+    assert all(a["adduction_deg"] == a["abduction_deg"] for a in doc["angles"])  # right knee
     assert len(doc["angles"][0]["ligaments_N"]) == 55
 
 
@@ -325,6 +392,41 @@ def test_fe_at_an_angle_compares_on_the_flexed_poses_tibial_faces(knee_fe):
     assert doc["fe"][0]["lateral_cop_distance_mm"] == row["lateral_cop_distance_mm"]
 
 
+def test_fe_at_settles_where_the_internal_rotation_is_soft_under_a_tibial_axis_load():
+    # 800 N along the tibial axis at 26°, near the steep passage of the internal rotation
+    # (the decimated knee's rotational stiffness vanishes at 26.6°): without the contact
+    # forces' own change with the pose in the FE's tangent, the pose updates wander (steps
+    # 0.05-0.65 mm) until the active set fails; with it they converge, quadratically at
+    # the end (measured: 7 updates; 19 with the 5 mm trust region, which shortens the
+    # first rotation steps of up to 0.13 rad). Bound: 25 updates (of 30), balance 1e-8.
+    from fecheck.scene import load_scene
+
+    scene = load_scene("femur_tibia_ligaments", ["scanned.decimate_faces=1500",
+                                                 "load.frame='tibia'"])
+    axis, updates = flex.scene_axis(scene), []
+    run = flex.run_flex(scene, [26.0], axis, fe_at=[26.0],
+                        fe_log=lambda m: updates.append(m) if "pose update" in m else None)
+    assert run.stopped is None and len(run.fe) == 1
+    assert run.fe[0]["balance"] < 1e-8 and len(updates) <= 25
+    assert all(run.fe[0][f"{c}_fe_area_mm2"] > 0 for c in ("medial", "lateral"))
+
+
+def test_fe_at_settles_past_the_snap_under_a_tibial_axis_load():
+    # 30°, 800 N along the tibial axis, decimated to 3,000 faces (19.6° of internal
+    # rotation, past the snap): the first update's tangent (follower load and bundles) has
+    # symmetric eigenvalues down to -3.1e4 N·mm and an antisymmetric part of 3.6e3, and the
+    # block active set cycled on it, as did the one-change-per-solve fallback (1,533
+    # changes); with its symmetric part that step settles and the pose converges in 5
+    # updates (measured balance 5e-16, FE internal rotation 18.84° against the EF's 19.61°).
+    from fecheck.scene import load_scene
+
+    scene = load_scene("femur_tibia_ligaments", ["scanned.decimate_faces=3000",
+                                                 "load.frame='tibia'"])
+    run = flex.run_flex(scene, [20.0, 30.0], flex.scene_axis(scene), fe_at=[30.0])
+    assert run.stopped is None and run.fe[0]["balance"] < 1e-8
+    assert all(run.fe[0][f"{c}_fe_area_mm2"] > 0 for c in ("medial", "lateral"))
+
+
 def test_cli_refuses_an_fe_angle_outside_the_sweep_before_building_anything(monkeypatch,
                                                                             capsys):
     import fecheck.model.scanned as scanned
@@ -338,3 +440,29 @@ def test_cli_refuses_an_fe_angle_outside_the_sweep_before_building_anything(monk
     assert _main(["--angles", "0:60:2", "--fe-at", "0,30,45"]) == 2
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 1 and "--fe-at '0,30,45': 45° not among the --angles" in err[0]
+
+
+def test_the_one_at_a_time_active_set_solves_the_block_updates_complementarity():
+    # A rigid plate pushed down onto 30 springs of a symmetric positive definite
+    # compliance, one translation unknown: the complementarity has one solution, which the
+    # block (Hintermüller-Ito-Kunisch) update finds; the one-change-per-solve fallback
+    # must find the same forces (round-off ~1e-12 of the load), from every candidate in
+    # contact (releases needed) and from the deepest alone (additions needed).
+    from fecheck.fe.contact import active_set
+    from fecheck.fe.joint import _one_at_a_time
+
+    rng = np.random.default_rng(3)
+    a = rng.normal(size=(30, 30))
+    C = 0.01 * (a @ a.T / 30 + np.eye(30))
+    g0 = rng.uniform(0.0, 0.3, 30)
+    J = G = np.ones((30, 1))
+    Q, dQ = np.array([-100.0]), np.zeros((1, 1))
+    deepest = np.zeros(30, dtype=bool)
+    deepest[np.argmin(g0)] = True
+    lam_b, dq_b, set_b, _ = active_set(C, g0, J, G, Q, dQ, deepest.copy(), 200, "")
+    assert 1 < set_b.sum() < 30
+    for start in (np.ones(30, dtype=bool), deepest):
+        lam_o, dq_o, set_o, _ = _one_at_a_time(C, g0, J, G, Q, dQ, start.copy(), 600)
+        assert np.array_equal(set_o, set_b)
+        assert np.allclose(lam_o, lam_b, rtol=0, atol=1e-9) and dq_o == pytest.approx(dq_b)
+        assert lam_o.sum() == pytest.approx(100.0, rel=1e-12)

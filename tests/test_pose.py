@@ -20,9 +20,11 @@ def test_pose_reads_coordinates_and_angles_in_both_units():
     assert pose.internal_deg == pytest.approx(-45.0, abs=1e-12)
     assert pose.flexion_deg == pytest.approx(90.0, abs=1e-12)
     assert pose.body == "tibia" and isinstance(pose.q, tuple)
-    assert list(pose) == list(POSE_KEYS) and len(pose) == 5
+    assert list(pose) == list(POSE_KEYS) and len(pose) == 7
     assert dict(pose) == pytest.approx({"x_mm": 1.5, "y_mm": -2.0, "z_mm": 3.25,
-                                        "abduction_deg": 30.0, "internal_deg": -45.0})
+                                        "abduction_deg": 30.0, "internal_deg": -45.0,
+                                        "adduction_deg": 30.0,          # right knee: +θy
+                                        "internal_rotation_deg": -45.0})
     with pytest.raises(KeyError):
         pose["flexion_deg"]
     with pytest.raises(dataclasses.FrozenInstanceError):

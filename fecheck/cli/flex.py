@@ -5,8 +5,9 @@ the scene's flexion.axis_point_mm and flexion.axis_dir, or else the axis through
 centres of spheres fitted to the posterior condyles of the femoral surface) and its other
 DOFs solved at each angle under the scene's load, ligaments and gravity, each angle from
 the last (`fecheck.studies.flex`); ``--fe-at`` runs the FE cross-check at chosen angles
-from their EF poses. Progress goes to standard error; Ctrl-C, or an angle that does not
-solve, stops the run and the angles solved so far are written.
+from their EF poses. Progress goes to standard error and a per-angle table (signs stated)
+to standard output (to standard error when --csv or --json takes standard output); Ctrl-C,
+or an angle that does not solve, stops the run and the angles solved so far are written.
 """
 
 from __future__ import annotations
@@ -44,7 +45,11 @@ def add_parser(subparsers) -> None:
     p.add_argument("--plot", type=Path, metavar="DIR",
                    help="write DIR/kinematics.png and DIR/contact_paths.png")
     p.add_argument("--vtk", type=Path, metavar="DIR",
-                   help="write DIR/flex.pvd (ParaView time series) and one .vtu per angle")
+                   help="write DIR/flex.pvd (ParaView time series): per angle the tibial "
+                        "surfaces and the ligament lines, and the femur; its size is "
+                        "estimated first and refused above 2000 MB without --force")
+    p.add_argument("--force", action="store_true",
+                   help="write a --vtk series larger than the 2000 MB cap")
     p.set_defaults(run=run)
 
 
@@ -80,8 +85,9 @@ def _progress(total: int, out):
     def show(i: int, p) -> None:
         c = p.compartments
         forces = "  ".join(f"{k} {v['force_N']:.0f} N" for k, v in c.items())
-        print(f"flex [{i + 1}/{total}] {p.flexion_deg:g}°: internal {p.internal_deg:.2f}°, "
-              f"abduction {p.abduction_deg:.2f}°, {forces} ({p.seconds:.2f} s)",
+        print(f"flex [{i + 1}/{total}] {p.flexion_deg:g}°: internal rotation "
+              f"{p.internal_rotation_deg:+.2f}°, adduction {p.adduction_deg:+.2f}°, {forces} "
+              f"({p.seconds:.2f} s)",
               file=out, flush=True)
     return show
 
@@ -104,13 +110,15 @@ def _fe_table(rows: list[dict], out) -> None:
               f"{r['fe_seconds']:.1f} s", file=out)
 
 
-def _write_outputs(args: argparse.Namespace, run_, out, scene) -> None:
+def _write_outputs(args: argparse.Namespace, scene, run_, out) -> None:
     from fecheck.io.outputs import write_text
-    from fecheck.studies import flex_outputs
+    from fecheck.studies import flex, flex_outputs
 
     if not run_.points:
         print("no angle solved: nothing written", file=out)
         return
+    taken = "-" in (str(args.csv), str(args.json))
+    print(flex_outputs.table_text(run_), end="", file=out if taken else sys.stdout)
     for path, text in ((args.csv, flex_outputs.csv_text),
                        (args.json, lambda r: flex_outputs.json_text(r, scene))):
         if path is not None:
@@ -118,7 +126,13 @@ def _write_outputs(args: argparse.Namespace, run_, out, scene) -> None:
             if str(path) != "-":
                 print(f"wrote {path}", file=out)
     if args.vtk is not None:
-        print(f"wrote {flex_outputs.write_vtk_series(run_, args.vtk)}", file=out)
+        bone = flex.femur_bone(scene)
+        size = flex_outputs.check_vtk_size(run_, bone, args.force)
+        print(f"writing the VTK series to {args.vtk}: at most {size / 1e6:.1f} MB "
+              f"({len(run_.points)} angles)", file=out, flush=True)
+        pvd = flex_outputs.write_vtk_series(run_, args.vtk, bone)
+        written = sum(f.stat().st_size for f in Path(args.vtk).glob("*.vt[up]"))
+        print(f"wrote {pvd} ({written / 1e6:.1f} MB)", file=out)
     if args.plot is not None:
         for path in flex_outputs.write_plots(run_, args.plot):
             print(f"wrote {path}", file=out)
@@ -150,7 +164,7 @@ def run(args: argparse.Namespace) -> int:
           f" s, then {result.sweep_seconds:.2f} s wall for the angles (Newton {solve:.2f} s)",
           file=err)
     _fe_table(result.fe, err)
-    _write_outputs(args, result, err, scene)
+    _write_outputs(args, scene, result, err)
     if result.stopped is None:
         return 0
     if result.stopped.startswith("interrupted"):

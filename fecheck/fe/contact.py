@@ -197,6 +197,32 @@ def _frames(n: int, dofs: np.ndarray, directions: np.ndarray) -> sp.csr_matrix:
                          shape=(n, n))
 
 
+def kkt_step(C: np.ndarray, g0: np.ndarray, J: np.ndarray, G: np.ndarray, Q: np.ndarray,
+             dQ: np.ndarray, active: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The equalities of `active_set` for the set `active`: contact at every active
+    candidate (g = 0), balance of the unknowns. Returns (λ (m,) N, zero off the set, δq
+    (k,), the gaps g (m,) mm)."""
+    m, k = J.shape
+    idx = np.flatnonzero(active)
+    a = len(idx)
+    kkt = np.zeros((a + k, a + k))
+    kkt[:a, :a] = C[np.ix_(idx, idx)]
+    kkt[:a, a:] = J[idx]
+    kkt[a:, :a] = G[idx].T
+    kkt[a:, a:] = dQ
+    rhs = np.concatenate([-g0[idx], -Q])
+    try:
+        with interruptible():
+            sol = np.linalg.solve(kkt, rhs)
+    except np.linalg.LinAlgError:
+        with interruptible():
+            sol = np.linalg.lstsq(kkt, rhs, rcond=None)[0]
+    lam = np.zeros(m)
+    lam[idx] = sol[:a]
+    dq = sol[a:]
+    return lam, dq, g0 + J @ dq + C @ lam
+
+
 def active_set(C: np.ndarray, g0: np.ndarray, J: np.ndarray, G: np.ndarray, Q: np.ndarray,
                dQ: np.ndarray, active: np.ndarray, max_iter: int, hint: str
                ) -> tuple[np.ndarray, np.ndarray, np.ndarray, int]:
@@ -211,26 +237,8 @@ def active_set(C: np.ndarray, g0: np.ndarray, J: np.ndarray, G: np.ndarray, Q: n
     (λ (m,) N, δq (k,), A, iterations); `FecheckError` ending with `hint` when A keeps
     changing for `max_iter` iterations.
     """
-    m, k = J.shape
     for it in range(1, max_iter + 1):
-        idx = np.flatnonzero(active)
-        a = len(idx)
-        kkt = np.zeros((a + k, a + k))
-        kkt[:a, :a] = C[np.ix_(idx, idx)]
-        kkt[:a, a:] = J[idx]
-        kkt[a:, :a] = G[idx].T
-        kkt[a:, a:] = dQ
-        rhs = np.concatenate([-g0[idx], -Q])
-        try:
-            with interruptible():
-                sol = np.linalg.solve(kkt, rhs)
-        except np.linalg.LinAlgError:
-            with interruptible():
-                sol = np.linalg.lstsq(kkt, rhs, rcond=None)[0]
-        lam = np.zeros(m)
-        lam[idx] = sol[:a]
-        dq = sol[a:]
-        gap = g0 + J @ dq + C @ lam
+        lam, dq, gap = kkt_step(C, g0, J, G, Q, dQ, active)
         new = np.where(active, lam > 0.0, gap < 0.0)
         if not new.any():
             new[np.argmin(gap)] = True

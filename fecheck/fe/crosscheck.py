@@ -516,7 +516,7 @@ def cross_check(scene: Scene, *, mode: str | None = None, refine: int | None = N
     return CrossCheck(checks, settings,
                       {"E_MPa": E, "nu": nu, "thickness_mm": scene["contact.thickness_mm"],
                        "ef_k_N_per_mm3": column_stiffness(E, nu, scene["contact.thickness_mm"])},
-                      {"fe": pose_dict(q_fe), "ef": pose_dict(run.pose.q)}, geometry,
+                      {"fe": pose_dict(q_fe, run.pose.side), "ef": dict(run.pose)}, geometry,
                       timing, tuple(notes), run)
 
 

@@ -97,6 +97,22 @@ def write_vtu(path: str | Path, points: np.ndarray, faces: np.ndarray,
     return path
 
 
+def write_lines(path: str | Path, starts: np.ndarray, ends: np.ndarray,
+                cell_data: Mapping[str, np.ndarray]) -> Path:
+    """Write straight segments from `starts` (n, 3) to `ends` (n, 3), mm, one line cell
+    each with `cell_data` (n,), to `path` (.vtu, meshio), by `write_output`."""
+    import meshio
+
+    path = Path(path)
+    n = len(starts)
+    points = np.vstack([np.asarray(starts, dtype=float), np.asarray(ends, dtype=float)])
+    lines = np.column_stack([np.arange(n), n + np.arange(n)]).astype(np.int64)
+    mesh = meshio.Mesh(points, [("line", lines)],
+                       cell_data={k: [np.asarray(v)] for k, v in cell_data.items()})
+    write_output(path, lambda tmp: meshio.write(tmp, mesh, file_format="vtu"))
+    return path
+
+
 def write_run_vtk(result: RunResult, directory: str | Path) -> list[Path]:
     """Write ``<compartment>.vtu`` (see the module docstring) for every compartment with
     per-face results into `directory`; returns the written paths (none for the rigid

@@ -40,9 +40,9 @@ def start_pose(scene: Scene) -> np.ndarray:
                      math.radians(scene["dofs.internal_deg"])])
 
 
-def pose_dict(q: np.ndarray) -> dict[str, float]:
-    """Pose for reports: x_mm, y_mm, z_mm, abduction_deg, internal_deg."""
-    return dict(Pose.of(q))
+def pose_dict(q: np.ndarray, side: str = "right") -> dict[str, float]:
+    """Pose for reports (`fecheck.model.results.POSE_KEYS`) of a `side` knee."""
+    return dict(Pose.of(q, side=side))
 
 
 def free_indices(scene: Scene) -> tuple[int, ...]:

@@ -454,7 +454,8 @@ def run_menisci(scene: Scene, warm_start: np.ndarray | None = None) -> RunResult
     timing = {"total": time.perf_counter() - t_start, "build": t_built - t_start,
               "solve": seconds}
     return RunResult(scene.label, scene["model.kind"], scene["contact.law"],
-                     sol.converged, sol.iterations, sol.residual_norm, Pose.of(q_tibia),
+                     sol.converged, sol.iterations, sol.residual_norm,
+                     Pose.of(q_tibia, side=scene.side),
                      compartments, {}, timing, {}, tuple(not_converged_note(sol)), record,
                      menisci, {s: {k: m[k] for k in ("pressure_MPa", "outline")}
                                for s, m in maps.items()})

@@ -18,9 +18,33 @@ import numpy as np
 
 from geometry.files import write_output
 
-POSE_KEYS = ("x_mm", "y_mm", "z_mm", "abduction_deg", "internal_deg")
+POSE_KEYS = ("x_mm", "y_mm", "z_mm", "abduction_deg", "internal_deg", "adduction_deg",
+             "internal_rotation_deg")
 LEGACY_TIMING = ("per_evaluation", "per_evaluation_us")
 """Timing keys kept for older readers beside ``per_evaluation_s`` (same time, s and µs)."""
+
+POSE_SIGNS = {
+    "adduction_deg": "+ adduction (varus): the distal tibia moves medially; - abduction "
+                     "(valgus)",
+    "internal_rotation_deg": "+ internal rotation: the tibia's anterior turns medially; - "
+                             "external",
+    "abduction_deg": "old name: θy of R = Rx·Ry·Rz, + moves the distal tibia toward -x "
+                     "(adduction in a right knee, abduction in a left one); read "
+                     "adduction_deg",
+    "internal_deg": "θz of R = Rx·Ry·Rz, + turns the anterior toward -x (internal in a "
+                    "right knee); read internal_rotation_deg",
+}
+"""The sense of each secondary rotation of the pose, as stated in the reports."""
+
+
+def anatomical_sign(side: str) -> float:
+    """+1 for a right knee (medial at -x), -1 for a left one: the factor that turns θy and
+    θz into adduction and internal rotation.
+
+    >>> anatomical_sign("left")
+    -1.0
+    """
+    return 1.0 if side == "right" else -1.0
 
 
 @dataclass(frozen=True, eq=False)
@@ -30,6 +54,9 @@ class Pose(Mapping[str, float]):
     q : (x, y, z mm, θy abduction rad, θz internal rad), the generalized coordinates of
         `fecheck.statics.newton.pose`; flexion θx (rad) is set by the scene, not solved
     body : the body's name ("tibia": the only moving body of today's models)
+    side : "right" or "left": the knee's side, which sets the anatomical sense of θy and θz
+        (`POSE_SIGNS`): adduction_deg = ±θy and internal_rotation_deg = ±θz, + for a right
+        knee (medial at -x), - for a left one
 
     As a mapping it reads the reported values (`POSE_KEYS`: x_mm … internal_deg), so that
     ``result.pose["z_mm"]`` and ``dict(result.pose)`` give the report's pose.
@@ -38,11 +65,13 @@ class Pose(Mapping[str, float]):
     q: tuple[float, ...]
     flexion_rad: float = 0.0
     body: str = "tibia"
+    side: str = "right"
 
     @classmethod
-    def of(cls, q: Any, flexion_rad: float = 0.0, body: str = "tibia") -> Pose:
-        """The pose of generalized coordinates `q` (5,) (mm, rad)."""
-        return cls(tuple(float(v) for v in q), float(flexion_rad), body)
+    def of(cls, q: Any, flexion_rad: float = 0.0, body: str = "tibia",
+           side: str = "right") -> Pose:
+        """The pose of generalized coordinates `q` (5,) (mm, rad) of a `side` knee."""
+        return cls(tuple(float(v) for v in q), float(flexion_rad), body, side)
 
     @property
     def x_mm(self) -> float:
@@ -71,6 +100,16 @@ class Pose(Mapping[str, float]):
     @property
     def internal_deg(self) -> float:
         return math.degrees(self.q[4])
+
+    @property
+    def adduction_deg(self) -> float:
+        """Adduction (varus) +, abduction -, deg: θy for a right knee, -θy for a left."""
+        return anatomical_sign(self.side) * math.degrees(self.q[3])
+
+    @property
+    def internal_rotation_deg(self) -> float:
+        """Internal rotation +, external -, deg: θz for a right knee, -θz for a left."""
+        return anatomical_sign(self.side) * math.degrees(self.q[4])
 
     @property
     def flexion_deg(self) -> float:
@@ -195,7 +234,8 @@ class SolveRecord:
 class RunResult:
     """Everything one `fecheck run` reports.
 
-    pose : {x_mm, y_mm, z_mm, abduction_deg, internal_deg} of the tibia
+    pose : {x_mm, y_mm, z_mm, abduction_deg, internal_deg, adduction_deg,
+        internal_rotation_deg} of the tibia (senses in `POSE_SIGNS`)
     compartments : {"medial"|"lateral": CompartmentResult}
     ligaments : {name: LigamentResult}
     timing_s : {"total", "solve", …} wall-clock seconds (solve = the equilibrium solve
@@ -246,6 +286,7 @@ class RunResult:
             "converged": bool(self.converged), "iterations": int(self.iterations),
             "residual_norm": _num(self.residual_norm),
             "pose": {k: _num(self.pose[k]) for k in POSE_KEYS},
+            "pose_signs": dict(POSE_SIGNS),
             "compartments": {k: c.as_dict() for k, c in self.compartments.items()},
             "ligaments": {k: v.as_dict() for k, v in self.ligaments.items()},
             "timing_s": {k: _num(v) for k, v in self.timing_s.items()},
@@ -285,6 +326,9 @@ class RunResult:
                  (f"converged: {self.converged}   iterations: {self.iterations}   "
                   f"residual: {self.residual_norm:.3g} N")]
         lines.append("pose: " + "  ".join(f"{k} {self.pose[k]:+.4f}" for k in POSE_KEYS))
+        lines.append("  (adduction_deg: + adduction/varus, the distal tibia medially; "
+                     "internal_rotation_deg: + internal; abduction_deg, internal_deg: θy, θz "
+                     "of R = Rx·Ry·Rz, old names)")
         rows = [("force N (|F|)", "force_N", "{:.2f}"),
                 ("axial force N", "axial_force_N", "{:.2f}"),
                 ("max pressure MPa", "max_pressure_MPa", "{:.3f}"),

@@ -53,5 +53,6 @@ def run_rigid(scene: Scene, warm_start: np.ndarray | None = None) -> RunResult:
             for k, v in sol.ligament_force_N.items()}
     elapsed = time.perf_counter() - t0
     return RunResult(scene.label, "rigid", "none", True, 1, sol.residual_N,
-                     Pose.of(q, theta_x), comps, ligs, {"total": elapsed, "solve": elapsed})
+                     Pose.of(q, theta_x, side=scene.side), comps, ligs,
+                     {"total": elapsed, "solve": elapsed})
 

@@ -268,5 +268,5 @@ def run_scanned(scene: Scene, warm_start: np.ndarray | None = None,
     return RunResult(scene.label, scene["model.kind"], scene["contact.law"],
                      sol.converged, sol.iterations, sol.residual_norm,
                      Pose.of(eq.q, math.radians(scene["dofs.flexion_deg"]) if flexion is None
-                             else flexion[0]), compartments,
+                             else flexion[0], side=scene.side), compartments,
                      ligaments, timing, {}, tuple(notes), record)

@@ -158,9 +158,9 @@ def run_contact_model(scene: Scene, warm_start: np.ndarray | None = None) -> Run
               "per_evaluation_s": contact.contact_seconds / max(contact.evaluations, 1)}
     return RunResult(scene.label, scene["model.kind"], scene["contact.law"],
                      sol.converged, sol.iterations, sol.residual_norm,
-                     Pose.of(eq.q, math.radians(scene["dofs.flexion_deg"])), compartments,
-                     ligaments, timing, exact_reference(scene, compartments), tuple(notes),
-                     record)
+                     Pose.of(eq.q, math.radians(scene["dofs.flexion_deg"]), side=scene.side),
+                     compartments, ligaments, timing, exact_reference(scene, compartments),
+                     tuple(notes), record)
 
 
 def exact_reference(scene: Scene, compartments: Mapping[str, CompartmentResult]) -> dict:

@@ -345,10 +345,14 @@ SCHEMA: dict[str, Key] = {
     "dofs.z_mm": Key("float", 0.0, _dof("z", "translation z (superior), mm", " 0 = the "
                                          "reference pose, the condyles touching the "
                                          "plateaus.")),
-    "dofs.abduction_deg": Key("float", 0.0, _dof("abduction", "abduction angle θy, deg"),
-                              low=-45.0, high=45.0),
-    "dofs.internal_deg": Key("float", 0.0, _dof("internal", "internal rotation θz, deg"),
-                             low=-45.0, high=45.0),
+    "dofs.abduction_deg": Key("float", 0.0, _dof(
+        "abduction", "angle θy, deg (old name: + moves the distal tibia toward -x, which is "
+        "adduction (varus) in a right knee and abduction in a left one; reports give "
+        "adduction_deg, + adduction, on either side)"), low=-45.0, high=45.0),
+    "dofs.internal_deg": Key("float", 0.0, _dof(
+        "internal", "angle θz, deg (+ turns the tibia's anterior toward -x: internal "
+        "rotation in a right knee, external in a left one; reports give "
+        "internal_rotation_deg, + internal, on either side)"), low=-45.0, high=45.0),
     "dofs.flexion_deg": Key("float", 0.0, "Tibia flexion angle θx, deg; always driven.",
                             low=-45.0, high=45.0),
     "flexion.axis_point_mm": Key(

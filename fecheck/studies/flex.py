@@ -9,9 +9,13 @@ and lateral by the sign of x), the axis through the two centres (a cylinder fit 
 posterior condyles, close to the transepicondylar axis).
 
 At knee flexion φ (deg, + flexed: the ankle moves posterior) the tibia's rotation is
-R = Q·Rx(-φ)·Ry(θy)·Rz(θz)·Qᵀ with Q the smallest rotation taking e_x to e: θy
-(abduction) and θz (internal rotation, right knee; its sign flipped for a left knee) are
-the Cardan angles about the floating and the tibial axis, as in the fixed-axis models.
+R = Q·Rx(-φ)·Ry(θy)·Rz(θz)·Qᵀ with Q the smallest rotation taking e_x to e: θy and θz
+are the Cardan angles about the floating and the tibial axis, as in the fixed-axis models.
+Reported by anatomical sense (`FLEX_SIGNS`): adduction_deg (+ adduction, varus: the distal
+tibia moves medially; +θy in a right knee, -θy in a left one) and internal_rotation_deg (+
+internal: the tibia's anterior turns medially; +θz right, -θz left). The old fields stay:
+abduction_deg is θy (adduction in a right knee, despite its name) and internal_deg the
+internal rotation.
 The translation reported is that of the tibial point at c at the rest pose, d = R·c + t - c,
 in the axis frame (Qᵀ·d: x along the axis, y anterior, z superior): zero for a pure hinge.
 Each angle starts from the last equilibrium with the same θy, θz and d.
@@ -53,6 +57,19 @@ SECONDS_PER_ANGLE = 0.8
 after the build), s."""
 LIGAMENT_GROUPS = ("ACL", "PCL", "MCL", "LCL", "PFL", "pCAP")
 """Bundle-name prefixes summed per ligament in the reports."""
+
+FLEX_SIGNS = {
+    "flexion_deg": "+ flexion (the ankle moves posterior), driven about the flexion axis",
+    "adduction_deg": "+ adduction (varus): the distal tibia moves medially; - abduction",
+    "internal_rotation_deg": "+ internal rotation: the tibia's anterior turns medially; - "
+                             "external",
+    "abduction_deg": "old name of +θy (Cardan angle about the floating axis): adduction in a "
+                     "right knee, abduction in a left one; read adduction_deg",
+    "internal_deg": "old name of internal_rotation_deg (the same value)",
+    "ml_mm, ap_mm, si_mm": "the tibial point at the axis point, moved from the rest pose, "
+                           "in the axis frame: along the axis (+ right), anterior, superior",
+}
+"""The sense of each kinematic column of `fecheck flex`, as stated in its outputs."""
 
 
 @dataclass(frozen=True)
@@ -177,7 +194,8 @@ class FlexPoint:
     """One solved flexion angle.
 
     flexion_deg : driven knee flexion, deg
-    abduction_deg, internal_deg : secondary rotations (module docstring), deg
+    abduction_deg : θy (old name; + adduction in a right knee), deg
+    internal_deg : internal rotation, deg (+ internal, either side)
     translation_mm : (3,) d in the axis frame, mm
     compartments : {name: dict of force_N, axial_force_N, area_mm2, max_pressure_MPa,
         cop_x_mm, cop_y_mm (centre of pressure, tibia frame)}
@@ -185,6 +203,7 @@ class FlexPoint:
     rot, t : the tibia's pose; fields : {compartment: face pressure MPa (n_faces,)}
     iterations, seconds : Newton iterations and wall time of this angle
     q : (5,) the solved coordinates (x, y, z mm, θy, θz rad) with the flexion held
+    side : "right" or "left", the knee's side (sets `adduction_deg`'s sign)
     """
 
     flexion_deg: float
@@ -199,13 +218,25 @@ class FlexPoint:
     iterations: int
     seconds: float
     q: np.ndarray | None = None
+    side: str = "right"
+
+    @property
+    def adduction_deg(self) -> float:
+        """Adduction (varus) +, abduction -, deg."""
+        return (1.0 if self.side == "right" else -1.0) * self.abduction_deg
+
+    @property
+    def internal_rotation_deg(self) -> float:
+        """Internal rotation +, external -, deg."""
+        return self.internal_deg
 
     def row(self) -> dict:
-        """Flat CSV row: kinematics, compartments, ligament groups (N)."""
+        """Flat CSV row: kinematics (`FLEX_SIGNS`), compartments, ligament groups (N)."""
         d = self.translation_mm
         out = {"flexion_deg": self.flexion_deg, "abduction_deg": self.abduction_deg,
                "internal_deg": self.internal_deg, "ml_mm": d[0], "ap_mm": d[1],
-               "si_mm": d[2]}
+               "si_mm": d[2], "adduction_deg": self.adduction_deg,
+               "internal_rotation_deg": self.internal_rotation_deg}
         for name, c in self.compartments.items():
             out.update({f"{name}_{k}": v for k, v in c.items()})
         for group in LIGAMENT_GROUPS:
@@ -219,7 +250,10 @@ class FlexPoint:
 class FlexRun:
     """A flexion run: axis, solved points, build time and wall time of the angles after
     it (s), and how it ended (`stopped`: None when every angle was solved, else the
-    one-line reason); `fe`: the FE cross-check rows of the --fe-at angles (`fe_row`)."""
+    one-line reason); `fe`: the FE cross-check rows of the --fe-at angles (`fe_row`);
+    `femur`: {part: TriMesh} of the fixed femur (mm, world; the articular surface, to which
+    the caller may add the bone, `femur_bone`); `bundles`: (names, femoral points (n, 3)
+    world, tibial points (n, 3) tibia frame) of the ligament bundles, mm."""
 
     axis: FlexionAxis
     points: list[FlexPoint]
@@ -228,6 +262,8 @@ class FlexRun:
     stopped: str | None = None
     sweep_seconds: float = 0.0
     fe: list[dict] = field(default_factory=list)
+    femur: dict = field(default_factory=dict)
+    bundles: tuple = ((), np.zeros((0, 3)), np.zeros((0, 3)))
 
 
 def scene_axis(scene: Scene) -> FlexionAxis:
@@ -319,7 +355,11 @@ def run_flex(scene: Scene, angles: Sequence[float], axis: FlexionAxis,
     t0 = time.perf_counter()
     comps = build_compartments(scene)
     names, springs = bundle_springs(scene)
-    run = FlexRun(axis, [], time.perf_counter() - t0, {c.name: c.pair.slave for c in comps})
+    run = FlexRun(axis, [], time.perf_counter() - t0, {c.name: c.pair.slave for c in comps},
+                  femur={"articular surface": comps[0].pair.master.mesh},
+                  bundles=(tuple(names),
+                           np.array([s.femur_point for s in springs]).reshape(-1, 3),
+                           np.array([s.tibia_point for s in springs]).reshape(-1, 3)))
     t_built = time.perf_counter()
     try:
         _sweep(scene, angles, axis, run, comps, (names, springs), progress)
@@ -331,6 +371,15 @@ def run_flex(scene: Scene, angles: Sequence[float], axis: FlexionAxis,
         if any(math.isclose(p.flexion_deg, a, abs_tol=1e-9) for a in fe_at):
             run.fe.append(fe_row(scene, p, axis, (comps, names, springs), fe_log))
     return run
+
+
+def femur_bone(scene: Scene) -> TriMesh | None:
+    """The femoral bone of the scene (geometry.femur_bone, mm), None where unset."""
+    from fecheck.scene import surfaces
+
+    if surfaces.file_path(scene, "femur_bone") is None:
+        return None
+    return surfaces.bone(scene, "femur")
 
 
 def fe_row(scene: Scene, point: FlexPoint, axis: FlexionAxis, built: tuple,
@@ -477,4 +526,5 @@ def _point(scene: Scene, comps, eq, results: dict, names, springs, axis: Flexion
     d = q_rot.T @ (rot @ axis.point + t - axis.point)
     return FlexPoint(float(phi_deg), math.degrees(eq.q[3]), sign * math.degrees(eq.q[4]), d,
                      compartments, ligaments, rot, t, fields, eq.solution.iterations,
-                     eq.seconds, np.asarray(eq.q, dtype=float))
+                     eq.seconds, np.asarray(eq.q, dtype=float),
+                     "right" if sign > 0 else "left")

@@ -1,8 +1,12 @@
 """Outputs of `fecheck flex`: CSV and JSON tables, a ParaView time series, plots.
 
-The time series is a ``flex.pvd`` collection with one ``.vtu`` per angle (timestep = the
-flexion angle, deg): both tibial articular surfaces at the angle's pose (world frame, mm)
-with cell data ``pressure_MPa``. The plots are ``kinematics.png`` (secondary kinematics,
+The time series is a ``flex.pvd`` collection (timestep = the flexion angle, deg, world frame,
+mm) of three parts: part 0, ``flex_NNN.vtu`` per angle, both tibial articular surfaces at
+the angle's pose with cell data ``pressure_MPa`` and ``compartment``; part 1, ``femur.vtu``
+(written once, the femur is fixed), the femoral articular surface and bone with cell data
+``part`` (0 surface, 1 bone); part 2, ``ligaments_NNN.vtu`` per angle, each bundle a
+straight line cell with cell data ``tension_N`` and ``strain``. Its size is estimated
+before writing (`vtk_size_bytes`). The plots are ``kinematics.png`` (secondary kinematics,
 compartment forces and ligament forces against flexion) and ``contact_paths.png`` (each
 compartment's centre of pressure on the tibial plateau, coloured by flexion).
 """
@@ -18,10 +22,15 @@ from xml.sax.saxutils import quoteattr
 
 import numpy as np
 
+from fecheck.errors import FecheckError
 from fecheck.scene import Scene
 from fecheck.scene.provenance import provenance
-from fecheck.studies.flex import LIGAMENT_GROUPS, FlexRun
+from fecheck.studies.flex import FLEX_SIGNS, LIGAMENT_GROUPS, FlexRun
 from geometry.files import write_output
+from geometry.mesh import TriMesh
+
+VTK_CAP_BYTES = 2.0e9
+"""The largest VTK series `write_vtk_series` writes without force=True, bytes."""
 
 
 def csv_text(run: FlexRun) -> str:
@@ -48,6 +57,7 @@ def json_text(run: FlexRun, scene: Scene | None = None) -> str:
                     "source": axis.source,
                     "spheres": {k: {"center_mm": c.tolist(), "radius_mm": r}
                                 for k, (c, r) in axis.spheres.items()}},
+           "signs": dict(FLEX_SIGNS),
            "build_seconds": run.build_seconds, "stopped": run.stopped,
            "angles": [{**{k: _num(v) for k, v in p.row().items()},
                        "ligaments_N": p.ligaments} for p in run.points],
@@ -56,9 +66,56 @@ def json_text(run: FlexRun, scene: Scene | None = None) -> str:
     return json.dumps(doc, indent=2) + "\n"
 
 
-def write_vtk_series(run: FlexRun, directory: Path) -> Path:
-    """DIR/flex_NNN.vtu per angle and DIR/flex.pvd listing them (timestep = flexion deg)."""
+def _vtu_bytes(n_points: int, n_cells: int, corners: int, n_fields: int) -> int:
+    """Bytes of an uncompressed binary .vtu: 24 per point, per cell its corner indices and
+    offset (8 each), its type (1) and its data (8 per field); meshio compresses, so the
+    file is at most this (plus a small header)."""
+    return 24 * n_points + n_cells * (8 * corners + 9 + 8 * n_fields) + 2048
+
+
+def vtk_size_bytes(run: FlexRun, bone: TriMesh | None = None) -> int:
+    """Upper estimate of the bytes `write_vtk_series` writes for `run`."""
+    tibia = _vtu_bytes(sum(m.n_points for m in run.slaves.values()),
+                       sum(m.n_faces for m in run.slaves.values()), 3, 2)
+    n_lig = len(run.bundles[0])
+    lines = _vtu_bytes(2 * n_lig, n_lig, 2, 2) if n_lig else 0
+    femur = list(run.femur.values()) + ([bone] if bone is not None else [])
+    fixed = _vtu_bytes(sum(m.n_points for m in femur), sum(m.n_faces for m in femur), 3, 1)
+    return len(run.points) * (tibia + lines + 300) + fixed
+
+
+def check_vtk_size(run: FlexRun, bone: TriMesh | None, force: bool) -> int:
+    """The estimate of `vtk_size_bytes`; `FecheckError` above `VTK_CAP_BYTES` unless
+    `force`."""
+    size = vtk_size_bytes(run, bone)
+    if size > VTK_CAP_BYTES and not force:
+        raise FecheckError(f"--vtk would write about {size / 1e6:.0f} MB for "
+                           f"{len(run.points)} angles (cap {VTK_CAP_BYTES / 1e6:.0f} MB): "
+                           "fewer angles (--angles with a larger step), a decimated scene, "
+                           "or --force")
+    return size
+
+
+def _femur_vtu(run: FlexRun, bone: TriMesh | None, path: Path) -> list[str]:
+    """Write the fixed femur to `path`; [its file name] ([] for a run without one)."""
     from fecheck.io.vtk import write_vtu
+
+    parts = list(run.femur.values()) + ([bone] if bone is not None else [])
+    if not parts:
+        return []
+    sizes = np.cumsum([0] + [m.n_points for m in parts])
+    write_vtu(path, np.vstack([m.points for m in parts]),
+              np.vstack([m.faces + sizes[i] for i, m in enumerate(parts)]),
+              {"part": np.concatenate([np.full(m.n_faces, min(i, 1))
+                                       for i, m in enumerate(parts)])})
+    return [path.name]
+
+
+def write_vtk_series(run: FlexRun, directory: Path, bone: TriMesh | None = None) -> Path:
+    """DIR/flex.pvd listing per angle DIR/flex_NNN.vtu (the tibial surfaces) and
+    DIR/ligaments_NNN.vtu (the bundles, when the run has them), and DIR/femur.vtu (the
+    fixed femur: its articular surface and `bone`) at every step (timestep = flexion deg)."""
+    from fecheck.io.vtk import write_lines, write_vtu
 
     directory = Path(directory)
     names = list(run.slaves)
@@ -66,19 +123,58 @@ def write_vtk_series(run: FlexRun, directory: Path) -> Path:
     faces = np.vstack([run.slaves[c].faces + sizes[i] for i, c in enumerate(names)])
     local = np.vstack([run.slaves[c].points for c in names])
     region = np.concatenate([np.full(run.slaves[c].n_faces, i) for i, c in enumerate(names)])
+    bundle_names, femur_points, tibia_points = run.bundles
+    femur = _femur_vtu(run, bone, directory / "femur.vtu")
     entries = []
     for i, p in enumerate(run.points):
         name = f"flex_{i:03d}.vtu"
         pressure = np.concatenate([p.fields[c] for c in names])
         write_vtu(directory / name, local @ p.rot.T + p.t, faces,
                   {"pressure_MPa": pressure, "compartment": region})
-        entries.append(f'    <DataSet timestep="{p.flexion_deg:.10g}" part="0" '
-                       f'file={quoteattr(name)}/>')
+        files = [name, *femur]
+        if len(bundle_names):
+            ends = tibia_points @ p.rot.T + p.t
+            files.append(f"ligaments_{i:03d}.vtu")
+            write_lines(directory / files[-1], femur_points, ends,
+                        {"tension_N": np.array([p.ligaments[b] for b in bundle_names]),
+                         "length_mm": np.linalg.norm(ends - femur_points, axis=1)})
+        entries += [f'    <DataSet timestep="{p.flexion_deg:.10g}" part="{k}" '
+                    f'file={quoteattr(f)}/>' for k, f in enumerate(files)]
     text = ('<?xml version="1.0"?>\n<VTKFile type="Collection" version="0.1">\n'
             "  <Collection>\n" + "\n".join(entries) + "\n  </Collection>\n</VTKFile>\n")
     pvd = directory / "flex.pvd"
     write_output(pvd, lambda tmp: tmp.write_text(text, encoding="utf-8"))
     return pvd
+
+
+def table_text(run: FlexRun) -> str:
+    """The per-angle table of standard output: kinematics (signs stated above it),
+    compartment force (N), contact area (mm²) and p_max (MPa), ligament group tensions
+    (N)."""
+    comps = list(run.slaves)
+    groups = [g for g in LIGAMENT_GROUPS
+              if any(k.startswith(g) for k in (run.points[0].ligaments if run.points else {}))]
+    head = (f"{'flex°':>6s} {'add°':>6s} {'int°':>6s} {'ml mm':>6s} {'ap mm':>6s} "
+            f"{'si mm':>6s}" + "".join(f" | {c[:3]} F N  A mm²  p MPa" for c in comps)
+            + ("  |" + "".join(f" {g + ' N':>7s}" for g in groups) if groups else ""))
+    lines = ["per angle: flex° knee flexion (+ flexed); add° adduction (+ varus: the distal "
+             "tibia medially, - abduction); int° internal rotation (+ internal: the tibia's "
+             "anterior turns medially); ml, ap, si: the tibial point at the axis point moved "
+             "along the axis (+ right), anterior, superior", head]
+    for p in run.points:
+        d = p.translation_mm
+        text = (f"{p.flexion_deg:6g} {p.adduction_deg:6.2f} {p.internal_rotation_deg:6.2f} "
+                f"{d[0]:6.2f} {d[1]:6.2f} {d[2]:6.2f}")
+        for c in comps:
+            v = p.compartments[c]
+            text += (f" | {v['force_N']:7.1f} {v['area_mm2']:6.1f} "
+                     f"{v['max_pressure_MPa']:6.2f}")
+        if groups:
+            text += "  |" + "".join(
+                f" {sum(t for k, t in p.ligaments.items() if k.startswith(g)):7.1f}"
+                for g in groups)
+        lines.append(text)
+    return "\n".join(lines) + "\n"
 
 
 def _series(run: FlexRun, key: str) -> np.ndarray:
@@ -95,8 +191,9 @@ def write_plots(run: FlexRun, directory: Path) -> list[Path]:
     directory = Path(directory)
     phi = _series(run, "flexion_deg")
     fig, ax = plt.subplots(2, 2, figsize=(11, 8), constrained_layout=True)
-    ax[0, 0].plot(phi, _series(run, "internal_deg"), label="internal rotation")
-    ax[0, 0].plot(phi, _series(run, "abduction_deg"), label="abduction θy")
+    ax[0, 0].plot(phi, _series(run, "internal_rotation_deg"),
+                  label="internal rotation (+ internal)")
+    ax[0, 0].plot(phi, _series(run, "adduction_deg"), label="adduction (+ varus)")
     ax[0, 0].set_ylabel("deg")
     for key, label in (("ml_mm", "medio-lateral (+ along axis)"), ("ap_mm", "anterior"),
                        ("si_mm", "superior")):
