@@ -30,7 +30,7 @@ TIBIA_KG = 2.65207          # femur_tibia_menisci.toml [tibia]
 def intact():
     """(scene, problem, interfaces, springs, solution) of the packaged scene."""
     scene = load_scene("femur_tibia_menisci")
-    problem, interfaces, springs, _, _ = menisci.build_problem(scene)
+    problem, interfaces, springs, _, _, _ = menisci.build_problem(scene)
     return scene, problem, interfaces, springs, solve(problem)
 
 
@@ -292,7 +292,7 @@ def test_packaged_knee_balances_at_200_and_2000_N(load_n):
     scene = load_scene("femur_tibia_menisci", [f"load.force_N={load_n}"])
     result = run_scene(scene)
     assert result.converged
-    problem, interfaces, springs, _, _ = menisci.build_problem(scene)
+    problem, interfaces, springs, _, _, _ = menisci.build_problem(scene)
     q = [np.asarray(result.menisci["poses"][b.name]["q"]) if b.free else b.q_start
          for b in problem.bodies]
     poses = [body_pose(qb) for qb in q]
