@@ -170,13 +170,16 @@ class MeniscusReport:
     """One meniscus at the answer: the area of its superior surface (mm², vertex
     tributary areas) the femur presses and within 0.1 / 0.5 / 1 mm of the femur
     (`near_mm2`, keyed by the distance), the mean outward radial displacement of its body
-    (arc 0.25-0.75, volume-weighted, mm; + extruded), and the hoop stress and force along
-    its arc (`fecheck.fe.meniscus_solid.HoopResult`)."""
+    (arc 0.25-0.75, volume-weighted, mm; + extruded), the hoop stress and force along
+    its arc (`fecheck.fe.meniscus_solid.HoopResult`), and per horn its root's tension
+    along the root's direction (N, + pulling the horn toward the tibia: the force on the
+    tibia along the root)."""
 
     contact_mm2: float
     near_mm2: dict[float, float]
     radial_mm: float
     hoop: object
+    roots_N: dict[str, float] = field(default_factory=dict)
 
 
 @dataclass(frozen=True, eq=False)
@@ -949,7 +952,23 @@ def meniscus_report(m: MeniscusBody, u: np.ndarray, gaps: np.ndarray,
     sigma = np.einsum("ai,nab,bj->nij", m.rotation, sigma, m.rotation)    # the data frame
     return MeniscusReport(float(vertex[pressed].sum()), near,
                           radial_displacement(m, full),
-                          hoop_force(m.solid, sigma, HOOP_ARCS))
+                          hoop_force(m.solid, sigma, HOOP_ARCS), root_tensions(m, u))
+
+
+def root_tensions(m: MeniscusBody, u: np.ndarray) -> dict[str, float]:
+    """{horn: tension (N) along its root's direction} of meniscus `m` at its kept-dof
+    displacement `u`: −(Σ over the horn's nodes of the springs' force on the meniscus)·e,
+    e the root's unit direction (`fecheck.fe.meniscus_solid.Horn.direction`)."""
+    out, start = {}, 0
+    for horn in m.horn_N_per_mm:
+        nodes = m.solid.horns[horn].nodes
+        rows = slice(start, start + len(nodes))
+        start += len(nodes)
+        force = -np.einsum("nij,nj->i", m.spring_N_per_mm[rows],
+                           _disp(m.body, u, m.spring_nodes[rows]))
+        out[horn] = float(-force @ m.solid.horns[horn].direction) if \
+            m.solid.horns[horn].ligaments else float("nan")
+    return out
 
 
 def radial_displacement(m: MeniscusBody, full: np.ndarray) -> float:

@@ -83,7 +83,6 @@ from fecheck.scene.surfaces import read_surface
 from fecheck.statics.frames import rot_y
 from fecheck.statics.interfaces import Interface
 from fecheck.statics.ligaments import BodySpring
-from fecheck.statics.root_spring import RootSpring
 from fecheck.statics.newton import (
     BODY_DOFS,
     TIBIA_COORDINATES,
@@ -95,6 +94,7 @@ from fecheck.statics.newton import (
     solve,
     tibia_body,
 )
+from fecheck.statics.root_spring import RootSpring
 from geometry.mesh import TriMesh, is_closed
 
 FEMUR, TIBIA = 0, 1
