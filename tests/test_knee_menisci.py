@@ -416,11 +416,31 @@ def test_cli_fe_runs_a_menisci_scene_and_writes_its_json(intact, monkeypatch, tm
     monkeypatch.setattr(knee_menisci, "knee_menisci_fe", solved)
     path = tmp_path / "fe.json"
     assert main(["fe", "femur_tibia_menisci", "--set", "fe.size_mm=2.0",
-                 "--json", str(path)]) == 0
+                 "--json", str(path), "--plot", str(tmp_path / "plot"),
+                 "--vtk", str(tmp_path / "vtk")]) == 0
     assert sizes == [2.5]
     out = capsys.readouterr().out
     assert "Donahue 2002" in out and "posterior horn" in out and "balance:" in out
     assert out.count("FE no menisci") == 2
+    assert out.count("meniscus load path: femur -> meniscus") == 2
+    assert out.count("meniscus hoop force N at arc") == 2
+    # --plot draws the pressure map; --vtk writes the tibial layers' and the menisci's
+    # superior surfaces with the run's pressures (the femur's on a meniscus: its contact
+    # forces over the vertex tributary areas, so they sum back to the pair's force)
+    import meshio
+
+    assert (tmp_path / "plot" / "menisci_pressure.png").stat().st_size > 10000
+    for side in intact.fe:
+        tib = meshio.read(tmp_path / "vtk" / f"tibia_{side}.vtu")
+        assert np.array_equal(tib.point_data["pressure_MPa"], intact.pressure_MPa[side])
+        men = meshio.read(tmp_path / "vtk" / f"meniscus_{side}_superior.vtu")
+        tri = men.points[men.cells_dict["triangle"]]
+        area = 0.5 * np.linalg.norm(np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0]),
+                                    axis=1)
+        tributary = np.bincount(men.cells_dict["triangle"].ravel(), np.repeat(area / 3, 3),
+                                minlength=len(men.points))
+        pressed = intact.pairs[f"{side} femur-meniscus"].force_N.sum()
+        assert men.point_data["pressure_MPa"] @ tributary == pytest.approx(pressed, rel=1e-9)
 
     def no_nan(text):
         raise AssertionError(f"{text} in the JSON")

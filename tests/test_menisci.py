@@ -20,6 +20,7 @@ from fecheck.scene.constants import GRAVITY_MPS2
 from fecheck.statics.frames import rot_y
 from fecheck.statics.interfaces import Interface
 from fecheck.statics.newton import Body, Problem, body_pose, point_force, solve
+from fecheck.statics.root_spring import RootSpring
 from geometry.plateau import plane_patch
 
 LOAD_N = 800.0
@@ -49,6 +50,10 @@ def _forces_on(body: int, interfaces, springs, poses) -> np.ndarray:
         w = i.wrench_on_slave(poses)[:3]
         total += w * (i.slave == body) - w * (i.master == body)
     for s in springs.values():
+        if isinstance(s, RootSpring):                          # a root: on the meniscus
+            f = s.force(poses)
+            total += f * (s.meniscus == body) - f * (s.tibia == body)
+            continue
         x_a, x_b = s.ends(poses)
         pull = s.tension(poses) * (x_a - x_b) / np.linalg.norm(x_a - x_b)   # on end b
         total += pull * (s.body_b == body) - pull * (s.body_a == body)
@@ -94,8 +99,11 @@ def test_meniscal_share_splits_each_compartments_load(intact, results):
         assert 0 < r["meniscal_share"] < 1
         assert r["meniscal_share"] == pytest.approx(
             r["meniscus_N"] / (r["meniscus_N"] + r["cartilage_N"]), rel=1e-12)
-        # the meniscus passes the femur's load on to the tibia (ligaments: a few N)
-        assert r["femur_on_meniscus_N"] == pytest.approx(r["meniscus_N"], abs=2.0)
+        # the meniscus passes the femur's load on to the tibia, by contact and through its
+        # root springs (the meniscus balances: to 1e-8 of the load)
+        assert r["femur_on_meniscus_N"] == pytest.approx(r["meniscus_N"], abs=1e-8 * LOAD_N)
+        assert r["meniscus_N"] == pytest.approx(
+            r["meniscus_contact_N"] + r["meniscus_springs_N"], rel=1e-12)
 
 
 def test_removing_the_medial_meniscus_loads_the_medial_cartilage_more(results):

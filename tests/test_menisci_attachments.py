@@ -122,3 +122,27 @@ def test_fe_root_springs_hold_a_rigid_shift_along_the_roots():
                 u[basis.nodal_dofs[c]] = u[basis.edge_dofs[c]] = d[c]
             expected = sum(d @ matrix(h) @ d for h in horns)
             assert u @ K @ u == pytest.approx(expected, rel=1e-8)
+
+
+def test_resected_tetrahedra_leave_a_closed_outward_boundary():
+    # A 2 × 1 × 1 mm block of 12 tetrahedra (two cubes, six each): cutting the tets whose
+    # centroid has x < 1 leaves the second cube, 1 mm³, bounded by 12 outward triangles
+    # whose enclosed (signed) volume is the tets' volume.
+    import trimesh
+
+    from fecheck.fe.meniscus_solid import resect
+    from geometry.mesh import TetMesh, TriMesh
+
+    cube = np.array([[0, 0, 0], [1, 0, 0], [1, 1, 0], [0, 1, 0],
+                     [0, 0, 1], [1, 0, 1], [1, 1, 1], [0, 1, 1]], dtype=float)
+    six = np.array([[0, 1, 2, 6], [0, 2, 3, 6], [0, 3, 7, 6], [0, 7, 4, 6], [0, 4, 5, 6],
+                    [0, 5, 1, 6]])
+    points = np.vstack([cube, cube + [1.0, 0.0, 0.0]])
+    mesh = TetMesh(points, np.vstack([six, six + 8]))
+    out = resect(mesh, lambda c: c[:, 0] < 1.0)
+    assert len(out.tets) == 6 and len(out.points) == 8
+    assert np.abs(out.tet_volumes).sum() == pytest.approx(1.0, rel=1e-12)
+    surface = TriMesh(out.points, out.boundaries["boundary"])
+    assert len(surface.faces) == 12
+    assert surface.signed_volume == pytest.approx(1.0, rel=1e-12)
+    assert trimesh.Trimesh(out.points, surface.faces, process=False).is_watertight

@@ -208,7 +208,10 @@ class KneeMenisciFE:
     femur's turn from the EF pose about each rotation the tibia is free in (deg, `turns`)
     and its moment balance about each (N·mm: contact moment plus the load's); the
     cartilage model (``fe.cartilage``: "series" or "two-layer"); per compartment the FE of
-    the same knee without menisci (empty unless asked for, `knee_menisci_fe`)."""
+    the same knee without menisci (empty unless asked for, `knee_menisci_fe`); per
+    compartment the tibial layer's surface (tibia frame, mm: `pressure_MPa` is on its
+    vertices) and per meniscus its superior surface (tibia frame, at the placement) with
+    the femur's pressure on its vertices (MPa: contact force over vertex tributary area)."""
 
     load_N: float
     fe: dict[str, CompartmentFE]
@@ -230,6 +233,8 @@ class KneeMenisciFE:
     moment_balance_Nmm: np.ndarray = field(default_factory=lambda: np.zeros(0))
     cartilage: str = "series"
     without_menisci: dict[str, CompartmentFE] = field(default_factory=dict)
+    surfaces: dict[str, TriMesh] = field(default_factory=dict)
+    meniscus_surfaces: dict[str, tuple[TriMesh, np.ndarray]] = field(default_factory=dict)
 
 
 def vertex_normals(points: np.ndarray, faces: np.ndarray) -> np.ndarray:
@@ -899,7 +904,27 @@ def _solve(sides: list[_Side], rot: np.ndarray, t: np.ndarray, load: float,
                          {s.name: outline(s.meniscus.points, s.meniscus.inferior_faces)
                           for s in sides if s.meniscus}, region,
                          np.degrees(angles), turn_axes @ on_femur + moments,
-                         "two-layer" if any(s.femoral is not None for s in sides) else "series")
+                         "two-layer" if any(s.femoral is not None for s in sides) else "series",
+                         {}, {s.name: s.layer.surface for s in sides},
+                         {s.name: superior_pressure(s.meniscus, records.get(
+                             f"{s.name} femur-meniscus")) for s in sides if s.meniscus})
+
+
+def superior_pressure(m: MeniscusBody, record: PairRecord | None
+                      ) -> tuple[TriMesh, np.ndarray]:
+    """(the superior surface of meniscus `m` (its own vertices, tibia frame), the femur's
+    pressure on each vertex, MPa): contact force over the vertex's tributary area."""
+    faces = m.solid.faces(SUPERIOR)
+    used = np.unique(faces)
+    index = np.full(len(m.points), -1)
+    index[used] = np.arange(len(used))
+    surface = TriMesh(m.points[used], index[faces])
+    area = np.bincount(surface.faces.ravel(), np.repeat(surface.face_areas / 3.0, 3),
+                       minlength=len(used))
+    force = np.zeros(len(m.points))
+    if record is not None:
+        force[record.nodes] = record.force_N
+    return surface, np.divide(force[used], area, out=np.zeros(len(used)), where=area > 0)
 
 
 def _moved_hits(paired: dict[str, dict], sides: list[_Side], cands: dict[str, np.ndarray]

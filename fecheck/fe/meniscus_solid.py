@@ -228,12 +228,14 @@ def meniscus_solid(source: Scene | str | Path, side: str, size_mm: float = DEFAU
                            "5 mm (about 1-1.5 mm resolves a 5 mm high meniscus)")
     folder = _folder(source)
     volume = read_volume(folder, side)
-    move = None
+    move = cut = None
     if isinstance(source, Scene):
         from fecheck.model.menisci import shapes
 
-        shape = shapes(source, [side])[side]
-        volume, move = shape.volume, shape
+        move = shapes(source, [side])[side]
+        cut = move.cut
+        volume = TriMesh(move.fit(volume.points) if move.fit is not None else volume.points,
+                         volume.faces)
     stem = f"smith2019_R_meniscus_{side}"
     articular = {lab: _read(folder, f"{stem}_{face}.stl", move)
                  for lab, face in ((SUPERIOR, "superior"), (INFERIOR, "inferior"))}
@@ -241,6 +243,8 @@ def meniscus_solid(source: Scene | str | Path, side: str, size_mm: float = DEFAU
                for face in ("superior", "inferior") for r, suffix in REGIONS.items()}
     t0 = time.perf_counter()
     mesh, moved = solid_mesh(volume, size_mm, f"{folder / stem}.stl")
+    if cut is not None:
+        mesh = resect(mesh, cut.inner)
     t_mesh = time.perf_counter() - t0
     boundary = mesh.boundaries["boundary"]
     surface = TriMesh(mesh.points, boundary)
@@ -253,6 +257,29 @@ def meniscus_solid(source: Scene | str | Path, side: str, size_mm: float = DEFAU
                                    "stl_volume_mm3": volume.signed_volume}
     return MeniscusSolid(side, mesh, boundary, label, region, fibre, arc, line, horns,
                          quality)
+
+
+def resect(mesh: TetMesh, inner) -> TetMesh:
+    """`mesh` without the tetrahedra whose centroid `inner` ((n, 3) points → (n,) bool)
+    marks (a partial meniscectomy: `fecheck.model.menisci_shape.PartialMap.inner`), its
+    points compacted and its boundary (``boundaries["boundary"]``, outward) the faces
+    of one remaining tetrahedron each. `FecheckError` if nothing is left."""
+    tets = mesh.tets[~inner(mesh.points[mesh.tets].mean(axis=1))]
+    if not len(tets):
+        raise FecheckError("the partial meniscectomy leaves no tetrahedron of the meniscus")
+    used = np.unique(tets)
+    index = np.full(len(mesh.points), -1)
+    index[used] = np.arange(len(used))
+    tets = index[tets]
+    points = mesh.points[used]
+    p = points[tets]
+    negative = np.einsum("ij,ij->i", p[:, 1] - p[:, 0],
+                         np.cross(p[:, 2] - p[:, 0], p[:, 3] - p[:, 0])) < 0
+    tets[negative] = tets[negative][:, [0, 2, 1, 3]]
+    faces = tets[:, [[0, 2, 1], [0, 1, 3], [0, 3, 2], [1, 2, 3]]].reshape(-1, 3)
+    _, first, count = np.unique(np.sort(faces, axis=1), axis=0, return_index=True,
+                                return_counts=True)
+    return TetMesh(points, tets, {"boundary": faces[first[count == 1]]})
 
 
 def unfold(surface: TriMesh) -> tuple[TriMesh, int]:

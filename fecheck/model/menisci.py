@@ -455,11 +455,38 @@ def _maps(interfaces: Sequence[Interface], poses, volumes: dict) -> dict[str, di
     return out
 
 
-def _shares(interfaces: Sequence[Interface], poses, sides) -> dict[str, dict[str, float]]:
+def spring_on_tibia(spring, poses) -> np.ndarray:
+    """(3,) force (N, world) of a meniscal spring (`RootSpring` or `BodySpring`) on the
+    tibia (zero for one that does not end on the tibia)."""
+    if isinstance(spring, RootSpring):
+        return -spring.force(poses)
+    x_a, x_b = spring.ends(poses)
+    if TIBIA not in (spring.body_a, spring.body_b) or np.allclose(x_a, x_b):
+        return np.zeros(3)
+    pull = spring.tension(poses) * (x_b - x_a) / np.linalg.norm(x_b - x_a)   # on end a
+    return pull if spring.body_a == TIBIA else -pull
+
+
+def _meniscus_of(spring, index: dict[str, int]) -> str | None:
+    body = spring.meniscus if isinstance(spring, RootSpring) else (
+        spring.body_b if spring.body_a == TIBIA else
+        spring.body_a if spring.body_b == TIBIA else None)
+    return next((s for s, b in index.items() if b == body), None)
+
+
+def _shares(interfaces: Sequence[Interface], poses, sides, springs: dict | None = None
+            ) -> dict[str, dict[str, float]]:
     """Per compartment: axial load into the tibia through cartilage and meniscus (N, +
-    compressive), the meniscal share, the femur's load on the meniscus, the depths."""
+    compressive; the meniscus's: its tibial contact plus its springs to the tibia,
+    `springs`), the meniscal share, the femur's load on the meniscus, the depths."""
     rot = poses[TIBIA][0]
     by_name = {i.name: i for i in interfaces}
+    index = {s: 2 + i for i, s in enumerate(sides)}
+    through = dict.fromkeys(sides, 0.0)
+    for spring in (springs or {}).values():
+        side = _meniscus_of(spring, index)
+        if side is not None:
+            through[side] += axial_force(spring_on_tibia(spring, poses), rot)
     out = {}
     for c in COMPARTMENTS:
         cart = by_name[c]
@@ -468,7 +495,9 @@ def _shares(interfaces: Sequence[Interface], poses, sides) -> dict[str, dict[str
                "femur_on_meniscus_N": 0.0}
         if c in sides:
             down, up = by_name[f"{c} meniscus-tibia"], by_name[f"{c} femur-meniscus"]
-            row["meniscus_N"] = axial_force(down.wrench_on_slave(poses)[:3], rot)
+            row["meniscus_contact_N"] = axial_force(down.wrench_on_slave(poses)[:3], rot)
+            row["meniscus_springs_N"] = through[c]
+            row["meniscus_N"] = row["meniscus_contact_N"] + through[c]
             row["meniscus_tibia_max_depth_mm"] = down.max_depth_mm
             row["femur_on_meniscus_N"] = -axial_force(up.wrench_on_slave(poses)[:3], rot)
             row["femur_meniscus_max_depth_mm"] = up.max_depth_mm
@@ -493,7 +522,7 @@ def run_menisci(scene: Scene, warm_start: np.ndarray | None = None) -> RunResult
         res, w, _ = comp.evaluate(rot, t)
         compartments[comp.name] = compartment_result(comp, res, w, rot, t)
     maps = _maps(interfaces, poses, {s: m.volume for s, m in shaped.items()})
-    shares = _shares(interfaces, poses, sides)
+    shares = _shares(interfaces, poses, sides, springs)
     for side, m in maps.items():
         shares[side]["meniscus_tibia_area_mm2"] = m["area_mm2"]
         shares[side]["meniscus_tibia_max_pressure_MPa"] = m["max_pressure_MPa"]
