@@ -341,7 +341,8 @@ def test_report_of_a_turned_torus_in_uniform_horizontal_strain(opening):
         u[basis.nodal_dofs[c]] = eps * (points[:, c] - centre[c])
         u[basis.edge_dofs[c]] = eps * (mid[:, c] - centre[c])
     m = SimpleNamespace(solid=solid, points=points, basis=basis, tie=sp.identity(basis.N),
-                        rotation=Q, superior=np.zeros(0, dtype=int), material=M)
+                        rotation=Q, superior=np.zeros(0, dtype=int), material=M,
+                        horn_N_per_mm={})
     report = knee_menisci.meniscus_report(m, u, np.zeros(0), None)
     S = np.array([[1 / M.E_p, -M.nu_p / M.E_p, -M.nu_tp / M.E_t],
                   [-M.nu_p / M.E_p, 1 / M.E_p, -M.nu_tp / M.E_t],
@@ -389,7 +390,9 @@ def test_region_loads_sum_to_the_compartment_load(coarse, intact):
         total = sum(g.load_N for g in regions.values()) + fe.springs_N
         assert total == pytest.approx(fe.meniscus_N + fe.cartilage_N, rel=1e-12)
         assert max(g.p_max_MPa for g in regions.values()) == fe.p_max_MPa
-        assert regions["cartilage"].area_mm2 > 0.5 * fe.area_mm2
+        # the fitted menisci take a good part of the contact area (the cartilage region's
+        # was over half of it with the shipped menisci, under half now: 119 of 324 mm²)
+        assert 0.0 < regions["cartilage"].area_mm2 < fe.area_mm2
         assert all(0.0 <= g.area_mm2 <= fe.area_mm2 for g in regions.values())
 
 
