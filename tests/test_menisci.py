@@ -20,6 +20,7 @@ from fecheck.scene.constants import GRAVITY_MPS2
 from fecheck.statics.frames import rot_y
 from fecheck.statics.interfaces import Interface
 from fecheck.statics.newton import Body, Problem, body_pose, point_force, solve
+from fecheck.statics.root_spring import RootSpring
 from geometry.plateau import plane_patch
 
 LOAD_N = 800.0
@@ -30,7 +31,7 @@ TIBIA_KG = 2.65207          # femur_tibia_menisci.toml [tibia]
 def intact():
     """(scene, problem, interfaces, springs, solution) of the packaged scene."""
     scene = load_scene("femur_tibia_menisci")
-    problem, interfaces, springs, _, _ = menisci.build_problem(scene)
+    problem, interfaces, springs, _, _, _ = menisci.build_problem(scene)
     return scene, problem, interfaces, springs, solve(problem)
 
 
@@ -49,6 +50,10 @@ def _forces_on(body: int, interfaces, springs, poses) -> np.ndarray:
         w = i.wrench_on_slave(poses)[:3]
         total += w * (i.slave == body) - w * (i.master == body)
     for s in springs.values():
+        if isinstance(s, RootSpring):                          # a root: on the meniscus
+            f = s.force(poses)
+            total += f * (s.meniscus == body) - f * (s.tibia == body)
+            continue
         x_a, x_b = s.ends(poses)
         pull = s.tension(poses) * (x_a - x_b) / np.linalg.norm(x_a - x_b)   # on end b
         total += pull * (s.body_b == body) - pull * (s.body_a == body)
@@ -74,19 +79,22 @@ def test_tibia_and_menisci_balance_at_800_N(intact):
 
 def test_meniscal_share_splits_each_compartments_load(intact, results):
     # Per compartment the meniscus and cartilage-cartilage loads into the tibia are both
-    # compressive and the share is their ratio; the four loads are the contact force on
-    # the tibia (summed here from the interfaces) along its axis a, whose z component
-    # balances the load less the tibia's weight plus the ligaments' z pull on the tibia
-    # (computed here), to 1e-8 of the load (x and y of the tibia are held).
+    # compressive and the share is their ratio; the four loads are the contact and root
+    # spring forces on the tibia (summed here from the interfaces and springs) along its
+    # axis a; the contact's z component balances the load less the tibia's weight plus
+    # the springs' z pull on the tibia (computed here), to 1e-8 of the load (x and y of
+    # the tibia are held).
     _, _, interfaces, springs, sol = intact
     rows = results[0].menisci["compartments"]
     poses = [body_pose(q) for q in sol.q]
-    lig_z = _forces_on(menisci.TIBIA, [], springs, poses)[2]
+    lig = _forces_on(menisci.TIBIA, [], springs, poses)
+    lig_z = lig[2]
     contact = _forces_on(menisci.TIBIA, interfaces, {}, poses)
     carried = sum(r["meniscus_N"] + r["cartilage_N"] for r in rows.values())
     axis = poses[menisci.TIBIA][0][:, 2]
     assert abs(axis[2] - 1.0) < 1e-4                           # axial ≈ z: ~0.3° tilt
-    assert carried == pytest.approx(-contact @ axis, rel=1e-12)
+    # the menisci's loads count their root springs to the tibia (the only springs here)
+    assert carried == pytest.approx(-(contact + lig) @ axis, rel=1e-12)
     assert -contact[2] == pytest.approx(LOAD_N - TIBIA_KG * GRAVITY_MPS2 + lig_z,
                                         abs=1e-8 * LOAD_N)
     for r in rows.values():
@@ -94,8 +102,11 @@ def test_meniscal_share_splits_each_compartments_load(intact, results):
         assert 0 < r["meniscal_share"] < 1
         assert r["meniscal_share"] == pytest.approx(
             r["meniscus_N"] / (r["meniscus_N"] + r["cartilage_N"]), rel=1e-12)
-        # the meniscus passes the femur's load on to the tibia (ligaments: a few N)
-        assert r["femur_on_meniscus_N"] == pytest.approx(r["meniscus_N"], abs=2.0)
+        # the meniscus passes the femur's load on to the tibia, by contact and through its
+        # root springs (the meniscus balances: to 1e-8 of the load)
+        assert r["femur_on_meniscus_N"] == pytest.approx(r["meniscus_N"], abs=1e-8 * LOAD_N)
+        assert r["meniscus_N"] == pytest.approx(
+            r["meniscus_contact_N"] + r["meniscus_springs_N"], rel=1e-12)
 
 
 def test_removing_the_medial_meniscus_loads_the_medial_cartilage_more(results):
@@ -242,8 +253,9 @@ def test_footprint_outline_is_the_bottom_edge_of_a_turned_box():
 def test_pressure_map_draws_each_meniscus_footprint_where_it_sits(results):
     # Both maps (cartilage and meniscus pressure) draw each meniscus's footprint edge; the
     # drawn lines span the x-y bounds of the meniscus volume's vertices at its solved pose
-    # (computed here from the reported pose). The extreme vertices lie on the silhouette,
-    # so the bounds agree to rounding; 1e-6 mm.
+    # (computed here from the reported pose). The extreme vertices of the shipped volume
+    # lie on the silhouette; the fit (vertical only: the same x-y) may turn a rim face
+    # next to one upward, so the drawn edge passes near it: measured 7.5e-3 mm; 0.01 mm.
     from fecheck.io.plots import pressure_map_figure
 
     intact = results[0]
@@ -260,7 +272,7 @@ def test_pressure_map_draws_each_meniscus_footprint_where_it_sits(results):
         want = [pts[:, 0].min(), pts[:, 0].max(), pts[:, 1].min(), pts[:, 1].max()]
         for line in (drawn[k], drawn[2 + k]):
             got = [line[:, 0].min(), line[:, 0].max(), line[:, 1].min(), line[:, 1].max()]
-            np.testing.assert_allclose(got, want, atol=1e-6)
+            np.testing.assert_allclose(got, want, atol=0.01)
 
 
 def test_fe_and_flex_refuse_the_menisci_they_do_not_model(monkeypatch):
@@ -292,7 +304,7 @@ def test_packaged_knee_balances_at_200_and_2000_N(load_n):
     scene = load_scene("femur_tibia_menisci", [f"load.force_N={load_n}"])
     result = run_scene(scene)
     assert result.converged
-    problem, interfaces, springs, _, _ = menisci.build_problem(scene)
+    problem, interfaces, springs, _, _, _ = menisci.build_problem(scene)
     q = [np.asarray(result.menisci["poses"][b.name]["q"]) if b.free else b.q_start
          for b in problem.bodies]
     poses = [body_pose(qb) for qb in q]

@@ -134,7 +134,7 @@ def test_margin_reach_tells_reach_above_minus_margin_like_the_signed_distance(me
 
 
 def _solve(scene):
-    problem, interfaces, springs, _, sides = menisci.build_problem(scene)
+    problem, interfaces, springs, _, sides, _ = menisci.build_problem(scene)
     sol = menisci.solve(problem)
     poses = [menisci.body_pose(q) for q in sol.q]
     return sol, menisci._shares(interfaces, poses, sides), menisci.balance(problem, sol.q)

@@ -347,9 +347,7 @@ MENISCUS_PER_SHEET = 1.25
 UNSUPPORTED = (("mode", None, "--mode compartment (the FE with menisci loads the "
                                        "whole joint)"),
                ("refine", None, "--refine (set fe.size_mm with fe.prepare = 'on')"),
-               ("verify", False, "--verify (no error estimate of the FE with menisci)"),
-               ("plot", None, "--plot (validation/fe_menisci.py draws the pressure map)"),
-               ("vtk", None, "--vtk"))
+               ("verify", False, "--verify (no error estimate of the FE with menisci)"))
 """(argument, the value that asks nothing, what is refused)."""
 
 
@@ -394,6 +392,13 @@ def run_menisci_fe(args: argparse.Namespace, scene, out) -> int:
         write_text(args.json, json.dumps(data, indent=2) + "\n")
         if str(args.json) != "-":
             print(f"wrote {args.json}", file=out)
+    if args.vtk or args.plot:
+        from fecheck.io.menisci_outputs import write_menisci_plots, write_menisci_vtk
+
+        paths = (write_menisci_vtk(result, args.vtk) if args.vtk else []) + (
+            write_menisci_plots(result, args.plot, name) if args.plot else [])
+        for path in paths:
+            print(f"wrote {path}", file=out)
     return 0
 
 

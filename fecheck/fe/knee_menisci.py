@@ -70,7 +70,7 @@ from fecheck.fe.multibody import Body, Condensed, Pair, ray_pairs
 from fecheck.scene import Scene
 from geometry.mesh import TriMesh
 
-ROOTS = ("data", "donahue")
+ROOTS = ("data", "donahue", "bundles", "springs")
 """Horn root stiffness sources (module docstring)."""
 PENETRATION_TOL_MM = 1e-6
 """Largest overlap accepted at any contact vertex after the solve, mm."""
@@ -103,7 +103,8 @@ _REACH_MM = 5.0
 class MeniscusBody:
     """A meniscus in the tibia frame: its solid, points (n, 3) mm, the `Body` (horn
     springs in K), superior vertices and their unit normals, inferior faces, the rise
-    along the tibial axis (mm), the stiffness per horn (N/mm) and per horn node."""
+    along the tibial axis (mm), the stiffness per horn and per spring node ((3, 3) N/mm
+    each)."""
 
     side: str
     solid: MeniscusSolid
@@ -113,7 +114,7 @@ class MeniscusBody:
     superior_normals: np.ndarray
     inferior_faces: np.ndarray
     rise_mm: float
-    horn_N_per_mm: dict[str, float]
+    horn_N_per_mm: dict[str, np.ndarray]
     spring_nodes: np.ndarray
     spring_N_per_mm: np.ndarray
     basis: object = None
@@ -169,13 +170,16 @@ class MeniscusReport:
     """One meniscus at the answer: the area of its superior surface (mm², vertex
     tributary areas) the femur presses and within 0.1 / 0.5 / 1 mm of the femur
     (`near_mm2`, keyed by the distance), the mean outward radial displacement of its body
-    (arc 0.25-0.75, volume-weighted, mm; + extruded), and the hoop stress and force along
-    its arc (`fecheck.fe.meniscus_solid.HoopResult`)."""
+    (arc 0.25-0.75, volume-weighted, mm; + extruded), the hoop stress and force along
+    its arc (`fecheck.fe.meniscus_solid.HoopResult`), and per horn its root's tension
+    along the root's direction (N, + pulling the horn toward the tibia: the force on the
+    tibia along the root)."""
 
     contact_mm2: float
     near_mm2: dict[float, float]
     radial_mm: float
     hoop: object
+    roots_N: dict[str, float] = field(default_factory=dict)
 
 
 @dataclass(frozen=True, eq=False)
@@ -204,7 +208,10 @@ class KneeMenisciFE:
     femur's turn from the EF pose about each rotation the tibia is free in (deg, `turns`)
     and its moment balance about each (N·mm: contact moment plus the load's); the
     cartilage model (``fe.cartilage``: "series" or "two-layer"); per compartment the FE of
-    the same knee without menisci (empty unless asked for, `knee_menisci_fe`)."""
+    the same knee without menisci (empty unless asked for, `knee_menisci_fe`); per
+    compartment the tibial layer's surface (tibia frame, mm: `pressure_MPa` is on its
+    vertices) and per meniscus its superior surface (tibia frame, at the placement) with
+    the femur's pressure on its vertices (MPa: contact force over vertex tributary area)."""
 
     load_N: float
     fe: dict[str, CompartmentFE]
@@ -226,6 +233,8 @@ class KneeMenisciFE:
     moment_balance_Nmm: np.ndarray = field(default_factory=lambda: np.zeros(0))
     cartilage: str = "series"
     without_menisci: dict[str, CompartmentFE] = field(default_factory=dict)
+    surfaces: dict[str, TriMesh] = field(default_factory=dict)
+    meniscus_surfaces: dict[str, tuple[TriMesh, np.ndarray]] = field(default_factory=dict)
 
 
 def vertex_normals(points: np.ndarray, faces: np.ndarray) -> np.ndarray:
@@ -241,8 +250,8 @@ def vertex_normals(points: np.ndarray, faces: np.ndarray) -> np.ndarray:
 def horn_stiffness(solid: MeniscusSolid, root: str) -> dict[str, float]:
     """Stiffness of each horn's attachment, N/mm: the sum of its root bundles' k / l0
     (``root = "data"``) or `DONAHUE_HORN_N_PER_MM` (``"donahue"``)."""
-    if root not in ROOTS:
-        raise FecheckError(f"horn root stiffness {root!r}: give one of {', '.join(ROOTS)}")
+    if root not in ROOTS[:2]:
+        raise FecheckError(f"horn root stiffness {root!r}: give one of {', '.join(ROOTS[:2])}")
     if root == "donahue":
         return {name: DONAHUE_HORN_N_PER_MM for name in solid.horns}
     out = {name: float(sum(b.stiffness_N_per_mm for b in h.ligaments))
@@ -292,8 +301,9 @@ def meniscus_stiffness(solid: MeniscusSolid, points: np.ndarray, fibre: np.ndarr
                        extra: tuple[np.ndarray, np.ndarray] | None = None):
     """(basis, K N/mm): the P2 transversely isotropic stiffness of the meniscus at
     `points` with element fibres `fibre`, plus each horn's stiffness (N/mm, `horns`)
-    spread evenly over its nodes as grounded springs in x, y and z, and the springs
-    `extra` ((nodes, N/mm each)) likewise."""
+    (a number: in x, y and z; a (3, 3) matrix: `horn_matrices`) spread evenly over its
+    nodes as grounded springs, and the springs `extra` ((nodes, N/mm each), in x, y and
+    z) likewise."""
     from skfem import MeshTet
 
     from fecheck.fe.anisotropy import p2_transiso
@@ -301,21 +311,50 @@ def meniscus_stiffness(solid: MeniscusSolid, points: np.ndarray, fibre: np.ndarr
     mesh = MeshTet(np.ascontiguousarray(points.T), np.ascontiguousarray(solid.mesh.tets.T))
     basis, K = p2_transiso(mesh, material, fibre)
     nodes, k_node = _springs(solid, horns, extra)
-    dofs = basis.nodal_dofs[:, nodes].T.ravel()
-    return basis, (K + _diagonal(basis.N, dofs, np.repeat(k_node, 3))).tocsr()
+    dofs = basis.nodal_dofs[:, nodes].T                              # (m, 3)
+    rows = np.repeat(dofs, 3, axis=1).ravel()
+    cols = np.tile(dofs, (1, 3)).ravel()
+    return basis, (K + _blocks(basis.N, rows, cols, k_node.ravel())).tocsr()
 
 
-def _springs(solid: MeniscusSolid, horns: dict[str, float],
+def _springs(solid: MeniscusSolid, horns: dict[str, float | np.ndarray],
              extra: tuple[np.ndarray, np.ndarray] | None = None
              ) -> tuple[np.ndarray, np.ndarray]:
-    """(nodes, N/mm per node): each horn's stiffness spread evenly over its nodes, then
-    the springs `extra` ((nodes, N/mm))."""
+    """(nodes (m,), stiffness (m, 3, 3) N/mm per node): each horn's stiffness (a number:
+    the same in x, y and z; or a (3, 3) matrix) spread evenly over its nodes, then the
+    springs `extra` ((nodes, N/mm), in x, y and z)."""
     nodes = [solid.horns[h].nodes for h in horns]
-    k = [np.full(len(n), horns[h] / len(n)) for h, n in zip(horns, nodes, strict=True)]
+    k = [np.broadcast_to(_matrix(horns[h]) / len(n), (len(n), 3, 3))
+         for h, n in zip(horns, nodes, strict=True)]
     if extra is not None:
         nodes.append(np.asarray(extra[0]))
-        k.append(np.asarray(extra[1], dtype=float))
+        k.append(np.asarray(extra[1], dtype=float)[:, None, None] * np.eye(3))
+    if not nodes:
+        return np.zeros(0, dtype=np.int64), np.zeros((0, 3, 3))
     return np.concatenate(nodes), np.concatenate(k)
+
+
+def _matrix(k: float | np.ndarray) -> np.ndarray:
+    """(3, 3) stiffness of a horn given as a number (the same in x, y, z) or a matrix."""
+    k = np.asarray(k, dtype=float)
+    return k * np.eye(3) if k.ndim == 0 else k
+
+
+def horn_matrices(solid: MeniscusSolid, root: str, stiffness_N_per_mm: float,
+                  torn: tuple[str, ...] = ()) -> dict[str, np.ndarray]:
+    """{horn: (3, 3) stiffness N/mm} of each horn not `torn`: ``root = "springs"`` a
+    linear spring of `stiffness_N_per_mm` along the root's direction
+    (`fecheck.statics.root_spring.root_matrix`, `Horn.direction`); else the same in x, y
+    and z (`horn_stiffness`: ``"bundles"`` the data's bundles, as ``"data"``)."""
+    from fecheck.statics.root_spring import root_matrix
+
+    if root not in ROOTS:
+        raise FecheckError(f"horn roots {root!r}: give one of {', '.join(ROOTS)}")
+    kept = [h for h in solid.horns if h not in torn]
+    if root == "springs":
+        return {h: root_matrix(solid.horns[h].direction, stiffness_N_per_mm) for h in kept}
+    k = horn_stiffness(solid, "data" if root == "bundles" else root)
+    return {h: k[h] * np.eye(3) for h in kept}
 
 
 def coronary_springs(solid: MeniscusSolid, folder) -> tuple[np.ndarray, np.ndarray]:
@@ -354,10 +393,10 @@ def element_stress(basis, u: np.ndarray, fibre: np.ndarray,
     return np.einsum("nabcd,ncd->nab", stiffness_tensor(material, fibre), strain)
 
 
-def _diagonal(n: int, dofs: np.ndarray, values: np.ndarray):
+def _blocks(n: int, rows: np.ndarray, cols: np.ndarray, values: np.ndarray):
     import scipy.sparse as sp
 
-    return sp.csr_matrix((values, (dofs, dofs)), shape=(n, n))
+    return sp.csr_matrix((values, (rows, cols)), shape=(n, n))
 
 
 @dataclass(eq=False)
@@ -433,8 +472,8 @@ def place_meniscus(solid: MeniscusSolid, q_meniscus: np.ndarray, q_tibia: np.nda
 
 
 def knee_menisci_fe(scene: Scene, *, meniscus_size_mm: float = DEFAULT_SIZE_MM,
-                    root: str = "data", ef=None, layers=None, lift_mm: float = 0.0,
-                    coronary: bool = False,
+                    root: str | None = None, ef=None, layers=None, lift_mm: float = 0.0,
+                    coronary: bool | None = None,
                     log: Callable[[str], None] | None = None,
                     material: TransIso = MENISCUS,
                     hold_rotation: bool = False, without: bool = False) -> KneeMenisciFE:
@@ -443,8 +482,11 @@ def knee_menisci_fe(scene: Scene, *, meniscus_size_mm: float = DEFAULT_SIZE_MM,
     `ef`: the scene's EF run (`fecheck.model.menisci.run_menisci`; run here when None);
     `layers`: its tibial layers (`fecheck.fe.press.FELayer`, built here when None);
     `meniscus_size_mm`: the meniscus tetrahedra (`fecheck.fe.meniscus_solid`); `root`:
-    the horn root stiffness (`ROOTS`); `lift_mm`: the superior surface raised along its
-    normals, mm; `coronary`: the coronary ligaments as springs too; `material`: the
+    the horn roots (None: menisci.roots, "springs" along the root at
+    menisci.root_N_per_mm or "bundles"; or one of `ROOTS`, the same in x, y and z; the
+    horns of menisci.torn_roots left out); `lift_mm`: the superior surface raised along
+    its normals, mm; `coronary`: the coronary ligaments as springs too (None:
+    menisci.coronary); `material`: the
     menisci's transversely isotropic constants; `hold_rotation`: the femur kept at the
     EF's rotation (else it turns free in the tibia's free rotations, `femur_turns`);
     `without`: the same FE of the knee without its menisci too (``menisci.sides = []``, at
@@ -461,6 +503,8 @@ def knee_menisci_fe(scene: Scene, *, meniscus_size_mm: float = DEFAULT_SIZE_MM,
     from fecheck.statics.newton import body_pose
 
     say = log or (lambda message: None)
+    root = scene["menisci.roots"] if root is None else root
+    coronary = scene["menisci.coronary"] if coronary is None else coronary
     if not scene["menisci.dir"]:
         raise FecheckError("the FE with menisci needs a scene with menisci.dir (e.g. "
                            "femur_tibia_menisci)")
@@ -496,8 +540,11 @@ def knee_menisci_fe(scene: Scene, *, meniscus_size_mm: float = DEFAULT_SIZE_MM,
         if f"{lay.body.name} meniscus" in poses:
             solid = meniscus_solid(scene, lay.body.name, meniscus_size_mm)
             extra = coronary_springs(solid, menisci_dir(scene)) if coronary else None
+            torn = tuple(h.split("-")[1] for h in scene["menisci.torn_roots"]
+                         if h.startswith(f"{lay.body.name}-"))
+            horns = horn_matrices(solid, root, scene["menisci.root_N_per_mm"], torn)
             men = _meniscus(solid, poses[f"{lay.body.name} meniscus"]["q"], q_tibia, pts, nrm,
-                            root, extra, material)
+                            horns, extra, material)
             say(f"{men.side} meniscus: {len(men.solid.mesh.tets)} tetrahedra, "
                 f"{men.body.K.shape[0]} dofs, raised {men.rise_mm:.3f} mm onto the layer")
         sides.append(replace(_side(lay, body, men, rot, t), lift=float(lift_mm)))
@@ -510,7 +557,7 @@ def knee_menisci_fe(scene: Scene, *, meniscus_size_mm: float = DEFAULT_SIZE_MM,
     if not without:
         return result
     say("the same knee without its menisci")
-    bare = with_values(scene, menisci__sides=[])
+    bare = with_values(scene, menisci__sides=[], menisci__remove=[])
     alone = knee_menisci_fe(bare, layers=layers, log=log, hold_rotation=hold_rotation)
     return replace(result, without_menisci=alone.fe)
 
@@ -576,13 +623,13 @@ def femur_turns(scene: Scene, q_tibia: np.ndarray) -> tuple[np.ndarray, np.ndarr
 
 
 def _meniscus(solid: MeniscusSolid, q: np.ndarray, q_tibia: np.ndarray,
-              layer_points: np.ndarray, layer_normals: np.ndarray, root: str,
+              layer_points: np.ndarray, layer_normals: np.ndarray,
+              horns: dict[str, np.ndarray],
               extra: tuple[np.ndarray, np.ndarray] | None = None,
               material: TransIso = MENISCUS) -> MeniscusBody:
     from fecheck.statics.newton import body_pose
 
     points, fibre, rise = place_meniscus(solid, q, q_tibia, layer_points, layer_normals)
-    horns = horn_stiffness(solid, root)
     body, basis, tie = meniscus_body(solid, points, fibre, horns, material, extra)
     rotation = body_pose(np.asarray(q_tibia, dtype=float))[0].T @ body_pose(
         np.asarray(q, dtype=float))[0]
@@ -844,8 +891,8 @@ def _solve(sides: list[_Side], rot: np.ndarray, t: np.ndarray, load: float,
                    for p in pairs if _femur_pair(p.name))
     records = {p.name: PairRecord(p.nodes, sol.pairs[p.name].force_N, sol.pairs[p.name].gap_mm,
                                   p.normals) for p in pairs}
-    springs = {s.name: -(s.meniscus.spring_N_per_mm[:, None] * _disp(
-        s.meniscus.body, sol.u[s.meniscus.body.name], s.meniscus.spring_nodes)).sum(axis=0)
+    springs = {s.name: -np.einsum("nij,nj->i", s.meniscus.spring_N_per_mm, _disp(
+        s.meniscus.body, sol.u[s.meniscus.body.name], s.meniscus.spring_nodes))
         for s in sides if s.meniscus}
     reports = {s.name: meniscus_report(s.meniscus, sol.u[s.meniscus.body.name],
                                        gaps[f"{s.name} femur-meniscus"],
@@ -857,7 +904,27 @@ def _solve(sides: list[_Side], rot: np.ndarray, t: np.ndarray, load: float,
                          {s.name: outline(s.meniscus.points, s.meniscus.inferior_faces)
                           for s in sides if s.meniscus}, region,
                          np.degrees(angles), turn_axes @ on_femur + moments,
-                         "two-layer" if any(s.femoral is not None for s in sides) else "series")
+                         "two-layer" if any(s.femoral is not None for s in sides) else "series",
+                         {}, {s.name: s.layer.surface for s in sides},
+                         {s.name: superior_pressure(s.meniscus, records.get(
+                             f"{s.name} femur-meniscus")) for s in sides if s.meniscus})
+
+
+def superior_pressure(m: MeniscusBody, record: PairRecord | None
+                      ) -> tuple[TriMesh, np.ndarray]:
+    """(the superior surface of meniscus `m` (its own vertices, tibia frame), the femur's
+    pressure on each vertex, MPa): contact force over the vertex's tributary area."""
+    faces = m.solid.faces(SUPERIOR)
+    used = np.unique(faces)
+    index = np.full(len(m.points), -1)
+    index[used] = np.arange(len(used))
+    surface = TriMesh(m.points[used], index[faces])
+    area = np.bincount(surface.faces.ravel(), np.repeat(surface.face_areas / 3.0, 3),
+                       minlength=len(used))
+    force = np.zeros(len(m.points))
+    if record is not None:
+        force[record.nodes] = record.force_N
+    return surface, np.divide(force[used], area, out=np.zeros(len(used)), where=area > 0)
 
 
 def _moved_hits(paired: dict[str, dict], sides: list[_Side], cands: dict[str, np.ndarray]
@@ -910,7 +977,23 @@ def meniscus_report(m: MeniscusBody, u: np.ndarray, gaps: np.ndarray,
     sigma = np.einsum("ai,nab,bj->nij", m.rotation, sigma, m.rotation)    # the data frame
     return MeniscusReport(float(vertex[pressed].sum()), near,
                           radial_displacement(m, full),
-                          hoop_force(m.solid, sigma, HOOP_ARCS))
+                          hoop_force(m.solid, sigma, HOOP_ARCS), root_tensions(m, u))
+
+
+def root_tensions(m: MeniscusBody, u: np.ndarray) -> dict[str, float]:
+    """{horn: tension (N) along its root's direction} of meniscus `m` at its kept-dof
+    displacement `u`: −(Σ over the horn's nodes of the springs' force on the meniscus)·e,
+    e the root's unit direction (`fecheck.fe.meniscus_solid.Horn.direction`)."""
+    out, start = {}, 0
+    for horn in m.horn_N_per_mm:
+        nodes = m.solid.horns[horn].nodes
+        rows = slice(start, start + len(nodes))
+        start += len(nodes)
+        force = -np.einsum("nij,nj->i", m.spring_N_per_mm[rows],
+                           _disp(m.body, u, m.spring_nodes[rows]))
+        out[horn] = float(-force @ m.solid.horns[horn].direction) if \
+            m.solid.horns[horn].ligaments else float("nan")
+    return out
 
 
 def radial_displacement(m: MeniscusBody, full: np.ndarray) -> float:
@@ -992,8 +1075,8 @@ def _report(sides: list[_Side], pairs: list[Pair], sol, axis: np.ndarray, load: 
             m = s.meniscus
             every = _disp(m.body, sol.u[m.body.name], np.arange(len(m.points)))
             slide = float(np.linalg.norm(every.mean(axis=0)[:2]))
-            spring = m.spring_N_per_mm[:, None] * _disp(m.body, sol.u[m.body.name],
-                                                        m.spring_nodes)
+            spring = np.einsum("nij,nj->ni", m.spring_N_per_mm,
+                               _disp(m.body, sol.u[m.body.name], m.spring_nodes))
             springs = -float(spring[:, 2].sum())
             on_men = -spring.sum(axis=0)
             for kind, sign in (("femur-meniscus", -1.0), ("meniscus-tibia", 1.0)):

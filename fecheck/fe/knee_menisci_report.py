@@ -108,6 +108,7 @@ def report_lines(result, wall_s: float | None = None) -> list[str]:
         out.append(f"{row['compartment']:<11} {row['region']:<15} "
                    f"{row['load_N']:8.2f} {row['part']:6.1%} "
                    f"{_cell(row['area_mm2'], '.1f', 9)} {_cell(row['p_max_MPa'], '.3f', 9)}")
+    out += load_path_lines(result)
     out.append(f"balance: femur contact along its axis - load = {result.balance_N:.2e} N "
                f"({abs(result.balance_N) / result.load_N:.1e} of the load); worst "
                f"penetration {result.max_penetration_mm:.2e} mm; femur travel from the EF "
@@ -121,6 +122,24 @@ def report_lines(result, wall_s: float | None = None) -> list[str]:
     out.append(f"dofs {result.n_dofs}; time s: " + ", ".join(
         f"{k} {v:.1f}" for k, v in result.seconds.items()) + wall)
     out.append(donahue_note(result.cartilage))
+    return out
+
+
+def load_path_lines(result) -> list[str]:
+    """Per meniscus the load path (axial N: femur → meniscus; meniscus → tibia by contact
+    and through its horn roots) with each root's tension, and its hoop force along the
+    arc (N, at arc coordinates 0 anterior tip … 1 posterior tip)."""
+    out = []
+    for c, m in result.menisci.items():
+        fe = result.fe[c]
+        roots = ", ".join(f"{h} {v:.1f} N" for h, v in m.roots_N.items()) or "none"
+        out.append(f"{c} meniscus load path: femur -> meniscus {fe.femur_on_meniscus_N:.1f} N; "
+                   f"meniscus -> tibia by contact {fe.meniscus_N - fe.springs_N:.1f} N, "
+                   f"through its horn roots {fe.springs_N:.1f} N (axial; root tension "
+                   f"{roots})")
+        out.append(f"{c} meniscus hoop force N at arc " + ", ".join(
+            f"{a:g}: {f:.1f}" for a, f in zip(m.hoop.section_arc, m.hoop.force_N,
+                                              strict=True)))
     return out
 
 
@@ -154,7 +173,7 @@ def as_dict(result, scene_name: str = "") -> dict:
             "published_share": PUBLISHED_SHARE[c]}
     menisci = {c: {"contact_mm2": m.contact_mm2,
                    "near_mm2": {f"{d:g}": v for d, v in m.near_mm2.items()},
-                   "radial_mm": m.radial_mm,
+                   "radial_mm": m.radial_mm, "roots_N": m.roots_N,
                    "hoop": {"arc": m.hoop.section_arc, "force_N": m.hoop.force_N,
                             "section_mm2": m.hoop.section_area_mm2}}
                for c, m in result.menisci.items()}

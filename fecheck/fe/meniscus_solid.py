@@ -125,6 +125,17 @@ class Horn:
     nodes: np.ndarray
     ligaments: tuple[HornLigament, ...]
 
+    @property
+    def direction(self) -> np.ndarray:
+        """(3,) unit direction of the root: from its bundles' mean tibial point to their
+        mean meniscal point (`FecheckError` without bundles)."""
+        if not self.ligaments:
+            raise FecheckError(f"the {self.name} horn has no root bundle in "
+                               "meniscal_ligaments.json: its root's direction is unknown")
+        d = (np.mean([b.meniscus_mm for b in self.ligaments], axis=0)
+             - np.mean([b.tibia_mm for b in self.ligaments], axis=0))
+        return d / np.linalg.norm(d)
+
 
 @dataclass(frozen=True, eq=False)
 class Centreline:
@@ -194,12 +205,14 @@ def _folder(source: Scene | str | Path) -> Path:
     return folder
 
 
-def _read(folder: Path, name: str) -> TriMesh:
+def _read(folder: Path, name: str, move=None) -> TriMesh:
+    """The surface `name` of `folder`, moved with the meniscus's shape (`move`: a
+    `fecheck.model.menisci.Shape`; None: as shipped)."""
     path = folder / name
     if not path.is_file():
         raise FecheckError(f"{path}: missing; the meniscus solid needs the data set's "
                            "articular surfaces and regions (smith2019_menisci, as packaged)")
-    return read_surface(path)
+    return read_surface(path) if move is None else move.sheet(read_surface(path))
 
 
 def meniscus_solid(source: Scene | str | Path, side: str, size_mm: float = DEFAULT_SIZE_MM,
@@ -215,13 +228,23 @@ def meniscus_solid(source: Scene | str | Path, side: str, size_mm: float = DEFAU
                            "5 mm (about 1-1.5 mm resolves a 5 mm high meniscus)")
     folder = _folder(source)
     volume = read_volume(folder, side)
+    move = cut = None
+    if isinstance(source, Scene):
+        from fecheck.model.menisci import shapes
+
+        move = shapes(source, [side])[side]
+        cut = move.cut
+        volume = TriMesh(move.fit(volume.points) if move.fit is not None else volume.points,
+                         volume.faces)
     stem = f"smith2019_R_meniscus_{side}"
-    articular = {lab: _read(folder, f"{stem}_{face}.stl")
+    articular = {lab: _read(folder, f"{stem}_{face}.stl", move)
                  for lab, face in ((SUPERIOR, "superior"), (INFERIOR, "inferior"))}
-    regions = {(face, r): _read(folder, f"regions/{stem}_{face}_{suffix}.stl")
+    regions = {(face, r): _read(folder, f"regions/{stem}_{face}_{suffix}.stl", move)
                for face in ("superior", "inferior") for r, suffix in REGIONS.items()}
     t0 = time.perf_counter()
     mesh, moved = solid_mesh(volume, size_mm, f"{folder / stem}.stl")
+    if cut is not None:
+        mesh = resect(mesh, cut.inner)
     t_mesh = time.perf_counter() - t0
     boundary = mesh.boundaries["boundary"]
     surface = TriMesh(mesh.points, boundary)
@@ -229,11 +252,34 @@ def meniscus_solid(source: Scene | str | Path, side: str, size_mm: float = DEFAU
     region = nearest_region(surface, regions)
     line, fibre, arc = centreline_fibres(mesh, boundary)
     horns = horn_attachments(mesh, boundary, label, region,
-                             folder / "meniscal_ligaments.json", side)
+                             folder / "meniscal_ligaments.json", side, move)
     quality = tet_quality(mesh) | {"seconds": t_mesh, "unfolded_vertices": float(moved),
                                    "stl_volume_mm3": volume.signed_volume}
     return MeniscusSolid(side, mesh, boundary, label, region, fibre, arc, line, horns,
                          quality)
+
+
+def resect(mesh: TetMesh, inner) -> TetMesh:
+    """`mesh` without the tetrahedra whose centroid `inner` ((n, 3) points → (n,) bool)
+    marks (a partial meniscectomy: `fecheck.model.menisci_shape.PartialMap.inner`), its
+    points compacted and its boundary (``boundaries["boundary"]``, outward) the faces
+    of one remaining tetrahedron each. `FecheckError` if nothing is left."""
+    tets = mesh.tets[~inner(mesh.points[mesh.tets].mean(axis=1))]
+    if not len(tets):
+        raise FecheckError("the partial meniscectomy leaves no tetrahedron of the meniscus")
+    used = np.unique(tets)
+    index = np.full(len(mesh.points), -1)
+    index[used] = np.arange(len(used))
+    tets = index[tets]
+    points = mesh.points[used]
+    p = points[tets]
+    negative = np.einsum("ij,ij->i", p[:, 1] - p[:, 0],
+                         np.cross(p[:, 2] - p[:, 0], p[:, 3] - p[:, 0])) < 0
+    tets[negative] = tets[negative][:, [0, 2, 1, 3]]
+    faces = tets[:, [[0, 2, 1], [0, 1, 3], [0, 3, 2], [1, 2, 3]]].reshape(-1, 3)
+    _, first, count = np.unique(np.sort(faces, axis=1), axis=0, return_index=True,
+                                return_counts=True)
+    return TetMesh(points, tets, {"boundary": faces[first[count == 1]]})
 
 
 def unfold(surface: TriMesh) -> tuple[TriMesh, int]:
@@ -423,9 +469,11 @@ def centreline_fibres(mesh: TetMesh, boundary: np.ndarray, bins: int = 24,
 
 
 def horn_attachments(mesh: TetMesh, boundary: np.ndarray, label: np.ndarray,
-                     region: np.ndarray, ligaments: Path, side: str) -> dict[str, Horn]:
+                     region: np.ndarray, ligaments: Path, side: str, move=None
+                     ) -> dict[str, Horn]:
     """{"anterior", "posterior"}: the `Horn` of each (module docstring) from the faces'
-    labels and regions and the ligaments file."""
+    labels and regions and the ligaments file (meniscal points moved by `move`, the
+    meniscus's shape, when given)."""
     from scipy.spatial import cKDTree
 
     if not ligaments.is_file():
@@ -441,6 +489,8 @@ def horn_attachments(mesh: TetMesh, boundary: np.ndarray, label: np.ndarray,
             if item.get("meniscus") != side or item.get("group") != group:
                 continue
             tibia, men = (tuple(float(v) for v in x) for x in item["points_mm"])
+            if move is not None:
+                men = tuple(float(v) for v in move(np.array([men]))[0])
             dist, node = tree.query(men)
             p = item["parameters"]
             bundles.append(HornLigament(

@@ -54,6 +54,7 @@ import os
 import time
 import warnings
 from collections.abc import Sequence
+from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
@@ -65,6 +66,14 @@ from fecheck.laws.materials import ef_stiffness
 from fecheck.laws.registry import spec_of
 from fecheck.model.assembly import applied_load, force_scale, free_indices, start_pose
 from fecheck.model.equilibrium import axial_force, compartment_result, not_converged_note
+from fecheck.model.menisci_shape import (
+    FitMap,
+    PartialMap,
+    drop_inner,
+    fit_fields,
+    partial_map,
+    touching_femur,
+)
 from fecheck.model.plausibility import before_solve
 from fecheck.model.results import Pose, RunResult, SolveRecord
 from fecheck.scene import SCHEMA, Scene
@@ -86,7 +95,8 @@ from fecheck.statics.newton import (
     solve,
     tibia_body,
 )
-from geometry.mesh import is_closed
+from fecheck.statics.root_spring import RootSpring
+from geometry.mesh import TriMesh, is_closed
 
 FEMUR, TIBIA = 0, 1
 """Body indices: the femur (fixed, the world frame) and the tibia; the menisci follow."""
@@ -189,26 +199,96 @@ def meniscus_law(scene: Scene):
 
 
 def _sides(scene: Scene) -> tuple[str, ...]:
+    """The menisci present: menisci.sides less menisci.remove."""
     sides = tuple(scene["menisci.sides"])
     unknown = [s for s in sides if s not in COMPARTMENTS]
     if unknown or len(set(sides)) < len(sides):
         raise FecheckError(f"menisci.sides = {list(sides)}: give each of 'medial', 'lateral' "
                            "at most once ([] = no meniscus, the menisci removed)")
-    return tuple(s for s in COMPARTMENTS if s in sides)
+    removed = set(scene["menisci.remove"])
+    return tuple(s for s in COMPARTMENTS if s in sides and s not in removed)
 
 
-def _springs(folder: Path, index: dict[str, int]) -> list[tuple[str, BodySpring]]:
-    """The meniscal ligaments between bodies present (`index`: meniscus side → body)."""
+def present_sides(scene: Scene) -> tuple[str, ...]:
+    """The menisci of `scene` that are present (menisci.sides less menisci.remove)."""
+    return _sides(scene)
+
+
+ROOT_GROUPS = {"anterior": "AHORN", "posterior": "PHORN"}
+"""Horn → the group of its root bundles in meniscal_ligaments.json."""
+BUNDLES_WARNING = ("menisci.roots = 'bundles': the horn roots are smith2019's AHORN / PHORN "
+                   "bundles, an EF model's placeholders (6-13 N/mm a bundle, about a hundred "
+                   "times softer than the 2000 N/mm a horn of FE knee models)")
+
+
+def _torn(scene: Scene) -> set[tuple[str, str]]:
+    """{(side, horn)} of menisci.torn_roots."""
+    return {tuple(name.split("-")) for name in scene["menisci.torn_roots"]}
+
+
+def _kept(scene: Scene, item: dict) -> bool:
+    """Whether the data set's meniscal ligament `item` is modelled (menisci.roots,
+    menisci.coronary, menisci.transverse, menisci.torn_roots)."""
+    group = item.get("group")
+    if group in ROOT_GROUPS.values():
+        horn = next(h for h, g in ROOT_GROUPS.items() if g == group)
+        return (scene["menisci.roots"] == "bundles"
+                and (item["meniscus"], horn) not in _torn(scene))
+    if group == "COR":
+        return bool(scene["menisci.coronary"])
+    return bool(scene["menisci.transverse"])
+
+
+def root_line(folder: Path, side: str, horn: str) -> tuple[np.ndarray, np.ndarray]:
+    """(tibial point, meniscal point) (3,) mm of a horn's root: the means of its root
+    bundles' tibial and meniscal points in meniscal_ligaments.json."""
+    data = json.loads((folder / "meniscal_ligaments.json").read_text(encoding="utf-8"))
+    items = [it for it in data["ligaments"]
+             if it.get("meniscus") == side and it.get("group") == ROOT_GROUPS[horn]]
+    if not items:
+        raise FecheckError(f"{folder / 'meniscal_ligaments.json'}: no root bundle of the "
+                           f"{side} {horn} horn; the root spring's direction is read there")
+    pts = np.array([it["points_mm"] for it in items], dtype=float)
+    return pts[:, 0].mean(axis=0), pts[:, 1].mean(axis=0)
+
+
+def root_springs(scene: Scene, folder: Path, index: dict[str, int], shapes: dict
+                 ) -> list[tuple[str, RootSpring]]:
+    """The horn roots as linear springs along their direction (menisci.roots =
+    'springs'): one per horn not in menisci.torn_roots, at the horn's meniscal root point
+    (moved with the meniscus's shape), unstretched at the start."""
+    if scene["menisci.roots"] != "springs":
+        return []
+    torn, out = _torn(scene), []
+    for side, body in index.items():
+        for horn in ROOT_GROUPS:
+            if (side, horn) in torn:
+                continue
+            tibial, meniscal = root_line(folder, side, horn)
+            point = shapes[side](meniscal[None])[0]
+            out.append((f"{side} {horn} root", RootSpring(
+                TIBIA, point, body, point.copy(), point - tibial,
+                float(scene["menisci.root_N_per_mm"]))))
+    return out
+
+
+def _springs(scene: Scene, folder: Path, index: dict[str, int], shapes: dict
+             ) -> list[tuple[str, BodySpring]]:
+    """The meniscal ligaments modelled (`_kept`) between bodies present (`index`:
+    meniscus side → body), their meniscal points moved with the menisci's shape."""
     data = json.loads((folder / "meniscal_ligaments.json").read_text(encoding="utf-8"))
     bone = {"tibia": TIBIA, **{f"meniscus_{s}": b for s, b in index.items()}}
     out = []
     for item in data["ligaments"]:
-        if not all(b in bone for b in item["points_bone"]):
-            continue                                # on a removed meniscus
+        if not all(b in bone for b in item["points_bone"]) or not _kept(scene, item):
+            continue                                # on a removed meniscus, or not asked
         p = item["parameters"]
         (a, b), (xa, xb) = item["points_bone"], item["points_mm"]
+        xa, xb = (np.asarray(x, dtype=float) for x in (xa, xb))
+        xa = shapes[a[len("meniscus_"):]](xa[None])[0] if a in bone and a != "tibia" else xa
+        xb = shapes[b[len("meniscus_"):]](xb[None])[0] if b != "tibia" else xb
         out.append((item["name"], BodySpring(
-            bone[a], np.asarray(xa, dtype=float), bone[b], np.asarray(xb, dtype=float),
+            bone[a], xa, bone[b], xb,
             1000.0 * float(p["slack_length"]["value"]), float(p["linear_stiffness"]["value"]),
             float(p["transition_strain"]["value"]))))
     return out
@@ -224,7 +304,70 @@ def read_volume(folder: Path, side: str):
     return volume
 
 
-def _interfaces(scene: Scene, folder: Path, comps, index: dict[str, int]) -> list[Interface]:
+@dataclass(frozen=True, eq=False)
+class Shape:
+    """A meniscus's shape in the scene (`fecheck.model.menisci_shape`): the fit's map
+    (None: as shipped), the partial meniscectomy's (None: whole), the shipped closed
+    volume and the shaped one; called on points (n, 3) (tibia frame, mm) it moves them."""
+
+    side: str
+    fit: FitMap | None
+    cut: PartialMap | None
+    shipped: TriMesh
+    volume: TriMesh
+
+    def __call__(self, points: np.ndarray) -> np.ndarray:
+        p = np.asarray(points, dtype=float)
+        if self.fit is not None:
+            p = self.fit(p)
+        return self.cut(p) if self.cut is not None else p
+
+    def sheet(self, mesh: TriMesh) -> TriMesh:
+        """An articular surface (or region) of the meniscus moved with it, less its faces
+        in a resected inner third."""
+        if self.cut is not None:
+            mesh = drop_inner(mesh, self.cut)
+        return TriMesh(self(mesh.points), mesh.faces)
+
+
+def _touching(scene: Scene, folder: Path) -> TriMesh:
+    """The femoral sheet in the tibia frame at the touching pose
+    (`fecheck.model.menisci_shape.touching_femur`)."""
+    from fecheck.model.scanned import femoral_master, tibial_slaves
+    from fecheck.statics.newton import body_pose
+
+    rot, t = body_pose(start_coordinates(scene, *femur_pose(folder)))
+    femur = femoral_master(scene)
+    femur = TriMesh((femur.points - t) @ rot, femur.faces)
+    return touching_femur(femur, tibial_slaves(scene), "abduction" in scene.free_dofs)[0]
+
+
+def shapes(scene: Scene, sides: Sequence[str] | None = None) -> dict[str, Shape]:
+    """{side: `Shape`} of the menisci present (or of `sides`): fitted to the joint with
+    menisci.fit = 'fitted', the inner third cut with menisci.partial."""
+    from fecheck.model.scanned import tibial_slaves
+
+    folder = menisci_dir(scene)
+    sides = _sides(scene) if sides is None else tuple(sides)
+    fitted = scene["menisci.fit"] == "fitted"
+    femur = _touching(scene, folder) if fitted and sides else None
+    tibia = tibial_slaves(scene) if fitted else {}
+    out = {}
+    for side in sides:
+        volume = read_volume(folder, side)
+        fit = None
+        if fitted:
+            inf, sup = (read_surface(folder / VOLUME.format(side=f"{side}_{face}"))
+                        for face in ("inferior", "superior"))
+            fit = fit_fields(volume, inf, sup, tibia[side], femur)
+        cut = partial_map(volume) if side in scene["menisci.partial"] else None
+        shape = Shape(side, fit, cut, volume, volume)
+        out[side] = Shape(side, fit, cut, volume, TriMesh(shape(volume.points), volume.faces))
+    return out
+
+
+def _interfaces(scene: Scene, folder: Path, comps, index: dict[str, int],
+                volumes: dict[str, TriMesh]) -> list[Interface]:
     """Cartilage-cartilage interfaces (one per compartment), then per meniscus its
     interfaces with the femoral and with the tibial cartilage: the cartilage sheet is the
     slave, the meniscus's closed volume the master (module docstring)."""
@@ -235,7 +378,7 @@ def _interfaces(scene: Scene, folder: Path, comps, index: dict[str, int]) -> lis
     opts = {"method": scene["contact.detection"], "area": scene["contact.area"],
             "margin_mm": scene["contact.margin_mm"], "mesh_sign": "winding"}
     for side, body in index.items():
-        volume = read_volume(folder, side)
+        volume = volumes[side]
         out.append(Interface(f"{side} femur-meniscus", ContactPair(femur, volume, **opts),
                              law, FEMUR, body))
         out.append(Interface(f"{side} meniscus-tibia",
@@ -275,8 +418,8 @@ def balance(problem: Problem, q: Sequence[np.ndarray]) -> dict[str, float]:
 
 
 def build_problem(scene: Scene):
-    """(problem, interfaces, springs {name: spring}, compartments, sides): the knee with
-    the scene's menisci as a `Problem`."""
+    """(problem, interfaces, springs {name: spring}, compartments, sides, shapes {side:
+    `Shape`}): the knee with the scene's menisci as a `Problem`."""
     from fecheck.model.scanned import build_compartments
 
     _check(scene)
@@ -299,8 +442,13 @@ def build_problem(scene: Scene):
                                            free_indices(scene)).free),
               *(Body(f"{s} meniscus", q0.copy(), free, "menisci.free", "the tibia's start")
                 for s in sides))
-    interfaces = _interfaces(scene, folder, comps, index)
-    springs = dict(_springs(folder, index))
+    shaped = shapes(scene, sides)
+    interfaces = _interfaces(scene, folder, comps, index,
+                             {s: m.volume for s, m in shaped.items()})
+    if scene["menisci.roots"] == "bundles" and sides:
+        warnings.warn(BUNDLES_WARNING, stacklevel=2)
+    springs = dict(_springs(scene, folder, index, shaped)
+                   + root_springs(scene, folder, index, shaped))
     load = on_body(lambda r, t: [applied_load(scene)(r, t)], TIBIA)
 
     def wrench(poses):
@@ -311,7 +459,7 @@ def build_problem(scene: Scene):
                       tolerance=scene["solver.tolerance"],
                       max_iterations=scene["solver.max_iterations"],
                       touching=lambda: any(i.max_depth_mm > 0 for i in interfaces))
-    return problem, interfaces, springs, comps, sides
+    return problem, interfaces, springs, comps, sides, shaped
 
 
 def footprint_outline(volume, rot: np.ndarray, t: np.ndarray) -> np.ndarray:
@@ -352,11 +500,38 @@ def _maps(interfaces: Sequence[Interface], poses, volumes: dict) -> dict[str, di
     return out
 
 
-def _shares(interfaces: Sequence[Interface], poses, sides) -> dict[str, dict[str, float]]:
+def spring_on_tibia(spring, poses) -> np.ndarray:
+    """(3,) force (N, world) of a meniscal spring (`RootSpring` or `BodySpring`) on the
+    tibia (zero for one that does not end on the tibia)."""
+    if isinstance(spring, RootSpring):
+        return -spring.force(poses)
+    x_a, x_b = spring.ends(poses)
+    if TIBIA not in (spring.body_a, spring.body_b) or np.allclose(x_a, x_b):
+        return np.zeros(3)
+    pull = spring.tension(poses) * (x_b - x_a) / np.linalg.norm(x_b - x_a)   # on end a
+    return pull if spring.body_a == TIBIA else -pull
+
+
+def _meniscus_of(spring, index: dict[str, int]) -> str | None:
+    body = spring.meniscus if isinstance(spring, RootSpring) else (
+        spring.body_b if spring.body_a == TIBIA else
+        spring.body_a if spring.body_b == TIBIA else None)
+    return next((s for s, b in index.items() if b == body), None)
+
+
+def _shares(interfaces: Sequence[Interface], poses, sides, springs: dict | None = None
+            ) -> dict[str, dict[str, float]]:
     """Per compartment: axial load into the tibia through cartilage and meniscus (N, +
-    compressive), the meniscal share, the femur's load on the meniscus, the depths."""
+    compressive; the meniscus's: its tibial contact plus its springs to the tibia,
+    `springs`), the meniscal share, the femur's load on the meniscus, the depths."""
     rot = poses[TIBIA][0]
     by_name = {i.name: i for i in interfaces}
+    index = {s: 2 + i for i, s in enumerate(sides)}
+    through = dict.fromkeys(sides, 0.0)
+    for spring in (springs or {}).values():
+        side = _meniscus_of(spring, index)
+        if side is not None:
+            through[side] += axial_force(spring_on_tibia(spring, poses), rot)
     out = {}
     for c in COMPARTMENTS:
         cart = by_name[c]
@@ -365,7 +540,9 @@ def _shares(interfaces: Sequence[Interface], poses, sides) -> dict[str, dict[str
                "femur_on_meniscus_N": 0.0}
         if c in sides:
             down, up = by_name[f"{c} meniscus-tibia"], by_name[f"{c} femur-meniscus"]
-            row["meniscus_N"] = axial_force(down.wrench_on_slave(poses)[:3], rot)
+            row["meniscus_contact_N"] = axial_force(down.wrench_on_slave(poses)[:3], rot)
+            row["meniscus_springs_N"] = through[c]
+            row["meniscus_N"] = row["meniscus_contact_N"] + through[c]
             row["meniscus_tibia_max_depth_mm"] = down.max_depth_mm
             row["femur_on_meniscus_N"] = -axial_force(up.wrench_on_slave(poses)[:3], rot)
             row["femur_meniscus_max_depth_mm"] = up.max_depth_mm
@@ -423,7 +600,7 @@ def run_menisci(scene: Scene, warm_start: np.ndarray | None = None) -> RunResult
     """Solve a femur-tibia scene with its menisci (module docstring). `warm_start` is not
     taken (the menisci have their own coordinates)."""
     t_start = time.perf_counter()
-    problem, interfaces, springs, comps, sides = build_problem(scene)
+    problem, interfaces, springs, comps, sides, shaped = build_problem(scene)
     t_built = time.perf_counter()
     try:
         sol = solve(problem)
@@ -437,9 +614,8 @@ def run_menisci(scene: Scene, warm_start: np.ndarray | None = None) -> RunResult
     for comp in comps:
         res, w, _ = comp.evaluate(rot, t)
         compartments[comp.name] = compartment_result(comp, res, w, rot, t)
-    folder = menisci_dir(scene)
-    maps = _maps(interfaces, poses, {s: read_volume(folder, s) for s in sides})
-    shares = _shares(interfaces, poses, sides)
+    maps = _maps(interfaces, poses, {s: m.volume for s, m in shaped.items()})
+    shares = _shares(interfaces, poses, sides, springs)
     for side, m in maps.items():
         shares[side]["meniscus_tibia_area_mm2"] = m["area_mm2"]
         shares[side]["meniscus_tibia_max_pressure_MPa"] = m["max_pressure_MPa"]

@@ -510,6 +510,61 @@ SCHEMA: dict[str, Key] = {
         "The menisci present with menisci.dir: ['lateral'] = a medial meniscectomy, [] = "
         "both removed (the ligaments of a removed meniscus go with it).",
         choices=("medial", "lateral")),
+    "menisci.remove": Key(
+        "strings", [],
+        "Total meniscectomy: the menisci removed, with their root springs and ligaments "
+        "(['medial'] = a total medial meniscectomy), in the EF and in fecheck fe.",
+        choices=("medial", "lateral")),
+    "menisci.torn_roots": Key(
+        "strings", [],
+        "Root tears: each listed horn's root attachment removed (its root spring, or its "
+        "root bundles with menisci.roots = 'bundles'), e.g. ['medial-posterior'] = a "
+        "medial posterior root tear.",
+        choices=("medial-anterior", "medial-posterior", "lateral-anterior",
+                 "lateral-posterior")),
+    "menisci.partial": Key(
+        "strings", [],
+        "Partial meniscectomy: each listed meniscus without the inner third of its width "
+        "(at each place along its arc, the third of the way from the inner to the outer "
+        "rim, in the tibial plane, cut vertically); the outer two thirds are kept as they "
+        "are.", choices=("medial", "lateral")),
+    "menisci.roots": Key(
+        "str", "springs",
+        "Horn root attachments: 'springs' = each horn tied to the tibia by a linear "
+        "spring along its root's direction (the line from the root bundles' tibial to "
+        "their meniscal points in the data set), menisci.root_N_per_mm each, unstretched "
+        "at the start; 'bundles' = the data set's AHORN / PHORN Blankevoort bundles "
+        "(smith2019's EF placeholders: 40 N per unit strain over 3-6.6 mm, 6-13 N/mm a "
+        "bundle, about a hundred times softer than the roots of FE knee models; a "
+        "warning says so).", choices=("springs", "bundles")),
+    "menisci.root_N_per_mm": Key(
+        "float", 2000.0,
+        "Stiffness of each horn's root spring (menisci.roots = 'springs'), N/mm: 2000 "
+        "N/mm a horn, the value of Haut Donahue et al. 2003 (J Biomech 36:19) as later FE "
+        "knee studies cite it (\"the anterior and posterior meniscal roots for each "
+        "meniscus were modeled as linear springs with spring constants of 2000 N/mm\"); "
+        "the direction along the root is this model's choice.", low=0.0, low_open=True,
+        unit="N/mm"),
+    "menisci.coronary": Key(
+        "bool", False,
+        "Add the data set's coronary (meniscotibial) ligaments, the COR Blankevoort "
+        "bundles (25 N per unit strain over 3.5-5.6 mm, slack at the start), EF "
+        "placeholders of smith2019."),
+    "menisci.transverse": Key(
+        "bool", False,
+        "Add the data set's transverse ligament between the two anterior horns "
+        "(TRANSVLIG1, a Blankevoort bundle, 40 N per unit strain over 26.9 mm), an EF "
+        "placeholder of smith2019 (EF only: the FE leaves it out)."),
+    "menisci.fit": Key(
+        "str", "fitted",
+        "The menisci's shape: 'fitted' = each meniscus made to fill the space between "
+        "the femoral and the tibial cartilage at the touching pose (the start pose with "
+        "the femur moved along the tibia's z and, if the tibia's abduction is free, "
+        "turned about its y axis until each compartment's cartilages just touch): every "
+        "vertex moved vertically, keeping its relative height in the wedge, so that the "
+        "inferior surface lies on the tibial and the superior on the femoral cartilage, "
+        "tapered to the shipped shape beyond the cartilages' edges; 'as-shipped' = the "
+        "data set's meshes unchanged.", choices=("fitted", "as-shipped")),
     "menisci.free": Key(
         "strings", ["x", "y", "z", "flexion", "abduction", "internal"],
         "Degrees of freedom of each meniscus solved for (translations x, y, z and rotations "
