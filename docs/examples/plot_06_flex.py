@@ -18,18 +18,22 @@ main(["flex", "femur_tibia_ligaments", "--angles", "0:60:10",
       "--set", "scanned.decimate_faces=1500", "--plot", str(out)])
 
 # %%
-# ``kinematics.png``: against the flexion angle (degrees), the tibia's internal rotation
-# and abduction (degrees), the translation of the tibial point at the flexion axis (mm),
-# the compartment forces (N) and the ligament forces (N).
+# ``kinematics.png``, four panels against the knee flexion (degrees): top left, the
+# tibia's internal rotation and abduction (degrees); top right, the translation of the
+# tibial point at the flexion axis (mm: medio-lateral along the axis, anterior,
+# superior); bottom left, the medial and lateral contact forces (N); bottom right, the
+# ligament tensions (N) per ligament group. The title gives the flexion axis (here
+# fitted through the centres of spheres fitted to the posterior condyles).
 image = plt.imread(out / "kinematics.png")
 plt.figure(figsize=(9, 9 * image.shape[0] / image.shape[1]))
 plt.imshow(image)
 plt.axis("off")
 
 # %%
-# ``contact_paths.png``: each compartment's centre of pressure on the tibial plateau,
-# seen from above in the tibia frame (x right, y anterior, mm), one point per angle:
-# how far each contact rolls back as the knee flexes.
+# ``contact_paths.png``: each compartment's centre of pressure on the tibial sheets
+# (grey mesh), seen from above in the tibia frame (x right, y anterior, mm), one marker
+# per angle (circles medial, squares lateral) coloured by the flexion angle (degrees,
+# colour bar): how far each contact travels as the knee flexes.
 image = plt.imread(out / "contact_paths.png")
 plt.figure(figsize=(8, 8 * image.shape[0] / image.shape[1]))
 plt.imshow(image)

@@ -18,9 +18,13 @@ main(["verify", "--quick", "--only", "manufactured", "patch", "EF mesh", "thin-l
       "--out", str(out)])
 
 # %%
-# What to look at: one log-log panel per group, the error (relative, at each level)
-# against the mesh size h (mm); a straight line's slope is the observed order, to compare
-# with the expected order in the table above (patch tests sit at round-off, near 1e-12).
+# What to look at: one log-log panel per group, the relative error at each level (or the
+# change between successive levels, Δ) against that group's mesh size h: 1 / cells per
+# side for the manufactured solutions, the relative face size or element size (mm) for
+# the EF, the layer thickness over the contact radius h/a for the thin layer. Each
+# case's line is labelled with its observed order p; the dotted line beside it has the
+# expected slope. The patch tests are exact to round-off at one level: they are in the
+# printed table, not in the picture.
 image = plt.imread(out / "verify.png")
 plt.figure(figsize=(10, 10 * image.shape[0] / image.shape[1]))
 plt.imshow(image)

@@ -95,9 +95,9 @@ class SpringLigament:
 
 @dataclass(frozen=True, eq=False)
 class SpringSet:
-    """Many `SpringLigament` s evaluated at once: called with (R, t) it gives the summed
-    wrench (6,) of all their pulls on the tibia and its exact tangent dW/dξ (6, 6), the sum
-    of their `point_force` s in one numpy evaluation.
+    """Many spring ligaments (`SpringLigament`) evaluated at once: called with (R, t) it
+    gives the summed wrench (6,) of all their pulls on the tibia and its exact tangent
+    dW/dξ (6, 6), the sum of their point forces (`point_force`) in one numpy evaluation.
 
     femur_points, tibia_points : (n, 3) mm (world; tibia frame)
     slack_mm, stiffness_N, transition_strain : (n,)
