@@ -19,10 +19,10 @@ done = subprocess.run(command, cwd="../..", capture_output=True, text=True, chec
 print(done.stdout)
 
 # %%
-# What to look at: Left: the exponent m of F = c·A^m against h/R (one line per ν);
-# middle: the p_max error of the fitted law against the FE, in %, against the FE contact
-# radius over the thickness a/h; right: the FE's p_max/p_mean against the local
-# exponent.
+# What to look at: Left: the exponent m of the FE's F = c·A^m against h/R, one point per
+# ν (blue 0.3, orange 0.49); middle: the p_max error of the fitted law against the FE
+# (%) against the FE contact radius over the thickness a/h, the grey band ±5 %; right:
+# the FE's p_max/p_mean against the local exponent, the line p_max = m·p_mean.
 for png in [out / "ef_calibration_table.png"]:
     image = plt.imread(png)
     plt.figure(figsize=(10, 10 * image.shape[0] / image.shape[1]))

@@ -19,10 +19,12 @@ done = subprocess.run(command, cwd="../..", capture_output=True, text=True, chec
 print(done.stdout)
 
 # %%
-# What to look at: Log-log: the |relative error| of p_max, contact area and depth
-# against the finest axisymmetric solution, against the element size under the contact
-# (mm): the slope is the observed order. The last panel is the wall time per solve (s)
-# against the dofs: its slope is the cost exponent.
+# What to look at: Log-log, for the medial compartment: the |relative error| of p_max
+# (left) and of the contact area (middle) against the finest axisymmetric solution,
+# against the element size under the contact (mm), for the 3-D FE (blue) and the
+# axisymmetric model (orange): the slopes are the observed orders. Right: the wall time
+# per 3-D solve (s) against the dofs, with the fitted cost exponent k in the legend (at
+# --quick only two sizes, so k is rough).
 for png in [out / "fe_convergence.png"]:
     image = plt.imread(png)
     plt.figure(figsize=(10, 10 * image.shape[0] / image.shape[1]))

@@ -20,8 +20,9 @@ print(done.stdout)
 
 # %%
 # What to look at: The contact pressure (MPa) against the radius r (mm) from the contact
-# centre: the FE curve should lie on Hertz's semi-ellipse, with the same peak and the
-# same contact radius.
+# centre: the axisymmetric FE (solid) should lie on Hertz's semi-ellipse (dashed), with
+# the same peak and the same contact radius; the small wiggle at the edge is the FE's
+# last contact node.
 for png in [out / "fe_hertz_block.png"]:
     image = plt.imread(png)
     plt.figure(figsize=(10, 10 * image.shape[0] / image.shape[1]))

@@ -18,9 +18,11 @@ done = subprocess.run(command, cwd="../..", capture_output=True, text=True, chec
 print(done.stdout)
 
 # %%
-# What to look at: The deviation (%) of EF and Hertz from the FE, for p_max and contact
-# area, against the FE contact radius over the layer thickness (a/h), for ν 0.3 and
-# 0.45: the EF holds for thin layers (large a/h), Hertz for thick ones (small a/h).
+# What to look at: The deviation (%) of the EF (red) and of Hertz (green) from the FE,
+# for p_max (left) and the contact area (right), against the FE contact radius over the
+# layer thickness (log), solid for ν 0.3 and dashed for ν 0.45; the grey band is ±10 %.
+# The EF approaches the FE where the layer is thin against the contact (large a/h) at ν
+# 0.3; Hertz where it is thick (small a/h); at ν 0.45 the EF stays far off.
 for png in [out / "fe_thickness.png"]:
     image = plt.imread(png)
     plt.figure(figsize=(10, 10 * image.shape[0] / image.shape[1]))

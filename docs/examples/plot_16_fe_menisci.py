@@ -18,10 +18,11 @@ done = subprocess.run(command, cwd="../..", capture_output=True, text=True, chec
 print(done.stdout)
 
 # %%
-# What to look at: The tibial contact pressure (MPa, colour bar) of the FE seen from
-# above: x (mm) to the subject's right, y (mm) anterior, medial on the left in this
-# right knee; the lines are each meniscus's footprint on the tibia. Inside the
-# footprints the pressure is what the menisci carry.
+# What to look at: The FE's tibial contact pressure (MPa, colour bar) seen from above: x
+# (mm) to the subject's right, y (mm) anterior up, medial on the left of this right
+# knee; the white lines are the meniscus footprints, the labels each compartment's
+# meniscal share of the load and p_max. Most of the load goes cartilage to cartilage
+# inside the menisci.
 for png in [out / "fe_menisci_pressure.png"]:
     image = plt.imread(png)
     plt.figure(figsize=(10, 10 * image.shape[0] / image.shape[1]))

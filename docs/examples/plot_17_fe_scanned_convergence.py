@@ -19,9 +19,11 @@ done = subprocess.run(command, cwd="../..", capture_output=True, text=True, chec
 print(done.stdout)
 
 # %%
-# What to look at: p_max (vertex and on the EF faces, MPa) and contact area (mm²) per
-# compartment against the FE surface element size (mm), and the change (%) against the
-# finest number of levels through the thickness (fe.layers).
+# What to look at: Left and middle: p_max (MPa; filled at the vertices, open on the EF
+# faces) and the contact area (mm²) per compartment against the FE surface element size
+# (mm), with the Richardson extrapolation where three levels exist (at --quick one
+# level, so one point per series); right: the change (%) of p_max and area against 4
+# levels of elements through the thickness, for 2 and 3 levels.
 for png in [out / "fe_scanned_convergence.png"]:
     image = plt.imread(png)
     plt.figure(figsize=(10, 10 * image.shape[0] / image.shape[1]))

@@ -19,9 +19,10 @@ print(done.stdout)
 
 # %%
 # What to look at: Left: the meniscal share of each compartment's load (%) against the
-# load (N); middle: against the meniscal modulus (MPa) at 800 N; right: the medial p_max
-# (MPa) and contact area (mm²) with and without the medial meniscus, with the cadaver
-# ratios in the title.
+# load (N); middle: against the meniscus modulus (MPa, log) at 800 N; the grey bands are
+# the published 40-70 % for intact knees. Right: the medial tibial p_max (MPa, blue) and
+# contact area (mm², orange) intact and after a medial meniscectomy, with the ratios and
+# the cadaver ranges in the title.
 for png in [out / "menisci_study.png"]:
     image = plt.imread(png)
     plt.figure(figsize=(10, 10 * image.shape[0] / image.shape[1]))

@@ -19,9 +19,11 @@ done = subprocess.run(command, cwd="../..", capture_output=True, text=True, chec
 print(done.stdout)
 
 # %%
-# What to look at: The tibial cartilage pressure (MPa, colour bar) seen from above, +x
-# (the subject's right) to the right, anterior up, medial on the left in this right
-# knee; the tibial bone is drawn grey around the cartilage so that the eminence shows.
+# What to look at: Each scanned model's tibial cartilage pressure (MPa, face means,
+# colour bar from 0 to the printed p_max) seen from above (x right, the lateral side of
+# this right knee; y anterior up), the tibial bone drawn grey around the cartilage so
+# that the eminence shows; the title gives each compartment's force and p_max. One
+# picture per scanned scene it runs (sphere_tibia, femur_tibia, femur_tibia_ligaments).
 for png in sorted(out.glob("*.png")):
     image = plt.imread(png)
     plt.figure(figsize=(10, 10 * image.shape[0] / image.shape[1]))
