@@ -36,8 +36,8 @@ def _direction(femur_point: np.ndarray, x: np.ndarray) -> tuple[np.ndarray, floa
 
 
 def rod_constraint(femur_point: np.ndarray, tibia_point: np.ndarray, length_mm: float):
-    """Constraint g = |P − x_Q| − L (mm) on the tibia (`fecheck.statics.newton.
-    constraint_on_body` makes it one of `Problem.constraints`).
+    """Constraint g = |P − x_Q| − L (mm) on the tibia
+    (`fecheck.statics.newton.constraint_on_body` makes it one of `Problem.constraints`).
 
     Returns a function (R, t, parts) → (g, w, dw/dξ) with w = −∂g/∂ξ the wrench of a unit
     tension on the tibia (the wrench `parts` of the evaluation are not needed).
