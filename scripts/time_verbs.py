@@ -90,17 +90,19 @@ def time_verb(verb: str, tmp: Path) -> dict[str, object]:
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("verbs", nargs="*", help=f"verbs to time (default: all): {list(COMMANDS)}")
+    parser.add_argument("--json", type=Path, default=OUT,
+                        help="the file to write (default: docs/verb_times.json)")
     args = parser.parse_args(argv)
     unknown = set(args.verbs) - set(COMMANDS)
     if unknown:
         parser.error(f"no timed command for {sorted(unknown)}")
-    data = (json.loads(OUT.read_text(encoding="utf-8")) if OUT.is_file()
+    data = (json.loads(args.json.read_text(encoding="utf-8")) if args.json.is_file()
             else {"verbs": {}})
     for verb in args.verbs or list(COMMANDS):
         with tempfile.TemporaryDirectory() as tmp:
             data["verbs"][verb] = time_verb(verb, Path(tmp))
         print(f"{verb}: {data['verbs'][verb]['text']}", file=sys.stderr)
-        _write(data)
+        _write(data, args.json)
     update_readme(data)
     return 0
 
@@ -119,13 +121,14 @@ def update_readme(data: dict) -> None:
     README.write_text(text, encoding="utf-8")
 
 
-def _write(data: dict) -> None:
-    """docs/verb_times.json with the verbs in COMMANDS order and the machine's state."""
+def _write(data: dict, path: Path) -> None:
+    """`path` (docs/verb_times.json) with the verbs in COMMANDS order and the machine's
+    state."""
     load = os.getloadavg()[0]
     data["machine"] = (f"{os.cpu_count()} cores, load average {load:.1f} when the last verb "
                        f"was timed ({time.strftime('%Y-%m-%d')})")
     data["verbs"] = {verb: data["verbs"][verb] for verb in COMMANDS if verb in data["verbs"]}
-    OUT.write_text(json.dumps(data, indent=1) + "\n", encoding="utf-8")
+    path.write_text(json.dumps(data, indent=1) + "\n", encoding="utf-8")
 
 
 if __name__ == "__main__":
