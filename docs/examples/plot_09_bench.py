@@ -35,7 +35,7 @@ for png in sorted(out.glob("bench_pareto_*.png")):
 # %%
 # Contact detection (thesis Figs. 3.21/3.25), one column per scenario (bisect, statics,
 # sphere master, locality, mesh on mesh): on top the median time per detection call (ms)
-# against the slave's faces, below the |area error| against the exact area (a
+# against the slave's faces, below the absolute area error against the exact area (a
 # fraction), both log-log, one line per detection path (fecheck's closed form and BVH,
 # the thesis stack's fcl, ray parity and ray casting). The tick labels of the faces axis
 # crowd at these few sizes; read the values from the points.

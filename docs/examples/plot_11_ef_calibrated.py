@@ -19,12 +19,12 @@ done = subprocess.run(command, cwd="../..", capture_output=True, text=True, chec
 print(done.stdout)
 
 # %%
-# What to look at: One group of bars per scene (at --quick the baseline, at its own load
+# What to look at: one group of bars per scene (at --quick the baseline, at its own load
 # point and with the load point moved 5 mm in x), one bar per EF law (linear,
 # Blankevoort, calibrated on the scene, calibrated from the built-in table): the worst
-# |EF/FE − 1| of p_max (%), of the contact area (%), and the medial-share difference |EF
-# − FE| (percentage points), at a load and a load point no fit saw. The dashed lines are
-# the targets; the calibrated law's bars should be the shortest.
+# ``|EF/FE − 1|`` of p_max (%), of the contact area (%), and the absolute medial-share
+# difference EF − FE (percentage points), at a load and a load point no fit saw. The
+# dashed lines are the targets; the calibrated law's bars should be the shortest.
 for png in [out / "ef_calibrated.png"]:
     image = plt.imread(png)
     plt.figure(figsize=(10, 10 * image.shape[0] / image.shape[1]))

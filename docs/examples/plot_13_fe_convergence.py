@@ -19,7 +19,7 @@ done = subprocess.run(command, cwd="../..", capture_output=True, text=True, chec
 print(done.stdout)
 
 # %%
-# What to look at: Log-log, for the medial compartment: the |relative error| of p_max
+# What to look at: Log-log, for the medial compartment: the absolute relative error of p_max
 # (left) and of the contact area (middle) against the finest axisymmetric solution,
 # against the element size under the contact (mm), for the 3-D FE (blue) and the
 # axisymmetric model (orange): the slopes are the observed orders. Right: the wall time
