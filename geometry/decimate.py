@@ -28,7 +28,7 @@ new vertices to old surface, mean/max  0.0012/0.011 mm   0.0007/0.055 mm
 old vertices to new surface, mean/max  0.0021/0.071 mm   0.024/0.58 mm
 area change                            -0.004 %          -2.05 %
 border length change                   -0.005 %          +7.4 %
-old border vertices to new border, max 0.012 mm          0.58 mm
+border vertices old to new, max        0.012 mm          0.58 mm
 time (qslim alone: 25 ms)              42 ms             18 ms
 =====================================  ================  =================
 

@@ -1,6 +1,7 @@
-"""Constants the README, the scene-key help (`fecheck keys`, docs/scene-keys.md) and the
-command help restate, pinned to the code: each number is read from the text a user reads
-and compared with the constant, or with the behaviour it sets."""
+"""Constants the documentation (README and the pages of docs/), the scene-key help (`fecheck
+keys`, docs/scene-keys.md) and the command help restate, pinned to the code: each number is
+read from the text a user reads and compared with the constant, or with the behaviour it
+sets."""
 
 from __future__ import annotations
 
@@ -36,7 +37,19 @@ def _numbers(pattern: str, text: str) -> list[float]:
 
 
 def _readme() -> str:
-    return (REPO / "README.md").read_text(encoding="utf-8")
+    """The text a user reads: the README and every Markdown page of docs/."""
+    pages = [REPO / "README.md", *sorted((REPO / "docs").rglob("*.md"))]
+    return "\n".join(p.read_text(encoding="utf-8") for p in pages
+                     if "_build" not in p.parts and "_generated" not in p.parts)
+
+
+def _stated(pattern: str, text: str) -> tuple[float, ...]:
+    """The numbers `pattern` finds in `text`, the same wherever the text states them."""
+    found = re.findall(pattern, _flat(text))
+    assert found, f"{pattern!r} is no longer in the text: update this test with the text"
+    assert len(set(found)) == 1, f"{pattern!r} is stated with different numbers: {found}"
+    row = found[0] if isinstance(found[0], tuple) else (found[0],)
+    return tuple(float(v.replace(",", "")) for v in row)
 
 
 def _keys_text(capsys, prefix: str) -> str:
@@ -52,7 +65,7 @@ def _soft_depth_texts(capsys) -> dict[str, str]:
     with pytest.raises(SystemExit):
         main(["calibrate", "--help"])
     calibrate_help = capsys.readouterr().out
-    return {"README.md": _readme(),
+    return {"README.md and docs/": _readme(),
             "docs/scene-keys.md": (REPO / "docs" / "scene-keys.md").read_text("utf-8"),
             "fecheck keys": _keys_text(capsys, "contact.law"),
             "fecheck calibrate --help": calibrate_help,
@@ -85,7 +98,7 @@ def test_the_calibration_table_script_has_no_copy_of_the_soft_depth():
 def test_calibration_fit_warning_threshold_is_the_readme_s():
     from fecheck.studies.calibrate import FIT_TOLERANCE
 
-    (percent,) = _numbers(r"more than " + NUMBER + r" % off the FE", _readme())
+    (percent,) = _stated(r"more than " + NUMBER + r" % off the FE", _readme())
     assert FIT_TOLERANCE == pytest.approx(percent / 100, rel=1e-12)
 
 
@@ -135,9 +148,9 @@ def test_the_importer_s_uniform_layer_is_the_scene_default():
     assert THICKNESS_MM == SCHEMA["contact.thickness_mm"].default
 
 
-# ----------------------------------------------------------------- the README's limits
+# ----------------------------------------------------------------- the documented limits
 def test_knee_load_range_is_the_readme_s():
-    (low, high) = _numbers(r"a load outside " + NUMBER + r" N-" + NUMBER + r" kN", _readme())
+    (low, high) = _stated(r"a load outside " + NUMBER + r" N-" + NUMBER + r" kN", _readme())
     assert unit_hints.KNEE_LOAD_N == (low, 1000 * high)
     for inside in (low, 1000 * high):
         assert unit_hints.load_warning(inside) == ""
@@ -146,8 +159,8 @@ def test_knee_load_range_is_the_readme_s():
 
 
 def test_absurd_modulus_bounds_are_the_readme_s():
-    (low, high) = _numbers(r"a modulus under " + NUMBER + r" or from " + NUMBER + r" MPa",
-                           _readme())
+    (low, high) = _stated(r"a modulus under " + NUMBER + r" or from " + NUMBER + r" MPa",
+                          _readme())
     assert unit_hints.ABSURD_E_MPA == (low, high)
     assert unit_hints.modulus_error(0.99 * low) and unit_hints.modulus_error(high)
     assert not unit_hints.modulus_error(low) and not unit_hints.modulus_error(0.99 * high)
@@ -163,7 +176,7 @@ def test_sweep_checkpoint_period_is_the_readme_s():
 def test_peer_benchmark_sphere_and_faces_are_the_readme_s():
     from fecheck.studies import bench_peers
 
-    (radius, low, high, depth) = _numbers(
+    (radius, low, high, depth) = _stated(
         r"an icosphere of R " + NUMBER + r" mm, " + NUMBER + r" to " + NUMBER
         + r" faces, " + NUMBER + r" mm into a plane", _readme())
     assert (bench_peers.RADIUS_MM, bench_peers.DEPTH_MM) == (radius, depth)

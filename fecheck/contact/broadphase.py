@@ -258,6 +258,8 @@ class CandidateCache:
         (`fecheck.contact.bvh.PointTree`), at a cost ∝ the faces near the master;
         without a region every vertex is tested.
 
+    Notes
+    -----
     With a box (or no region) the set is the faces with a vertex whose reach > -margin.
     With a half-space or a ball it also holds some faces near those: the faces owned
     by a vertex whose reach > -(margin + its extent) (`fecheck.contact.bvh.owned_faces`),

@@ -6,6 +6,7 @@ Conventions (mm, world frame = the thesis frame, see `fecheck.statics.frames`):
 * Depth is positive where the slave is inside the master. `normal` is the unit
   **foundation normal** of each face: the direction in which the elastic foundation's
   springs act, i.e. the direction of the pressure ON THE SLAVE (out of the master).
+
   - Plane master: the plane's outward normal; depth along it.
   - Polynomial master z = f(x, y) (inside below): the upward surface normal at the
     vertical foot of the face centroid; depth (f - z)/√(1 + |∇f|²), the first-order
@@ -15,6 +16,7 @@ Conventions (mm, world frame = the thesis frame, see `fecheck.statics.frames`):
     slave point to the sphere, so that a flat plateau gets the exact cap volume.
   - Mesh master: minus the slave face's outward normal; depth = signed closest-point
     distance to the master (see `fecheck.contact.mesh_master`).
+
 * Depth is linear over each face (interpolated from its vertices). The in-contact
   part of a face is the face clipped at zero depth. In the thesis's ``whole-face``
   mode every face with a vertex in contact counts whole and all its points carry its

@@ -169,7 +169,7 @@ def patch_frame(patch: Patch) -> Bounds:
 
 
 def frame_bounds(patches: Sequence[Patch]) -> Bounds:
-    """The region every map of these patches frames: the union of `patch_frame`s, mm."""
+    """The region every map of these patches frames: the union of each patch's `patch_frame`, mm."""
     return _union([patch_frame(p) for p in patches])
 
 

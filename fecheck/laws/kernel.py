@@ -82,8 +82,8 @@ def pressure_resultant(stiffness: float, pressure: np.ndarray, slope: np.ndarray
     ----------
     stiffness : k (N/mm³) of the linear law p = k·d, used when `pressure` is empty
     pressure, slope : (Q,) p (MPa) and dp/dd (MPa/mm) at the points, or empty (0,)
-    depth (Q,) mm, weight (Q,) mm², depth_twist (Q, 6), weight_twist (Q, 6),
-    point (Q, 3) mm, face (Q,): the quadrature of a `ContactSurface`
+    depth, weight, depth_twist, weight_twist, point, face : the quadrature of a
+        `ContactSurface`: (Q,) mm, (Q,) mm², (Q, 6), (Q, 6), (Q, 3) mm, (Q,)
     normal : (m, 3) unit normal of each face (direction of the pressure on the slave)
     slave_normals : the normals turn with the slave (∂n/∂ω = -[n]×)
     normal_slide : (m, 3, 6) extra ∂n/∂ξ of sliding master normals, or empty (0, 3, 6)

@@ -7,7 +7,7 @@ extent, winding, folds) run on the assembled compartments, with the two that nee
 model: the medial and lateral sheets on knee.side's sides, and the femoral surface within
 `LANDMARK_GAP_MM` of the tibial sheet at the start pose (meshes far from their landmarks).
 After it (`after_solve`), results that cannot be physical (NaN, a force without a contact
-patch, p_max above `P_MAX_MPA`) are `FecheckError`s.
+patch, p_max above `P_MAX_MPA`) are errors (`FecheckError`).
 Units mm, N, MPa.
 """
 

@@ -36,8 +36,8 @@ def _direction(femur_point: np.ndarray, x: np.ndarray) -> tuple[np.ndarray, floa
 
 
 def rod_constraint(femur_point: np.ndarray, tibia_point: np.ndarray, length_mm: float):
-    """Constraint g = |P − x_Q| − L (mm) on the tibia (`fecheck.statics.newton.
-    constraint_on_body` makes it one of `Problem.constraints`).
+    """Constraint g = |P − x_Q| − L (mm) on the tibia
+    (`fecheck.statics.newton.constraint_on_body` makes it one of `Problem.constraints`).
 
     Returns a function (R, t, parts) → (g, w, dw/dξ) with w = −∂g/∂ξ the wrench of a unit
     tension on the tibia (the wrench `parts` of the evaluation are not needed).
@@ -95,9 +95,9 @@ class SpringLigament:
 
 @dataclass(frozen=True, eq=False)
 class SpringSet:
-    """Many `SpringLigament` s evaluated at once: called with (R, t) it gives the summed
-    wrench (6,) of all their pulls on the tibia and its exact tangent dW/dξ (6, 6), the sum
-    of their `point_force` s in one numpy evaluation.
+    """Many spring ligaments (`SpringLigament`) evaluated at once: called with (R, t) it
+    gives the summed wrench (6,) of all their pulls on the tibia and its exact tangent
+    dW/dξ (6, 6), the sum of their point forces (`point_force`) in one numpy evaluation.
 
     femur_points, tibia_points : (n, 3) mm (world; tibia frame)
     slack_mm, stiffness_N, transition_strain : (n,)

@@ -197,7 +197,7 @@ def master_tangent(wrench: np.ndarray, tangent: np.ndarray) -> np.ndarray:
 
 def interface_part(slave: int, master: int, wrench: np.ndarray, tangent: np.ndarray) -> Part:
     """The `Part` of a contact interface: W on the slave body, -W on the master, with the
-    blocks [[K, C - K], [-K, K - C]] (K = dW/dξ_s, C = `carried`(W))."""
+    blocks [[K, C - K], [-K, K - C]] (K = dW/dξ_s, C = `carried` of W)."""
     c = carried(wrench)
     dw = np.block([[tangent, c - tangent], [-tangent, tangent - c]])
     return (slave, master), np.concatenate([wrench, -wrench]), dw

@@ -108,7 +108,7 @@ class Surface:
 
 def import_knee(files: dict[str, Path], output: Path, opts: Options) -> Path:
     """Check the knee surface `files` ({role in `ROLES`: path}; femur and tibia needed),
-    write the scene `output` (*.toml), the repaired copies and the preview beside it,
+    write the scene `output` (a ``.toml`` file), the repaired copies and the preview beside it,
     printing one line per check; the scene's path. `FecheckError` on one line naming the
     file and the fix for what no scene can run."""
     import warnings
