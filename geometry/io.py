@@ -111,7 +111,7 @@ def face_count(path: str | Path) -> int | None:
 
     >>> import tempfile, pathlib
     >>> p = pathlib.Path(tempfile.mkdtemp()) / "t.obj"
-    >>> _ = p.write_text("v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n")
+    >>> _ = p.write_text(chr(10).join(["v 0 0 0", "v 1 0 0", "v 0 1 0", "f 1 2 3", ""]))
     >>> face_count(p)
     1
     """

@@ -96,6 +96,8 @@ def test_the_equals_hint_is_only_given_before_a_negative_value():
     assert negative_value_hint("argument --set: expected one argument", ["run", "--set"]) == ""
     assert negative_value_hint("argument --angles: expected one argument",
                                ["flex", "--angles", "--json", "x"]) == ""
+    assert negative_value_hint("argument -o/--output: expected one argument",
+                               ["--output", "-1.toml"]).endswith("write --output=-1.toml")
 
 
 def test_a_calibration_file_without_a_compartment_names_it(tmp_path, capsys):

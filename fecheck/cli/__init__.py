@@ -66,7 +66,7 @@ def negative_value_hint(message: str, words: list[str]) -> str:
     ...                     ["flex", "--angles", "-10:0:5"])
     "; a value starting with '-' reads as an option: write --angles=-10:0:5"
     """
-    match = re.match(r"argument (\S+?)(?:/\S+)?: expected one argument", message)
+    match = re.match(r"argument (\S+): expected one argument", message)
     if not match:
         return ""
     names = match[1].split("/")
