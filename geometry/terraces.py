@@ -27,6 +27,7 @@ import numpy as np
 import scipy.sparse as sp
 
 from geometry.mesh import TriMesh
+from geometry.planar import locate_in_plane
 
 FLAT_DEG = 5.0
 """Faces within this angle of the staircase axis are terrace faces."""
@@ -183,8 +184,6 @@ def _interpolation(lattice: np.ndarray, faces: np.ndarray, points: np.ndarray,
     """The barycentric rows (m, n) from the lattice's vertex heights to the points (k, 3)
     that fall on the lattice, those points' heights along `axis` (m,), and which fall
     on it (k,)."""
-    from geometry.prepare import locate_in_plane
-
     rel = points - origin
     face, bary, inside = locate_in_plane(lattice, faces, rel @ frame.T)
     m = int(inside.sum())

@@ -8,7 +8,8 @@ import pytest
 
 from geometry.errors import FecheckError
 from geometry.mesh import TriMesh
-from geometry.prepare import MAX_TILT_DEG, plane_interpolation, prepare_sheet
+from geometry.planar import plane_interpolation
+from geometry.prepare import MAX_TILT_DEG, prepare_sheet
 from validation.knee_synthetic import CONDYLES, plateau_height, tibia_compartment
 from validation.knee_voxel import voxel_knee
 

@@ -40,8 +40,9 @@ from fecheck.fe.recovery import zero_contour_area
 from fecheck.fe.solid import layer_solid
 from fecheck.fe.volume import TibiaSolid, solid_layers
 from fecheck.reference.closed_forms import hertz_sphere_on_plane
-from fecheck.scene import load_scene, surfaces
+from fecheck.scene import load_scene
 from fecheck.scene.tibia_solid import up_facing
+from geometry.mesh import submesh
 
 if __name__ == "__main__" and not __package__:  # python validation/x.py: as python -m
     sys.path[0] = str(Path(__file__).resolve().parents[1])
@@ -77,7 +78,7 @@ def cylinder_rows(quick: bool) -> list[dict]:
     solid = solid_layers(TibiaSolid(surface, {"top": top}, "cylinder"), E, NU)["top"]
     runs = {"closed solid": (solid, _press(solid, F), time.perf_counter() - t)}
     t = time.perf_counter()
-    layer = layer_solid(surfaces.submesh(surface, top), H, E, NU, layers=6, ratio=1.6)
+    layer = layer_solid(submesh(surface, top), H, E, NU, layers=6, ratio=1.6)
     runs["extruded layer"] = layer, _press(layer, F), time.perf_counter() - t
     t = time.perf_counter()
     ax = axisym_sphere_on_layer(F, R, E, NU, H, layer_radius_mm=RC, size_mm=0.05).metrics

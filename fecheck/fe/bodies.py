@@ -102,7 +102,8 @@ def _sphere_plane_bodies(scene: Scene) -> list[FEBody]:
 
 
 def _scanned_bodies(scene: Scene) -> list[FEBody]:
-    from fecheck.model.scanned import femoral_masters, slave_thickness, tibial_slaves
+    from fecheck.model.knee_surfaces import tibial_slaves
+    from fecheck.model.scanned import femoral_masters, slave_thickness
 
     slaves, masters = tibial_slaves(scene), femoral_masters(scene)
     source = scene["scanned.thickness"]
@@ -162,7 +163,8 @@ def _tibial_body(scene: Scene) -> str:
 def _tibia_solid(scene: Scene) -> TibiaSolid:
     """The closed solid of ``geometry.tibia_solid`` with each compartment's articular
     face (the faces on its undecimated sheet)."""
-    from fecheck.scene.tibia_solid import on_sheet, solid_surface
+    from fecheck.scene.surfaces import solid_surface
+    from fecheck.scene.tibia_solid import on_sheet
 
     solid = solid_surface(scene)
     name = surfaces.file_path(scene, "tibia_solid").name

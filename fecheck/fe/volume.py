@@ -37,8 +37,7 @@ from fecheck.fe.solid import (
     p2_elasticity,
     tie_matrix,
 )
-from fecheck.scene.surfaces import components
-from geometry.mesh import TetMesh, TriMesh
+from geometry.mesh import TetMesh, TriMesh, components
 from geometry.subdivide import subdivide
 
 

@@ -188,7 +188,7 @@ def _interfaces(scene: Scene, folder: Path, comps, index: dict[str, int]) -> lis
     """Cartilage-cartilage interfaces (one per compartment), then per meniscus its
     interfaces with the femoral and with the tibial cartilage: the cartilage sheet is the
     slave, the meniscus's closed volume the master (module docstring)."""
-    from fecheck.model.scanned import femoral_master, tibial_slaves
+    from fecheck.model.knee_surfaces import femoral_master, tibial_slaves
 
     out = [Interface(c.name, c.pair, c.law, TIBIA, FEMUR) for c in comps]
     law, femur, tibia = meniscus_law(scene), femoral_master(scene), tibial_slaves(scene)

@@ -401,7 +401,7 @@ def _edge_note(scene: Scene, done: list[FlexPoint]) -> str:
     from scipy.spatial import cKDTree
 
     from fecheck.contact.pair import boundary_vertices
-    from fecheck.model.scanned import femoral_master
+    from fecheck.model.knee_surfaces import femoral_master
 
     if not done:
         return ""

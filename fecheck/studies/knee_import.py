@@ -146,8 +146,9 @@ def _read(role: str, path: Path, units: str) -> Surface:
     import numpy as np
 
     from fecheck.errors import FecheckError
-    from fecheck.scene.surfaces import MIN_COMPONENT_SHARE, components, read_surface
+    from fecheck.scene.surfaces import MIN_COMPONENT_SHARE, read_surface
     from geometry.checks import edge_counts
+    from geometry.mesh import components
 
     who = _option(role)
     if not path.is_file():
@@ -223,8 +224,8 @@ def _tibia_normals(surf: dict[str, Surface], parts: dict) -> dict[str, TriMesh]:
     """Check (and repair) each tibial compartment's normals (up, toward the femur);
     the compartment meshes, mm."""
     from fecheck.errors import FecheckError
-    from fecheck.scene.surfaces import mean_normal_z, submesh
-    from geometry.mesh import is_closed
+    from fecheck.scene.surfaces import mean_normal_z
+    from geometry.mesh import is_closed, submesh
 
     out = {}
     for c, (role, faces) in parts.items():
