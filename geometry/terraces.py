@@ -44,7 +44,7 @@ STEPS_MM = np.arange(0.2, 1.2, 0.001)
 TERRACE_WEIGHT = 0.05
 """Default pull of a mm² of terrace face toward its level, against a mm of mid-riser contour
 (`TerraceFit`): where the contours leave the field free it stays near the terraces' levels.
-On the synthetic plateau (validation/knee_synthetic.py) voxelized at 0.5 mm the lateral
+On the synthetic plateau (geometry/synthetic/knee.py) voxelized at 0.5 mm the lateral
 bump's crest and its saddles lie within one terrace (1.5-2.0 mm): no contour says where,
 and the thin plate alone sinks 0.40 mm below the plateau at the contact (0.16 with this
 pull). On a cap whose top terrace is wide the pull costs accuracy: the top of

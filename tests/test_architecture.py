@@ -48,8 +48,8 @@ scikit-fem, CHOLMOD, matplotlib, trimesh, libigl, meshio, numba) or optional (th
 cluster, python-fcl and rtree of the thesis's stack, scikit-image of the voxel knee, SfePy,
 Drake and OpenSim of the peer benchmarks), so a verb that does not use them does not load
 them."""
-OWN_LAZY_CEILING = 236
-"""Imports of fecheck and geometry modules inside functions, outside the CLI (236 when
+OWN_LAZY_CEILING = 235
+"""Imports of fecheck and geometry modules inside functions, outside the CLI (235 when
 this rule was added, 243 before the three import circles they hid were broken): move one
 to the top and lower this number, never raise it."""
 
@@ -85,7 +85,8 @@ MODULES = _modules("fecheck") | _modules("geometry")
 SCRIPTS = _modules("validation")
 SIBLINGS = {m.rsplit(".", 1)[-1] for m in SCRIPTS if "." in m} | {"tests", "conftest", "scripts"}
 """Names a validation module may reach only through a `sys.path` edit: its siblings' bare
-names (``import report`` for ``validation.report``), the tests and the repository scripts."""
+names (``import row_rigid`` for ``validation.row_rigid``), the tests and the repository
+scripts."""
 
 
 def _validation_violations(module: str, path: Path) -> list[str]:
@@ -273,7 +274,7 @@ def test_nothing_of_the_pipeline_imports_validation():
 
 
 def test_validation_imports_its_siblings_through_the_package():
-    assert {"validation", "validation.report", "validation.row_rigid"} <= set(SCRIPTS)
+    assert {"validation", "validation.json_equal", "validation.row_rigid"} <= set(SCRIPTS)
     bad = [v for m, p in SCRIPTS.items() for v in _validation_violations(m, p)]
     assert not bad, bad
 
@@ -282,13 +283,24 @@ def test_validation_imports_its_siblings_through_the_package():
     ("fecheck.model.fake", "def f():\n    from validation import report\n",
      ["fecheck.model.fake:2 imports validation"]),
     ("geometry.fake", "import validation.lenhart\n", ["geometry.fake:1 imports validation"]),
-    ("validation.fake", "import thesis_values as tv\n",
-     ["validation.fake:1 imports thesis_values by its bare name"]),
-    ("validation.fake", "from knee_synthetic import write_mesh\n",
-     ["validation.fake:1 imports knee_synthetic by its bare name"]),
-    ("validation.fake", "from validation.report import Row\nfrom fecheck import laws\n", []),
+    ("validation.fake", "import row_rigid as rr\n",
+     ["validation.fake:1 imports row_rigid by its bare name"]),
+    ("validation.fake", "from json_equal import differences\n",
+     ["validation.fake:1 imports json_equal by its bare name"]),
+    ("validation.fake", "from validation.row_rigid import row_rigid\nfrom fecheck import laws\n",
+     []),
 ])
 def test_the_checker_sees_a_forbidden_validation_import(tmp_path, module, line, expected):
     fake = tmp_path / "fake.py"
     fake.write_text(line)
     assert _validation_violations(module, fake) == expected
+
+
+def test_tests_import_library_code_from_packages_not_from_validation():
+    """validation/ holds scripts only: what a test needs lives in a package (geometry,
+    fecheck); the scripts are run, not imported (tests/test_validation_scripts.py)."""
+    bad = [f"{p.relative_to(ROOT)}:{line} imports {t}"
+           for p in sorted((ROOT / "tests").rglob("*.py"))
+           for t, _, _, line in _imports(p, "tests." + p.stem)
+           if t.split(".")[0] == "validation" and t != "validation.json_equal"]
+    assert not bad, bad

@@ -267,7 +267,7 @@ def test_an_old_calibration_file_is_warned_about_once(tmp_path):
 def test_the_fingerprint_follows_the_surfaces_not_their_paths(tmp_path):
     from fecheck.model.fingerprint import scene_fingerprint
     from fecheck.scene.document import toml_value
-    from validation.knee_synthetic import write_knee
+    from geometry.synthetic.knee import write_knee
 
     scenes = []
     for name in ("a", "b"):
@@ -285,7 +285,7 @@ def test_the_fingerprint_follows_the_surfaces_not_their_paths(tmp_path):
     assert scene_fingerprint(lifted) != a                     # same faces, points moved
     # a file rewritten with other points: a new fingerprint (not the one kept for the keys)
     from geometry.mesh import TriMesh
-    from validation.knee_synthetic import tibia_mesh, write_mesh
+    from geometry.synthetic.knee import tibia_mesh, write_mesh
 
     moved = tibia_mesh()
     write_mesh(TriMesh(moved.points + [0.0, 0.0, 0.05], moved.faces), tmp_path / "a" / "tibia.stl")

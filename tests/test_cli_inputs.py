@@ -124,16 +124,6 @@ def test_a_stress_timeout_must_be_a_positive_number_of_seconds(capsys, value):
     assert f"argument --timeout: must be a positive number of seconds, got '{value}'" in err
 
 
-@pytest.mark.parametrize("extra", [[], ["--list"], ["--only", "rigid"]],
-                         ids=["run", "list", "only"])
-def test_a_validation_folder_without_row_scripts_is_one_line(tmp_path, capsys, extra):
-    assert main(["validate", "--dir", str(tmp_path), "--out", str(tmp_path / "out"),
-                 *extra]) == 2
-    line = _one_error_line(capsys)
-    assert f"{tmp_path} holds no validation row scripts (row_*.py)" in line
-    assert "choose from" not in line and not (tmp_path / "out").exists()
-
-
 def test_mesh_info_on_a_folder_says_it_is_a_folder(tmp_path, capsys):
     assert main(["mesh", "info", str(tmp_path)]) == 2
     assert f"{tmp_path} is a folder, not a mesh file" in _one_error_line(capsys)

@@ -44,7 +44,7 @@ def test_a_left_knee_takes_the_condyles_the_other_way_round():
 
 
 def test_fit_reproduces_the_data_sets_own_sphere_fits():
-    from validation import lenhart
+    from fecheck.scene import lenhart
 
     require_knee_data()
     knee = fitted_knee(lenhart.mesh("femur_cartilage"), "right")

@@ -53,7 +53,7 @@ def test_compiled_candidate_selection_matches_numpy_reference():
 
 
 def _measure():
-    from validation import bench_evaluation
+    from fecheck.studies import bench_evaluation
 
     return bench_evaluation, bench_evaluation.measure(0.05, thesis=False)
 

@@ -76,7 +76,7 @@ def test_open_cap_sheet_keeps_its_border_area_and_side(cap_sheet):
 
 
 def test_scanned_sheet_halved_stays_close_unfolded_and_keeps_its_border():
-    from validation import lenhart
+    from fecheck.scene import lenhart
 
     require_knee_data()
     sheet = lenhart.mesh("tibia_cartilage_medial")

@@ -229,7 +229,7 @@ def test_fe_on_a_terraced_knee_warns_and_its_json_carries_the_measures(tmp_path,
     from test_own_knee import write_scene
 
     from fecheck.cli import main
-    from validation.knee_synthetic import tibia_compartment, write_mesh
+    from geometry.synthetic.knee import tibia_compartment, write_mesh
 
     path = write_scene(tmp_path, "stl", "mm", "two-files")
     for name in ("medial", "lateral"):

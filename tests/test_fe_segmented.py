@@ -1,7 +1,7 @@
-"""`fecheck fe` on a knee that looks like a segmentation (`knee_voxel`: the smooth
-`knee_synthetic` knee voxelized at 0.6 mm and taken back by marching cubes): the raw
-sheets do not extrude, the prepared ones do (``fe.prepare``), and the FE answer is close
-to the FE of the smooth knee they were voxelized from."""
+"""`fecheck fe` on a knee that looks like a segmentation (`geometry.synthetic.voxel_knee`:
+the smooth `geometry.synthetic.knee` knee voxelized at 0.6 mm and taken back by marching
+cubes): the raw sheets do not extrude, the prepared ones do (``fe.prepare``), and the FE
+answer is close to the FE of the smooth knee they were voxelized from."""
 
 from __future__ import annotations
 
@@ -20,7 +20,7 @@ from fecheck.fe.press import build_layers, prepared_body
 from fecheck.fe.settings import FESettings
 from fecheck.scene import load_scene
 from geometry.mesh import TriMesh
-from validation.knee_synthetic import (
+from geometry.synthetic.knee import (
     CONDYLES,
     PATCH_HALF_MM,
     femur_mesh,
@@ -28,7 +28,7 @@ from validation.knee_synthetic import (
     tibia_mesh,
     write_mesh,
 )
-from validation.knee_voxel import voxel_knee, write_voxel_knee
+from geometry.synthetic.voxel_knee import voxel_knee, write_voxel_knee
 
 SPACING_MM = 0.6
 SIZE_MM = 2.0

@@ -25,7 +25,7 @@ from fecheck.fe.volume import TibiaSolid, solid_layers
 from fecheck.reference.closed_forms import hertz_sphere_on_plane
 from fecheck.scene import load_scene, surfaces
 from fecheck.scene.tibia_solid import up_facing
-from validation.implant_pair import LOAD_N, cylinder_solid, insert_solid, write_implant
+from geometry.synthetic.implant import LOAD_N, cylinder_solid, insert_solid, write_implant
 
 R, E, NU, F = 25.5, 20.0, 0.3, 18.0          # contact radius 2.50 mm by Hertz
 UP = np.array([0.0, 0.0, 1.0])

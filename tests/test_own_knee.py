@@ -1,7 +1,7 @@
 """A knee built by the test itself runs through scene keys alone, and its EF answer matches
 an independent computation written here.
 
-The geometry (`knee_synthetic`): two ellipsoidal condyle caps (one open femoral sheet, two
+The geometry (`geometry.synthetic.knee`): two ellipsoidal condyle caps (one open femoral sheet, two
 components) over two bumpy, dished tibial patches, written as STL, OBJ and VTU, in mm
 and in m, and read back through the scene's [geometry] table (model.kind = "femur-tibia",
 only the tibia's z translation free, 800 N along +z, no gravity).
@@ -44,8 +44,8 @@ import pytest
 from scipy.optimize import brentq
 from scipy.spatial import cKDTree
 
-from validation.knee_synthetic import COMPARTMENTS, CONDYLES, femur_height, femur_mesh, write_knee
-from validation.knee_synthetic import tibia_compartment as synthetic_tibia
+from geometry.synthetic.knee import COMPARTMENTS, CONDYLES, femur_height, femur_mesh, write_knee
+from geometry.synthetic.knee import tibia_compartment as synthetic_tibia
 
 LOAD_N = 800.0
 E_MPA, NU, H_MM = 20.0, 0.3, 6.0

@@ -165,7 +165,7 @@ def test_the_scale_bar_lies_outside_the_drawn_mesh_at_the_maps_scale():
 # ---------------------------------------------------------------------- validation maps
 @pytest.fixture
 def row_maps():
-    from validation import row_maps
+    from fecheck.studies.thesis import row_maps
 
     return row_maps
 

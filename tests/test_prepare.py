@@ -1,5 +1,6 @@
 """Articular sheets prepared for the FE (`geometry.prepare`), on sheets made like
-segmentations (`knee_voxel`: marching cubes of voxel labels) and on closed-form sheets."""
+segmentations (`geometry.synthetic.voxel_knee`: marching cubes of voxel labels) and on
+closed-form sheets."""
 
 from __future__ import annotations
 
@@ -10,8 +11,8 @@ from geometry.errors import FecheckError
 from geometry.mesh import TriMesh
 from geometry.planar import plane_interpolation
 from geometry.prepare import MAX_TILT_DEG, prepare_sheet
-from validation.knee_synthetic import CONDYLES, plateau_height, tibia_compartment
-from validation.knee_voxel import voxel_knee
+from geometry.synthetic.knee import CONDYLES, plateau_height, tibia_compartment
+from geometry.synthetic.voxel_knee import voxel_knee
 
 SPACING_MM = 0.6
 

@@ -9,10 +9,10 @@ import tomllib
 from conftest import REPO, require_knee_data
 
 from fecheck.errors import FecheckError
+from fecheck.scene import lenhart
 from fecheck.statics.ligaments import SpringLigament
 from geometry.decimate import decimate
 from geometry.mesh import TriMesh
-from validation import lenhart
 
 SCENES = REPO / "validation" / "scenes"
 
@@ -85,7 +85,7 @@ def test_the_vectorised_bundles_are_the_sum_of_the_single_springs_with_an_exact_
 def test_scene_landmarks_and_plateaus_come_from_the_scanned_knee():
     require_knee_data()
     table = lenhart.knee_landmarks_table()
-    from validation import knee_fits
+    from fecheck.studies.thesis import knee_fits
 
     plateau = knee_fits.plateau_values()
     for path in sorted(SCENES.glob("*.toml")):
@@ -186,7 +186,7 @@ def test_knee_fits_follow_the_thesis_trends(tmp_path):
     """Thesis §2.2.3 on the scanned knee: outlier removal and a free plane lower the plane
     error; the polynomial errors fall with the degree (Tables 2.1, 2.4, 2.5)."""
     require_knee_data()
-    from validation import knee_fits
+    from fecheck.studies.thesis import knee_fits
 
     assert knee_fits.main(["--quick", "--out", str(tmp_path)]) == 0
     t21 = knee_fits.table_2_1()

@@ -18,9 +18,8 @@ from fecheck.contact.analytic import Sphere
 from fecheck.errors import FecheckError
 from fecheck.model.run import run_scene
 from fecheck.model.scanned import build_compartments, slave_thickness
-from fecheck.scene import load_scene
+from fecheck.scene import lenhart, load_scene
 from fecheck.statics.newton import pose
-from validation import lenhart
 
 SCENES = REPO / "validation" / "scenes"
 DECIMATED = "scanned.decimate_faces=1500"

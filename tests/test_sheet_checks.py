@@ -85,7 +85,7 @@ def test_a_sheet_is_analysed_once_and_still_warns_and_raises_every_time(patch):
 
 
 def test_scanned_tibial_sheets_pass_every_mesh_check():
-    from validation import lenhart
+    from fecheck.scene import lenhart
 
     require_knee_data()
     for c in ("medial", "lateral"):

@@ -10,8 +10,8 @@ from scipy import ndimage
 from geometry.io import load_mesh
 from geometry.mesh import TriMesh
 from geometry.prepare import prepare_sheet
+from geometry.synthetic.knee import COMPARTMENTS, femur_mesh, tibia_compartment
 from geometry.terraces import TerraceFit, staircase
-from validation.knee_synthetic import COMPARTMENTS, femur_mesh, tibia_compartment
 
 RADIUS_MM, TOP_MM, VOXEL_MM = 40.0, 2.0, 0.5
 Z = np.array([0.0, 0.0, 1.0])
@@ -24,7 +24,7 @@ def _cap(x: np.ndarray, y: np.ndarray) -> np.ndarray:
 def _voxel_cap(offset: float) -> TriMesh:
     """The top of the label z <= cap(x, y) on a grid of `VOXEL_MM` whose z planes are
     shifted by `offset` mm (blurred by a voxel and taken back by marching cubes, as
-    validation/knee_voxel.py does), within 14 mm of the axis."""
+    geometry/synthetic/voxel_knee.py does), within 14 mm of the axis."""
     from skimage.measure import marching_cubes
 
     x = np.arange(-16.0, 16.0 + 1e-9, VOXEL_MM)

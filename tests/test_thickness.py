@@ -93,7 +93,7 @@ def test_per_face_foundation_integrates_each_face_with_its_own_stiffness():
 
 
 def test_scanned_cartilage_thickness_matches_the_data_set_measurement():
-    from validation import lenhart
+    from fecheck.scene import lenhart
 
     require_knee_data()
     # the tibial cartilage as its two packaged halves (the whole sheet's faces)

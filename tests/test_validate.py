@@ -1,14 +1,15 @@
 """`fecheck validate`: the report, its rows and values, and its failure handling."""
 
 import csv
+import importlib
 import math
-import shutil
+from pathlib import Path
 
 import numpy as np
 import pytest
 
 from fecheck.cli import main
-from fecheck.studies.validate import default_validation_dir
+from fecheck.studies import thesis, validate
 
 PNG_MAGIC = b"\x89PNG\r\n\x1a\n"
 CHEAP_ROWS = ("rigid", "mesh", "sphere_plane")
@@ -108,19 +109,30 @@ def test_unknown_row_name_is_a_one_line_error(tmp_path, capsys):
     assert len(err) == 1 and "no_such_row" in err[0] and "rigid" in err[0]
 
 
-def test_a_failing_script_becomes_a_failed_row_and_the_report_is_written(tmp_path):
-    vdir = tmp_path / "validation"
-    vdir.mkdir()
-    for name in ("report.py", "thesis_values.py"):
-        shutil.copy(default_validation_dir() / name, vdir / name)
-    (vdir / "row_broken.py").write_text("def rows(quick, out):\n    raise ValueError('boom')\n")
-    (vdir / "row_missing.py").write_text(
-        "from validation.report import guarded, require\n"
+def test_a_failing_row_becomes_a_failed_row_and_the_report_is_written(tmp_path, monkeypatch):
+    rows = tmp_path / "fake_rows"
+    rows.mkdir()
+    (rows / "__init__.py").write_text("")
+    (rows / "row_broken.py").write_text("def rows(quick, out):\n    raise ValueError('boom')\n")
+    (rows / "row_missing.py").write_text(
+        "from fecheck.studies.thesis.report import guarded, require\n"
         "def rows(quick, out):\n"
         "    return [guarded('x', 'needs a module', 'Fig. 0', out,\n"
         "                    lambda: require('no_such_package', 'an optional extra'))]\n")
+    monkeypatch.syspath_prepend(str(tmp_path))
+    monkeypatch.setattr(validate, "discover", lambda: {"broken": "fake_rows.row_broken",
+                                                       "missing": "fake_rows.row_missing"})
     out = tmp_path / "out"
-    assert main(["validate", "--dir", str(vdir), "--out", str(out)]) == 1
+    assert main(["validate", "--out", str(out)]) == 1
     report = (out / "report.md").read_text()
     assert "failed: ValueError: boom" in report
     assert "skipped: no_such_package is not installed (an optional extra)" in report
+
+
+def test_the_rows_are_modules_of_the_package_not_files_of_the_checkout():
+    # an installed wheel runs them: each row module lives inside the fecheck package
+    found = validate.discover()
+    assert {"rigid", "mesh", "sphere_plane", "sweeps", "fits"} <= set(found)
+    for module in found.values():
+        path = Path(importlib.import_module(module).__file__).resolve()
+        assert path.parent == Path(thesis.__file__).resolve().parent, path

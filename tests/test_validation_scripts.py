@@ -6,7 +6,8 @@ temporary folder, with its output options (``--out``, ``--json``, ``--plot``, as
 ``--help`` lists them) pointed there, and answers ``--help`` as a module of the package
 (``python -m validation.x`` from the repository root).
 
-The row scripts (``validation/row_*.py``) are the exception: CI's ``fecheck validate
+The row scripts (``validation/row_*.py``, which run the rows of `fecheck.studies.thesis`)
+are the exception: CI's ``fecheck validate
 --quick`` runs every one of them in its quick mode and fails on a failed row, as their
 ``main_for`` does, so here one of them runs as a file (the command line they share) and
 the others only answer ``--help``.
@@ -24,11 +25,7 @@ import pytest
 
 VALIDATION = Path(__file__).resolve().parents[1] / "validation"
 NOT_SCRIPTS = {
-    "thesis_values.py": "the thesis's numbers: data that the rows import, not a script",
-    "report.py": "the layout helper that the rows share, not a script",
-    "lenhart.py": "the shipped scanned knee's files and landmarks, that the scripts import",
-    "knee_synthetic.py": "the knee built from formulas, that fe_segmented and the tests import",
-    "knee_voxel.py": "knee_synthetic's knee voxelized, that fe_segmented and the tests import",
+    "json_equal.py": "a refactoring tool comparing two folders of JSON (tests/test_json_equal.py)",
     "__init__.py": "the package file (the scripts import one another as validation.x)",
 }
 SCRIPTS = sorted(p for p in VALIDATION.glob("*.py") if p.name not in NOT_SCRIPTS)
@@ -80,12 +77,12 @@ def test_the_row_scripts_are_the_ones_fecheck_validate_runs():
     from fecheck.studies.validate import SCRIPT_PREFIX, discover
 
     assert SCRIPT_PREFIX == ROWS
-    rows = {p for p in SCRIPTS if p.name.startswith(ROWS)}
-    assert rows and set(discover(VALIDATION).values()) == rows
+    rows = {p.stem for p in SCRIPTS if p.name.startswith(ROWS)}
+    assert rows and {ROWS + name for name in discover()} == rows
 
 
 def test_a_row_script_runs_as_a_file_in_its_quick_mode(tmp_path):
-    # the command line every row script shares (`validation.report.main_for`): rows printed
+    # the command line every row script shares (`report.main_for`): rows printed
     done = _run([str(VALIDATION / "row_rigid.py"), "--quick", "--out", str(tmp_path)],
                 tmp_path)
     assert done.returncode == 0, done.stderr[-3000:]

@@ -6,7 +6,7 @@ Hertz, and a generated total knee replacement (issue 26).
    closed solid (`fecheck.fe.volume`, Gmsh tetrahedra), the layer extruded from the
    same top disc by the same 15 mm (`fecheck.fe.solid`), the axisymmetric FE of the same
    finite cylinder and Hertz.
-2. The implant pair of `validation/implant_pair.py` (toroidal condyles on a dished
+2. The implant pair of `geometry.synthetic.implant` (toroidal condyles on a dished
    UHMWPE insert, E 463 MPa, ν 0.45, 2,000 N, z free), the condyles 0.5 and 1.5 mm
    anterior of the dwells (contact on 6° and 18° slopes), through `fecheck fe`: the
    insert as a closed solid (base fixed, walls free), as the layer of the solid's own
@@ -47,7 +47,7 @@ from geometry.mesh import submesh
 if __name__ == "__main__" and not __package__:  # python validation/x.py: as python -m
     sys.path[0] = str(Path(__file__).resolve().parents[1])
 
-from validation.implant_pair import cylinder_solid, write_implant
+from geometry.synthetic.implant import cylinder_solid, write_implant
 
 R, E, NU, F, RC, H = 25.5, 20.0, 0.3, 18.0, 15.0, 15.0
 UP = np.array([0.0, 0.0, 1.0])

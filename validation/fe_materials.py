@@ -29,7 +29,7 @@ from fecheck.reference.closed_forms import ef_sphere_on_plane, hertz_sphere_on_p
 if __name__ == "__main__" and not __package__:  # python validation/x.py: as python -m
     sys.path[0] = str(Path(__file__).resolve().parents[1])
 
-from validation.report import save_figure
+from fecheck.studies.thesis.report import save_figure
 
 COMPARTMENTS = {"medial": (323.71, 25.5), "lateral": (456.67, 31.8)}
 SIZE_MM = 0.1

@@ -44,9 +44,9 @@ from fecheck.statics.newton import pose
 if __name__ == "__main__" and not __package__:  # python validation/x.py: as python -m
     sys.path[0] = str(Path(__file__).resolve().parents[1])
 
-from validation import lenhart
-from validation import thesis_values as tv
-from validation.report import knee_script_args
+from fecheck.scene import lenhart
+from fecheck.studies.thesis import thesis_values as tv
+from fecheck.studies.thesis.report import knee_script_args
 
 SCENES = Path(__file__).resolve().parent / "scenes"
 NAMES = ("inclined", "polynomial", "sphere_tibia", "femur_tibia")

@@ -25,6 +25,7 @@ from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field, replace
 from pathlib import Path
 
+from fecheck.scene import lenhart
 from geometry.files import write_output
 
 REPRODUCED = "reproduced"
@@ -147,7 +148,6 @@ def require(module: str, owner: str):
 def require_knee_data():
     """The scanned-knee folder (`lenhart.knee_dir`), or raise `Missing` saying where it
     was looked for (the packaged one, or $FECHECK_KNEE_DIR)."""
-    from validation import lenhart
 
     try:
         return lenhart.knee_dir()

@@ -1,8 +1,8 @@
-"""A synthetic knee that looks like a segmentation: `knee_synthetic`'s smooth knee, voxelized
-and turned back into surfaces by marching cubes (scikit-image).
+"""A synthetic knee that looks like a segmentation: `geometry.synthetic.knee`'s smooth
+knee, voxelized and turned back into surfaces by marching cubes (scikit-image).
 
 The labels are drawn on a grid of spacing `spacing` mm (0.3-0.6 mm, like an MRI
-segmentation) from the very surfaces of `knee_synthetic` (so the smooth knee is the
+segmentation) from the very surfaces of `geometry.synthetic.knee` (so the smooth knee is the
 reference the voxel knee converges to):
 
 * femoral cartilage: inside the condyle ellipsoid, outside the same ellipsoid shrunk by
@@ -30,8 +30,8 @@ import numpy as np
 from scipy import ndimage
 
 from geometry.mesh import TriMesh
-from validation.knee_synthetic import CAP_RHO, COMPARTMENTS, CONDYLES, PATCH_HALF_MM, plateau_height
-from validation.knee_synthetic import write_mesh as _write
+from geometry.synthetic.knee import CAP_RHO, COMPARTMENTS, CONDYLES, PATCH_HALF_MM, plateau_height
+from geometry.synthetic.knee import write_mesh as _write
 
 CARTILAGE_MM = 2.0
 Z_MIN, Z_MAX = -8.0, 24.0
