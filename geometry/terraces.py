@@ -48,7 +48,7 @@ On the synthetic plateau (geometry/synthetic/knee.py) voxelized at 0.5 mm the la
 bump's crest and its saddles lie within one terrace (1.5-2.0 mm): no contour says where,
 and the thin plate alone sinks 0.40 mm below the plateau at the contact (0.16 with this
 pull). On a cap whose top terrace is wide the pull costs accuracy: the top of
-tests/test_terraces.py's 40 mm cap 0.13 mm low (0.02 mm without)."""
+tests/geometry/test_terraces.py's 40 mm cap 0.13 mm low (0.02 mm without)."""
 BEND_MM = 0.02
 """Thin-plate weight, mm³ per mm of lattice line (squared second derivative, mm⁻², times
 area): bends the field only where the data leave it free."""

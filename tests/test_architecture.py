@@ -298,7 +298,7 @@ def test_the_checker_sees_a_forbidden_validation_import(tmp_path, module, line, 
 
 def test_tests_import_library_code_from_packages_not_from_validation():
     """validation/ holds scripts only: what a test needs lives in a package (geometry,
-    fecheck); the scripts are run, not imported (tests/test_validation_scripts.py)."""
+    fecheck); the scripts are run, not imported (tests/validation/test_validation_scripts.py)."""
     bad = [f"{p.relative_to(ROOT)}:{line} imports {t}"
            for p in sorted((ROOT / "tests").rglob("*.py"))
            for t, _, _, line in _imports(p, "tests." + p.stem)

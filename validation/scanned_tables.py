@@ -59,7 +59,7 @@ SCANNED_TIBIA = ("sphere-tibia", "femur-tibia")
 PLOTTED = ("sphere_tibia", "femur_tibia", "femur_tibia_ligaments")
 RAY_PARITY = " with the thesis's ray parity (open sheet: expected to fail)"
 """A demonstration, not an acceptance case: parity rays escape through the open femoral
-sheet, so inside tibial vertices are missed (tests/test_scanned.py)."""
+sheet, so inside tibial vertices are missed (tests/model/test_scanned.py)."""
 
 
 def balance(scene, result) -> float:

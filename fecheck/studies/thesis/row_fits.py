@@ -62,7 +62,7 @@ def table_2_1(out: Path) -> Row:
             f"planes are tilted by 7-13° where the thesis's bone planes are within ±10° and "
             f"the frontal angles γ have opposite signs, a difference of subjects and of the "
             f"surface fitted (cartilage sheets, `fecheck.scene.scanned`), not of the method, "
-            f"which `tests/test_fits.py` checks on synthetic planes.")
+            f"which `tests/geometry/test_fits.py` checks on synthetic planes.")
     png = _table_2_1_png(lines, out / "table_2_1.png")
     return table_row("table_2_1", "plateau planes with and without outliers", "Table 2.1",
                      lines, out, DEVIATES, note, (png,))

@@ -3,7 +3,7 @@ axisymmetric FE, hand statics of the whole joint, frictionless contact on slopes
 scanned knee, and the scenes it must refuse.
 
 References: the axisymmetric FE at the scene's fe.axisym_size_mm (converged: 0.1 mm is
-within 0.3 % of 0.05 mm, tests/test_fe_axisym.py), the scene's load and weight, the
+within 0.3 % of 0.05 mm, tests/fe/test_fe_axisym.py), the scene's load and weight, the
 plateau plane's normal.
 """
 
@@ -23,7 +23,7 @@ from fecheck.scene import load_scene
 from fecheck.scene.knee import plane_normal
 from fecheck.statics.newton import pose, twist_basis
 
-SCENES = Path(__file__).resolve().parents[1] / "validation" / "scenes"
+SCENES = Path(__file__).resolve().parents[2] / "validation" / "scenes"
 
 
 def _fe_wrench(chk, rot: np.ndarray, t: np.ndarray) -> np.ndarray:

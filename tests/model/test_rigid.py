@@ -13,7 +13,7 @@ from fecheck.scene import load_scene
 from fecheck.scene.knee import Knee
 from fecheck.statics.rigid import solve_rigid, unit_wrench
 
-SCENES = Path(__file__).resolve().parents[1] / "validation" / "scenes"
+SCENES = Path(__file__).resolve().parents[2] / "validation" / "scenes"
 UP = np.array([0.0, 0.0, 1.0])
 
 

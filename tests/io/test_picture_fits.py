@@ -12,7 +12,7 @@ import pytest
 
 from fecheck.model.results import CompartmentResult, RunResult
 
-VALIDATION = Path(__file__).resolve().parents[1] / "validation"
+VALIDATION = Path(__file__).resolve().parents[2] / "validation"
 POSE = {k: 0.0 for k in ("x_mm", "y_mm", "z_mm", "abduction_deg", "internal_deg")}
 LONG_TITLE = ("subject_0042_visit_03_right_knee_" * 4 + "scene.toml: "
               + "femoral_cartilage_segmentation_final_v2_" * 3 + "femur.stl on "

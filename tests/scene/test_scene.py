@@ -12,7 +12,7 @@ from fecheck.scene import SCHEMA, apply_overrides, load_scene, packaged_scene_pa
 from fecheck.scene.knee import ADDITIONAL_LEFT, BASELINE_RIGHT, plane_normal
 from fecheck.scene.load import _nest, validate
 
-REPO = Path(__file__).resolve().parents[1]
+REPO = Path(__file__).resolve().parents[2]
 SCENES = sorted((REPO / "validation" / "scenes").glob("*.toml"))
 
 
@@ -23,7 +23,7 @@ def test_packaged_baseline_loads_with_documented_defaults():
     assert scene["load.point_mm"] == [7.9, 12.8, -380.0]
     assert scene["tibia.mass_kg"] == 2.0
     # every key with a default is written out in the packaged file (the unset ones as
-    # commented examples: tests/test_keys.py)
+    # commented examples: tests/scene/test_keys.py)
     text = packaged_scene_path().read_text(encoding="utf-8")
     for key, spec in SCHEMA.items():
         if spec.default is None:

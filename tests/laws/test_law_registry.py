@@ -22,7 +22,7 @@ from fecheck.scene import SCHEMA, load_scene
 from fecheck.scene.law_keys import LAWS, LawKeys
 from fecheck.scene.relevance import InertKeyWarning
 
-ROOT = Path(__file__).resolve().parents[1]
+ROOT = Path(__file__).resolve().parents[2]
 
 
 # --- a law added in the test: p = c·d³ ------------------------------------------------

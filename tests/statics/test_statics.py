@@ -31,7 +31,7 @@ from fecheck.statics.newton import (
 )
 from fecheck.statics.rigid import solve_rigid
 
-SCENES = Path(__file__).resolve().parents[1] / "validation" / "scenes"
+SCENES = Path(__file__).resolve().parents[2] / "validation" / "scenes"
 SHIPPED = ["baseline", "rigid", "rigid_ligaments", "hertz", "volumetric", "ligaments",
            "springs", "equal_force", "additional_left"]
 RIGID_SPLIT = {"medial": 323.71, "lateral": 456.67}      # thesis Table 5.1

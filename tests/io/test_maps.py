@@ -18,7 +18,7 @@ from fecheck.cli import main
 from fecheck.model.results import CompartmentResult, RunResult
 from fecheck.reference.closed_forms import column_stiffness
 
-SCENES = Path(__file__).resolve().parents[1] / "validation" / "scenes"
+SCENES = Path(__file__).resolve().parents[2] / "validation" / "scenes"
 AXES_CORNER = (0.14, 0.2)          # the orientation-axes viewport of a map, fractions
 POSE = {k: 0.0 for k in ("x_mm", "y_mm", "z_mm", "abduction_deg", "internal_deg")}
 

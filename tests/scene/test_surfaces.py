@@ -1,6 +1,6 @@
 """Surfaces from a scene's [geometry] files: paths, units, transform, the compartment split,
 the femoral orientation check and the on-disk cache (the tibial sheets' winding checks:
-tests/test_messages.py)."""
+tests/cli/test_messages.py)."""
 
 from __future__ import annotations
 

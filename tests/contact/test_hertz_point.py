@@ -26,7 +26,7 @@ from fecheck.statics.newton import pose
 from fecheck.statics.rigid import solve_rigid
 from geometry.plateau import plane_patch
 
-SCENES = Path(__file__).resolve().parents[1] / "validation" / "scenes"
+SCENES = Path(__file__).resolve().parents[2] / "validation" / "scenes"
 E_STAR = laws.hertz_modulus(20.0, 0.3)
 R = 25.5
 CENTRE = np.array([-25.0, 1.0, 25.5])

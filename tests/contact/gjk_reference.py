@@ -9,7 +9,7 @@ face nearest the origin lies on the boundary of C (the penetration depth and nor
 Shapes are a convex core plus a margin radius: a sphere is its centre with margin R,
 so GJK/EPA run on points and polytopes only (finite termination) and sphere results
 are exact. Kept in the tests as an independent reference for the closed-form sphere-plane
-point contact of the Hertz law (`tests/test_hertz_point.py`): no scene path uses it. Plain
+point contact of the Hertz law (`tests/contact/test_hertz_point.py`): no scene path uses it. Plain
 Python over at most a few hundred vertices.
 
 >>> depth, normal = max_penetration(SphereShape([0, 0, 0], 1.0), SphereShape([1.5, 0, 0], 1.0))

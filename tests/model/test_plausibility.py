@@ -1,7 +1,7 @@
 """Plausibility rules (`fecheck.scene.unit_hints` on the inputs, `fecheck.model.plausibility`
 on the assembled sheets and the results): each rule fires on the implausible value it
 guards, names the likely unit mistake, and stays silent on the shipped scenes. The contact
-sheets' own checks: tests/test_sheet_checks.py."""
+sheets' own checks: tests/geometry/test_sheet_checks.py."""
 
 from __future__ import annotations
 
@@ -20,7 +20,7 @@ from fecheck.scene import load_scene
 from fecheck.scene import unit_hints as uh
 from geometry.plateau import plane_patch
 
-SCENES = Path(__file__).resolve().parents[1] / "validation" / "scenes"
+SCENES = Path(__file__).resolve().parents[2] / "validation" / "scenes"
 SHIPPED = ("baseline", "hertz", "volumetric", "rigid", "rigid_ligaments", "springs",
            "ligaments", "equal_force", "additional_left")
 

@@ -23,9 +23,9 @@ from pathlib import Path
 
 import pytest
 
-VALIDATION = Path(__file__).resolve().parents[1] / "validation"
+VALIDATION = Path(__file__).resolve().parents[2] / "validation"
 NOT_SCRIPTS = {
-    "json_equal.py": "a refactoring tool comparing two folders of JSON (tests/test_json_equal.py)",
+    "json_equal.py": "a refactoring tool comparing two folders of JSON (test_json_equal.py)",
     "__init__.py": "the package file (the scripts import one another as validation.x)",
 }
 SCRIPTS = sorted(p for p in VALIDATION.glob("*.py") if p.name not in NOT_SCRIPTS)

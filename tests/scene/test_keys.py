@@ -16,7 +16,7 @@ from fecheck.scene import SCHEMA, apply_overrides, load_scene, packaged_scene_pa
 from fecheck.scene.document import baseline_document, baseline_values, keys_markdown
 from fecheck.scene.relevance import InertKeyWarning, inert_keys
 
-REPO = Path(__file__).resolve().parents[1]
+REPO = Path(__file__).resolve().parents[2]
 
 
 def _flat(data: dict, prefix: str = "") -> set[str]:

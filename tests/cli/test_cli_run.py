@@ -13,7 +13,7 @@ import pytest
 
 from fecheck.cli import main
 
-SCENES = Path(__file__).resolve().parents[1] / "validation" / "scenes"
+SCENES = Path(__file__).resolve().parents[2] / "validation" / "scenes"
 
 
 def test_run_writes_json_with_the_documented_keys(tmp_path, capsys):
@@ -97,7 +97,7 @@ def test_compartment_force_is_given_as_vector_axial_component_and_magnitude():
     from fecheck.scene import load_scene
     from fecheck.statics.newton import pose
 
-    scene_dir = Path(__file__).resolve().parents[1] / "validation" / "scenes"
+    scene_dir = Path(__file__).resolve().parents[2] / "validation" / "scenes"
     for name in ("inclined", "rigid"):
         scene = load_scene(scene_dir / f"{name}.toml")
         result = run_scene(scene)

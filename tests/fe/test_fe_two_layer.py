@@ -34,7 +34,7 @@ from geometry.mesh import TriMesh
 from geometry.plateau import plane_patch
 
 E, NU = 20.0, 0.3
-SCENES = Path(__file__).resolve().parents[1] / "validation" / "scenes"
+SCENES = Path(__file__).resolve().parents[2] / "validation" / "scenes"
 UP = np.array([0.0, 0.0, 1.0])
 
 

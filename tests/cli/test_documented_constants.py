@@ -18,7 +18,7 @@ from fecheck.scene import SCHEMA, load_scene, unit_hints
 from fecheck.scene.constants import GRAVITY_MPS2
 from fecheck.statics.ligaments import blankevoort_tension
 
-REPO = Path(__file__).resolve().parents[1]
+REPO = Path(__file__).resolve().parents[2]
 NUMBER = r"([0-9][0-9,]*(?:\.[0-9]+)?(?:e-?[0-9]+)?)"
 
 

@@ -140,7 +140,7 @@ def test_dev_stdout_redirected_to_a_file_appends_to_it(mesh_file, tmp_path):
     with open(log, "w") as fh:
         subprocess.run([sys.executable, "-m", "fecheck", "mesh", "info", str(mesh_file),
                         "--json", "/dev/stdout"], stdout=fh, check=True, timeout=120,
-                       env=dict(os.environ, PYTHONPATH=str(Path(__file__).parents[1])))
+                       env=dict(os.environ, PYTHONPATH=str(Path(__file__).parents[2])))
     text = log.read_text()
     table, _, doc = text.partition("\n[")
     assert "ico.stl" in table and "faces" in table                 # the table, first
@@ -153,7 +153,7 @@ def test_a_sweep_writes_its_csv_to_a_fifo_once(tmp_path, capsys):
     fifo = tmp_path / "s.csv"
     os.mkfifo(fifo)
     reader = _fifo_reader(fifo)
-    scene = Path(__file__).resolve().parents[1] / "validation" / "scenes" / "rigid.toml"
+    scene = Path(__file__).resolve().parents[2] / "validation" / "scenes" / "rigid.toml"
     assert main(["sweep", str(scene), "--param", "contact.youngs_MPa", "--values", "9,15,30",
                  "--csv", str(fifo)]) == 0
     lines = _read(reader).decode().splitlines()

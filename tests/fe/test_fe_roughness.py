@@ -168,7 +168,7 @@ def test_the_smoothing_key_smooths_the_sheets_the_ef_and_fe_read(tmp_path):
 
 @pytest.fixture
 def spiked(monkeypatch):
-    """`fecheck fe` answering with the synthetic check of tests/test_fe_maps.py whose medial
+    """`fecheck fe` answering with the synthetic check of tests/fe/test_fe_maps.py whose medial
     FE map has one face at 60 MPa, flagged as a lone-vertex spike (smoothed peak 5 MPa)."""
     import dataclasses
 

@@ -14,7 +14,7 @@ from geometry.icosphere import icosahedron, icosphere
 from geometry.io import save_mesh
 from geometry.mesh import TriMesh
 
-VALIDATION = Path(__file__).resolve().parents[1] / "validation"
+VALIDATION = Path(__file__).resolve().parents[2] / "validation"
 
 
 def test_help_and_mesh_info_do_not_import_numba(tmp_path):

@@ -7,7 +7,7 @@ import subprocess
 import sys
 from pathlib import Path
 
-SCENES = Path(__file__).resolve().parents[1] / "validation" / "scenes"
+SCENES = Path(__file__).resolve().parents[2] / "validation" / "scenes"
 
 
 def test_a_run_after_the_warm_up_compiles_nothing(tmp_path):

@@ -61,12 +61,12 @@ def test_mesh_under_the_contact_has_the_requested_size(medial):
 
 def test_nearly_incompressible_layer_does_not_lock():
     # Quadratic tets at ν = 0.49 against the axisymmetric P2 reference (which converges
-    # there, tests/test_fe_axisym.py): a locking element would be far too stiff (higher
+    # there, tests/fe/test_fe_axisym.py): a locking element would be far too stiff (higher
     # p_max, smaller area). Measured at 1 mm with 3 levels through the thickness: p_max
     # -0.2 %, area +1.5 %, depth +0.1 %. (With the default 2 levels the top level, 2.3 mm
     # thick, is coarser than the surface and the vertex pressures zigzag: p_max +6.7 % at
     # 1 mm, +14 % at 0.7 mm.) The displacement form itself (fe.formulation 'auto' picks
-    # the mixed one here: tests/test_fe_mixed.py).
+    # the mixed one here: tests/fe/test_fe_mixed.py).
     fe = sphere_on_flat_layer(*MEDIAL, E, 0.49, H, refine_size_mm=SIZE, layers=3,
                               formulation="displacement").metrics
     ref = axisym_sphere_on_layer(*MEDIAL, E, 0.49, H, size_mm=0.05).metrics

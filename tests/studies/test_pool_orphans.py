@@ -67,7 +67,7 @@ def _kill_all(pids: list[int]) -> None:
 
 
 def _env(tmp_path: Path) -> dict[str, str]:
-    root = str(Path(__file__).resolve().parents[1])
+    root = str(Path(__file__).resolve().parents[2])
     path = os.pathsep.join(p for p in (root, os.environ.get("PYTHONPATH")) if p)
     return dict(os.environ, OPENBLAS_NUM_THREADS="1", PYTHONPATH=path,
                 FECHECK_CACHE_DIR=str(tmp_path / "cache"))

@@ -19,7 +19,7 @@ from fecheck.scene.packaged import data_dir
 
 COARSE = ["fe.cartilage=series", "fe.prepare=on", "fe.size_mm=2.0"]
 """The one-layer series model on tibial sheets remeshed at 2 mm (11k dofs per layer
-instead of 100k); tests/test_knee_menisci_two_layer.py takes two deformable layers."""
+instead of 100k); tests/fe/test_knee_menisci_two_layer.py takes two deformable layers."""
 MENISCUS_MM = 2.5
 
 
@@ -315,16 +315,16 @@ def test_report_of_a_turned_torus_in_uniform_horizontal_strain(opening):
     # fibre frame, so the hoop stress is uniform, σ_θθ = (S⁻¹ (ε, 0, ε))_θ with the
     # compliance S in (r, z, θ) written from E_p, E_t, ν_p, ν_tp; the hoop force through
     # each section is σ_θθ times the 16-gon's area, within 1 % (the sections' tilt and
-    # the fitted fibres' spread, as in tests/test_meniscus_solid.py); each element moves
+    # the fitted fibres' spread, as in tests/fe/test_meniscus_solid.py); each element moves
     # out by ε times its centroid's distance from the axis (to 1e-3), whichever way the
     # arc runs (the opening facing +x or -x).
     from types import SimpleNamespace
 
     import scipy.sparse as sp
     from skfem import Basis, ElementTetP2, ElementVector, MeshTet
+    from test_meniscus_solid import CENTRE, POLYGON_AREA, torus_solid
 
     from fecheck.fe.anisotropy import MENISCUS as M
-    from tests.test_meniscus_solid import CENTRE, POLYGON_AREA, torus_solid
 
     solid = torus_solid(opening)
     a = np.radians(30.0)

@@ -27,7 +27,7 @@ from fecheck.studies.sweep import (
     write_csv,
 )
 
-REPO = Path(__file__).resolve().parents[1]
+REPO = Path(__file__).resolve().parents[2]
 SCENES = REPO / "validation" / "scenes"
 
 
