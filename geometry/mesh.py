@@ -210,3 +210,25 @@ def is_closed(mesh: TriMesh) -> bool:
     e = np.sort(mesh.faces[:, [0, 1, 1, 2, 2, 0]].reshape(-1, 2), axis=1).astype(np.int64)
     _, counts = np.unique(e[:, 0] * mesh.n_points + e[:, 1], return_counts=True)
     return bool(np.all(counts == 2))
+
+
+def components(mesh: TriMesh) -> list[np.ndarray]:
+    """Face indices of each connected component (faces sharing a vertex), largest first."""
+    import scipy.sparse as sp
+    from scipy.sparse.csgraph import connected_components
+
+    f = mesh.faces
+    n = mesh.n_faces
+    graph = sp.csr_matrix((np.ones(3 * n), (np.repeat(np.arange(n), 3), f.ravel())),
+                          shape=(n, mesh.n_points))
+    count, labels = connected_components(sp.bmat([[None, graph], [graph.T, None]]),
+                                         directed=False)
+    faces = labels[:n]
+    groups = [np.flatnonzero(faces == k) for k in np.unique(faces)]
+    return sorted(groups, key=len, reverse=True)
+
+
+def submesh(mesh: TriMesh, faces: np.ndarray) -> TriMesh:
+    """The faces `faces` of `mesh` with only the vertices they use."""
+    used, inverse = np.unique(mesh.faces[faces], return_inverse=True)
+    return TriMesh(mesh.points[used], inverse.reshape(-1, 3))

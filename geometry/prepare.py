@@ -51,6 +51,7 @@ import scipy.sparse as sp
 
 from geometry.errors import FecheckError
 from geometry.mesh import TriMesh
+from geometry.planar import inside_triangulation, locate_in_plane, plane_interpolation
 from geometry.roughness import tributary_areas
 from geometry.subdivide import subdivide
 from geometry.terraces import Staircase, TerraceFit, staircase, terrace_heights
@@ -62,8 +63,6 @@ SMOOTH_MM = 4.0
 HOLD = 1e-6
 """Weight of the second differences in the least-squares heights (``smooth_mm`` 0): holds
 a lattice vertex without samples, bends the others by a negligible amount."""
-NEAREST = 16
-"""Projected kept faces searched for each lattice vertex's inside test."""
 
 
 @dataclass(frozen=True, eq=False)
@@ -130,7 +129,7 @@ def prepare_sheet(sheet: TriMesh, size_mm: float, *, axis: np.ndarray | None = N
     origin = sheet.points[sheet.faces[keep]].reshape(-1, 3).mean(axis=0)
     uv = (sheet.points - origin) @ frame.T
     lattice, lattice_faces, lines = _lattice(uv[sheet.faces[keep]].reshape(-1, 2), size_mm)
-    inside = _inside(lattice, uv, sheet.faces[keep])
+    inside = inside_triangulation(lattice, uv, sheet.faces[keep])
     faces = lattice_faces[inside[lattice_faces].all(axis=1)]
     if len(faces) == 0:
         raise FecheckError(f"the {name} is narrower than one element of {size_mm:g} mm: "
@@ -215,66 +214,6 @@ def _lines(nx: int, ny: int) -> np.ndarray:
             & (qj >= 0) & (qj < ny)
         out.append(np.column_stack([pi * ny + pj, i * ny + j, qi * ny + qj])[ok])
     return np.concatenate(out)
-
-
-def _inside(points: np.ndarray, uv: np.ndarray, faces: np.ndarray) -> np.ndarray:
-    """(n,) True where a point (n, 2) lies in one of the projected triangles uv[faces]."""
-    from scipy.spatial import cKDTree
-
-    tri = uv[faces]                                                    # (m, 3, 2)
-    k = min(NEAREST, len(faces))
-    _, near = cKDTree(tri.mean(axis=1)).query(points, k=k)
-    near = near.reshape(len(points), k)
-    bary = _bary2(tri[near], points[:, None, :])                       # (n, k, 3)
-    return (bary >= -1e-9).all(axis=2).any(axis=1)
-
-
-def _bary2(tri: np.ndarray, p: np.ndarray) -> np.ndarray:
-    """Barycentric coordinates (..., 3) of 2-D points p (..., 2) in triangles (..., 3, 2);
-    -1 for a triangle of zero area."""
-    a, b, c = tri[..., 0, :], tri[..., 1, :], tri[..., 2, :]
-    det = (b[..., 0] - a[..., 0]) * (c[..., 1] - a[..., 1]) \
-        - (c[..., 0] - a[..., 0]) * (b[..., 1] - a[..., 1])
-    ok = np.abs(det) > 1e-14
-    safe = np.where(ok, det, 1.0)
-    v = ((p[..., 0] - a[..., 0]) * (c[..., 1] - a[..., 1])
-         - (c[..., 0] - a[..., 0]) * (p[..., 1] - a[..., 1])) / safe
-    w = ((b[..., 0] - a[..., 0]) * (p[..., 1] - a[..., 1])
-         - (p[..., 0] - a[..., 0]) * (b[..., 1] - a[..., 1])) / safe
-    out = np.stack([1.0 - v - w, v, w], axis=-1)
-    return np.where(ok[..., None], out, -1.0)
-
-
-def plane_interpolation(points: np.ndarray, faces: np.ndarray, query: np.ndarray
-                        ) -> sp.csr_matrix:
-    """(k, n) barycentric interpolation from a 2-D triangulation's vertex values to the
-    query points (k, 2); the nearest vertex for points outside it."""
-    from scipy.spatial import cKDTree
-
-    face, w, inside = locate_in_plane(points, faces, query)
-    _, nearest = cKDTree(points).query(query)
-    cols = np.where(inside[:, None], faces[face], nearest[:, None])
-    vals = np.where(inside[:, None], w, np.array([1.0, 0.0, 0.0]))
-    rows = np.repeat(np.arange(len(query)), 3)
-    return sp.csr_matrix((vals.ravel(), (rows, cols.ravel())),
-                         shape=(len(query), len(points)))
-
-
-def locate_in_plane(points: np.ndarray, faces: np.ndarray, query: np.ndarray
-                    ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """For each query point (k, 2): the triangle of a 2-D triangulation it lies in (or
-    comes closest to), its barycentric coordinates there (k, 3), and whether it is inside."""
-    from scipy.spatial import cKDTree
-
-    tri = points[faces]
-    k = min(NEAREST, len(faces))
-    _, near = cKDTree(tri.mean(axis=1)).query(query, k=k)
-    near = near.reshape(len(query), k)
-    bary = _bary2(tri[near], query[:, None, :])                         # (q, k, 3)
-    worst = bary.min(axis=2)
-    best = np.argmax(worst, axis=1)
-    rows = np.arange(len(query))
-    return near[rows, best], bary[rows, best], worst[rows, best] >= -1e-9
 
 
 def _least_squares_heights(lattice: np.ndarray, faces: np.ndarray, lines: np.ndarray,

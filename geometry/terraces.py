@@ -27,6 +27,7 @@ import numpy as np
 import scipy.sparse as sp
 
 from geometry.mesh import TriMesh
+from geometry.planar import locate_in_plane
 
 FLAT_DEG = 5.0
 """Faces within this angle of the staircase axis are terrace faces."""
@@ -43,11 +44,11 @@ STEPS_MM = np.arange(0.2, 1.2, 0.001)
 TERRACE_WEIGHT = 0.05
 """Default pull of a mm² of terrace face toward its level, against a mm of mid-riser contour
 (`TerraceFit`): where the contours leave the field free it stays near the terraces' levels.
-On the synthetic plateau (validation/knee_synthetic.py) voxelized at 0.5 mm the lateral
+On the synthetic plateau (geometry/synthetic/knee.py) voxelized at 0.5 mm the lateral
 bump's crest and its saddles lie within one terrace (1.5-2.0 mm): no contour says where,
 and the thin plate alone sinks 0.40 mm below the plateau at the contact (0.16 with this
 pull). On a cap whose top terrace is wide the pull costs accuracy: the top of
-tests/test_terraces.py's 40 mm cap 0.13 mm low (0.02 mm without)."""
+tests/geometry/test_terraces.py's 40 mm cap 0.13 mm low (0.02 mm without)."""
 BEND_MM = 0.02
 """Thin-plate weight, mm³ per mm of lattice line (squared second derivative, mm⁻², times
 area): bends the field only where the data leave it free."""
@@ -183,8 +184,6 @@ def _interpolation(lattice: np.ndarray, faces: np.ndarray, points: np.ndarray,
     """The barycentric rows (m, n) from the lattice's vertex heights to the points (k, 3)
     that fall on the lattice, those points' heights along `axis` (m,), and which fall
     on it (k,)."""
-    from geometry.prepare import locate_in_plane
-
     rel = points - origin
     face, bary, inside = locate_in_plane(lattice, faces, rel @ frame.T)
     m = int(inside.sum())

@@ -3,9 +3,11 @@
 # in a fresh venv in a temporary folder outside the repository (dependencies from the
 # package index; pip's cache makes a second check fast), and from there - no ../shared
 # beside it, no source folder on sys.path, an empty mesh cache - list the packaged scenes
-# and run the two scanned ones by name, so the packaged knee data must come from the wheel.
+# and run the two scanned ones by name, so the packaged knee data must come from the wheel;
+# then `fecheck validate --quick` on three rows (the rigid model, the meshes and the fits
+# on the packaged knee), whose code ships in the package (fecheck.studies.thesis).
 #   bash scripts/check_wheel.sh          # CI (.ci/run)
-#   bash scripts/check_wheel.sh --all    # run every packaged scene
+#   bash scripts/check_wheel.sh --all    # run every packaged scene and every row
 # Fails (non-zero, naming the step) on any problem; removes its temporary folder.
 set -euo pipefail
 cd "$(dirname "$0")/.."
@@ -67,4 +69,14 @@ for scene in $scenes; do
         "$tmp/$scene.json" || fail "fecheck run $scene did not converge"
     echo "check_wheel: fecheck run $scene: converged"
 done
+if [ "${1:-}" = "--all" ]; then
+    rows=()
+else
+    rows=(--only rigid mesh fits)
+fi
+"$fecheck" validate --quick "${rows[@]}" --out "$tmp/validation" >"$tmp/validate.txt" 2>&1 \
+    || { tail -30 "$tmp/validate.txt" >&2; fail "fecheck validate --quick ${rows[*]}"; }
+grep -q '| Table 5.1 | `table_5_1` | reproduced |' "$tmp/validation/report.md" \
+    || fail "fecheck validate: Table 5.1 not reproduced in $tmp/validation/report.md"
+echo "check_wheel: fecheck validate --quick ${rows[*]}: report written, Table 5.1 reproduced"
 echo "check_wheel: passed in $((SECONDS - start)) s"

@@ -5,16 +5,24 @@ command within seconds, a subprocess timeout). Speed claims (X faster than Y, a 
 time against faces) are marked ``@pytest.mark.bench``: the default run leaves them out
 (pyproject's ``-m 'not bench'``), ``python -m pytest -m bench`` runs them on a quiet
 machine, and the functional part of such a check stays an unmarked test.
+
+The tests mirror the packages (tests/geometry, tests/scene, ..., tests/cli); the shared
+helpers (`contact_helpers`) sit here, beside this file, and a test imports a helper or
+another test module by its bare name: every folder of tests is on ``sys.path``.
 """
 
 from __future__ import annotations
 
 import os
+import sys
 from pathlib import Path
 
 import pytest
 
 REPO = Path(__file__).resolve().parents[1]
+TESTS = Path(__file__).resolve().parent
+sys.path[:0] = [str(TESTS), *(str(d) for d in sorted(TESTS.iterdir())
+                              if d.is_dir() and not d.name.startswith(("_", ".")))]
 SHARED_DATA = Path(os.environ.get("FECHECK_SHARED_DATA", REPO.parent / "shared" / "data"))
 """The data sets beside the repository: the source the package data are built from."""
 KNEE_DIR = Path(os.environ.get("FECHECK_KNEE_DIR",

@@ -47,8 +47,8 @@ from fecheck.studies.calibrate import calibrate, write
 if __name__ == "__main__" and not __package__:  # python validation/x.py: as python -m
     sys.path[0] = str(Path(__file__).resolve().parents[1])
 
+from fecheck.studies.thesis.report import Missing, require_knee_data, save_figure
 from validation.fe_scenes import CASES, SCENES, Case
-from validation.report import Missing, require_knee_data, save_figure
 
 COMPARTMENTS = ("medial", "lateral")
 FIT_FACTORS = (0.6, 1.4)

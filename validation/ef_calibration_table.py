@@ -70,7 +70,7 @@ from fecheck.laws.calibrated import SOFT_DEPTH_MM
 if __name__ == "__main__" and not __package__:  # python validation/x.py: as python -m
     sys.path[0] = str(Path(__file__).resolve().parents[1])
 
-from validation.report import save_figure
+from fecheck.studies.thesis.report import save_figure
 
 POISSON = (0.3, 0.4, 0.45, 0.49)
 THICKNESS_MM = (1.5, 2.0, 3.0, 4.5, 6.0, 9.0, 12.0)

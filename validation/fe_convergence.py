@@ -40,7 +40,7 @@ from fecheck.fe.axisym import axisym_sphere_on_layer
 if __name__ == "__main__" and not __package__:  # python validation/x.py: as python -m
     sys.path[0] = str(Path(__file__).resolve().parents[1])
 
-from validation.report import save_figure
+from fecheck.studies.thesis.report import save_figure
 
 COMPARTMENTS = {"medial": (323.71, 25.5), "lateral": (456.67, 31.8)}
 E_MPA, NU, H_MM = 20.0, 0.3, 6.0

@@ -34,7 +34,7 @@ from fecheck.scene import load_scene
 if __name__ == "__main__" and not __package__:  # python validation/x.py: as python -m
     sys.path[0] = str(Path(__file__).resolve().parents[1])
 
-from validation.report import save_figure
+from fecheck.studies.thesis.report import save_figure
 
 SCENE = Path(__file__).resolve().parent / "scenes" / "fe_hertz_block.toml"
 TOLERANCE = 0.03

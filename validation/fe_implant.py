@@ -6,7 +6,7 @@ Hertz, and a generated total knee replacement.
    closed solid (`fecheck.fe.volume`, Gmsh tetrahedra), the layer extruded from the
    same top disc by the same 15 mm (`fecheck.fe.solid`), the axisymmetric FE of the same
    finite cylinder and Hertz.
-2. The implant pair of `validation/implant_pair.py` (toroidal condyles on a dished
+2. The implant pair of `geometry.synthetic.implant` (toroidal condyles on a dished
    UHMWPE insert, E 463 MPa, ν 0.45, 2,000 N, z free), the condyles 0.5 and 1.5 mm
    anterior of the dwells (contact on 6° and 18° slopes), through `fecheck fe`: the
    insert as a closed solid (base fixed, walls free), as the layer of the solid's own
@@ -40,13 +40,14 @@ from fecheck.fe.recovery import zero_contour_area
 from fecheck.fe.solid import layer_solid
 from fecheck.fe.volume import TibiaSolid, solid_layers
 from fecheck.reference.closed_forms import hertz_sphere_on_plane
-from fecheck.scene import load_scene, surfaces
+from fecheck.scene import load_scene
 from fecheck.scene.tibia_solid import up_facing
+from geometry.mesh import submesh
 
 if __name__ == "__main__" and not __package__:  # python validation/x.py: as python -m
     sys.path[0] = str(Path(__file__).resolve().parents[1])
 
-from validation.implant_pair import cylinder_solid, write_implant
+from geometry.synthetic.implant import cylinder_solid, write_implant
 
 R, E, NU, F, RC, H = 25.5, 20.0, 0.3, 18.0, 15.0, 15.0
 UP = np.array([0.0, 0.0, 1.0])
@@ -77,7 +78,7 @@ def cylinder_rows(quick: bool) -> list[dict]:
     solid = solid_layers(TibiaSolid(surface, {"top": top}, "cylinder"), E, NU)["top"]
     runs = {"closed solid": (solid, _press(solid, F), time.perf_counter() - t)}
     t = time.perf_counter()
-    layer = layer_solid(surfaces.submesh(surface, top), H, E, NU, layers=6, ratio=1.6)
+    layer = layer_solid(submesh(surface, top), H, E, NU, layers=6, ratio=1.6)
     runs["extruded layer"] = layer, _press(layer, F), time.perf_counter() - t
     t = time.perf_counter()
     ax = axisym_sphere_on_layer(F, R, E, NU, H, layer_radius_mm=RC, size_mm=0.05).metrics

@@ -15,7 +15,7 @@ against the pure-displacement P2, on the baseline scene.
 
 --quick: reference sizes 0.1 and 0.05 mm, the Hertz block at 0.1 mm (full: 0.05 mm), no 3D
 runs (a run of every code path, not of the numbers). Writes DIR/fe_incompressible.csv.
-The constants of tests/test_fe_mixed.py come from section 1 of the full run (0.0125 mm).
+The constants of tests/fe/test_fe_mixed.py come from section 1 of the full run (0.0125 mm).
 """
 
 from __future__ import annotations

@@ -3,7 +3,7 @@
 1. Materials (thesis Tables 5.4, 5.5): ν = 0.15, 0.3, 0.45, 0.49 at E 20 MPa and E = 9,
    15, 20, 30 MPa at ν 0.3, both baseline compartments under the rigid Table 5.1 loads
    (medial 323.71 N on R 25.5 mm, lateral 456.67 N on R 31.8 mm), h 6 mm: the
-   axisymmetric FE (0.1 mm, validated against the 3D model by tests/test_fe_sphere_layer.py
+   axisymmetric FE (0.1 mm, validated against the 3D model by tests/fe/test_fe_sphere_layer.py
    and validation/fe_convergence.py), the EF law and Hertz at the same load.
 2. Thickness: the medial load on layers from 1.5 to 40 mm (ν 0.3 and 0.45), to show when
    EF can be trusted as a function of contact radius / h.
@@ -29,7 +29,7 @@ from fecheck.reference.closed_forms import ef_sphere_on_plane, hertz_sphere_on_p
 if __name__ == "__main__" and not __package__:  # python validation/x.py: as python -m
     sys.path[0] = str(Path(__file__).resolve().parents[1])
 
-from validation.report import save_figure
+from fecheck.studies.thesis.report import save_figure
 
 COMPARTMENTS = {"medial": (323.71, 25.5), "lateral": (456.67, 31.8)}
 SIZE_MM = 0.1

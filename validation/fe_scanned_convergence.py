@@ -64,7 +64,7 @@ from fecheck.scene import load_scene
 if __name__ == "__main__" and not __package__:  # python validation/x.py: as python -m
     sys.path[0] = str(Path(__file__).resolve().parents[1])
 
-from validation.report import knee_script_args, save_figure
+from fecheck.studies.thesis.report import knee_script_args, save_figure
 
 SCENE = Path(__file__).resolve().parent / "scenes" / "femur_tibia.toml"
 COMPARTMENTS = ("medial", "lateral")

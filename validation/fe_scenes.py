@@ -56,7 +56,7 @@ from fecheck.scene import load_scene
 if __name__ == "__main__" and not __package__:  # python validation/x.py: as python -m
     sys.path[0] = str(Path(__file__).resolve().parents[1])
 
-from validation.report import Missing, require_knee_data, save_figure
+from fecheck.studies.thesis.report import Missing, require_knee_data, save_figure
 
 SCENES = Path(__file__).resolve().parent / "scenes"
 COMPARTMENTS = ("medial", "lateral")

@@ -1,8 +1,8 @@
 """FE of a knee that looks like a segmentation, against the FE of the smooth knee it was
 voxelized from (`fecheck fe` with ``fe.prepare``).
 
-The smooth knee is `validation/knee_synthetic.py`'s (two ellipsoidal condyle caps on two
-dished, bumped tibial patches); the voxel knee (`validation/knee_voxel.py`) draws its
+The smooth knee is `geometry.synthetic.knee`'s (two ellipsoidal condyle caps on two
+dished, bumped tibial patches); the voxel knee (`geometry.synthetic.voxel_knee`) draws its
 cartilage and bone labels on a grid and takes the sheets back by marching cubes (voxel
 terraces, slivers, rims curled over the cartilage edge). Both are imported with
 ``fecheck knee import`` (uniform 6 mm layer, the import's default scene) and solved by
@@ -49,9 +49,9 @@ from fecheck.scene import load_scene
 if __name__ == "__main__" and not __package__:  # python validation/x.py: as python -m
     sys.path[0] = str(Path(__file__).resolve().parents[1])
 
+from geometry.synthetic.knee import femur_mesh, tibia_mesh, write_mesh
+from geometry.synthetic.voxel_knee import write_voxel_knee
 from validation.fe_scanned_convergence import richardson
-from validation.knee_synthetic import femur_mesh, tibia_mesh, write_mesh
-from validation.knee_voxel import write_voxel_knee
 
 PLAN = {"quick": {"spacing": 0.6, "sizes": (2.0, 1.41, 1.0), "variants": ()},
         "full": {"spacing": 0.5, "sizes": (2.0, 1.0, 0.5), "variants": ("noisy", "decimated")}}

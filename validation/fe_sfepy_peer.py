@@ -32,7 +32,7 @@ from pathlib import Path
 if __name__ == "__main__" and not __package__:  # python validation/x.py: as python -m
     sys.path[0] = str(Path(__file__).resolve().parents[1])
 
-from validation.report import Missing, require
+from fecheck.studies.thesis.report import Missing, require
 
 RADIUS_MM, LOAD_N, PENALTY = 25.5, 323.71, 1e4   # penalty N/mm³: 4 MPa -> 0.4 µm overlap
 

@@ -33,7 +33,7 @@ from fecheck.fe.sphere_layer import candidate_margin, flat_layer
 if __name__ == "__main__" and not __package__:  # python validation/x.py: as python -m
     sys.path[0] = str(Path(__file__).resolve().parents[1])
 
-from validation.report import Missing, require
+from fecheck.studies.thesis.report import Missing, require
 
 LOAD_N, RADIUS_MM, E_MPA, NU, H_MM = 323.71, 25.5, 20.0, 0.3, 6.0
 

@@ -41,7 +41,7 @@ from fecheck.scene import load_scene
 if __name__ == "__main__" and not __package__:  # python validation/x.py: as python -m
     sys.path[0] = str(Path(__file__).resolve().parents[1])
 
-from validation.report import knee_scene, knee_script_args
+from fecheck.studies.thesis.report import knee_scene, knee_script_args
 
 SCENE = Path(__file__).resolve().parent / "scenes" / "femur_tibia.toml"
 MODELS = ("series", "two-layer")

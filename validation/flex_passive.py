@@ -99,8 +99,8 @@ if __name__ == "__main__" and not __package__:  # python validation/x.py: as pyt
 
 from fecheck.scene import load_scene
 from fecheck.studies import flex
+from fecheck.studies.thesis.report import knee_script_args
 from validation import passive_reference as reference
-from validation.report import knee_script_args
 
 SCENE = "femur_tibia_ligaments"
 TABLE_DEG = (0, 10, 20, 30, 60, 90, 120)

@@ -34,7 +34,7 @@ from fecheck.contact.winding import SideGrid, WindingTree
 from fecheck.model import menisci
 from fecheck.scene import load_scene
 from fecheck.statics.newton import solve
-from validation.report import knee_script_args
+from fecheck.studies.thesis.report import knee_script_args
 
 SCENE = "femur_tibia_menisci"
 RUNS, QUICK_RUNS = 5, 2

@@ -48,7 +48,7 @@ if __name__ == "__main__" and not __package__:  # python validation/x.py: as pyt
 
 from fecheck.model.run import run_scene
 from fecheck.scene import load_scene
-from validation.report import knee_script_args
+from fecheck.studies.thesis.report import knee_script_args
 
 SCENE = "femur_tibia_menisci"
 LOADS_N = (200.0, 500.0, 800.0, 1200.0, 2000.0)

@@ -44,9 +44,9 @@ from fecheck.statics.newton import pose
 if __name__ == "__main__" and not __package__:  # python validation/x.py: as python -m
     sys.path[0] = str(Path(__file__).resolve().parents[1])
 
-from validation import lenhart
-from validation import thesis_values as tv
-from validation.report import knee_script_args
+from fecheck.scene import lenhart
+from fecheck.studies.thesis import thesis_values as tv
+from fecheck.studies.thesis.report import knee_script_args
 
 SCENES = Path(__file__).resolve().parent / "scenes"
 NAMES = ("inclined", "polynomial", "sphere_tibia", "femur_tibia")
@@ -59,7 +59,7 @@ SCANNED_TIBIA = ("sphere-tibia", "femur-tibia")
 PLOTTED = ("sphere_tibia", "femur_tibia", "femur_tibia_ligaments")
 RAY_PARITY = " with the thesis's ray parity (open sheet: expected to fail)"
 """A demonstration, not an acceptance case: parity rays escape through the open femoral
-sheet, so inside tibial vertices are missed (tests/test_scanned.py)."""
+sheet, so inside tibial vertices are missed (tests/model/test_scanned.py)."""
 
 
 def balance(scene, result) -> float:

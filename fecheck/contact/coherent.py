@@ -18,7 +18,7 @@ master). It is NOT certified: in a master thinner than twice the depth (a thin c
 layer), a point that crosses the layer's mid-surface between two broad-phase rebuilds
 keeps the face on its first side. `fecheck.contact.mesh_master.MeshMaster` walks only
 while a contact pair reuses its candidate set (points move < margin/2 since the last
-tree query) and is tested against the tree (``tests/test_contact_coherent.py``).
+tree query) and is tested against the tree (``tests/contact/test_contact_coherent.py``).
 """
 
 from __future__ import annotations

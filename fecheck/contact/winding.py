@@ -14,7 +14,7 @@ not cancelled by an opposite half-edge of S) closes S into a cycle inside the bo
 winding number is 0 at any q outside the box. So there w_S(q) = Σ_(a,b) Ω(c, a, b)(q) / 4π
 over ~√|S| boundary edges instead of |S| faces, for any mesh. A query descends only into
 the boxes that hold q; at a leaf it sums the faces. The sums differ from the face-by-face
-ones by rounding only (≤ 1e-12 here, `tests/test_winding.py`); the inside test w > 1/2
+ones by rounding only (≤ 1e-12 here, `tests/contact/test_winding.py`); the inside test w > 1/2
 is the same wherever |w - 1/2| exceeds that.
 """
 

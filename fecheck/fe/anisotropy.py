@@ -151,7 +151,7 @@ def p2_transiso(mesh, m: TransIso, directions: np.ndarray | Callable, chunk: int
     tetrahedra of the scikit-fem `mesh`. `directions`: one fibre direction per element
     (nel, 3), or a function of points (n, 3) mm giving their directions (n, 3), evaluated
     at every quadrature point (a curved fibre field: on the hoop-stiff ring of
-    tests/test_fe_anisotropy.py the per-element field's nodal error is 1.8 / 0.9 / 0.46 %
+    tests/fe/test_fe_anisotropy.py the per-element field's nodal error is 1.8 / 0.9 / 0.46 %
     at 7.5 / 3.75 / 1.9° elements, the per-point field's 0.57 / 0.17 / 0.08 %).
     K_(ia)(jb) = Σ_T ∫ ∂_c φ_i C_acbd ∂_d φ_j, formed from the scalar P2 gradients in
     chunks of `chunk` elements (node-major local dof order, as scikit-fem numbers the

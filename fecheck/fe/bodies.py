@@ -35,6 +35,7 @@ from fecheck.contact.analytic import Sphere
 from fecheck.errors import FecheckError
 from fecheck.fe.indenter import MeshIndenter, SphereIndenter
 from fecheck.fe.volume import TibiaSolid, solid_thickness
+from fecheck.model.knee_surfaces import tibial_slaves
 from fecheck.scene import Scene, surfaces
 from fecheck.scene.constants import COMPARTMENTS
 from fecheck.scene.relevance import SCANNED_KINDS
@@ -102,7 +103,7 @@ def _sphere_plane_bodies(scene: Scene) -> list[FEBody]:
 
 
 def _scanned_bodies(scene: Scene) -> list[FEBody]:
-    from fecheck.model.scanned import femoral_masters, slave_thickness, tibial_slaves
+    from fecheck.model.scanned import femoral_masters, slave_thickness
 
     slaves, masters = tibial_slaves(scene), femoral_masters(scene)
     source = scene["scanned.thickness"]
@@ -164,9 +165,9 @@ def _tibial_body(scene: Scene) -> str:
 def _tibia_solid(scene: Scene) -> TibiaSolid:
     """The closed solid of ``geometry.tibia_solid`` with each compartment's articular
     face (the faces on its undecimated sheet)."""
-    from fecheck.scene.tibia_solid import on_sheet, solid_surface
+    from fecheck.scene.tibia_solid import on_sheet
 
-    solid = solid_surface(scene)
+    solid = surfaces.solid_surface(scene)
     name = surfaces.file_path(scene, "tibia_solid").name
     articular, taken = {}, np.zeros(0, dtype=np.int64)
     for c, sheet in surfaces.tibial_compartments(scene).items():

@@ -69,7 +69,7 @@ from geometry.roughness import Roughness, default_radius, roughness
 ROUGH_FEATURE_SHARE = 0.1
 """The FE peak sits on a rough feature when the tibial sheet departs from its smoothed copy
 near the peak by more than this share of the FE contact depth. Measured: 0.3 mm terraces
-every 3 mm under a sphere (tests/test_fe_roughness.py) depart by 23 % of the depth at the
+every 3 mm under a sphere (tests/fe/test_fe_roughness.py) depart by 23 % of the depth at the
 peak and raise the vertex p_max 62 % above the flat sheet's; the shipped scanned knee's
 sheets depart by 3 % (medial) and 5 % (lateral) at their peaks."""
 SOLID_NOTE = ("the tibial body is the closed solid geometry.tibia_solid (Gmsh tetrahedra): "

@@ -36,7 +36,8 @@ from fecheck.scene import Scene
 from fecheck.statics.newton import geometric_tangent, pose, twist_basis
 from geometry.extrude import ExtrusionError, densest, extrusion_directions, extrusion_offsets
 from geometry.mesh import TriMesh
-from geometry.prepare import PreparedSheet, plane_interpolation, prepare_sheet
+from geometry.planar import plane_interpolation
+from geometry.prepare import PreparedSheet, prepare_sheet
 from geometry.subdivide import subdivide
 from geometry.terraces import TerraceFit
 

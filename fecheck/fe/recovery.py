@@ -16,7 +16,7 @@ from fecheck.fe.results import ContactMetrics, PressurePeaks
 SPIKE_RATIO = 2.0
 """A vertex peak more than this many times its largest edge neighbour's pressure is a lone
 spike. On smooth contacts the ratio stays near 1: measured 1.01 for a sphere on a flat
-layer (tests/test_fe_roughness.py), 1.007 and 1.005 on the baseline scene, 1.15 (medial)
+layer (tests/fe/test_fe_roughness.py), 1.007 and 1.005 on the baseline scene, 1.15 (medial)
 and 1.05 (lateral) on the shipped scanned knee; a sliver vertex gives 52."""
 MIN_SMOOTHING_MM = 1.0
 """Smallest length the FE pressure is smoothed over, mm (`smoothing_length`)."""

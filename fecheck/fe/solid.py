@@ -130,7 +130,7 @@ def p2_elasticity(layer: TetMesh, youngs_MPa: float, poisson: float, chunk: int 
     of `chunk` elements summed into K chunk by chunk (memory: K and one chunk, never
     all element matrices at once), on the vector basis's dofs (node-major
     local order, as scikit-fem numbers them); scikit-fem's form assembly gives the same
-    matrix to round-off, 2x slower (tests/test_fe_general.py).
+    matrix to round-off, 2x slower (tests/fe/test_fe_general.py).
     """
     from skfem import Basis, ElementTetP2, ElementVector, MeshTet
 

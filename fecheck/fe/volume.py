@@ -39,9 +39,8 @@ from fecheck.fe.solid import (
     p2_elasticity,
     tie_matrix,
 )
-from fecheck.scene.surfaces import components
 from geometry.distance import closest_distance, ray_hits
-from geometry.mesh import TetMesh, TriMesh
+from geometry.mesh import TetMesh, TriMesh, components
 from geometry.subdivide import subdivide
 
 RIM_OVERHANG_MM = 0.5

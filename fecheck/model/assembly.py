@@ -22,6 +22,7 @@ from fecheck.errors import FecheckError
 from fecheck.laws import calibrated
 from fecheck.laws.fused import HotPath
 from fecheck.laws.registry import LawInputs, spec_of
+from fecheck.model.fingerprint import scene_fingerprint
 from fecheck.model.results import Pose
 from fecheck.scene import Scene
 from fecheck.scene.constants import COMPARTMENTS, DOF_NAMES, GRAVITY_MPS2, LIGAMENTS
@@ -233,8 +234,6 @@ def calibration_file(scene: Scene) -> dict | None:
     path = Path(os.path.expandvars(value)).expanduser()
     if not path.is_absolute():
         path = Path(scene.source).expanduser().resolve().parent / path
-    from fecheck.model.fingerprint import scene_fingerprint
-
     out = calibrated.read_calibration(path)
     calibrated.check_fingerprint(path, scene_fingerprint(scene))
     return out

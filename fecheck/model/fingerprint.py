@@ -18,7 +18,8 @@ import json
 
 import numpy as np
 
-from fecheck.scene import Scene
+from fecheck.model.knee_surfaces import femoral_master, tibial_slaves
+from fecheck.scene import Scene, surfaces
 from fecheck.scene.relevance import SCANNED_KINDS
 from fecheck.scene.schema import SCHEMA
 
@@ -36,9 +37,6 @@ _MEMO: dict[str, str] = {}
 
 def _surfaces(scene: Scene) -> list:
     """The scanned surfaces the run reads (mm, thesis frame), in a fixed order."""
-    from fecheck.model.scanned import femoral_master, tibial_slaves
-    from fecheck.scene import surfaces
-
     slaves = tibial_slaves(scene)
     out = [slaves[c] for c in sorted(slaves)]
     if surfaces.file_path(scene, "femur") is not None:
@@ -51,8 +49,6 @@ def _surfaces(scene: Scene) -> list:
 def _memo_key(scene: Scene) -> str:
     """Everything a scene's fingerprint depends on: its geometry, layer, shape and material
     keys, the folder its files resolve in and the files' contents."""
-    from fecheck.scene import surfaces
-
     keys = [k for k in SCHEMA if k in MATERIAL_KEYS or k in SIDE_KEYS
             or k.startswith((*SHAPE_SECTIONS, "geometry.", "scanned."))]
     paths = [surfaces.file_path(scene, k) for k in surfaces.FILE_KEYS]

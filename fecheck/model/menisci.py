@@ -66,6 +66,7 @@ from fecheck.laws.materials import ef_stiffness
 from fecheck.laws.registry import spec_of
 from fecheck.model.assembly import applied_load, force_scale, free_indices, start_pose
 from fecheck.model.equilibrium import axial_force, compartment_result, not_converged_note
+from fecheck.model.knee_surfaces import femoral_master, tibial_slaves
 from fecheck.model.menisci_shape import (
     FitMap,
     PartialMap,
@@ -371,7 +372,6 @@ def _interfaces(scene: Scene, folder: Path, comps, index: dict[str, int],
     """Cartilage-cartilage interfaces (one per compartment), then per meniscus its
     interfaces with the femoral and with the tibial cartilage: the cartilage sheet is the
     slave, the meniscus's closed volume the master (module docstring)."""
-    from fecheck.model.scanned import femoral_master, tibial_slaves
 
     out = [Interface(c.name, c.pair, c.law, TIBIA, FEMUR) for c in comps]
     law, femur, tibia = meniscus_law(scene), femoral_master(scene), tibial_slaves(scene)

@@ -44,6 +44,7 @@ from fecheck.model.assembly import (
 )
 from fecheck.model.condyles import fit_note, scene_knee
 from fecheck.model.equilibrium import compartment_results, not_converged_note, solve_equilibrium
+from fecheck.model.knee_surfaces import femoral_master, tibial_slaves
 from fecheck.model.notes import layer_depth_notes, mesh_resolution_notes, smoothing_notes
 from fecheck.model.results import LigamentResult, Pose, RunResult, SolveRecord
 from fecheck.model.reuse import reusable
@@ -53,29 +54,6 @@ from fecheck.scene.constants import COMPARTMENTS
 from fecheck.statics.ligaments import SpringLigament, SpringSet, transition_strain_check
 from geometry.cache import cached_arrays
 from geometry.cap import spherical_cap
-from geometry.decimate import decimated
-
-
-def tibial_slaves(scene: Scene) -> dict:
-    """{compartment: tibial articular surface} (decimated to scanned.decimate_faces in
-    total, shared in proportion to the two compartments' face counts)."""
-    meshes = surfaces.tibial_compartments(scene)
-    target = scene["scanned.decimate_faces"]
-    if target:
-        total = sum(m.n_faces for m in meshes.values())
-        meshes = {c: decimated(m, max(4, round(target * m.n_faces / total)))
-                  for c, m in meshes.items()}
-    return meshes
-
-
-def femoral_master(scene: Scene):
-    """The femoral articular surface, decimated in proportion to the tibial slaves."""
-    femur = surfaces.femoral_surface(scene)
-    target = scene["scanned.decimate_faces"]
-    if target:
-        tibia = sum(m.n_faces for m in surfaces.tibial_compartments(scene).values())
-        femur = decimated(femur, max(4, round(target * femur.n_faces / tibia)))
-    return femur
 
 
 def _hemisphere(scene: Scene, compartment: str):

@@ -19,6 +19,7 @@ import numpy as np
 
 from fecheck.laws import layer
 from fecheck.laws.registry import spec_of
+from fecheck.model.knee_surfaces import tibial_slaves
 from fecheck.model.results import CompartmentResult, RunResult
 from fecheck.scene import Scene
 
@@ -27,7 +28,7 @@ def _tibial_ratio(scene: Scene, sides: layer.Sides, compartment: str) -> np.ndar
     """δ_t/δ of the compartment's slave faces (a scalar for uniform layers)."""
     if scene["scanned.thickness"] == "uniform":
         return sides.tibial_ratio(*layer.uniform_sides(scene))
-    from fecheck.model.scanned import slave_sides, tibial_slaves
+    from fecheck.model.scanned import slave_sides
 
     return sides.tibial_ratio(*slave_sides(scene, tibial_slaves(scene)[compartment]))
 

@@ -31,10 +31,10 @@ from pathlib import Path
 import numpy as np
 
 from fecheck.errors import FecheckError
-from fecheck.scene import Scene
+from fecheck.scene import Scene, tibia_solid
 from fecheck.scene.packaged import PACKAGE_PREFIX, data_dir
 from geometry.cache import cached_build
-from geometry.mesh import TriMesh, is_closed
+from geometry.mesh import TriMesh, components, is_closed, submesh
 from geometry.roughness import smooth_sheet
 
 FILE_KEYS = ("femur", "tibia", "tibia_lateral", "femur_bone", "tibia_bone", "ligaments",
@@ -226,28 +226,6 @@ def surface(scene: Scene, key: str, why: str) -> TriMesh:
     return smooth_sheet(mesh, scene["geometry.smooth_mm"]) if key in SHEET_KEYS else mesh
 
 
-def components(mesh: TriMesh) -> list[np.ndarray]:
-    """Face indices of each connected component (faces sharing a vertex), largest first."""
-    import scipy.sparse as sp
-    from scipy.sparse.csgraph import connected_components
-
-    f = mesh.faces
-    n = mesh.n_faces
-    graph = sp.csr_matrix((np.ones(3 * n), (np.repeat(np.arange(n), 3), f.ravel())),
-                          shape=(n, mesh.n_points))
-    count, labels = connected_components(sp.bmat([[None, graph], [graph.T, None]]),
-                                         directed=False)
-    faces = labels[:n]
-    groups = [np.flatnonzero(faces == k) for k in np.unique(faces)]
-    return sorted(groups, key=len, reverse=True)
-
-
-def submesh(mesh: TriMesh, faces: np.ndarray) -> TriMesh:
-    """The faces `faces` of `mesh` with only the vertices they use."""
-    used, inverse = np.unique(mesh.faces[faces], return_inverse=True)
-    return TriMesh(mesh.points[used], inverse.reshape(-1, 3))
-
-
 SCENE_SPLIT_FIX = ("set geometry.tibia_split = 'sagittal' (with geometry.split_x_mm, the x "
                    "between the plateaus) or give one file per compartment "
                    "(geometry.tibia_lateral)")
@@ -301,10 +279,8 @@ def tibial_compartments(scene: Scene) -> dict[str, TriMesh]:
     thesis frame; their winding is checked with the other sheet checks before the
     solve, `geometry.sheet_checks.check_winding`). Without ``geometry.tibia`` but
     with a closed ``geometry.tibia_solid``: the solid's up-facing part
-    (`fecheck.scene.tibia_solid.articular_sheets`)."""
+    (`articular_sheets`)."""
     if file_path(scene, "tibia") is None and file_path(scene, "tibia_solid") is not None:
-        from fecheck.scene.tibia_solid import articular_sheets
-
         return articular_sheets(scene)
     why = f"model.kind = {scene['model.kind']!r} (the tibial articular surface)"
     path = required_path(scene, "tibia", why)
@@ -326,6 +302,27 @@ def tibial_compartments(scene: Scene) -> dict[str, TriMesh]:
                             side, f"{path} (geometry.tibia_split)")
         out = {c: submesh(mesh, f) for c, f in faces.items()}
     return out
+
+
+def solid_surface(scene: Scene) -> TriMesh:
+    """The closed tibial solid of ``geometry.tibia_solid`` (mm, thesis frame, outward)."""
+    path = required_path(scene, "tibia_solid", "the tibial solid")
+    return tibia_solid.outward(surface(scene, "tibia_solid", "the tibial solid"), str(path))
+
+
+def articular_sheets(scene: Scene) -> dict[str, TriMesh]:
+    """{medial, lateral}: the up-facing part of the solid split by
+    ``geometry.tibia_split`` (the EF's sheet when no ``geometry.tibia`` is given)."""
+    solid = solid_surface(scene)
+    faces = tibia_solid.up_facing(solid)
+    if len(faces) == 0:
+        raise FecheckError(f"{tibia_solid.KEY}: no face of the solid faces up (+z, toward "
+                           "the femur): check geometry.rotation_deg")
+    top = submesh(solid, faces)
+    split = split_faces(top, scene["geometry.tibia_split"],
+                        scene["geometry.split_x_mm"], scene.side,
+                        f"{tibia_solid.KEY} (its up-facing part, geometry.tibia_split)")
+    return {c: submesh(top, f) for c, f in split.items()}
 
 
 def mean_normal_z(mesh: TriMesh, faces: np.ndarray | None = None) -> float:

@@ -15,6 +15,9 @@ articular sheet:
   solid), split into compartments by ``geometry.tibia_split`` like a sheet file.
 - Orientation: each closed piece is wound outward (a piece wound inward is turned).
 
+This module holds the mesh operations; the scene's readers (`solid_surface`,
+`articular_sheets`) are in `fecheck.scene.surfaces`.
+
 Units: mm, thesis frame (x right, y anterior, z superior).
 """
 
@@ -25,8 +28,7 @@ import math
 import numpy as np
 
 from fecheck.errors import FecheckError
-from fecheck.scene import Scene, surfaces
-from geometry.mesh import TriMesh
+from geometry.mesh import TriMesh, components
 
 KEY = "geometry.tibia_solid"
 ARTICULAR_TOL_MM = 0.1
@@ -65,16 +67,10 @@ def outward(mesh: TriMesh, name: str) -> TriMesh:
     faces = mesh.faces.copy()
     p = mesh.points[mesh.faces]
     six_v = np.einsum("ij,ij->i", p[:, 0], np.cross(p[:, 1], p[:, 2]))
-    for piece in surfaces.components(mesh):
+    for piece in components(mesh):
         if six_v[piece].sum() < 0:
             faces[piece] = faces[piece][:, ::-1]
     return TriMesh(mesh.points, faces)
-
-
-def solid_surface(scene: Scene) -> TriMesh:
-    """The closed tibial solid of ``geometry.tibia_solid`` (mm, thesis frame, outward)."""
-    path = surfaces.required_path(scene, "tibia_solid", "the tibial solid")
-    return outward(surfaces.surface(scene, "tibia_solid", "the tibial solid"), str(path))
 
 
 def up_facing(solid: TriMesh) -> np.ndarray:
@@ -88,21 +84,6 @@ def up_facing(solid: TriMesh) -> np.ndarray:
     up = np.tile([0.0, 0.0, 1.0], (len(idx), 1))
     hit, _ = ray_hits(solid.face_centroids[idx] + 1e-6 * size * up, up, solid)
     return idx[~np.isfinite(hit)]
-
-
-def articular_sheets(scene: Scene) -> dict[str, TriMesh]:
-    """{medial, lateral}: the up-facing part of the solid split by
-    ``geometry.tibia_split`` (the EF's sheet when no ``geometry.tibia`` is given)."""
-    solid = solid_surface(scene)
-    faces = up_facing(solid)
-    if len(faces) == 0:
-        raise FecheckError(f"{KEY}: no face of the solid faces up (+z, toward the femur): "
-                           "check geometry.rotation_deg")
-    top = surfaces.submesh(solid, faces)
-    split = surfaces.split_faces(top, scene["geometry.tibia_split"],
-                                 scene["geometry.split_x_mm"], scene.side,
-                                 f"{KEY} (its up-facing part, geometry.tibia_split)")
-    return {c: surfaces.submesh(top, f) for c, f in split.items()}
 
 
 def on_sheet(solid: TriMesh, sheet: TriMesh) -> np.ndarray:

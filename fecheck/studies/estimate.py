@@ -158,7 +158,7 @@ def _on_default_faces(default: FELayer, layer: FELayer, pressure: np.ndarray) ->
     (both projected on the plane normal to the default surface), then averaged onto the
     default run's EF faces."""
     from fecheck.fe.crosscheck import on_ef_faces
-    from geometry.prepare import plane_interpolation
+    from geometry.planar import plane_interpolation
 
     if layer is default:
         return on_ef_faces(default, pressure)

@@ -33,6 +33,7 @@ import numpy as np
 
 from fecheck.errors import FecheckError
 from fecheck.fe.balance import free_dof_balance
+from fecheck.model.knee_surfaces import femoral_master
 from fecheck.scene import Scene
 from geometry.mesh import TriMesh
 
@@ -483,7 +484,6 @@ def _edge_note(scene: Scene, done: list[FlexPoint]) -> str:
     from scipy.spatial import cKDTree
 
     from fecheck.contact.pair import boundary_vertices
-    from fecheck.model.scanned import femoral_master
 
     if not done:
         return ""

@@ -174,10 +174,10 @@ def _read(role: str, path: Path, units: str) -> Surface:
         BONE_KEYS,
         MIN_COMPONENT_SHARE,
         bone_defect,
-        components,
         read_surface,
     )
     from geometry.checks import edge_counts
+    from geometry.mesh import components
 
     who = _option(role)
     if path.is_dir():
@@ -305,8 +305,8 @@ def _tibia_normals(surf: dict[str, Surface], parts: dict) -> dict[str, TriMesh]:
     """Check (and repair) each tibial compartment's normals (up, toward the femur);
     the compartment meshes, mm."""
     from fecheck.errors import FecheckError
-    from fecheck.scene.surfaces import mean_normal_z, submesh
-    from geometry.mesh import is_closed
+    from fecheck.scene.surfaces import mean_normal_z
+    from geometry.mesh import is_closed, submesh
 
     out = {}
     for c, (role, faces) in parts.items():

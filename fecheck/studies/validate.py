@@ -1,20 +1,18 @@
-"""Run the validation rows (``validation/row_*.py``) in-process and write the report.
+"""Run the validation rows (`fecheck.studies.thesis`, ``row_*``) in-process and write the
+report.
 
-Each row script exposes ``rows(quick: bool, out: Path) -> list[Row]`` (see
-``validation/report.py``). `run_validation` imports the scripts from the validation
-folder (next to the package's repository root, or given) as modules of the package
-``validation`` (they import one another so), runs the selected ones, times
-them, prints progress on stderr, and writes ``OUT/report.md`` with the conventions, a
-summary and one section per row. A script that fails to import or raises becomes a
-"failed" row; the report is always written.
+Each row module exposes ``rows(quick: bool, out: Path) -> list[Row]`` (see
+`fecheck.studies.thesis.report`). `run_validation` runs the selected ones, times them,
+prints progress on stderr, and writes ``OUT/report.md`` with the conventions, a summary
+and one section per row. A module that fails to import or raises becomes a "failed" row;
+the report is always written. The rows ship with the package: an installed wheel runs
+them as a checkout does.
 """
 
 from __future__ import annotations
 
-import contextlib
 import importlib
-import importlib.machinery
-import importlib.util
+import pkgutil
 import re
 import sys
 import time
@@ -23,6 +21,8 @@ from pathlib import Path
 
 from fecheck.errors import FecheckError
 from fecheck.io.outputs import write_output
+from fecheck.studies import thesis
+from fecheck.studies.thesis.report import Row, row_markdown
 
 SCRIPT_PREFIX = "row_"
 
@@ -54,33 +54,16 @@ CONVENTIONS = """\
 """
 
 
-def default_validation_dir() -> Path:
-    """``validation/`` at the repository root next to the installed `fecheck` package."""
-    import fecheck
-
-    return Path(fecheck.__file__).resolve().parents[1] / "validation"
-
-
-def find_validation_dir(explicit: str | Path | None = None) -> Path:
-    """The validation folder: `explicit` if given, else `default_validation_dir()`."""
-    path = Path(explicit) if explicit is not None else default_validation_dir()
-    if not path.is_dir():
-        raise FecheckError(f"validation folder not found at {path}; run from a source "
-                           "checkout of fecheck or pass --dir PATH/validation")
-    if not discover(path):
-        raise FecheckError(f"{path} holds no validation row scripts ({SCRIPT_PREFIX}*.py): "
-                           "--dir takes the validation/ folder of a fecheck source checkout "
-                           "(row_rigid.py, report.py, scenes/ ...)")
-    return path
+def discover() -> dict[str, str]:
+    """Row modules of `fecheck.studies.thesis`: name (module name without ``row_``) →
+    module, sorted by name."""
+    names = sorted(m.name for m in pkgutil.iter_modules(thesis.__path__)
+                   if m.name.startswith(SCRIPT_PREFIX))
+    return {n[len(SCRIPT_PREFIX):]: f"{thesis.__name__}.{n}" for n in names}
 
 
-def discover(vdir: Path) -> dict[str, Path]:
-    """Row scripts in `vdir`: name (file stem without ``row_``) → path, sorted by name."""
-    return {p.stem[len(SCRIPT_PREFIX):]: p for p in sorted(vdir.glob(f"{SCRIPT_PREFIX}*.py"))}
-
-
-def select(scripts: dict[str, Path], only: Sequence[str] | None) -> dict[str, Path]:
-    """The scripts named in `only` (all when empty); unknown names raise FecheckError."""
+def select(scripts: dict[str, str], only: Sequence[str] | None) -> dict[str, str]:
+    """The rows named in `only` (all when empty); unknown names raise FecheckError."""
     if not only:
         return scripts
     unknown = [n for n in only if n not in scripts]
@@ -90,76 +73,39 @@ def select(scripts: dict[str, Path], only: Sequence[str] | None) -> dict[str, Pa
     return {n: scripts[n] for n in scripts if n in only}
 
 
-PACKAGE = "validation"
-"""The row scripts import one another as modules of this package (``from validation import
-report``)."""
-
-
-@contextlib.contextmanager
-def _package(vdir: Path):
-    """`PACKAGE` names the folder `vdir` while the block runs; the modules it named before
-    (another checkout's validation/, or none) are put back afterwards."""
-    def ours(name: str) -> bool:
-        return name == PACKAGE or name.startswith(PACKAGE + ".")
-
-    saved = {n: m for n, m in sys.modules.items() if ours(n)}
-    for name in saved:
-        del sys.modules[name]
-    init = vdir / "__init__.py"
-    if init.is_file():
-        spec = importlib.util.spec_from_file_location(PACKAGE, init,
-                                                      submodule_search_locations=[str(vdir)])
-    else:                                   # a folder of scripts without the package file
-        spec = importlib.machinery.ModuleSpec(PACKAGE, None, is_package=True)
-        spec.submodule_search_locations = [str(vdir)]
-    package = importlib.util.module_from_spec(spec)
-    sys.modules[PACKAGE] = package
-    try:
-        if init.is_file():
-            spec.loader.exec_module(package)
-        yield package
-    finally:
-        for name in [n for n in sys.modules if ours(n)]:
-            del sys.modules[name]
-        sys.modules.update(saved)
-
-
 def run_validation(out: Path, quick: bool = False, only: Sequence[str] | None = None,
-                   vdir: str | Path | None = None, log=None) -> tuple[Path, list]:
-    """Run the selected row scripts; write ``out/report.md``; return (report path, rows).
+                   log=None, scripts: dict[str, str] | None = None) -> tuple[Path, list]:
+    """Run the selected rows; write ``out/report.md``; return (report path, rows).
 
-    Progress goes to `log` (default: standard error)."""
+    `scripts` (name → module) defaults to `discover()`; progress goes to `log` (default:
+    standard error)."""
     log = sys.stderr if log is None else log
-    vdir = find_validation_dir(vdir)
-    scripts = select(discover(vdir), only)
+    scripts = select(discover() if scripts is None else scripts, only)
     out = Path(out)
     try:
         out.mkdir(parents=True, exist_ok=True)
     except OSError as err:
         raise FecheckError(f"cannot create the output folder {out}: {err.strerror}") from None
-    with _package(vdir):
-        report_module = importlib.import_module(f"{PACKAGE}.report")  # validation/report.py
-        rows, total = _run_rows(scripts, quick, out, report_module.Row, log)
-        text = render(rows, quick, total, report_module.row_markdown, out)
+    rows, total = _run_rows(scripts, quick, out, log)
+    text = render(rows, quick, total, out)
     report = out / "report.md"
     write_output(report, lambda tmp: tmp.write_text(text, encoding="utf-8"))
     print(f"wrote {report} ({len(rows)} rows, {total:.0f} s)", file=log, flush=True)
     return report, rows
 
 
-def _run_rows(scripts: dict[str, Path], quick: bool, out: Path, row_type, log
-              ) -> tuple[list, float]:
-    """Each script's rows (a failing one becomes a "failed" row) and the total time, s."""
+def _run_rows(scripts: dict[str, str], quick: bool, out: Path, log) -> tuple[list, float]:
+    """Each module's rows (a failing one becomes a "failed" row) and the total time, s."""
     rows = []
     t_all = time.perf_counter()
-    for i, (name, path) in enumerate(scripts.items(), 1):
+    for i, (name, module) in enumerate(scripts.items(), 1):
         print(f"[{i}/{len(scripts)}] {name} ...", file=log, flush=True)
         t0 = time.perf_counter()
         try:
-            got = list(importlib.import_module(f"{PACKAGE}.{path.stem}").rows(quick, out))
-        except Exception as err:  # noqa: BLE001 - one failing script must not stop the report
-            got = [row_type(name, f"script {path.name}", path.name,
-                            f"failed: {type(err).__name__}: {err}")]
+            got = list(importlib.import_module(module).rows(quick, out))
+        except Exception as err:  # noqa: BLE001 - one failing module must not stop the report
+            got = [Row(name, f"module {module}", module,
+                       f"failed: {type(err).__name__}: {err}")]
         dt = time.perf_counter() - t0
         for r in got:
             print(f"    {r.reference:24s} {r.status[:70]}  ({r.seconds:.1f} s)", file=log,
@@ -177,7 +123,7 @@ def thesis_order(reference: str) -> tuple[int, int, int]:
     return chapter, 0 if reference.startswith("Table") else 1, number
 
 
-def render(rows: list, quick: bool, total_s: float, row_markdown, out: Path) -> str:
+def render(rows: list, quick: bool, total_s: float, out: Path) -> str:
     """The whole report.md text (rows in the thesis's order)."""
     rows = sorted(rows, key=lambda r: thesis_order(r.reference))
     counts: dict[str, int] = {}

@@ -294,7 +294,7 @@ def cases() -> list[Case]:
              partial(lambda h, q: vp.fe3d_layer(h, q), q="area"), 2.0, (1.5, 3.5), 0.02),
     ]
     ring = ("the axisymmetric FE of the same ring at 0.1 mm (0.2 → 0.1 mm moves each "
-            "< 0.2 %: tests/test_ring_meniscus.py)")
+            "< 0.2 %: tests/fe/test_ring_meniscus.py)")
     for quantity, label in (("share", "meniscus load share"), ("p_max_MPa", "layer vertex "
                             "p_max"), ("area_mm2", "layer contact area")):
         out.append(Case(f"ring-meniscus-{quantity.split('_MPa')[0].split('_mm')[0]}",

@@ -1,0 +1,90 @@
+"""Every validation script runs to the end in its ``--quick`` mode.
+
+The scripts are found by globbing ``validation/*.py``, so a new one is run without
+editing this file; each runs as a file (``python validation/x.py``) in a subprocess from a
+temporary folder, with its output options (``--out``, ``--json``, ``--plot``, as its
+``--help`` lists them) pointed there, and answers ``--help`` as a module of the package
+(``python -m validation.x`` from the repository root).
+
+The row scripts (``validation/row_*.py``, which run the rows of `fecheck.studies.thesis`)
+are the exception: CI's ``fecheck validate
+--quick`` runs every one of them in its quick mode and fails on a failed row, as their
+``main_for`` does, so here one of them runs as a file (the command line they share) and
+the others only answer ``--help``.
+"""
+
+from __future__ import annotations
+
+import os
+import re
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+
+VALIDATION = Path(__file__).resolve().parents[2] / "validation"
+NOT_SCRIPTS = {
+    "json_equal.py": "a refactoring tool comparing two folders of JSON (test_json_equal.py)",
+    "__init__.py": "the package file (the scripts import one another as validation.x)",
+}
+SCRIPTS = sorted(p for p in VALIDATION.glob("*.py") if p.name not in NOT_SCRIPTS)
+ROWS = "row_"
+"""Prefix of the row scripts that ``fecheck validate --quick`` runs (`fecheck.studies.validate`)."""
+STUDIES = [p for p in SCRIPTS if not p.name.startswith(ROWS)]
+OUTPUT_OPTIONS = {"--out": ".", "--json": "result.json", "--plot": "."}
+TIMEOUT_S = 600
+
+
+def _run(args: list[str], cwd: Path) -> subprocess.CompletedProcess:
+    env = dict(os.environ, OPENBLAS_NUM_THREADS="1", OMP_NUM_THREADS="1",
+               MKL_NUM_THREADS="1", MPLBACKEND="Agg")
+    return subprocess.run([sys.executable, *args], cwd=cwd, env=env, capture_output=True,
+                          text=True, timeout=TIMEOUT_S)
+
+
+def output_args(script: Path, out: Path) -> list[str]:
+    """The output options that `script --help` lists, each pointed into `out`."""
+    usage = _run([str(script), "--help"], out)
+    assert usage.returncode == 0, usage.stderr
+    args = []
+    for option, name in OUTPUT_OPTIONS.items():
+        if re.search(rf"{option}\b", usage.stdout):
+            args += [option, str(out / name)]
+    return args
+
+
+def test_the_files_left_out_are_there():
+    assert {p.name for p in VALIDATION.glob("*.py")} >= set(NOT_SCRIPTS)
+
+
+@pytest.mark.parametrize("script", SCRIPTS, ids=lambda p: p.stem)
+def test_runs_as_a_module_of_the_package(script):
+    # `python -m validation.x` from the repository root finds the same script and its siblings
+    usage = _run(["-m", f"validation.{script.stem}", "--help"], VALIDATION.parent)
+    assert usage.returncode == 0, usage.stderr[-3000:]
+    assert "usage:" in usage.stdout
+
+
+@pytest.mark.parametrize("script", STUDIES, ids=lambda p: p.stem)
+def test_quick_mode_runs_to_the_end(script, tmp_path):
+    done = _run([str(script), "--quick", *output_args(script, tmp_path)], tmp_path)
+    assert done.returncode == 0, f"{script.name}: exit {done.returncode}\n{done.stderr[-3000:]}"
+    assert "Traceback" not in done.stderr, done.stderr[-3000:]
+
+
+def test_the_row_scripts_are_the_ones_fecheck_validate_runs():
+    from fecheck.studies.validate import SCRIPT_PREFIX, discover
+
+    assert SCRIPT_PREFIX == ROWS
+    rows = {p.stem for p in SCRIPTS if p.name.startswith(ROWS)}
+    assert rows and {ROWS + name for name in discover()} == rows
+
+
+def test_a_row_script_runs_as_a_file_in_its_quick_mode(tmp_path):
+    # the command line every row script shares (`report.main_for`): rows printed
+    done = _run([str(VALIDATION / "row_rigid.py"), "--quick", "--out", str(tmp_path)],
+                tmp_path)
+    assert done.returncode == 0, done.stderr[-3000:]
+    assert "### Table 5.1: rigid model force distribution" in done.stdout
+    assert (tmp_path / "table_5_1.csv").is_file()
