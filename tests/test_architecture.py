@@ -296,11 +296,17 @@ def test_the_checker_sees_a_forbidden_validation_import(tmp_path, module, line, 
     assert _validation_violations(module, fake) == expected
 
 
+TOOLS = ("validation.json_equal", "validation.robustness")
+"""Repository tools in validation/ whose own rules a test checks: the JSON comparison of
+refactors and the adversarial pass's verdicts (both work on a checkout, not a wheel)."""
+
+
 def test_tests_import_library_code_from_packages_not_from_validation():
     """validation/ holds scripts only: what a test needs lives in a package (geometry,
-    fecheck); the scripts are run, not imported (tests/validation/test_validation_scripts.py)."""
+    fecheck); the scripts are run, not imported (tests/validation/test_validation_scripts.py),
+    except the rules of the repository tools in `TOOLS`."""
     bad = [f"{p.relative_to(ROOT)}:{line} imports {t}"
            for p in sorted((ROOT / "tests").rglob("*.py"))
            for t, _, _, line in _imports(p, "tests." + p.stem)
-           if t.split(".")[0] == "validation" and t != "validation.json_equal"]
+           if t.split(".")[0] == "validation" and t not in TOOLS]
     assert not bad, bad

@@ -67,7 +67,7 @@ def test_bad_input_exits_non_zero_with_one_line(args, words, capsys):
 
 
 def test_poisson_close_to_half_warns_on_one_line(capsys):
-    # Hertz: the linear EF is refused past ν 0.49 (tests/test_robust_inputs.py)
+    # Hertz: the linear EF is refused past ν 0.49 (tests/cli/test_robust_inputs.py)
     assert main(["run", str(SCENES / "rigid.toml"), "--set", "contact.poisson=0.495",
                  "--set", "model.kind='sphere-plane'", "--set", "dofs.free=['z', 'abduction']",
                  "--set", "mesh.plateau_refine_mm=1.5", "--set", "contact.law='hertz'"]) == 0

@@ -328,7 +328,7 @@ def test_fe_checks_warn_of_curl_inversion_and_slivers(knee, tmp_path, capsys):
     assert len(curl) == 1 and len(slivers) == 1, lines
     down, = curl
     # the curl inverts the layer as read, and the FE meshes a prepared copy instead
-    # (tests/test_real_data_inputs.py checks that it does)
+    # (tests/studies/test_real_data_inputs.py checks that it does)
     prepared = [o for o in captured.out.splitlines() if o.startswith("lateral       FE layer")]
     assert len(prepared) == 1 and "invert as read" in prepared[0]
     assert "mesh a prepared copy" in prepared[0] and prepared[0].endswith("extrudes: ok")

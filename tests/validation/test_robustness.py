@@ -1,5 +1,5 @@
 """The adversarial pass's verdicts (validation/robustness.py): what counts as a clean answer.
-Its quick mode runs end to end in tests/test_validation_scripts.py."""
+Its quick mode runs end to end in tests/validation/test_validation_scripts.py."""
 
 from __future__ import annotations
 

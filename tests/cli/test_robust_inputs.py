@@ -137,10 +137,10 @@ def test_a_directory_given_for_a_file_says_so(argv, tmp_path, capsys):
 def test_a_tibia_solid_without_a_sheet_meshes_its_up_facing_part(tmp_path):
     """The README's configuration: geometry.tibia_solid and no geometry.tibia. The FE's
     bodies are the solid's, and its articular faces are those the sheet of the same
-    implant names (the sheet is the solid's top: `validation.implant_pair`)."""
+    implant names (the sheet is the solid's top: `geometry.synthetic.implant`)."""
     from fecheck.fe.bodies import scene_bodies
     from fecheck.scene import load_scene
-    from validation.implant_pair import write_implant
+    from geometry.synthetic.implant import write_implant
 
     with_sheet = write_implant(tmp_path, fine_mm=1.5)
     text = with_sheet.read_text(encoding="utf-8")
@@ -172,7 +172,7 @@ def test_the_linear_ef_is_refused_past_poisson_049(capsys):
 def test_the_ef_poisson_limit_is_where_the_ef_leaves_the_fe():
     """The refusal's threshold against the closed forms: the EF cap's p_max (k d with
     F = k π d² (R - d/3)) at ν 0.49 over the converged mixed FE's 5.19 MPa (baseline
-    medial, tests/test_fe_mixed.py) is near 3, and grows past 25 by 0.4999."""
+    medial, tests/fe/test_fe_mixed.py) is near 3, and grows past 25 by 0.4999."""
     from fecheck.laws.materials import column_stiffness
     from fecheck.model.plausibility import EF_POISSON_MAX
     from fecheck.reference.closed_forms import ef_cap_depth
@@ -240,7 +240,7 @@ def test_menisci_held_in_z_and_a_lumped_modulus_are_warned(capsys):
 # ------------------------------------------------------------------ faces before reading
 @pytest.fixture
 def small_knee(tmp_path):
-    """The tibia of tests/test_knee_import.py's synthetic knee (two dishes, 1,936 faces)
+    """The tibia of tests/studies/test_knee_import.py's synthetic knee (two dishes, 1,936 faces)
     and the file of one of its femoral caps (968 faces)."""
     from test_knee_import import CENTRES, _merge, femur_cap, tibia_patch, write
 

@@ -220,11 +220,11 @@ def test_the_import_says_what_the_fe_does_with_a_sheet_that_inverts(tmp_path, ca
 
 # ------------------------------------------------------------------ an implant's rim
 def _implant_with_rim(folder: Path, overhang_mm: float) -> tuple[Path, np.ndarray]:
-    """The generated implant (`validation.implant_pair`, 2 mm triangles) whose insert
+    """The generated implant (`geometry.synthetic.implant`, 2 mm triangles) whose insert
     sheet's border vertices are moved `overhang_mm` out past the solid's walls (in x and
     y, the rim is flat there); the scene and the moved vertices' (x, y, z), mm."""
     from geometry.io import load_mesh, save_mesh
-    from validation.implant_pair import HALF_DEPTH_MM, HALF_WIDTH_MM, write_implant
+    from geometry.synthetic.implant import HALF_DEPTH_MM, HALF_WIDTH_MM, write_implant
 
     scene = write_implant(folder, fine_mm=2.0)
     sheet = load_mesh(folder / "insert_top.stl")
@@ -281,7 +281,7 @@ def test_an_insert_rim_overhanging_its_solid_by_2_mm_is_refused_with_the_place(t
 # ------------------------------------------------------------------ the solid FE
 @pytest.fixture(scope="module")
 def implant_scene(tmp_path_factory) -> Path:
-    from validation.implant_pair import write_implant
+    from geometry.synthetic.implant import write_implant
 
     return write_implant(tmp_path_factory.mktemp("implant"), fine_mm=2.0)
 
@@ -366,7 +366,7 @@ def test_the_solid_fe_on_a_finer_sheet_runs_clean_and_says_why_no_estimate(tmp_p
     from fecheck.cli.fe import SOLID_NO_ESTIMATE
     from geometry.io import load_mesh, save_mesh
     from geometry.subdivide import subdivide
-    from validation.implant_pair import write_implant
+    from geometry.synthetic.implant import write_implant
 
     scene = write_implant(tmp_path, fine_mm=2.0)
     fine, _ = subdivide(load_mesh(tmp_path / "insert_top.stl"), 1)
