@@ -50,7 +50,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from fecheck.errors import FecheckError
-from geometry.distance import ray_distance
+from geometry.distance import ray_hits
 from geometry.mesh import TriMesh
 
 GRID_MM = 0.25
@@ -75,7 +75,7 @@ def vertical_height(mesh: TriMesh, xy: np.ndarray, from_above: bool) -> np.ndarr
     z0 = _FAR_MM if from_above else -_FAR_MM
     origins = np.column_stack([xy, np.full(len(xy), z0)])
     direction = np.array([0.0, 0.0, -1.0 if from_above else 1.0])
-    d = ray_distance(origins, np.tile(direction, (len(xy), 1)), mesh)
+    d = ray_hits(origins, np.tile(direction, (len(xy), 1)), mesh)[0]
     z = z0 + direction[2] * d
     return np.where(np.isfinite(d), z, np.nan)
 

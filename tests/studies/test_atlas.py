@@ -9,8 +9,6 @@ import pytest
 from fecheck.cli import main
 from fecheck.studies import atlas
 
-pytest.importorskip("sklearn")
-
 
 def _errors(u: np.ndarray) -> dict[str, np.ndarray]:
     """A smooth made-up error field over two unit-cube keys: p_max crosses ±0.05 inside

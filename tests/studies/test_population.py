@@ -14,8 +14,6 @@ from fecheck.cli import main
 from fecheck.studies.population_inputs import parse_distribution
 from fecheck.studies.sobol import design, sobol_indices
 
-pytest.importorskip("SALib")
-
 ISHIGAMI_A, ISHIGAMI_B = 7.0, 0.1
 
 
