@@ -16,17 +16,19 @@ from fecheck.io.outputs import write_output
 def pressure_figure(result, title: str):
     """A matplotlib figure: left the tibial layers' vertex pressure seen from above with
     each meniscus's footprint outlined (white), right the femur's pressure on each
-    meniscus's superior surface; one colour scale (MPa)."""
+    meniscus's superior surface; one colour scale (MPa) up to the tibial p_max (a vertex
+    of a meniscus's superior surface at the edge of its labelled faces has a small
+    tributary area, so its nodal pressure may lie far above: such values saturate, and
+    each meniscus's own peak is printed)."""
     import matplotlib
 
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
     from matplotlib.collections import LineCollection
 
-    values = [p for p in result.pressure_MPa.values()] + [
-        p for _, p in result.meniscus_surfaces.values()]
-    top = max(float(v.max(initial=0.0)) for v in values) or 1.0
-    fig, (left, right) = plt.subplots(1, 2, figsize=(14, 5.5))
+    top = max(float(v.max(initial=0.0)) for v in result.pressure_MPa.values()) or 1.0
+    notes = {"left": [], "right": []}
+    fig, (left, right) = plt.subplots(1, 2, figsize=(14, 5.5), constrained_layout=True)
     art = None
     for c, surface in result.surfaces.items():
         pts = surface.points
@@ -36,24 +38,25 @@ def pressure_figure(result, title: str):
             left.add_collection(LineCollection(result.outlines[c][:, :, :2], colors="w",
                                                linewidths=1.0))
         fe = result.fe[c]
-        left.text(pts[:, 0].mean(), pts[:, 1].max() + 3, f"{c}: meniscal share "
-                  f"{fe.share:.1%}, p_max {fe.p_max_MPa:.2f} MPa", ha="center", fontsize=9)
+        notes["left"].append(f"{c}: meniscal share {fe.share:.1%}, p_max "
+                             f"{fe.p_max_MPa:.2f} MPa")
     for c, (surface, pressure) in result.meniscus_surfaces.items():
         pts = surface.points
         art = right.tripcolor(pts[:, 0], pts[:, 1], surface.faces, pressure,
                               shading="gouraud", cmap="viridis", vmin=0.0, vmax=top)
-        right.text(pts[:, 0].mean(), pts[:, 1].max() + 3, f"{c} meniscus: femur on it "
-                   f"{result.fe[c].femur_on_meniscus_N:.0f} N, p_max {pressure.max():.2f} "
-                   "MPa", ha="center", fontsize=9)
-    for ax, what in ((left, "tibial contact pressure, meniscus footprints (white)"),
-                     (right, "femur's pressure on the menisci's superior surfaces")):
+        notes["right"].append(f"{c}: femur on it {result.fe[c].femur_on_meniscus_N:.0f} N, "
+                              f"nodal p_max {pressure.max():.2f} MPa")
+    for ax, what in ((left, "tibial contact pressure, meniscus footprints (white)\n"
+                      + "\n".join(notes["left"])),
+                     (right, "femur's pressure on the menisci's superior surfaces\n"
+                      + "\n".join(notes["right"]))):
         ax.set_aspect("equal")
         ax.autoscale_view()
         ax.set_xlabel("x mm (right)")
         ax.set_ylabel("y mm (anterior)")
         ax.set_title(what, fontsize=10)
     if art is not None:
-        fig.colorbar(art, ax=[left, right], label="pressure, MPa")
+        fig.colorbar(art, ax=[left, right], label="pressure, MPa (up to the tibial p_max)")
     fig.suptitle(f"{title}: FE with menisci ({result.cartilage} cartilage), "
                  f"{result.load_N:.0f} N", fontsize=11)
     return fig

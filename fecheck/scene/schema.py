@@ -501,7 +501,8 @@ SCHEMA: dict[str, Key] = {
         "knee ('fecheck:knee/smith2019_menisci' = the copy packaged with fecheck; a path is "
         "relative to the scene file's folder); '' = no menisci. Each meniscus is a rigid "
         "body with six free DOFs, in EF contact with the femoral and the tibial cartilage "
-        "and held by its 15 meniscal ligaments (Blankevoort 1991 springs); the femur "
+        "and held by its horn roots (menisci.roots; ligaments: menisci.coronary, "
+        "menisci.transverse); the femur "
         "starts at smith2019's default knee pose (the data set's matrix G) and the scene's "
         "dofs.* start pose is taken relative to it. Needs contact.law = 'ef'.",
         example="fecheck:knee/smith2019_menisci"),
@@ -562,9 +563,10 @@ SCHEMA: dict[str, Key] = {
         "the femur moved along the tibia's z and, if the tibia's abduction is free, "
         "turned about its y axis until each compartment's cartilages just touch): every "
         "vertex moved vertically, keeping its relative height in the wedge, so that the "
-        "inferior surface lies on the tibial and the superior on the femoral cartilage, "
-        "tapered to the shipped shape beyond the cartilages' edges; 'as-shipped' = the "
-        "data set's meshes unchanged.", choices=("fitted", "as-shipped")),
+        "inferior surface lies on the tibial and the superior on the femoral cartilage "
+        "(the latter only where the joint space is no taller than the meniscus's tallest "
+        "section), tapered to the shipped shape beyond; 'as-shipped' = the data set's "
+        "meshes unchanged.", choices=("fitted", "as-shipped")),
     "menisci.free": Key(
         "strings", ["x", "y", "z", "flexion", "abduction", "internal"],
         "Degrees of freedom of each meniscus solved for (translations x, y, z and rotations "
