@@ -88,6 +88,8 @@ sphinx_gallery_conf = {
     "abort_on_example_error": False,
     "only_warn_on_example_error": False,
     "show_memory": False,
+    # no sg_execution_times page: the Reference toctree globs the top-level pages
+    "write_computation_times": False,
     "parallel": int(os.environ.get("FECHECK_DOCS_JOBS", "2")),
 }
 
