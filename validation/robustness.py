@@ -472,6 +472,39 @@ def _mesh_cases() -> list[Case]:
     ]
 
 
+def _population_cases() -> list[Case]:
+    pop = ["population", "baseline"]
+    atl = ["atlas", "baseline"]
+    return [
+        c([*pop, "--vary", "nokey=uniform:1:2", "--samples", "64"], "vary an unknown key",
+          quick=True),
+        c([*pop, "--vary", "contact.poisson=uniform:0.3:0.7", "--samples", "64"],
+          "a distribution outside the key's range"),
+        c([*pop, "--vary", "contact.youngs_MPa=uniform:10:30", "--samples", "3"],
+          "too few samples for the indices"),
+        c([*pop, "--vary", "contact.youngs_MPa=normal:20:-1", "--samples", "64"],
+          "a negative standard deviation"),
+        c([*pop, "--vary", "contact.youngs_MPa=uniform:30:10", "--samples", "64"],
+          "a reversed range"),
+        c([*pop, "--vary", "contact.youngs_MPa=beta:1:2", "--samples", "64"],
+          "an unknown distribution"),
+        c([*pop, "--vary", "contact.youngs_MPa=uniform:nan:30", "--samples", "64"],
+          "NaN bound"),
+        c([*pop, "--vary", "mesh.plateau_size_mm=uniform:1.5:2.5", "--samples", "64"],
+          "a key that rebuilds meshes at every sample"),
+        c([*pop, "--vary", "contact.youngs_MPa=uniform:10:30", "--samples", "-5"],
+          "a negative sample count"),
+        c([*pop, "--vary", "contact.youngs_MPa=uniform:10:30", "--samples", "32",
+           "--json", "pop.json"], "a small population of the baseline", SOLVE_S,
+          json_out=("pop.json",)),
+        c([*atl, "--vary", "nokey=uniform:1:2", "--fe", "4"], "atlas of an unknown key"),
+        c([*atl, "--vary", "contact.youngs_MPa=uniform:10:30", "--fe", "0"],
+          "atlas with no FE design point"),
+        c([*atl, "--vary", "contact.youngs_MPa=uniform:10:30", "--fe", "4",
+           "--tolerance", "-0.1"], "a negative tolerance"),
+    ]
+
+
 def _other_cases() -> list[Case]:
     cal = ["calibrate", "scanned-knee", *DECIMATE]
     return [
@@ -512,7 +545,7 @@ def _other_cases() -> list[Case]:
 def all_cases() -> list[Case]:
     """Every input of the pass, in report order."""
     return (_run_cases() + _bounds_cases() + _fe_cases() + _flex_cases() + _sweep_cases()
-            + _knee_cases() + _mesh_cases() + _other_cases())
+            + _knee_cases() + _mesh_cases() + _population_cases() + _other_cases())
 
 
 # ----------------------------------------------------------------------- running
