@@ -68,6 +68,7 @@ from fecheck.fe.meniscus_solid import (
 )
 from fecheck.fe.multibody import Body, Condensed, Pair, ray_pairs
 from fecheck.scene import Scene
+from fecheck.statics.root_spring import root_matrix
 from geometry.mesh import TriMesh
 
 ROOTS = ("data", "donahue", "bundles", "springs")
@@ -346,7 +347,6 @@ def horn_matrices(solid: MeniscusSolid, root: str, stiffness_N_per_mm: float,
     linear spring of `stiffness_N_per_mm` along the root's direction
     (`fecheck.statics.root_spring.root_matrix`, `Horn.direction`); else the same in x, y
     and z (`horn_stiffness`: ``"bundles"`` the data's bundles, as ``"data"``)."""
-    from fecheck.statics.root_spring import root_matrix
 
     if root not in ROOTS:
         raise FecheckError(f"horn roots {root!r}: give one of {', '.join(ROOTS)}")

@@ -334,9 +334,6 @@ class Shape:
 def _touching(scene: Scene, folder: Path) -> TriMesh:
     """The femoral sheet in the tibia frame at the touching pose
     (`fecheck.model.menisci_shape.touching_femur`)."""
-    from fecheck.model.scanned import femoral_master, tibial_slaves
-    from fecheck.statics.newton import body_pose
-
     rot, t = body_pose(start_coordinates(scene, *femur_pose(folder)))
     femur = femoral_master(scene)
     femur = TriMesh((femur.points - t) @ rot, femur.faces)
@@ -346,8 +343,6 @@ def _touching(scene: Scene, folder: Path) -> TriMesh:
 def shapes(scene: Scene, sides: Sequence[str] | None = None) -> dict[str, Shape]:
     """{side: `Shape`} of the menisci present (or of `sides`): fitted to the joint with
     menisci.fit = 'fitted', the inner third cut with menisci.partial."""
-    from fecheck.model.scanned import tibial_slaves
-
     folder = menisci_dir(scene)
     sides = _sides(scene) if sides is None else tuple(sides)
     fitted = scene["menisci.fit"] == "fitted"

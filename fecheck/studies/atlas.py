@@ -28,6 +28,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from fecheck.errors import FecheckError
+from fecheck.model.run import run_scene
 from fecheck.scene import Scene, apply_overrides
 from fecheck.studies import sobol
 from fecheck.studies.population_inputs import Varied, overrides_for
@@ -74,7 +75,6 @@ def fe_errors(scene: Scene, overrides: Sequence[str]) -> dict[str, float]:
 def calibrated_run(scene: Scene, overrides: Sequence[str]):
     """The calibrated EF's run at the point, beside the linear EF's (None when the scene's
     law is not the linear EF, or the calibrated law cannot run it)."""
-    from fecheck.model.run import run_scene
 
     if scene["contact.law"] != "ef":
         return None

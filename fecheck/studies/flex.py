@@ -33,6 +33,7 @@ import numpy as np
 
 from fecheck.errors import FecheckError
 from fecheck.fe.balance import free_dof_balance
+from fecheck.laws.coldstart import announce_cold_kernels
 from fecheck.model.knee_surfaces import femoral_master
 from fecheck.scene import Scene
 from geometry.mesh import TriMesh
@@ -348,7 +349,6 @@ def run_flex(scene: Scene, angles: Sequence[float], axis: FlexionAxis,
     the femoral cartilage ran out) stops the run with `stopped` naming the angle; Ctrl-C
     stops it with the finished angles kept (`stopped` says so).
     """
-    from fecheck.laws.coldstart import announce_cold_kernels
     from fecheck.model.scanned import build_compartments, bundle_springs
 
     check_kind(scene)

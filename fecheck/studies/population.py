@@ -39,6 +39,7 @@ from fecheck.errors import FecheckError
 from fecheck.io.outputs import write_text
 from fecheck.model.results import RunResult
 from fecheck.model.reuse import reusing_builds
+from fecheck.model.run import run_scene
 from fecheck.scene import Scene, apply_overrides
 from fecheck.studies import sobol
 from fecheck.studies.pool import (
@@ -301,7 +302,6 @@ def probe(scene: Scene, plan: Plan) -> Probe:
     key that a reusable build reads, one run with that key at a random value of its
     distribution from the nominal parts: how long the rebuild it causes takes (a random
     value, so that no mesh cached on disk by an earlier study hides the cost)."""
-    from fecheck.model.run import run_scene
 
     memo: dict = {}
     with reusing_builds(memo):
