@@ -51,6 +51,11 @@ COMMANDS: dict[str, str] = {
     "validate": "validate --quick --out {tmp}/validation",
     "stress": "stress --quick",
     "bench": "bench --quick",
+    "population": ("population femur_tibia --vary contact.youngs_MPa=uniform:16:24 "
+                   "--vary load.force_N=uniform:600:1000 --samples 400"),
+    "atlas": ("atlas baseline --vary contact.youngs_MPa=uniform:15:25 "
+              "--vary contact.poisson=uniform:0.2:0.4 --samples 200 --fe 6 "
+              "--set mesh.plateau_refine_mm=1.4 --set fe.axisym_size_mm=0.2"),
 }
 """The command timed per verb (after ``fecheck``); {tmp} is a temporary folder."""
 
