@@ -81,6 +81,7 @@ from fecheck.scene import SCHEMA, Scene
 from fecheck.scene.constants import COMPARTMENTS
 from fecheck.scene.packaged import PACKAGE_PREFIX, data_dir
 from fecheck.scene.surfaces import read_surface
+from fecheck.scene.unit_hints import load_warning, no_equilibrium_hint
 from fecheck.statics.frames import rot_y
 from fecheck.statics.interfaces import Interface
 from fecheck.statics.ligaments import BodySpring
@@ -88,6 +89,7 @@ from fecheck.statics.newton import (
     BODY_DOFS,
     TIBIA_COORDINATES,
     Body,
+    NoEquilibrium,
     NoStiffness,
     Problem,
     body_basis,
@@ -601,6 +603,10 @@ def run_menisci(scene: Scene, warm_start: np.ndarray | None = None) -> RunResult
         sol = solve(problem)
     except NoStiffness as err:
         raise FecheckError(f"{err}{_stiff_note(scene)}") from None
+    except NoEquilibrium as err:
+        force = scene["load.force_N"]
+        hint = no_equilibrium_hint(scene) or (load_warning(force) if force > 0 else "")
+        raise FecheckError(f"{err}; {hint}" if hint else str(err)) from None
     seconds = time.perf_counter() - t_built
     _refuse_no_headway(scene, sol)
     poses = [body_pose(q) for q in sol.q]

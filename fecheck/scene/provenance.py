@@ -15,6 +15,7 @@ first); the CPU time counts this process's threads and its finished child proces
 from __future__ import annotations
 
 import hashlib
+import math
 import os
 import platform
 import sys
@@ -27,6 +28,7 @@ from fecheck.errors import FecheckError
 from fecheck.scene.load import Scene, scene_from_values
 from fecheck.scene.packaged import PACKAGE_PREFIX, data_dir
 from fecheck.scene.relevance import inert_keys
+from fecheck.scene.schema import SCHEMA
 
 DATA_SUFFIXES = (".json", ".stl", ".obj", ".ply", ".vtk", ".vtu", ".msh", ".off")
 """Files of a data folder (``menisci.dir``) counted as its inputs (not its licence or
@@ -139,8 +141,26 @@ def scene_record(scene: Scene) -> dict[str, Any]:
     """The resolved scene: its file, every key's value, the ``--set`` texts and keys."""
     source = Path(scene.source)
     return {"source": str(source.resolve()) if source.exists() else scene.source,
-            "label": scene.label, "values": dict(scene.values),
+            "label": scene.label, "values": {k: _json_value(v) for k, v in scene.values.items()},
             "overrides": list(scene.overrides), "set_keys": list(scene.set_keys)}
+
+
+INFINITE = {"inf": math.inf, "-inf": -math.inf}
+"""How an infinite number (a rigid body's modulus) is recorded: JSON has no infinity."""
+
+
+def _json_value(value: Any) -> Any:
+    """`value` as strict JSON holds it: an infinite float as its `INFINITE` text."""
+    if isinstance(value, float) and math.isinf(value):
+        return "inf" if value > 0 else "-inf"
+    return value
+
+
+def _scene_value(key: str, value: Any) -> Any:
+    """A recorded value back as the scene holds it: the `INFINITE` text of a number key."""
+    if isinstance(value, str) and value in INFINITE and SCHEMA[key].kind in ("int", "float"):
+        return INFINITE[value]
+    return value
 
 
 def provenance(scene: Scene | None = None,
@@ -171,7 +191,8 @@ def recorded_scene(result: Mapping[str, Any], where: str) -> Scene:
     if not isinstance(record, Mapping) or not isinstance(record.get("values"), Mapping):
         raise FecheckError(f"{where} holds no recorded scene (no provenance.scene.values): "
                            "give a JSON written by `fecheck run --json` of this version")
-    return scene_from_values(record["values"], str(record.get("source", where)),
+    values = {k: _scene_value(k, v) if k in SCHEMA else v for k, v in record["values"].items()}
+    return scene_from_values(values, str(record.get("source", where)),
                              tuple(record.get("overrides", ())), f"{where} (recorded scene)")
 
 

@@ -89,10 +89,10 @@ def test_the_scanned_ef_takes_the_bone_distance_sides_in_series(monkeypatch):
     from fecheck.model import scanned
 
     h_t, h_f = np.array([1.0, 2.5]), np.array([2.0, 1.1])
-    monkeypatch.setattr(scanned, "slave_sides", lambda scene, slave: (h_t, h_f))
+    monkeypatch.setattr(scanned, "_side_thicknesses", lambda scene: {"medial": (h_t, h_f)})
     scene = validate({**APART, "scanned": {"thickness": "bone-distance"}})
-    np.testing.assert_allclose(scanned._face_thickness(scene, None), h_t + h_f * C_T / C_F,
-                               rtol=1e-12)
+    np.testing.assert_allclose(scanned._face_thickness(scene, "medial"),
+                               h_t + h_f * C_T / C_F, rtol=1e-12)
 
 
 def test_a_sphere_plane_run_reports_each_layer():

@@ -169,3 +169,18 @@ def test_every_data_file_a_run_opens_is_recorded(scene, tmp_path):
             if p.startswith((str(package / "data"), str(package / "scenes")))}
     recorded = {str(p) for _, p in input_files(load_scene(scene, overrides))}
     assert data and data <= recorded, sorted(data - recorded)
+
+
+def test_an_infinite_value_is_recorded_as_strict_json_and_read_back():
+    """A rigid indenter's modulus is +inf: the record is strict JSON (no Infinity token)
+    and the recorded scene reads it back as +inf."""
+    import math
+
+    from fecheck.scene.provenance import recorded_scene
+
+    scene = load_scene(None)
+    assert math.isinf(scene["contact.indenter_youngs_MPa"])
+    text = json.dumps({"provenance": provenance(scene)}, allow_nan=False)
+    back = recorded_scene(json.loads(text), "result.json")
+    assert back["contact.indenter_youngs_MPa"] == math.inf
+    assert dict(back.values) == dict(scene.values)

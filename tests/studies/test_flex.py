@@ -49,7 +49,8 @@ def test_the_scene_keys_give_the_axis_turned_towards_plus_x():
     assert np.allclose(axis.direction, [0.6, 0.0, -0.8]) and "flexion.axis" in axis.source
     with pytest.raises(FecheckError, match="set both flexion.axis_point_mm"):
         flex.scene_axis(load_scene("femur_tibia_ligaments", ["flexion.axis_dir=[1, 0, 0]"]))
-    with pytest.raises(FecheckError, match="more than 78° from the medio-lateral x axis"):
+    with pytest.raises(FecheckError, match=r"is 84.29° from the medio-lateral x axis, more "
+                       r"than the 78.46° allowed"):
         flex.given_axis([0.0, 0.0, 0.0], [0.1, 1.0, 0.0])
 
 
