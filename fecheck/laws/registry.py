@@ -84,6 +84,9 @@ class LawSpec:
         pair (`fecheck.contact.convex.PointContact`); exactly when ``scene.point_contact``
     contact_radius : (scene, force N, sphere radius mm) → expected contact radius (mm) of
         a sphere on a plane, for mesh sizing; None: from `stiffness` (the EF cap)
+    poisson_max : the largest Poisson's ratio at which the law's answer means anything
+        (`fecheck.model.plausibility.check_ef_poisson` refuses a scene above it); None:
+        any ratio below 0.5
     """
 
     scene: LawKeys
@@ -99,6 +102,7 @@ class LawSpec:
     depth_notes: Callable[[Values, Mapping[str, float]], list[str]] | None = None
     point: Callable[[Values], Callable[[Any, float], Any]] | None = None
     contact_radius: Callable[[Values, float, float], float] | None = None
+    poisson_max: float | None = None
 
     @property
     def name(self) -> str:
@@ -263,7 +267,8 @@ BUILT_IN: tuple[LawSpec, ...] = (
             "thesis eq. 4.1-4.3; a sphere on a plane: F = k·πd²(R − d/3) "
             "(fecheck.reference.closed_forms.ef_sphere_plane)",
             "linear elastic foundation p = k·d, k = (1−ν)E/((1+ν)(1−2ν)h)",
-            stiffness=_layers_stiffness, linear=True, per_face=_ef_per_face),
+            stiffness=_layers_stiffness, linear=True, per_face=_ef_per_face,
+            poisson_max=0.49),
     LawSpec(_KEYS["hertz"], _build_hertz, None, False,
             "thesis eq. 4.4-4.8: P = 4/3·E*·√R·d^(3/2), a = √(R d)",
             "from the deepest point: smooth on a convex sphere-plane pair, from the deepest "

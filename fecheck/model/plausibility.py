@@ -22,6 +22,7 @@ import numpy as np
 from fecheck.contact.analytic import Sphere
 from fecheck.contact.pair import ContactPair
 from fecheck.errors import FecheckError, ImplausibleInput
+from fecheck.laws.registry import law_spec, spec_of
 from fecheck.model.assembly import Compartment, free_indices, start_pose
 from fecheck.model.results import RunResult
 from fecheck.scene import Scene
@@ -53,7 +54,7 @@ P_MAX_MPA = 1000.0
 """No knee tissue or bearing carries this: cortical bone fails at ~200 MPa, UHMWPE yields
 at ~20-30 MPa, cartilage at ~25 MPa. A larger p_max is a unit mistake, never a result."""
 
-EF_POISSON_MAX = 0.49
+EF_POISSON_MAX = law_spec("ef").poisson_max
 """Largest contact.poisson a `fecheck run` of the linear EF answers. The EF's column
 stiffness grows as 1/(1 − 2ν) while a bonded layer's FE hardly stiffens (it bulges):
 baseline medial (323.71 N, R 25.5 mm, E 20 MPa, h 6 mm), EF p_max 7.19 / 15.25 / 150.0 MPa
@@ -152,16 +153,17 @@ def before_solve(scene: Scene, comps: Sequence[Compartment] = ()) -> None:
 
 
 def check_ef_poisson(scene: Scene) -> None:
-    """`FecheckError` for the linear EF (contact.law = 'ef') above `EF_POISSON_MAX`: its
-    pressures there are several times the FE's, growing without bound as ν → 0.5."""
-    nu = scene["contact.poisson"]
-    if scene["contact.law"] != "ef" or nu <= EF_POISSON_MAX:
+    """`FecheckError` for a law above its `LawSpec.poisson_max` (the linear EF's 0.49,
+    `EF_POISSON_MAX`): its pressures there are several times the FE's, growing without
+    bound as ν → 0.5."""
+    nu, limit = scene["contact.poisson"], spec_of(scene).poisson_max
+    if limit is None or nu <= limit:
         return
-    raise FecheckError(f"contact.poisson = {nu:g} with the linear EF (contact.law = 'ef'): its "
-                       "column stiffness grows as 1/(1 - 2ν) while a bonded layer hardly "
-                       "stiffens (it bulges), so past ν 0.49 its p_max is more than 3 times "
-                       "the FE's (baseline: 15 MPa at 0.49 and 150 MPa at 0.4999, FE 5.2 and "
-                       f"5.3): use contact.poisson <= {EF_POISSON_MAX:g}, contact.law = "
+    raise FecheckError(f"contact.poisson = {nu:g} with contact.law = '{spec_of(scene).name}': "
+                       "its column stiffness grows as 1/(1 - 2ν) while a bonded layer hardly "
+                       f"stiffens (it bulges), so past ν {limit:g} its p_max is more than 3 "
+                       "times the FE's (baseline: 15 MPa at 0.49 and 150 MPa at 0.4999, FE 5.2 "
+                       f"and 5.3): use contact.poisson <= {limit:g}, contact.law = "
                        "'ef-calibrated' (fitted to the FE up to ν 0.49), or `fecheck fe` for a "
                        "near-incompressible layer")
 

@@ -28,6 +28,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from fecheck.errors import FecheckError
+from fecheck.laws.registry import law_spec, spec_of
 from fecheck.model.run import run_scene
 from fecheck.scene import Scene, apply_overrides
 from fecheck.studies import sobol
@@ -75,8 +76,7 @@ def fe_errors(scene: Scene, overrides: Sequence[str]) -> dict[str, float]:
 def calibrated_run(scene: Scene, overrides: Sequence[str]):
     """The calibrated EF's run at the point, beside the linear EF's (None when the scene's
     law is not the linear EF, or the calibrated law cannot run it)."""
-
-    if scene["contact.law"] != "ef":
+    if spec_of(scene) is not law_spec("ef"):
         return None
     try:
         return run_scene(apply_overrides(scene, [*overrides, "contact.law='ef-calibrated'"]))

@@ -328,4 +328,4 @@ def test_fe_auto_prepares_sheets_too_large_as_read_before_the_ef(monkeypatch, ca
 
 def test_a_sweep_past_poisson_049_is_refused_before_its_first_point(capsys):
     assert main(["sweep", "--param", "contact.poisson", "--values", "0.3,0.4999"]) == 2
-    assert "contact.poisson = 0.4999 with the linear EF" in _error(capsys)
+    assert "contact.poisson = 0.4999 with contact.law = 'ef'" in _error(capsys)
