@@ -22,7 +22,7 @@ from fecheck.scene.document import keys_markdown, keys_text
 from fecheck.scene.packaged import description, scene_names, scene_path
 from fecheck.studies.sweep import Progress
 
-REPO = Path(__file__).resolve().parents[1]
+REPO = Path(__file__).resolve().parents[2]
 ISSUE = re.compile(r"\bissues?\s*#?\d+|\(#\d+\)", re.IGNORECASE)
 
 
