@@ -58,12 +58,12 @@ SHORT_EDGE_SHARE = 0.1
 ROUGH_RMS_MM = 0.05
 """A sheet further than this (RMS) from its smoothed copy is rough for the FE: its vertex
 peaks follow the segmentation's terraces, mm (a smooth scanned sheet: about 0.02)."""
-MAX_FACES = 100_000
+MAX_FACES = 200_000
 """Most faces of one file the import checks: its roughness and gap checks grow faster than
-the faces (measured on the synthetic test knee, two dishes under two caps, refined:
-48,400 faces a file 64 s and 0.77 GB, 193,600 a file 8.2 min and 8.0 GB; 100,000 about 3
-min and 2.6 GB by the same growth). A segmented knee's sheets have a few thousand to tens
-of thousands of faces (the packaged one: 4,244 medial)."""
+the faces (measured on the synthetic test knee, two dishes under two caps, refined, on 2
+cores under a load of about 15: 48,400 faces a file 64 s and 0.77 GB, 193,600 a file 8.2
+min and 8.0 GB). A segmented knee's sheets have a few thousand to a hundred thousand faces
+(the packaged one: 4,244 medial; the test knee voxelized at 0.3 mm: 126,433 femoral)."""
 MISPLIT_SHARE = 0.1
 """A sagittal plane that puts more than this share of the tibial area under the femoral
 condyles on the other side than its condyle cuts a plateau: an error."""
