@@ -1,4 +1,4 @@
-"""`fecheck atlas [SCENE] --vary KEY=DIST ... --fe N`: where the EF is within a tolerance
+"""`fecheck atlas [SCENE] --vary KEY=DIST [--vary ...] --fe N`: where the EF is within a tolerance
 of the FE over some keys, from an error model fitted to N FE runs.
 
 Only the standard library is imported here; the study inside `run`.

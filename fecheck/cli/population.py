@@ -1,5 +1,5 @@
-"""`fecheck population [SCENE] --vary KEY=DIST ... --samples N`: the EF over a population
-of scenes drawn from distributions of some keys, with Sobol sensitivity indices.
+"""`fecheck population [SCENE] --vary KEY=DIST [--vary ...] --samples N`: the EF over a
+population of scenes drawn from distributions of some keys, with Sobol sensitivity indices.
 
 Only the standard library is imported here; the study inside `run`.
 

@@ -3,10 +3,10 @@
 Measured together, interleaved (the machine is shared: compare ratios within one run):
 
 * one evaluation at 5,120 faces: `ContactPair.evaluate`, the EF law on its surface, and
-  both (the contact-and-tangent evaluation the statics calls), for
-  - ``plane``: an icosphere slave (R 25.5 mm, 5,120 faces) 1 mm into an analytic plane;
-  - ``sphere``: the baseline's analytic sphere master over its meshed plateau (0.8 mm
-    under the contact), at the baseline equilibrium;
+  both (the contact-and-tangent evaluation the statics calls), for ``plane`` (an
+  icosphere slave, R 25.5 mm, 5,120 faces, 1 mm into an analytic plane) and ``sphere``
+  (the baseline's analytic sphere master over its meshed plateau, 0.8 mm under the
+  contact, at the baseline equilibrium);
 * the baseline equilibrium (`fecheck run`, both condyles, all Newton iterations):
   ``timing_s.solve`` for contact.master = condyle (default) and = plateau;
 * one thesis-stack contact query at 5,120 faces, as the thesis ran it (structures rebuilt

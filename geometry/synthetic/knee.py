@@ -3,7 +3,7 @@
 Units mm; frame x right, y anterior, z superior; a RIGHT knee (medial compartment at -x).
 
 * Femur: the lower caps of two ellipsoids (one per condyle), cut where
-  (X/a)² + (Y/b)² = `CAP_RHO`² (about 67° up the side), as one open sheet of two
+  (X/a)² + (Y/b)² = CAP_RHO² (`CAP_RHO`; about 67° up the side), as one open sheet of two
   connected components. Vertices lie on the ellipsoid; faces wind so that their normals
   point OUT of the ellipsoid (down, away from the bone, towards the tibia).
 * Tibia: one square patch per compartment, z = f(x, y) = a shallow dish rising away

@@ -7,7 +7,7 @@ reference the voxel knee converges to):
 
 * femoral cartilage: inside the condyle ellipsoid, outside the same ellipsoid shrunk by
   `CARTILAGE_MM` along every axis (the femoral bone), on the lower cap only
-  ((X/a)² + (Y/b)² ≤ `CAP_RHO`², below the centre);
+  ((X/a)² + (Y/b)² ≤ CAP_RHO² (`CAP_RHO`), below the centre);
 * tibial cartilage: `CARTILAGE_MM` under the plateau surface z = plateau_height(x, y),
   over the compartment's square patch; the tibial bone below it, down to `Z_MIN`.
 
