@@ -179,6 +179,7 @@ def run(args: argparse.Namespace) -> int:
 
     from fecheck.io.outputs import write_text
     from fecheck.scene import load_scene
+    from fecheck.scene.provenance import with_provenance
     from fecheck.studies import atlas
     from fecheck.studies.pool import interrupts_raised
     from fecheck.studies.population import make_plan, run_population
@@ -229,7 +230,8 @@ def run(args: argparse.Namespace) -> int:
                               "errors": {k: v.tolist() for k, v in errors.items()}},
                 "cv_rmse": model.cv_rmse, "within": within, "key_ranges": ranges,
                 "holdout": holdout}
-        write_text(args.json, json.dumps(data, indent=2, default=float) + "\n")
+        write_text(args.json, json.dumps(with_provenance(data, scene), indent=2,
+                                         default=float) + "\n")
     return 0
 
 

@@ -209,6 +209,7 @@ def _spot_checks(args, scene, plan, samples, outputs, stream) -> list[dict]:
 
 def _report(args, scene, plan, samples, notes, interrupted: bool) -> int:
     from fecheck.io.outputs import write_text
+    from fecheck.scene.provenance import with_provenance
     from fecheck.studies.population import report_dict, write_csv
 
     stream = sys.stdout
@@ -234,7 +235,8 @@ def _report(args, scene, plan, samples, notes, interrupted: bool) -> int:
                            {k: (v if isinstance(v, str) else v.as_dict())
                             for k, v in indices.items()}, notes)
         data["fe_spot_checks"] = spots
-        write_text(args.json, json.dumps(data, indent=2, default=float) + "\n")
+        write_text(args.json, json.dumps(with_provenance(data, scene), indent=2,
+                                         default=float) + "\n")
     for line in notes:
         print(f"fecheck: note: {line}", file=sys.stderr)
     failed = sum(1 for s in samples.values() if s.failed)

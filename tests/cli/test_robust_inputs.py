@@ -329,3 +329,10 @@ def test_fe_auto_prepares_sheets_too_large_as_read_before_the_ef(monkeypatch, ca
 def test_a_sweep_past_poisson_049_is_refused_before_its_first_point(capsys):
     assert main(["sweep", "--param", "contact.poisson", "--values", "0.3,0.4999"]) == 2
     assert "contact.poisson = 0.4999 with contact.law = 'ef'" in _error(capsys)
+
+
+def test_a_knee_decimated_to_a_few_faces_is_refused_with_the_floor(capsys):
+    """Three tibial faces keep no compartment shape: Newton found no equilibrium (exit 1);
+    below 100 faces the scene is refused on one line."""
+    assert main(["run", "scanned-knee", "--set", "scanned.decimate_faces=3"]) == 2
+    assert "give 0 (the full meshes) or at least 100" in _error(capsys)

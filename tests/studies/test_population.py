@@ -104,6 +104,7 @@ def test_baseline_study_split_is_set_by_the_load_point_alone(tmp_path, capsys):
     assert code == 0, out.err
     data = json.loads(out_json.read_text())
     assert data["failed"]["count"] == 0 and data["finished"] == 64
+    assert data["provenance"]["scene"]["set_keys"] == []    # the provenance of every --json
     split = data["indices"]["medial_share"]["inputs"]
     assert split["load.point_mm[0]"]["ST"] > 0.9
     assert split["contact.youngs_MPa"]["ST"] < 0.01
