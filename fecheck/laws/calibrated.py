@@ -49,6 +49,10 @@ EXPONENT_RANGE = (0.3, 1.5)
 """Allowed n: 1/2 is the Hertz limit, 1 the linear EF."""
 FILE_VERSION = 1
 """Version of the calibration file layout (`write_calibration`)."""
+CARTILAGE_INTERFACES, MENISCI_INTERFACES = "cartilage", "menisci"
+"""What a calibration file's C and n are for (its ``interfaces`` field): the cartilage
+contact of each compartment (contact.calibration; a file without the field is one), or
+each meniscus's two interfaces (menisci.calibration)."""
 TABLE_FILE = "ef_calibration_table.json"
 """The built-in table, beside this module (validation/ef_calibration_table.py --write)."""
 _CHECKED: set[tuple[str, str | None, str]] = set()
@@ -129,49 +133,61 @@ def _trilinear(values: np.ndarray, point: list[tuple[int, float]]) -> float:
     return float(out)
 
 
-def read_calibration(path: str | Path) -> dict[str, Calibration]:
-    """{compartment: Calibration} of a file `fecheck calibrate` wrote."""
+def read_calibration(path: str | Path, interfaces: str = CARTILAGE_INTERFACES,
+                     key: str = "contact.calibration") -> dict[str, Calibration]:
+    """{compartment: Calibration} of a file `fecheck calibrate` wrote for `interfaces`
+    (`CARTILAGE_INTERFACES` or `MENISCI_INTERFACES`); `key` names the scene key in
+    messages."""
     path = Path(path)
     if path.is_dir():
-        raise FecheckError(f"contact.calibration: {path} is a directory: give the calibration "
+        raise FecheckError(f"{key}: {path} is a directory: give the calibration "
                            "file `fecheck calibrate SCENE -o FILE` wrote")
     try:
         data = json.loads(path.read_text())
         out = {c: Calibration(float(v["C"]), float(v["n"]))
                for c, v in data["compartments"].items()}
+        made_for = data.get("interfaces", CARTILAGE_INTERFACES)
     except FileNotFoundError:
-        raise FecheckError(f"contact.calibration: {path} not found; write it with "
+        raise FecheckError(f"{key}: {path} not found; write it with "
                            "`fecheck calibrate SCENE -o FILE`") from None
-    except (OSError, ValueError, KeyError, TypeError) as err:
-        raise FecheckError(f"contact.calibration: {path} is not a calibration file written "
+    except (OSError, ValueError, KeyError, TypeError, AttributeError) as err:
+        raise FecheckError(f"{key}: {path} is not a calibration file written "
                            f"by `fecheck calibrate` ({type(err).__name__}: {err})") from None
+    if made_for != interfaces:
+        other = "menisci.calibration" if made_for == MENISCI_INTERFACES else \
+            "contact.calibration"
+        raise FecheckError(f"{key}: {path} calibrates the {made_for} interfaces, not the "
+                           f"{interfaces} ones; give it to {other}")
     for c, cal in out.items():
         cal.check(f"{path} ({c})")
     return out
 
 
-def check_fingerprint(path: str | Path, fingerprint: str) -> None:
+def check_fingerprint(path: str | Path, fingerprint: str,
+                      key: str = "contact.calibration") -> None:
     """Warn (once per file and scene in a process) when the calibration file `path` was
     fitted to other surfaces or material than those of `fingerprint`
-    (`fecheck.model.fingerprint.scene_fingerprint`), or holds no fingerprint to check."""
+    (`fecheck.model.fingerprint.scene_fingerprint`), or holds no fingerprint to check;
+    `key` names the scene key in messages."""
     path = Path(path)
     try:
         stored = json.loads(path.read_text()).get("fingerprint")
     except (OSError, ValueError, AttributeError):
         stored = None
-    key = (str(path.resolve()), stored, fingerprint)
-    if key in _CHECKED or stored == fingerprint:
+    check = (str(path.resolve()), stored, fingerprint)
+    if check in _CHECKED or stored == fingerprint:
         return
-    _CHECKED.add(key)
+    _CHECKED.add(check)
     if stored is None:
-        warnings.warn(f"contact.calibration: {path} holds no fingerprint of the scene it was "
+        warnings.warn(f"{key}: {path} holds no fingerprint of the scene it was "
                       "fitted to (written by an older fecheck): whether it fits this scene's "
                       "surfaces and material cannot be checked; rerun `fecheck calibrate "
                       f"SCENE -o {path.name}` to refit and stamp it", stacklevel=2)
     else:
-        warnings.warn(f"contact.calibration: {path} was fitted to other surfaces or another "
+        warnings.warn(f"{key}: {path} was fitted to other surfaces or another "
                       "material (its fingerprint differs from this scene's: geometry files, "
-                      "split, decimation, contact.youngs_MPa, contact.poisson, thickness): "
+                      "split, decimation, contact.youngs_MPa, contact.poisson, thickness"
+                      f"{', menisci.*' if key.startswith('menisci') else ''}): "
                       "its C and n do not carry over; run `fecheck calibrate SCENE -o FILE` "
                       "for this scene", stacklevel=2)
 

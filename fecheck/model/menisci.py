@@ -48,24 +48,34 @@ their sum, each body's pose, and each body's balance on its free coordinates.
 
 from __future__ import annotations
 
+import hashlib
 import json
 import math
 import os
 import time
 import warnings
 from collections.abc import Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from pathlib import Path
 
 import numpy as np
 
 from fecheck.contact.pair import ContactPair
 from fecheck.errors import FecheckError
-from fecheck.laws.fused import linear_law
+from fecheck.laws.calibrated import (
+    MENISCI_INTERFACES,
+    Calibration,
+    calibrated_params,
+    check_fingerprint,
+    read_calibration,
+)
+from fecheck.laws.fused import compiled_law, linear_law
+from fecheck.laws.kernel import CALIBRATED
 from fecheck.laws.materials import ef_stiffness
 from fecheck.laws.registry import spec_of
 from fecheck.model.assembly import applied_load, force_scale, free_indices, start_pose
 from fecheck.model.equilibrium import axial_force, compartment_result, not_converged_note
+from fecheck.model.fingerprint import scene_fingerprint
 from fecheck.model.knee_surfaces import femoral_master, tibial_slaves
 from fecheck.model.menisci_shape import (
     FitMap,
@@ -199,6 +209,52 @@ def meniscus_law(scene: Scene):
                            f"contact.law = 'ef' (got {scene['contact.law']!r})")
     _lumped_note(scene)
     return linear_law(meniscus_stiffness(scene))
+
+
+def calibrated_meniscus_law(cal: Calibration):
+    """The calibrated law p = C·d·(d + d_s)^(n − 1) of `cal` as a meniscus interface's
+    compiled law (`fecheck.laws.calibrated`)."""
+    return compiled_law(CALIBRATED, calibrated_params(cal))
+
+
+def meniscus_calibration(scene: Scene) -> dict[str, Calibration] | None:
+    """{side: Calibration} of ``menisci.calibration`` (a path relative to the scene file's
+    folder; written by `fecheck calibrate` on a scene with menisci), or None where unset.
+    Warns when the file was fitted to another knee (`menisci_fingerprint`)."""
+    value = scene["menisci.calibration"]
+    if not value:
+        return None
+    path = Path(os.path.expandvars(value)).expanduser()
+    if not path.is_absolute():
+        path = Path(scene.source).expanduser().resolve().parent / path
+    out = read_calibration(path, MENISCI_INTERFACES, "menisci.calibration")
+    check_fingerprint(path, menisci_fingerprint(scene), "menisci.calibration")
+    return out
+
+
+def menisci_fingerprint(scene: Scene) -> str:
+    """sha256 (hex) of what a meniscus calibration is fitted to: the scene's contact
+    surfaces and material (`fecheck.model.fingerprint.scene_fingerprint`) and its
+    ``menisci.*`` keys (menisci.calibration aside)."""
+    keys = {k: scene[k] for k in SCHEMA
+            if k.startswith("menisci.") and k != "menisci.calibration"}
+    text = json.dumps([scene_fingerprint(scene), keys], sort_keys=True, default=str)
+    return hashlib.sha256(text.encode()).hexdigest()
+
+
+def meniscus_laws(scene: Scene, sides: Sequence[str]) -> dict:
+    """{side: the law of that meniscus's two interfaces}: the linear EF (`meniscus_law`),
+    or with ``menisci.calibration`` the calibrated law of that file's side."""
+    linear = meniscus_law(scene)                     # its checks hold either way
+    cal = meniscus_calibration(scene)
+    if cal is None:
+        return dict.fromkeys(sides, linear)
+    missing = [s for s in sides if s not in cal]
+    if missing:
+        raise FecheckError(f"menisci.calibration: {scene['menisci.calibration']} holds no "
+                           f"{', '.join(missing)} meniscus; calibrate this scene with "
+                           "`fecheck calibrate SCENE -o FILE`")
+    return {s: calibrated_meniscus_law(cal[s]) for s in sides}
 
 
 def _sides(scene: Scene) -> tuple[str, ...]:
@@ -364,22 +420,24 @@ def shapes(scene: Scene, sides: Sequence[str] | None = None) -> dict[str, Shape]
     return out
 
 
-def _interfaces(scene: Scene, folder: Path, comps, index: dict[str, int],
+def _interfaces(scene: Scene, comps, index: dict[str, int],
                 volumes: dict[str, TriMesh]) -> list[Interface]:
     """Cartilage-cartilage interfaces (one per compartment), then per meniscus its
-    interfaces with the femoral and with the tibial cartilage: the cartilage sheet is the
-    slave, the meniscus's closed volume the master (module docstring)."""
+    interfaces with the femoral and with the tibial cartilage under that meniscus's law
+    (`meniscus_laws`): the cartilage sheet is the slave, the meniscus's closed volume the
+    master (module docstring)."""
 
     out = [Interface(c.name, c.pair, c.law, TIBIA, FEMUR) for c in comps]
-    law, femur, tibia = meniscus_law(scene), femoral_master(scene), tibial_slaves(scene)
+    laws = meniscus_laws(scene, tuple(index))
+    femur, tibia = femoral_master(scene), tibial_slaves(scene)
     opts = {"method": scene["contact.detection"], "area": scene["contact.area"],
             "margin_mm": scene["contact.margin_mm"], "mesh_sign": "winding"}
     for side, body in index.items():
         volume = volumes[side]
         out.append(Interface(f"{side} femur-meniscus", ContactPair(femur, volume, **opts),
-                             law, FEMUR, body))
+                             laws[side], FEMUR, body))
         out.append(Interface(f"{side} meniscus-tibia",
-                             ContactPair(tibia[side], volume, **opts), law, TIBIA, body))
+                             ContactPair(tibia[side], volume, **opts), laws[side], TIBIA, body))
     return out
 
 
@@ -414,9 +472,37 @@ def balance(problem: Problem, q: Sequence[np.ndarray]) -> dict[str, float]:
     return out
 
 
-def build_problem(scene: Scene):
-    """(problem, interfaces, springs {name: spring}, compartments, sides, shapes {side:
-    `Shape`}): the knee with the scene's menisci as a `Problem`."""
+@dataclass(frozen=True, eq=False)
+class MenisciKnee:
+    """The knee with menisci built once (`build_knee`): the bodies at their start, the
+    contact interfaces, the meniscal springs by name, the cartilage compartments, the
+    menisci present and their `Shape`. `with_laws` and `with_start` give the same knee
+    under other meniscus laws or from other start coordinates without rebuilding it."""
+
+    bodies: tuple[Body, ...]
+    interfaces: tuple[Interface, ...]
+    springs: dict
+    comps: list
+    sides: tuple[str, ...]
+    shapes: dict[str, Shape]
+
+    def with_laws(self, laws: dict) -> MenisciKnee:
+        """The same knee with each meniscus's two interfaces under `laws[side]` (their
+        contact pairs reused)."""
+        names = {f"{s} {kind}": s for s in laws for kind in ("femur-meniscus",
+                                                             "meniscus-tibia")}
+        return replace(self, interfaces=tuple(
+            Interface(i.name, i.pair, laws[names[i.name]], i.slave, i.master)
+            if i.name in names else i for i in self.interfaces))
+
+    def with_start(self, q: Sequence[np.ndarray]) -> MenisciKnee:
+        """The same knee starting from the coordinates `q` (one (6,) per body)."""
+        return replace(self, bodies=tuple(replace(b, q_start=np.asarray(qb, dtype=float))
+                                          for b, qb in zip(self.bodies, q, strict=True)))
+
+
+def build_knee(scene: Scene) -> MenisciKnee:
+    """The knee of `scene` with its menisci (`MenisciKnee`; module docstring)."""
     from fecheck.model.scanned import build_compartments
 
     _check(scene)
@@ -440,23 +526,34 @@ def build_problem(scene: Scene):
               *(Body(f"{s} meniscus", q0.copy(), free, "menisci.free", "the tibia's start")
                 for s in sides))
     shaped = shapes(scene, sides)
-    interfaces = _interfaces(scene, folder, comps, index,
-                             {s: m.volume for s, m in shaped.items()})
+    interfaces = _interfaces(scene, comps, index, {s: m.volume for s, m in shaped.items()})
     if scene["menisci.roots"] == "bundles" and sides:
         warnings.warn(BUNDLES_WARNING, stacklevel=2)
     springs = dict(_springs(scene, folder, index, shaped)
                    + root_springs(scene, folder, index, shaped))
+    return MenisciKnee(bodies, tuple(interfaces), springs, comps, sides, shaped)
+
+
+def knee_problem(scene: Scene, knee: MenisciKnee) -> Problem:
+    """The equilibrium `Problem` of `knee` under `scene`'s load and solver settings."""
+    interfaces, springs = knee.interfaces, list(knee.springs.values())
     load = on_body(lambda r, t: [applied_load(scene)(r, t)], TIBIA)
 
     def wrench(poses):
-        return ([i(poses) for i in interfaces] + [s(poses) for s in springs.values()]
-                + load(poses))
+        return [i(poses) for i in interfaces] + [s(poses) for s in springs] + load(poses)
 
-    problem = Problem(bodies, wrench, (), force_scale(scene),
-                      tolerance=scene["solver.tolerance"],
-                      max_iterations=scene["solver.max_iterations"],
-                      touching=lambda: any(i.max_depth_mm > 0 for i in interfaces))
-    return problem, interfaces, springs, comps, sides, shaped
+    return Problem(knee.bodies, wrench, (), force_scale(scene),
+                   tolerance=scene["solver.tolerance"],
+                   max_iterations=scene["solver.max_iterations"],
+                   touching=lambda: any(i.max_depth_mm > 0 for i in interfaces))
+
+
+def build_problem(scene: Scene):
+    """(problem, interfaces, springs {name: spring}, compartments, sides, shapes {side:
+    `Shape`}): the knee with the scene's menisci as a `Problem`."""
+    knee = build_knee(scene)
+    return (knee_problem(scene, knee), list(knee.interfaces), knee.springs, knee.comps,
+            knee.sides, knee.shapes)
 
 
 def footprint_outline(volume, rot: np.ndarray, t: np.ndarray) -> np.ndarray:
@@ -597,8 +694,17 @@ def run_menisci(scene: Scene, warm_start: np.ndarray | None = None) -> RunResult
     """Solve a femur-tibia scene with its menisci (module docstring). `warm_start` is not
     taken (the menisci have their own coordinates)."""
     t_start = time.perf_counter()
-    problem, interfaces, springs, comps, sides, shaped = build_problem(scene)
+    return solve_knee(scene, build_knee(scene), t_start)
+
+
+def solve_knee(scene: Scene, knee: MenisciKnee, t_start: float | None = None) -> RunResult:
+    """Solve the knee `knee` (`build_knee`) under `scene`'s load (`run_menisci`);
+    `t_start`: the `time.perf_counter()` its build began at (None: now)."""
     t_built = time.perf_counter()
+    t_start = t_built if t_start is None else t_start
+    problem = knee_problem(scene, knee)
+    interfaces, springs, comps, sides, shaped = (knee.interfaces, knee.springs, knee.comps,
+                                                 knee.sides, knee.shapes)
     try:
         sol = solve(problem)
     except NoStiffness as err:

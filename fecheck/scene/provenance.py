@@ -35,7 +35,7 @@ DATA_SUFFIXES = (".json", ".stl", ".obj", ".ply", ".vtk", ".vtu", ".msh", ".off"
 readme)."""
 FILE_KEYS = ("geometry.femur", "geometry.tibia", "geometry.tibia_lateral",
              "geometry.femur_bone", "geometry.tibia_bone", "geometry.ligaments",
-             "geometry.tibia_solid", "contact.calibration")
+             "geometry.tibia_solid", "contact.calibration", "menisci.calibration")
 """Scene keys that name one input file."""
 
 _started = (time.perf_counter(), time.process_time(), os.times())

@@ -591,6 +591,14 @@ SCHEMA: dict[str, Key] = {
         "model (Bei & Fregly 2003): mean modulus and Poisson's ratio over the summed "
         "thickness; 'series' = the two layers as springs in series (softer).",
         choices=("lumped", "series")),
+    "menisci.calibration": Key(
+        "str", "",
+        "Calibration file of the meniscus interfaces, written by `fecheck calibrate SCENE "
+        "-o FILE` on a scene with menisci: per meniscus the law p = C·d·(d + 0.01 mm)^(n−1) "
+        "of its femoral and tibial EF interfaces, fitted so that the EF's meniscal share "
+        "and the tibial area under the meniscus follow the FE of the same knee; a path "
+        "relative to the scene file's folder. '' = the linear EF of menisci.youngs_MPa, "
+        "menisci.poisson, menisci.thickness_mm and menisci.layers."),
     "fe.mode": Key("str", "joint", _FE + "'joint' = the tibia's free DOFs are FE unknowns "
                    "under the scene's load, gravity and ligament springs, so the FE finds its "
                    "own medial/lateral split and pose; 'compartment' = each compartment is "
