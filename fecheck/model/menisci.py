@@ -217,6 +217,14 @@ def calibrated_meniscus_law(cal: Calibration):
     return compiled_law(CALIBRATED, calibrated_params(cal))
 
 
+def law_text(law) -> str:
+    """A meniscus interface's law in words: the linear EF's k, or the calibrated C and n."""
+    if law.kind == CALIBRATED:
+        return (f"calibrated p = C·d·(d + {law.params[2]:g})^(n−1), C {law.params[0]:.4g} "
+                f"MPa/mm^n, n {law.params[1]:.4g} (menisci.calibration)")
+    return f"linear EF k = {law.params[0]:.4g} N/mm³"
+
+
 def meniscus_calibration(scene: Scene) -> dict[str, Calibration] | None:
     """{side: Calibration} of ``menisci.calibration`` (a path relative to the scene file's
     folder; written by `fecheck calibrate` on a scene with menisci), or None where unset.
@@ -730,7 +738,9 @@ def solve_knee(scene: Scene, knee: MenisciKnee, t_start: float | None = None) ->
                "balance_N": balance(problem, sol.q),
                "poses": {b.name: pose_record(q)
                          for b, q in zip(problem.bodies, sol.q, strict=True) if b.free},
-               "ligaments_N": {n: s.tension(poses) for n, s in springs.items()}}
+               "ligaments_N": {n: s.tension(poses) for n, s in springs.items()},
+               "laws": {s: law_text(i.law) for i in interfaces for s in sides
+                        if i.name == f"{s} meniscus-tibia"}}
     q_tibia = sol.q[TIBIA][list(TIBIA_COORDINATES)]
     record = SolveRecord(0, {i.name: i.pair.slave.n_faces for i in interfaces},
                          {i.name: i.pair.describe() for i in interfaces}, tuple(sol.history))

@@ -378,6 +378,7 @@ def _menisci_lines(menisci: Mapping[str, Any]) -> list[str]:
         vals = [row.get(key, math.nan) for row in menisci["compartments"].values()]
         out.append(f"{label:20s}" + "".join(
             f"{'-' if math.isnan(v) else fmt.format(v):>12s}" for v in vals))
+    out += [f"meniscus law {side}: {text}" for side, text in menisci.get("laws", {}).items()]
     out.append("balance N (free DOFs): " + "  ".join(
         f"{k} {v:.2g}" for k, v in menisci["balance_N"].items()))
     for name, pose in menisci["poses"].items():

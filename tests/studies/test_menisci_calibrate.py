@@ -150,5 +150,7 @@ def test_scene_reads_the_meniscus_law_from_menisci_calibration(tmp_path):
                                  ("medial", "lateral"))
     np.testing.assert_allclose(laws["medial"].params, [2.4, 0.7, calibrated.SOFT_DEPTH_MM])
     np.testing.assert_allclose(laws["lateral"].params, [3.0, 1.0, calibrated.SOFT_DEPTH_MM])
+    assert "C 2.4 MPa/mm^n, n 0.7 (menisci.calibration)" in menisci.law_text(laws["medial"])
     plain = menisci.meniscus_laws(scene, ("medial",))
     assert plain["medial"].params[0] == pytest.approx(3.181818, rel=1e-6)
+    assert menisci.law_text(plain["medial"]) == "linear EF k = 3.182 N/mm³"
