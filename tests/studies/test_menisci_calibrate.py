@@ -154,3 +154,17 @@ def test_scene_reads_the_meniscus_law_from_menisci_calibration(tmp_path):
     plain = menisci.meniscus_laws(scene, ("medial",))
     assert plain["medial"].params[0] == pytest.approx(3.181818, rel=1e-6)
     assert menisci.law_text(plain["medial"]) == "linear EF k = 3.182 N/mm³"
+
+
+def test_calibrate_verb_takes_the_menisci_path_on_a_scene_with_menisci(tmp_path, monkeypatch,
+                                                                       capsys):
+    # The verb hands a scene with menisci.dir to the meniscus calibration (stubbed here: no
+    # FE), prints its tables, warns on a share 15 points off and writes the menisci file.
+    from fecheck.cli import main
+
+    monkeypatch.setattr(mc, "calibrate_menisci", lambda scene, factors, log: _fit())
+    assert main(["calibrate", "femur_tibia_menisci", "-o", str(tmp_path / "m.json")]) == 0
+    out, err = capsys.readouterr()
+    assert "EF calibrated" in out and "menisci.calibration" in out
+    assert "lateral meniscal share misses the FE's by 15.0 points" in err
+    assert json.loads((tmp_path / "m.json").read_text())["interfaces"] == "menisci"
