@@ -51,11 +51,10 @@ from fecheck.fe.press import (
 from fecheck.fe.recovery import pressure_peaks, smoothing_length, zero_contour_area
 from fecheck.fe.results import ContactMetrics, FEContactResult, PressurePeaks, SideMetrics
 from fecheck.fe.settings import FESettings
-from fecheck.model.assembly import pose_dict
 from fecheck.model.condyles import scene_knee
 from fecheck.model.equilibrium import axial_force
 from fecheck.model.notes import smoothing_notes
-from fecheck.model.results import CompartmentResult, RunResult
+from fecheck.model.results import CompartmentResult, Pose, RunResult
 from fecheck.reference.closed_forms import (
     DONAHUE_2002,
     column_stiffness,
@@ -176,7 +175,8 @@ class CrossCheck:
     compartments: dict[str, CompartmentCheck]
     settings: FESettings
     material: dict[str, float]
-    pose: dict[str, dict[str, float]]
+    pose: dict[str, Pose]
+    """The tibia's pose of the FE ("fe") and of the EF run ("ef")."""
     geometry: dict[str, Any]
     timing_s: dict[str, float]
     notes: tuple[str, ...] = field(default=())
@@ -194,7 +194,8 @@ class CrossCheck:
         return {"mode": self.settings.mode,
                 "compartments": {c: chk.as_dict() for c, chk in self.compartments.items()},
                 "split": {"fe": self.split("fe"), "ef_model": self.split("ef_model")},
-                "fe_geometry": self.geometry, "pose": self.pose,
+                "fe_geometry": self.geometry,
+                "pose": {k: dict(v) for k, v in self.pose.items()},
                 "settings": dict(self.settings.__dict__), "material": self.material,
                 "timing_s": self.timing_s, "notes": list(self.notes)}
 
@@ -516,7 +517,7 @@ def cross_check(scene: Scene, *, mode: str | None = None, refine: int | None = N
     return CrossCheck(checks, settings,
                       {"E_MPa": E, "nu": nu, "thickness_mm": scene["contact.thickness_mm"],
                        "ef_k_N_per_mm3": column_stiffness(E, nu, scene["contact.thickness_mm"])},
-                      {"fe": pose_dict(q_fe, run.pose.side), "ef": dict(run.pose)}, geometry,
+                      {"fe": Pose.of(q_fe, side=run.pose.side), "ef": run.pose}, geometry,
                       timing, tuple(notes), run)
 
 

@@ -26,6 +26,7 @@ import scipy.sparse as sp
 from fecheck.errors import FecheckError
 from fecheck.fe.bodies import FEBody
 from fecheck.fe.budget import MAX_DOFS, guard_layers, prepared_for_size
+from fecheck.fe.contact.candidates import Outcome, Round, widened
 from fecheck.fe.indenter import MeshIndenter, barycentric
 from fecheck.fe.joint import ContactLayer, JointContact, JointSolution, femoral_shift
 from fecheck.fe.settings import FESettings
@@ -380,46 +381,50 @@ def solve_pressed(layers: Sequence[FELayer], drive: Drive, margin_mm: float,
     Returns the solution, the condensation time (s), every layer's final gaps at all its
     surface vertices (mm) and the worst penetration found (mm, ≥ 0)."""
     rot, t = drive.pose(drive.x0)
-    cands = [np.flatnonzero(rigid_gaps(lay, rot, t) < margin_mm) for lay in layers]
-    condense = 0.0
-    for round_ in range(MAX_CANDIDATE_ROUNDS + 1):
-        if any(len(c) == 0 for c in cands):
-            empty = [lay.body.name for lay, c in zip(layers, cands, strict=True) if not len(c)]
+    start = {i: np.flatnonzero(rigid_gaps(lay, rot, t) < margin_mm)
+             for i, lay in enumerate(layers)}
+    condense, placed = 0.0, (rot, t)
+
+    def solve(cands: dict[int, np.ndarray]) -> Round[JointSolution]:
+        nonlocal condense, placed
+        if any(len(c) == 0 for c in cands.values()):
+            empty = [lay.body.name for i, lay in enumerate(layers) if not len(cands[i])]
             raise FecheckError(f"no {' or '.join(empty)} surface vertex lies within "
                                f"{margin_mm:.2f} mm of the femoral surface at the EF pose: "
                                "nothing for the FE contact to act on")
-        if max(len(c) for c in cands) > MAX_CANDIDATES:
-            raise FecheckError(f"{max(len(c) for c in cands)} surface vertices may touch "
+        most = max(len(c) for c in cands.values())
+        if most > MAX_CANDIDATES:
+            raise FecheckError(f"{most} surface vertices may touch "
                                f"(within {margin_mm:.2f} mm of the femoral surface), more "
                                f"than the {MAX_CANDIDATES} the dense contact solve takes: "
                                "coarsen the surface (fe.refine, scanned.decimate_faces) or "
                                "lower fe.candidate_gap_mm")
-        femurs = [None] * len(layers) if femoral is None else femoral(layers, cands, rot, t)
+        listed = [cands[i] for i in range(len(layers))]
+        femurs = ([None] * len(layers) if femoral is None
+                  else femoral(layers, listed, *placed))
         joint = JointContact([ContactLayer(lay.body.name, lay.solid, lay.indenter, c)
                               if f is None else
                               ContactLayer(lay.body.name, lay.solid,
                                            MeshIndenter(f.solid.surface), c, f)
-                              for lay, c, f in zip(layers, cands, femurs, strict=True)],
+                              for lay, c, f in zip(layers, listed, femurs, strict=True)],
                              solver=settings.solver, log=log)
         condense += joint.seconds
         sol = joint.solve(drive.pose, drive.basis, drive.load, drive.x0,
                           stiffness=drive.stiffness)
-        rot, t = drive.pose(sol.q)
-        gaps = [rigid_gaps(lay, rot, t) - lay.solid.normal_rows @ lc.u
-                + femoral_give(lay, lc, rot, t)
-                for lay, lc in zip(layers, sol.layers, strict=True)]
-        worst = max(float(max(0.0, -g.min())) for g in gaps)
-        if worst <= PENETRATION_TOL_MM:
-            return sol, condense, gaps, worst
-        grown = [np.union1d(c, np.flatnonzero(g < margin_mm))
-                 for c, g in zip(cands, gaps, strict=True)]
-        if round_ == MAX_CANDIDATE_ROUNDS or all(
-                len(a) == len(b) for a, b in zip(grown, cands, strict=True)):
-            break
-        log(f"a vertex outside the contact candidates penetrates by {worst:.2e} mm: "
+        placed = drive.pose(sol.q)
+        gaps = {i: rigid_gaps(lay, *placed) - lay.solid.normal_rows @ lc.u
+                + femoral_give(lay, lc, *placed)
+                for i, (lay, lc) in enumerate(zip(layers, sol.layers, strict=True))}
+        return Round(sol, gaps, max(float(max(0.0, -g.min())) for g in gaps.values()))
+
+    def widening(result: Round[JointSolution]) -> None:
+        log(f"a vertex outside the contact candidates penetrates by {result.worst:.2e} mm: "
             "widening the candidates")
-        cands = grown
-    raise FecheckError(f"the FE contact leaves a penetration of {worst:.2e} mm outside its "
-                       "candidate vertices; raise fe.candidate_gap_mm")
 
-
+    result, outcome, _ = widened(solve, start, margin_mm, MAX_CANDIDATE_ROUNDS + 1,
+                                 PENETRATION_TOL_MM, widening)
+    if outcome is Outcome.SETTLED:
+        return (result.solution, condense, [result.gaps[i] for i in range(len(layers))],
+                result.worst)
+    raise FecheckError(f"the FE contact leaves a penetration of {result.worst:.2e} mm outside "
+                       "its candidate vertices; raise fe.candidate_gap_mm")
