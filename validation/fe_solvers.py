@@ -27,6 +27,7 @@ import numpy as np
 import scipy.sparse as sp
 
 from fecheck.fe.contact.compliance import condensed_compliance
+from fecheck.fe.pose import FramePose
 from fecheck.fe.press import rigid_gaps
 from fecheck.fe.sphere_layer import candidate_margin, flat_layer
 
@@ -43,7 +44,7 @@ def stiffness(size_mm: float):
     top vertices within `candidate_margin` of the sphere) its normal rows, vertex dofs and
     normals."""
     layer, _ = flat_layer(LOAD_N, RADIUS_MM, E_MPA, NU, H_MM, refine_size_mm=size_mm)
-    gaps = rigid_gaps(layer, np.eye(3), np.zeros(3))
+    gaps = rigid_gaps(layer, FramePose.identity("W", "T"))
     cand = np.flatnonzero(gaps < candidate_margin(LOAD_N, RADIUS_MM, E_MPA, NU))
     solid = layer.solid
     return (sp.csc_matrix(solid.K), solid.normal_rows[cand], solid.vertex_dofs[cand],

@@ -39,6 +39,7 @@ from scipy.spatial import cKDTree
 
 from fecheck.errors import FecheckError
 from fecheck.fe.bodies import FEBody, refuse_unmodelled, scene_bodies
+from fecheck.fe.pose import FramePose
 from fecheck.fe.press import (
     FELayer,
     build_layers,
@@ -392,8 +393,8 @@ def _femoral(scene: Scene, layers: Sequence[FELayer], settings: FESettings,
 def _solve(scene: Scene, layers: Sequence[FELayer], run: RunResult, settings: FESettings,
            log: Callable[[str], None], flexion: tuple[float, np.ndarray] | None = None
            ) -> tuple[dict, np.ndarray, float, float]:
-    """FE solve(s) of the mode: {compartment: (layer, contact, worst penetration, (R, t)
-    the tibia pose of that compartment's solution)}, the FE pose q (5,) (the EF pose in
+    """FE solve(s) of the mode: {compartment: (layer, contact, worst penetration, X_WT
+    the tibia's pose of that compartment's solution)}, the FE pose q (5,) (the EF pose in
     compartment mode), the condensation time and the femoral layers' build time (s; 0
     for the series model); `flexion` as in `cross_check`."""
     from fecheck.model.run import ligament_springs
@@ -408,11 +409,11 @@ def _solve(scene: Scene, layers: Sequence[FELayer], run: RunResult, settings: FE
         out = {lay.body.name: (lay, lc, worst, at) for lay, lc in zip(layers, sol.layers,
                                                                         strict=True)}
         return out, drive.full(sol.q), condense, getattr(femoral, "seconds", 0.0)
-    rot, t = _ef_pose(scene, q_ef, flexion)
+    X_WT = _ef_pose(scene, q_ef, flexion)
     out, condense = {}, 0.0
     for lay in layers:
         force = run.compartments[lay.body.name].force_vector_N
-        drive = push_drive(rot, t, np.asarray(force, dtype=float))
+        drive = push_drive(X_WT, np.asarray(force, dtype=float))
         sol, seconds, _, worst = solve_pressed([lay], drive, margin, settings, log, femoral)
         out[lay.body.name] = (lay, sol.layers[0], worst, drive.pose(sol.q))
         condense += seconds
@@ -420,10 +421,10 @@ def _solve(scene: Scene, layers: Sequence[FELayer], run: RunResult, settings: FE
 
 
 def _ef_pose(scene: Scene, q: np.ndarray, flexion: tuple[float, np.ndarray] | None
-             ) -> tuple[np.ndarray, np.ndarray]:
-    """The tibia's (R, t) at q (5,): flexion dofs.flexion_deg about x, or `flexion`."""
+             ) -> FramePose:
+    """The tibia's pose X_WT at q (5,): flexion dofs.flexion_deg about x, or `flexion`."""
     theta, base = flexion or (math.radians(scene["dofs.flexion_deg"]), None)
-    return pose(np.asarray(q, dtype=float), theta, base)
+    return FramePose(*pose(np.asarray(q, dtype=float), theta, base), "W", "T")
 
 
 def cross_check(scene: Scene, *, mode: str | None = None, refine: int | None = None,
@@ -459,10 +460,11 @@ def cross_check(scene: Scene, *, mode: str | None = None, refine: int | None = N
     t2 = time.perf_counter()
     solved, q_fe, condense, femoral_s = _solve(scene, layers, run, settings, say, flexion)
     t3 = time.perf_counter()
-    rot_ef, t_ef = _ef_pose(scene, run.pose.q, flexion)
+    rot_ef, t_ef = _ef_pose(scene, run.pose.q, flexion).pair()
     checks, alerts, femoral = {}, [], {}
-    for name, (lay, lc, worst, (rot, t)) in solved.items():
-        fe, pressure = _fe_metrics(lay, lc.force_N, lc.active, rigid_gaps(lay, rot, t), rot)
+    for name, (lay, lc, worst, X_WT) in solved.items():
+        fe, pressure = _fe_metrics(lay, lc.force_N, lc.active, rigid_gaps(lay, X_WT),
+                                   X_WT.rotation)
         res = run.compartments[name]
         refs = _flat_references(scene, lay, float(lc.force_N.sum()), settings)
         on_faces = _on_ef_faces(lay, pressure)
@@ -531,9 +533,9 @@ def fe_level(scene: Scene, bodies: Sequence[FEBody], run: RunResult, settings: F
     layers = build_layers(bodies, E, nu, settings, log)
     solved, _, _, _ = _solve(scene, layers, run, settings, log)
     out = {}
-    for name, (lay, lc, _, (rot, t)) in solved.items():
-        out[name] = (lay, *_fe_metrics(lay, lc.force_N, lc.active, rigid_gaps(lay, rot, t),
-                                       rot))
+    for name, (lay, lc, _, X_WT) in solved.items():
+        out[name] = (lay, *_fe_metrics(lay, lc.force_N, lc.active, rigid_gaps(lay, X_WT),
+                                       X_WT.rotation))
     dofs = sum(sol.n_dofs for sol in _solids(layers)) + sum(f.solid.n_dofs
                                                             for f in _femurs(solved))
     return out, dofs, time.perf_counter() - t0

@@ -63,6 +63,7 @@ from fecheck.fe.contact.compliance import (
     nodal_compliance,
 )
 from fecheck.fe.contact.gap import surface_entries, surface_give
+from fecheck.fe.pose import FramePose
 from fecheck.fe.solid import LayerSolid
 
 POSE_TOL = 1e-9
@@ -123,7 +124,7 @@ class LayerContact:
 
 @dataclass(frozen=True, eq=False)
 class JointSolution:
-    """Pose q (5,), per-layer contact, iterations (outer, active-set) and timing (s)."""
+    """FramePose q (5,), per-layer contact, iterations (outer, active-set) and timing (s)."""
 
     q: np.ndarray
     layers: list[LayerContact]
@@ -241,7 +242,7 @@ class JointContact:
         self.seconds = time.perf_counter() - t0
         self.log = log
 
-    def solve(self, pose: Callable[[np.ndarray], tuple[np.ndarray, np.ndarray]],
+    def solve(self, pose: Callable[[np.ndarray], FramePose],
               basis: Callable[[np.ndarray], np.ndarray],
               load: Callable[[np.ndarray], np.ndarray], q0: np.ndarray, *,
               stiffness: Callable[[np.ndarray], np.ndarray] | None = None,
@@ -250,7 +251,8 @@ class JointContact:
 
         Parameters
         ----------
-        pose : q → (R, t), the tibia's rotation and translation (mm) at the unknowns q
+        pose : q → X_WT, the tibia's pose in the world (the femur's frame) at the
+            unknowns q (`fecheck.fe.pose.FramePose`)
         basis : q → B (6, k), the tibia's twist (v, ω about the world origin) per unit
             step of each unknown (mm, rad)
         load : q → Q (k,), generalised external force on the unknowns (N, N·mm): load,
@@ -355,12 +357,12 @@ def _pair_load(fc: _FemoralCompliance, P: sp.csr_matrix, lam: np.ndarray) -> np.
 
 def _contact_forces(layers: Sequence[ContactLayer], pose, basis, q: np.ndarray) -> np.ndarray:
     """G (m, k) of `_linearised_gaps` alone (no contact query)."""
-    rot, t = pose(q)
+    X_WT = pose(q)
     b = basis(q)
     out = []
     for layer in layers:
-        pts = layer.solid.surface.points[layer.candidates] @ rot.T + t
-        nrm = layer.solid.normals[layer.candidates] @ rot.T
+        pts = X_WT.points(layer.solid.surface.points[layer.candidates])
+        nrm = X_WT.vectors(layer.solid.normals[layer.candidates])
         out.append(-np.hstack([nrm, np.cross(pts, nrm)]) @ b)
     return np.concatenate(out)
 
@@ -390,12 +392,12 @@ def _linearised_gaps(layers: Sequence[ContactLayer], pose, basis, q: np.ndarray
     candidate (acting on the tibia along minus its surface normal, at the vertex), and
     per layer None or, for a layer pressed by a deformable femoral layer, the faces its
     candidates' rays hit, the barycentric weights and the world normals."""
-    rot, t = pose(q)
+    X_WT = pose(q)
     b = basis(q)
     gaps, rows, hits = [], [], []
     for layer in layers:
-        pts = layer.solid.surface.points[layer.candidates] @ rot.T + t
-        nrm = layer.solid.normals[layer.candidates] @ rot.T
+        pts = X_WT.points(layer.solid.surface.points[layer.candidates])
+        nrm = X_WT.vectors(layer.solid.normals[layer.candidates])
         if layer.femur is None:
             g = layer.indenter.gap(pts, nrm)
             hits.append(None)

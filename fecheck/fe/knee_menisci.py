@@ -72,7 +72,7 @@ from fecheck.fe.meniscus_solid import (
     MeniscusSolid,
 )
 from fecheck.fe.multibody import Body, Condensed, MultibodySolution, Pair, ray_pairs
-from fecheck.fe.pose import Pose
+from fecheck.fe.pose import FramePose
 from fecheck.fe.press import FELayer, build_layers
 from fecheck.scene import Scene
 from fecheck.statics.root_spring import root_matrix
@@ -643,8 +643,8 @@ def _meniscus(solid: MeniscusSolid, q: np.ndarray, q_tibia: np.ndarray,
 
     points, fibre, rise = place_meniscus(solid, q, q_tibia, layer_points, layer_normals)
     body, basis, tie = meniscus_body(solid, points, fibre, horns, material, extra)
-    X_WT = Pose(*body_pose(np.asarray(q_tibia, dtype=float)), "W", "T")
-    X_WM = Pose(*body_pose(np.asarray(q, dtype=float)), "W", "M")
+    X_WT = FramePose(*body_pose(np.asarray(q_tibia, dtype=float)), "W", "T")
+    X_WM = FramePose(*body_pose(np.asarray(q, dtype=float)), "W", "M")
     rotation = (X_WT.inverse() @ X_WM).rotation
     superior = np.unique(solid.faces(SUPERIOR))
     normals = vertex_normals(points, solid.faces(SUPERIOR))[superior]

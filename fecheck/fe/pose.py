@@ -16,7 +16,7 @@ import numpy as np
 
 
 @dataclass(frozen=True, eq=False)
-class Pose:
+class FramePose:
     """The pose X_{frame}{body}: `rotation` (3, 3) R and `translation` (3,) p (mm) of frame
     `body` expressed in frame `frame`."""
 
@@ -26,7 +26,7 @@ class Pose:
     body: str = "T"
 
     @classmethod
-    def identity(cls, frame: str = "W", body: str = "W") -> Pose:
+    def identity(cls, frame: str = "W", body: str = "W") -> FramePose:
         """Frame `body` on frame `frame`: no rotation, no translation."""
         return cls(np.eye(3), np.zeros(3), frame, body)
 
@@ -35,20 +35,20 @@ class Pose:
         """Drake's name of the pose, e.g. ``X_WT``."""
         return f"X_{self.frame}{self.body}"
 
-    def __matmul__(self, other: Pose) -> Pose:
+    def __matmul__(self, other: FramePose) -> FramePose:
         """X_AC = X_AB @ X_BC; `ValueError` when `other` is not expressed in this pose's
         body frame."""
         if other.frame != self.body:
             raise ValueError(f"cannot compose {self.name} with {other.name}: "
                              f"{other.name} is not in frame {self.body}")
-        return Pose(self.rotation @ other.rotation,
+        return FramePose(self.rotation @ other.rotation,
                     self.rotation @ other.translation + self.translation,
                     self.frame, other.body)
 
-    def inverse(self) -> Pose:
+    def inverse(self) -> FramePose:
         """X_TW from X_WT: R_TW = R_WTᵀ, p_TW = −R_WTᵀ p_WT."""
         back = self.rotation.T
-        return Pose(back, -(back @ self.translation), self.body, self.frame)
+        return FramePose(back, -(back @ self.translation), self.body, self.frame)
 
     def points(self, p: np.ndarray) -> np.ndarray:
         """(n, 3) points given in the body frame (mm), expressed in `frame` (mm)."""

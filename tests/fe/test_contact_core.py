@@ -19,7 +19,7 @@ from fecheck.fe.contact.gap import (
     surface_entries,
     surface_give,
 )
-from fecheck.fe.pose import Pose
+from fecheck.fe.pose import FramePose
 
 
 def _compliance(m: int, seed: int) -> np.ndarray:
@@ -127,9 +127,9 @@ def test_the_candidates_widen_until_no_vertex_penetrates():
     assert widened(repaired, {"a": np.arange(3)}, 0.5, 3, 1e-6)[1] is Outcome.EXHAUSTED
 
 
-def _random_pose(seed: int, frame: str, body: str) -> Pose:
+def _random_pose(seed: int, frame: str, body: str) -> FramePose:
     rng = np.random.default_rng(seed)
-    return Pose(Rotation.random(random_state=seed).as_matrix(), rng.normal(size=3) * 50.0,
+    return FramePose(Rotation.random(random_state=seed).as_matrix(), rng.normal(size=3) * 50.0,
                 frame, body)
 
 
@@ -152,7 +152,7 @@ def test_poses_compose_and_invert_as_rigid_motions():
     np.testing.assert_allclose(one.translation, 0.0, atol=1e-12)
     np.testing.assert_allclose(X_WT.inverse().points(X_WT.points(p_F)), p_F, atol=1e-12)
     # By hand: T turned 90° about z and moved by (1, 2, 3) mm; T's x axis is W's y.
-    quarter = Pose(Rotation.from_euler("z", 90, degrees=True).as_matrix(),
+    quarter = FramePose(Rotation.from_euler("z", 90, degrees=True).as_matrix(),
                    np.array([1.0, 2.0, 3.0]))
     np.testing.assert_allclose(quarter.points(np.array([[1.0, 0.0, 0.0]])),
                                [[1.0, 3.0, 3.0]], atol=1e-15)
