@@ -36,6 +36,7 @@ from fecheck.fe.axisym import axisym_sphere_on_layer
 from fecheck.fe.crosscheck import cross_check
 from fecheck.fe.indenter import SphereIndenter
 from fecheck.fe.joint import ContactLayer, JointContact
+from fecheck.fe.pose import FramePose
 from fecheck.fe.recovery import zero_contour_area
 from fecheck.fe.solid import layer_solid
 from fecheck.fe.volume import TibiaSolid, solid_layers
@@ -58,7 +59,7 @@ def _press(solid, force: float) -> tuple[float, float, float]:
     sphere = SphereIndenter(np.array([0.0, 0.0, R]), R)
     gap = sphere.gap(solid.surface.points, solid.normals).gap_mm
     joint = JointContact([ContactLayer("c", solid, sphere, np.flatnonzero(gap < 0.3))])
-    sol = joint.solve(lambda q: (np.eye(3), q[0] * UP),
+    sol = joint.solve(lambda q: FramePose(np.eye(3), q[0] * UP),
                       lambda q: np.concatenate([UP, np.zeros(3)])[:, None],
                       lambda q: np.array([force]), np.zeros(1))
     c = sol.layers[0]

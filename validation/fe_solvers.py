@@ -4,7 +4,7 @@ The contact solve needs the layer's normal compliance at the m contact candidate
 C = R K⁻¹ Rᵀ (`fecheck.fe.joint`). On the baseline medial layer of the general path
 (`fecheck.fe.sphere_layer.flat_layer`, 323.71 N on R 25.5 mm, E 20 MPa, ν 0.3, h 6 mm;
 0.8 mm under the contact, or --size) this times CHOLMOD with the candidates ordered last
-(`fecheck.fe.contact.condensed_compliance`, what `fecheck fe` runs), CHOLMOD and SuperLU
+(`fecheck.fe.contact.compliance.condensed_compliance`, what `fecheck fe` runs), CHOLMOD and SuperLU
 (scipy) factorizations followed by m solves, and pyamg smoothed-aggregation
 preconditioned CG (rtol 1e-10), and reports each total over the Schur complement's, in
 one run. CPU times (time.process_time), as the machine is shared.
@@ -26,7 +26,8 @@ from pathlib import Path
 import numpy as np
 import scipy.sparse as sp
 
-from fecheck.fe.contact import condensed_compliance
+from fecheck.fe.contact.compliance import condensed_compliance
+from fecheck.fe.pose import FramePose
 from fecheck.fe.press import rigid_gaps
 from fecheck.fe.sphere_layer import candidate_margin, flat_layer
 
@@ -43,7 +44,7 @@ def stiffness(size_mm: float):
     top vertices within `candidate_margin` of the sphere) its normal rows, vertex dofs and
     normals."""
     layer, _ = flat_layer(LOAD_N, RADIUS_MM, E_MPA, NU, H_MM, refine_size_mm=size_mm)
-    gaps = rigid_gaps(layer, np.eye(3), np.zeros(3))
+    gaps = rigid_gaps(layer, FramePose.identity("W", "T"))
     cand = np.flatnonzero(gaps < candidate_margin(LOAD_N, RADIUS_MM, E_MPA, NU))
     solid = layer.solid
     return (sp.csc_matrix(solid.K), solid.normal_rows[cand], solid.vertex_dofs[cand],

@@ -7,7 +7,7 @@ then geometric growth (ratio 1.15) to the layer's rim; in z, spacing grows from
 ``size_mm`` at the top to at most h/6 at the bone. A tensor grid needs no Gmsh call, puts
 nodes exactly on the axis and on the top, and grades separably, which is all a disc
 needs. The layer's top is z = 0, its bottom z = -h (fixed), its rim free; the sphere
-touches the top at the origin before loading. Contact: `fecheck.fe.contact`, node-wise
+touches the top at the origin before loading. Contact: `fecheck.fe.contact.load_control`, node-wise
 (the quadratic line facets have positive consistent loads 1/6, 2/3, 1/6), pressure
 recovered by `fecheck.fe.recovery`.
 """
@@ -19,7 +19,7 @@ import time
 import numpy as np
 
 from fecheck.errors import FecheckError
-from fecheck.fe.contact import solve_contact
+from fecheck.fe.contact.load_control import solve_contact
 from fecheck.fe.elasticity import (
     FORMULATIONS,
     dilatation_matrix,

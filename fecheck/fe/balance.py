@@ -2,8 +2,6 @@
 
 from __future__ import annotations
 
-import math
-
 import numpy as np
 
 from fecheck.fe.crosscheck import CrossCheck
@@ -18,9 +16,7 @@ def free_dof_balance(scene: Scene, check: CrossCheck, flexion: tuple = (0.0,)) -
     gravity, ligaments and the FE contact forces on the tibia) over the load: forces /
     load.force_N, moments / (100 mm · load.force_N); zero at equilibrium. `flexion`: the
     tibia's (θx rad, base rotation or None) as `fecheck.statics.newton.pose` takes them."""
-    p = check.pose["fe"]
-    q = np.array([p["x_mm"], p["y_mm"], p["z_mm"], math.radians(p["abduction_deg"]),
-                  math.radians(p["internal_deg"])])
+    q = np.asarray(check.pose["fe"].q, dtype=float)
     rot, t = pose(q, *flexion)
     total = sum(part(rot, t)[0] for part in [applied_load(scene), *ligament_springs(scene)])
     for chk in check.compartments.values():

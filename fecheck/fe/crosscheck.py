@@ -39,6 +39,7 @@ from scipy.spatial import cKDTree
 
 from fecheck.errors import FecheckError
 from fecheck.fe.bodies import FEBody, refuse_unmodelled, scene_bodies
+from fecheck.fe.pose import FramePose
 from fecheck.fe.press import (
     FELayer,
     build_layers,
@@ -51,11 +52,10 @@ from fecheck.fe.press import (
 from fecheck.fe.recovery import pressure_peaks, smoothing_length, zero_contour_area
 from fecheck.fe.results import ContactMetrics, FEContactResult, PressurePeaks, SideMetrics
 from fecheck.fe.settings import FESettings
-from fecheck.model.assembly import pose_dict
 from fecheck.model.condyles import scene_knee
 from fecheck.model.equilibrium import axial_force
 from fecheck.model.notes import smoothing_notes
-from fecheck.model.results import CompartmentResult, RunResult
+from fecheck.model.results import CompartmentResult, Pose, RunResult
 from fecheck.reference.closed_forms import (
     DONAHUE_2002,
     column_stiffness,
@@ -176,7 +176,8 @@ class CrossCheck:
     compartments: dict[str, CompartmentCheck]
     settings: FESettings
     material: dict[str, float]
-    pose: dict[str, dict[str, float]]
+    pose: dict[str, Pose]
+    """The tibia's pose of the FE ("fe") and of the EF run ("ef")."""
     geometry: dict[str, Any]
     timing_s: dict[str, float]
     notes: tuple[str, ...] = field(default=())
@@ -194,7 +195,8 @@ class CrossCheck:
         return {"mode": self.settings.mode,
                 "compartments": {c: chk.as_dict() for c, chk in self.compartments.items()},
                 "split": {"fe": self.split("fe"), "ef_model": self.split("ef_model")},
-                "fe_geometry": self.geometry, "pose": self.pose,
+                "fe_geometry": self.geometry,
+                "pose": {k: dict(v) for k, v in self.pose.items()},
                 "settings": dict(self.settings.__dict__), "material": self.material,
                 "timing_s": self.timing_s, "notes": list(self.notes)}
 
@@ -391,8 +393,8 @@ def _femoral(scene: Scene, layers: Sequence[FELayer], settings: FESettings,
 def _solve(scene: Scene, layers: Sequence[FELayer], run: RunResult, settings: FESettings,
            log: Callable[[str], None], flexion: tuple[float, np.ndarray] | None = None
            ) -> tuple[dict, np.ndarray, float, float]:
-    """FE solve(s) of the mode: {compartment: (layer, contact, worst penetration, (R, t)
-    the tibia pose of that compartment's solution)}, the FE pose q (5,) (the EF pose in
+    """FE solve(s) of the mode: {compartment: (layer, contact, worst penetration, X_WT
+    the tibia's pose of that compartment's solution)}, the FE pose q (5,) (the EF pose in
     compartment mode), the condensation time and the femoral layers' build time (s; 0
     for the series model); `flexion` as in `cross_check`."""
     from fecheck.model.run import ligament_springs
@@ -407,11 +409,11 @@ def _solve(scene: Scene, layers: Sequence[FELayer], run: RunResult, settings: FE
         out = {lay.body.name: (lay, lc, worst, at) for lay, lc in zip(layers, sol.layers,
                                                                         strict=True)}
         return out, drive.full(sol.q), condense, getattr(femoral, "seconds", 0.0)
-    rot, t = _ef_pose(scene, q_ef, flexion)
+    X_WT = _ef_pose(scene, q_ef, flexion)
     out, condense = {}, 0.0
     for lay in layers:
         force = run.compartments[lay.body.name].force_vector_N
-        drive = push_drive(rot, t, np.asarray(force, dtype=float))
+        drive = push_drive(X_WT, np.asarray(force, dtype=float))
         sol, seconds, _, worst = solve_pressed([lay], drive, margin, settings, log, femoral)
         out[lay.body.name] = (lay, sol.layers[0], worst, drive.pose(sol.q))
         condense += seconds
@@ -419,10 +421,10 @@ def _solve(scene: Scene, layers: Sequence[FELayer], run: RunResult, settings: FE
 
 
 def _ef_pose(scene: Scene, q: np.ndarray, flexion: tuple[float, np.ndarray] | None
-             ) -> tuple[np.ndarray, np.ndarray]:
-    """The tibia's (R, t) at q (5,): flexion dofs.flexion_deg about x, or `flexion`."""
+             ) -> FramePose:
+    """The tibia's pose X_WT at q (5,): flexion dofs.flexion_deg about x, or `flexion`."""
     theta, base = flexion or (math.radians(scene["dofs.flexion_deg"]), None)
-    return pose(np.asarray(q, dtype=float), theta, base)
+    return FramePose(*pose(np.asarray(q, dtype=float), theta, base), "W", "T")
 
 
 def cross_check(scene: Scene, *, mode: str | None = None, refine: int | None = None,
@@ -458,10 +460,11 @@ def cross_check(scene: Scene, *, mode: str | None = None, refine: int | None = N
     t2 = time.perf_counter()
     solved, q_fe, condense, femoral_s = _solve(scene, layers, run, settings, say, flexion)
     t3 = time.perf_counter()
-    rot_ef, t_ef = _ef_pose(scene, run.pose.q, flexion)
+    rot_ef, t_ef = _ef_pose(scene, run.pose.q, flexion).pair()
     checks, alerts, femoral = {}, [], {}
-    for name, (lay, lc, worst, (rot, t)) in solved.items():
-        fe, pressure = _fe_metrics(lay, lc.force_N, lc.active, rigid_gaps(lay, rot, t), rot)
+    for name, (lay, lc, worst, X_WT) in solved.items():
+        fe, pressure = _fe_metrics(lay, lc.force_N, lc.active, rigid_gaps(lay, X_WT),
+                                   X_WT.rotation)
         res = run.compartments[name]
         refs = _flat_references(scene, lay, float(lc.force_N.sum()), settings)
         on_faces = _on_ef_faces(lay, pressure)
@@ -516,7 +519,7 @@ def cross_check(scene: Scene, *, mode: str | None = None, refine: int | None = N
     return CrossCheck(checks, settings,
                       {"E_MPa": E, "nu": nu, "thickness_mm": scene["contact.thickness_mm"],
                        "ef_k_N_per_mm3": column_stiffness(E, nu, scene["contact.thickness_mm"])},
-                      {"fe": pose_dict(q_fe, run.pose.side), "ef": dict(run.pose)}, geometry,
+                      {"fe": Pose.of(q_fe, side=run.pose.side), "ef": run.pose}, geometry,
                       timing, tuple(notes), run)
 
 
@@ -530,9 +533,9 @@ def fe_level(scene: Scene, bodies: Sequence[FEBody], run: RunResult, settings: F
     layers = build_layers(bodies, E, nu, settings, log)
     solved, _, _, _ = _solve(scene, layers, run, settings, log)
     out = {}
-    for name, (lay, lc, _, (rot, t)) in solved.items():
-        out[name] = (lay, *_fe_metrics(lay, lc.force_N, lc.active, rigid_gaps(lay, rot, t),
-                                       rot))
+    for name, (lay, lc, _, X_WT) in solved.items():
+        out[name] = (lay, *_fe_metrics(lay, lc.force_N, lc.active, rigid_gaps(lay, X_WT),
+                                       X_WT.rotation))
     dofs = sum(sol.n_dofs for sol in _solids(layers)) + sum(f.solid.n_dofs
                                                             for f in _femurs(solved))
     return out, dofs, time.perf_counter() - t0

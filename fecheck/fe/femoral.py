@@ -28,6 +28,7 @@ from fecheck.errors import FecheckError
 from fecheck.fe.bodies import vertex_values
 from fecheck.fe.indenter import MeshIndenter
 from fecheck.fe.joint import FemoralLayer
+from fecheck.fe.pose import FramePose
 from fecheck.fe.settings import FESettings
 from fecheck.fe.solid import layer_solid, release_freed_heap
 from fecheck.scene import Scene, surfaces
@@ -176,13 +177,13 @@ class FemoralBuilder:
         self.indenter = MeshIndenter(sheet.mesh)
         self.seconds = 0.0
 
-    def __call__(self, layers: Sequence, candidates: Sequence[np.ndarray], rot: np.ndarray,
-                 t: np.ndarray) -> list[FemoralLayer]:
+    def __call__(self, layers: Sequence, candidates: Sequence[np.ndarray], X_WT: FramePose
+                 ) -> list[FemoralLayer]:
         t0 = time.perf_counter()
         out = []
         for lay, cand in zip(layers, candidates, strict=True):
-            pts = lay.surface.points[cand] @ rot.T + t
-            nrm = lay.solid.normals[cand] @ rot.T
+            pts = X_WT.points(lay.surface.points[cand])
+            nrm = X_WT.vectors(lay.solid.normals[cand])
             gap, face, _ = self.indenter.hits(pts, nrm)
             hit = face >= 0
             y = pts[hit] + gap.gap_mm[hit, None] * nrm[hit]

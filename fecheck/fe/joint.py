@@ -55,13 +55,15 @@ import numpy as np
 import scipy.sparse as sp
 
 from fecheck.errors import FecheckError
-from fecheck.fe.contact import (
-    active_set,
+from fecheck.fe.contact.active_set import settled
+from fecheck.fe.contact.compliance import (
+    block_compliance,
     condensed_compliance,
     factorize,
-    kkt_step,
     nodal_compliance,
 )
+from fecheck.fe.contact.gap import surface_entries, surface_give
+from fecheck.fe.pose import FramePose
 from fecheck.fe.solid import LayerSolid
 
 POSE_TOL = 1e-9
@@ -122,7 +124,7 @@ class LayerContact:
 
 @dataclass(frozen=True, eq=False)
 class JointSolution:
-    """Pose q (5,), per-layer contact, iterations (outer, active-set) and timing (s)."""
+    """FramePose q (5,), per-layer contact, iterations (outer, active-set) and timing (s)."""
 
     q: np.ndarray
     layers: list[LayerContact]
@@ -147,12 +149,7 @@ class _Compliance:
                 np.concatenate([lay.solid.normals[lay.candidates] for lay in layers]))
         else:
             self.solve = factorize(K, solver)
-            m = rows.shape[0]
-            C = np.empty((m, m))
-            rhs_all = rows.T.tocsc()
-            for start in range(0, m, block):
-                stop = min(start + block, m)
-                C[:, start:stop] = rows @ self.solve(rhs_all[:, start:stop].toarray())
+            C = block_compliance(rows, self.solve, block)
         self.C = 0.5 * (C + C.T)
 
 
@@ -173,12 +170,12 @@ class _FemoralCompliance:
         """For rays that hit faces `face` (m,) at `weights` (m, 3) along world `normals`
         (m, 3): the paired rows, their columns (3 m_f) and values of P, and the rays that
         hit a face with a vertex outside the candidates (unpaired)."""
-        slot = self.slot[self.femur.solid.surface.faces[np.maximum(face, 0)]]   # (m, 3)
+        nodes = self.femur.solid.surface.faces[np.maximum(face, 0)]           # (m, 3)
         hit = face >= 0
-        inside = hit & (slot >= 0).all(axis=1)
-        rows = np.repeat(np.flatnonzero(inside), 9)
-        cols = (3 * slot[inside][:, :, None] + np.arange(3)).ravel()
-        vals = (weights[inside][:, :, None] * normals[inside][:, None, :]).ravel()
+        inside = hit & (self.slot[nodes] >= 0).all(axis=1)
+        rows, cols, vals = surface_entries(
+            np.flatnonzero(inside), nodes[inside], weights[inside], normals[inside],
+            lambda n: 3 * self.slot[n][:, :, None] + np.arange(3))
         return rows, cols, vals, hit & ~inside
 
 
@@ -188,9 +185,9 @@ def femoral_shift(femur: FemoralLayer, u: np.ndarray, face: np.ndarray, weights:
     rays along world `normals` hit (faces `face`, -1 a miss, barycentric `weights`),
     along those normals, mm: what it adds to each gap."""
     disp = u[femur.solid.vertex_dofs]                                     # (s_f, 3)
-    at = np.einsum("mk,mkc->mc", weights,
-                   disp[femur.solid.surface.faces[np.maximum(face, 0)]])
-    return np.where(face >= 0, np.einsum("mc,mc->m", at, normals), 0.0)
+    give = surface_give(disp[femur.solid.surface.faces[np.maximum(face, 0)]], weights,
+                        normals)
+    return np.where(face >= 0, give, 0.0)
 
 
 def _shared_solids(layers: Sequence[ContactLayer]) -> tuple[list[ContactLayer], list[list[int]]]:
@@ -245,7 +242,7 @@ class JointContact:
         self.seconds = time.perf_counter() - t0
         self.log = log
 
-    def solve(self, pose: Callable[[np.ndarray], tuple[np.ndarray, np.ndarray]],
+    def solve(self, pose: Callable[[np.ndarray], FramePose],
               basis: Callable[[np.ndarray], np.ndarray],
               load: Callable[[np.ndarray], np.ndarray], q0: np.ndarray, *,
               stiffness: Callable[[np.ndarray], np.ndarray] | None = None,
@@ -254,7 +251,8 @@ class JointContact:
 
         Parameters
         ----------
-        pose : q → (R, t), the tibia's rotation and translation (mm) at the unknowns q
+        pose : q → X_WT, the tibia's pose in the world (the femur's frame) at the
+            unknowns q (`fecheck.fe.pose.FramePose`)
         basis : q → B (6, k), the tibia's twist (v, ω about the world origin) per unit
             step of each unknown (mm, rad)
         load : q → Q (k,), generalised external force on the unknowns (N, N·mm): load,
@@ -275,7 +273,9 @@ class JointContact:
             dQ = np.zeros((len(q), len(q))) if stiffness is None else stiffness(q)
             if lam is not None:
                 dQ = dQ + _force_stiffness(self.layers, pose, basis, q, lam)
-            lam, dq, active, it = _settled(C, g0, J, G, load(q), dQ, active, max_active)
+            lam, dq, active, it = settled(C, g0, J, G, load(q), dQ, active, max_active,
+                                         "refine the layer under the contact or check the "
+                                         "load")
             inner += it
             scale = np.where(np.abs(basis(q)[3:]).sum(axis=0) > 0, 100.0, 1.0)   # rad → mm
             size = float(np.max(np.abs(dq) * scale))
@@ -355,54 +355,14 @@ def _pair_load(fc: _FemoralCompliance, P: sp.csr_matrix, lam: np.ndarray) -> np.
     return f
 
 
-def _settled(C, g0, J, G, Q, dQ, active, max_active: int):
-    """`active_set` from the last pose's contact set `active`; where it cycles (its
-    tangent is not symmetric: a follower load, the contact forces' own change with the
-    pose), the same with the symmetric part of dQ (an inexact Newton step: the pose it
-    converges to balances the load all the same, as dq → 0 there), then
-    `_one_at_a_time`. Measured: the decimated knee at 30° under 800 N along the tibial
-    axis, whose dQ has eigenvalues down to -3.1e4 N·mm and an antisymmetric part of 3.6e3,
-    cycled at the first update; with the symmetric part it settles and converges in 6."""
-    hint = "refine the layer under the contact or check the load"
-    try:
-        return active_set(C, g0, J, G, Q, dQ, active, max_active, hint)
-    except FecheckError:
-        pass
-    try:
-        return active_set(C, g0, J, G, Q, 0.5 * (dQ + dQ.T), active, max_active, hint)
-    except FecheckError:
-        return _one_at_a_time(C, g0, J, G, Q, dQ, active, 3 * len(g0))
-
-
-def _one_at_a_time(C, g0, J, G, Q, dQ, active, max_iter: int):
-    """The complementarity of `active_set` with one change of the set per solve: the most
-    pulling active candidate released, else the most penetrating inactive one added;
-    slower (a dense solve per change) but it does not jump between sets as the block
-    update can. Returns as `active_set`."""
-    active = active.copy()
-    for it in range(1, max_iter + 1):
-        lam, dq, gap = kkt_step(C, g0, J, G, Q, dQ, active)
-        pulling = np.where(active, lam, np.inf)
-        open_gap = np.where(active, np.inf, gap)
-        if pulling.min() <= 0.0 and active.sum() > 1:
-            active[np.argmin(pulling)] = False
-        elif open_gap.min() < 0.0:
-            active[np.argmin(open_gap)] = True
-        else:
-            return lam, dq, active, it
-    raise FecheckError(f"the FE contact active set did not settle in {max_iter} one-at-a-time "
-                       "changes after the block updates cycled; refine the layer under the "
-                       "contact or check the load")
-
-
 def _contact_forces(layers: Sequence[ContactLayer], pose, basis, q: np.ndarray) -> np.ndarray:
     """G (m, k) of `_linearised_gaps` alone (no contact query)."""
-    rot, t = pose(q)
+    X_WT = pose(q)
     b = basis(q)
     out = []
     for layer in layers:
-        pts = layer.solid.surface.points[layer.candidates] @ rot.T + t
-        nrm = layer.solid.normals[layer.candidates] @ rot.T
+        pts = X_WT.points(layer.solid.surface.points[layer.candidates])
+        nrm = X_WT.vectors(layer.solid.normals[layer.candidates])
         out.append(-np.hstack([nrm, np.cross(pts, nrm)]) @ b)
     return np.concatenate(out)
 
@@ -432,12 +392,12 @@ def _linearised_gaps(layers: Sequence[ContactLayer], pose, basis, q: np.ndarray
     candidate (acting on the tibia along minus its surface normal, at the vertex), and
     per layer None or, for a layer pressed by a deformable femoral layer, the faces its
     candidates' rays hit, the barycentric weights and the world normals."""
-    rot, t = pose(q)
+    X_WT = pose(q)
     b = basis(q)
     gaps, rows, hits = [], [], []
     for layer in layers:
-        pts = layer.solid.surface.points[layer.candidates] @ rot.T + t
-        nrm = layer.solid.normals[layer.candidates] @ rot.T
+        pts = X_WT.points(layer.solid.surface.points[layer.candidates])
+        nrm = X_WT.vectors(layer.solid.normals[layer.candidates])
         if layer.femur is None:
             g = layer.indenter.gap(pts, nrm)
             hits.append(None)

@@ -54,11 +54,16 @@ from __future__ import annotations
 import time
 from collections.abc import Callable
 from dataclasses import dataclass, field, replace
+from enum import Enum
 
 import numpy as np
 
 from fecheck.errors import FecheckError
 from fecheck.fe.anisotropy import MENISCUS, TransIso
+from fecheck.fe.contact.candidates import Outcome, Round, widened
+from fecheck.fe.contact.gap import nodal_displacements, surface_give
+from fecheck.fe.indenter import MeshIndenter
+from fecheck.fe.joint import FemoralLayer
 from fecheck.fe.meniscus_solid import (
     DEFAULT_SIZE_MM,
     DONAHUE_HORN_N_PER_MM,
@@ -66,7 +71,9 @@ from fecheck.fe.meniscus_solid import (
     SUPERIOR,
     MeniscusSolid,
 )
-from fecheck.fe.multibody import Body, Condensed, Pair, ray_pairs
+from fecheck.fe.multibody import Body, Condensed, MultibodySolution, Pair, ray_pairs
+from fecheck.fe.pose import FramePose
+from fecheck.fe.press import FELayer, build_layers
 from fecheck.scene import Scene
 from fecheck.statics.root_spring import root_matrix
 from geometry.mesh import TriMesh
@@ -408,29 +415,28 @@ class _Side:
     femur-meniscus gap; with two deformable layers the femoral layer (tibia frame,
     `fecheck.fe.joint.FemoralLayer`), its `Body` (carried by the femur), its surface as a
     `fecheck.fe.indenter.MeshIndenter` (what the rays hit) and `hits`: per
-    femur pair (its name's kind) the femoral layer's MeshIndenter hits (face (k,),
+    femur pair (its `PairKind`) the femoral layer's MeshIndenter hits (face (k,),
     weights (k, 3)) of every vertex it may pair, at the pairing in use."""
 
     name: str
-    layer: object
+    layer: FELayer
     body: Body
-    indenter: object
+    indenter: MeshIndenter
     meniscus: MeniscusBody | None
     face: np.ndarray
     weights: np.ndarray
     gap: np.ndarray
     under: np.ndarray
     lift: float = 0.0
-    femoral: object = None
+    femoral: FemoralLayer | None = None
     femoral_body: Body | None = None
-    femoral_surface: object = None
-    hits: dict = field(default_factory=dict)
+    femoral_surface: MeshIndenter | None = None
+    hits: dict[PairKind, tuple[np.ndarray, np.ndarray]] = field(default_factory=dict)
 
 
 def _disp(body: Body, u: np.ndarray, nodes: np.ndarray) -> np.ndarray:
     """(k, 3) displacements (mm) of `nodes` of `body` from its kept-dof `u` (0: fixed)."""
-    dofs = body.node_dofs[nodes]
-    return np.where(dofs >= 0, u[np.maximum(dofs, 0)], 0.0)
+    return nodal_displacements(body.node_dofs, u, nodes)
 
 
 def _inferior_rays(points: np.ndarray, faces: np.ndarray, layer_points: np.ndarray,
@@ -517,8 +523,8 @@ def knee_menisci_fe(scene: Scene, *, meniscus_size_mm: float = DEFAULT_SIZE_MM,
     if not run.converged:
         raise FecheckError("the EF equilibrium with menisci did not converge: no pose for "
                            "the FE")
-    poses = run.menisci["poses"]
-    q_tibia = np.asarray(poses["tibia"]["q"])
+    poses = ef_coordinates(run)
+    q_tibia = poses["tibia"]
     rot, t = body_pose(q_tibia)
     load = float(applied_load(scene)(rot, t)[0][2])
     if not load > 0:
@@ -528,7 +534,6 @@ def knee_menisci_fe(scene: Scene, *, meniscus_size_mm: float = DEFAULT_SIZE_MM,
     t0 = time.perf_counter()
     if layers is None:
         from fecheck.fe.bodies import scene_bodies
-        from fecheck.fe.press import build_layers
 
         layers = build_layers(scene_bodies(plain), scene["contact.youngs_MPa"],
                               scene["contact.poisson"], settings, say)
@@ -543,7 +548,7 @@ def knee_menisci_fe(scene: Scene, *, meniscus_size_mm: float = DEFAULT_SIZE_MM,
             torn = tuple(h.split("-")[1] for h in scene["menisci.torn_roots"]
                          if h.startswith(f"{lay.body.name}-"))
             horns = horn_matrices(solid, root, scene["menisci.root_N_per_mm"], torn)
-            men = _meniscus(solid, poses[f"{lay.body.name} meniscus"]["q"], q_tibia, pts, nrm,
+            men = _meniscus(solid, poses[f"{lay.body.name} meniscus"], q_tibia, pts, nrm,
                             horns, extra, material)
             say(f"{men.side} meniscus: {len(men.solid.mesh.tets)} tetrahedra, "
                 f"{men.body.K.shape[0]} dofs, raised {men.rise_mm:.3f} mm onto the layer")
@@ -562,6 +567,14 @@ def knee_menisci_fe(scene: Scene, *, meniscus_size_mm: float = DEFAULT_SIZE_MM,
     return replace(result, without_menisci=alone.fe)
 
 
+def ef_coordinates(run) -> dict[str, np.ndarray]:
+    """{body: its generalised coordinates q (6,) or (5,) (mm, rad)} of the EF run with
+    menisci (`fecheck.model.menisci.run_menisci`), read from its report once: the tibia's
+    and each meniscus's ("<compartment> meniscus")."""
+    return {name: np.asarray(pose["q"], dtype=float)
+            for name, pose in run.menisci["poses"].items()}
+
+
 def _with_femoral_layers(scene: Scene, sides: list[_Side], rot: np.ndarray, t: np.ndarray,
                          settings, say: Callable[[str], None]) -> list[_Side]:
     """`sides` each with the femoral cartilage as a layer of its own (tibia frame, bonded
@@ -569,7 +582,6 @@ def _with_femoral_layers(scene: Scene, sides: list[_Side], rot: np.ndarray, t: n
     where the normals of its femur pairs' vertices within `REACH_MM` of the candidate gap
     (the meniscus's less its lift) meet the femoral sheet."""
     from fecheck.fe.femoral import femoral_layer, femoral_sheet
-    from fecheck.fe.indenter import MeshIndenter
 
     world = sides[0].indenter.mesh
     sheet = femoral_sheet(scene, world)
@@ -581,9 +593,9 @@ def _with_femoral_layers(scene: Scene, sides: list[_Side], rot: np.ndarray, t: n
         for kind in _femur_kinds(s):
             pts, nrm = _pair_points(s, kind)
             gap, face, _ = indenter.hits(pts, nrm)
-            lift = s.lift if kind == "femur-meniscus" else 0.0
+            lift = s.lift if kind is PairKind.FEMUR_MENISCUS else 0.0
             near = (face >= 0) & (gap.gap_mm - lift < settings.candidate_gap_mm + REACH_MM)
-            if kind == "femur-tibia":
+            if kind is PairKind.FEMUR_TIBIA:
                 near &= ~s.under
             points.append(pts[near] + gap.gap_mm[near, None] * nrm[near])
             faces.append(face[near])
@@ -631,8 +643,9 @@ def _meniscus(solid: MeniscusSolid, q: np.ndarray, q_tibia: np.ndarray,
 
     points, fibre, rise = place_meniscus(solid, q, q_tibia, layer_points, layer_normals)
     body, basis, tie = meniscus_body(solid, points, fibre, horns, material, extra)
-    rotation = body_pose(np.asarray(q_tibia, dtype=float))[0].T @ body_pose(
-        np.asarray(q, dtype=float))[0]
+    X_WT = FramePose(*body_pose(np.asarray(q_tibia, dtype=float)), "W", "T")
+    X_WM = FramePose(*body_pose(np.asarray(q, dtype=float)), "W", "M")
+    rotation = (X_WT.inverse() @ X_WM).rotation
     superior = np.unique(solid.faces(SUPERIOR))
     normals = vertex_normals(points, solid.faces(SUPERIOR))[superior]
     facing = normals[:, 2] >= FACING_COS
@@ -681,32 +694,50 @@ def _in_femur(points: np.ndarray, normals: np.ndarray, rot: np.ndarray, travel_m
     return lowered @ back.T, normals @ back.T
 
 
-FEMUR_PAIRS = ("femur-tibia", "femur-meniscus")
+class PairKind(Enum):
+    """The contact pairs of a compartment with a meniscus; the value names them in the
+    output (``"<compartment> <value>"``)."""
+
+    FEMUR_TIBIA = "femur-tibia"
+    FEMUR_MENISCUS = "femur-meniscus"
+    MENISCUS_TIBIA = "meniscus-tibia"
+
+    @property
+    def femur(self) -> bool:
+        """The femur presses the pair (rigid, or through its cartilage layer)."""
+        return self is not PairKind.MENISCUS_TIBIA
+
+
+FEMUR_PAIRS = (PairKind.FEMUR_TIBIA, PairKind.FEMUR_MENISCUS)
 """The pairs the femur presses (rigid, or through its cartilage layer)."""
 
+PairKey = tuple[str, PairKind]
+"""A pair of the knee: its compartment's name and its kind."""
 
-def _femur_pair(name: str) -> bool:
-    return name.endswith(FEMUR_PAIRS)
+
+def pair_name(key: PairKey) -> str:
+    """The pair's name in the output, e.g. ``"medial femur-tibia"``."""
+    return f"{key[0]} {key[1].value}"
 
 
-def _pair_points(s: _Side, kind: str) -> tuple[np.ndarray, np.ndarray]:
+def _pair_points(s: _Side, kind: PairKind) -> tuple[np.ndarray, np.ndarray]:
     """(points, unit normals) in the tibia frame of every vertex the femur pair `kind`
     may pair: the tibial layer's surface vertices or the meniscus's femur-facing superior
     vertices."""
-    if kind == "femur-tibia":
+    if kind is PairKind.FEMUR_TIBIA:
         return s.layer.surface.points, s.layer.solid.normals
     m = s.meniscus
     return m.points[m.superior], m.superior_normals
 
 
-def _femur_kinds(s: _Side) -> tuple[str, ...]:
+def _femur_kinds(s: _Side) -> tuple[PairKind, ...]:
     """The femur pairs of compartment `s`: femur-tibia, and femur-meniscus with a
     meniscus."""
     return FEMUR_PAIRS if s.meniscus is not None else FEMUR_PAIRS[:1]
 
 
 def _femoral_hits(s: _Side, rot: np.ndarray, travel: float, turn: np.ndarray | None
-                  ) -> dict[str, tuple[np.ndarray, np.ndarray]]:
+                  ) -> dict[PairKind, tuple[np.ndarray, np.ndarray]]:
     """Per femur pair of `s` the femoral layer's face (-1: a miss) and barycentric
     weights where each of its vertices' normal rays meets it (either way along the ray),
     the femur at `travel` turned by `turn`."""
@@ -718,29 +749,33 @@ def _femoral_hits(s: _Side, rot: np.ndarray, travel: float, turn: np.ndarray | N
     return out
 
 
-def _pairs(sides: list[_Side], cands: dict[str, np.ndarray]) -> list[Pair]:
-    """The contact pairs on the candidate vertices `cands` (pair name → indices)."""
+def _pairs(sides: list[_Side], cands: dict[PairKey, np.ndarray]) -> list[Pair]:
+    """The contact pairs on the candidate vertices `cands` (pair → indices)."""
     out = []
     for s in sides:
-        ft = cands[f"{s.name} femur-tibia"]
-        out.append(Pair(f"{s.name} femur-tibia", s.body.name, ft, s.layer.solid.normals[ft],
-                        np.zeros(len(ft)), points=s.layer.surface.points[ft],
-                        **_femoral_master(s, "femur-tibia", ft)))
+        key = (s.name, PairKind.FEMUR_TIBIA)
+        ft = cands[key]
+        out.append(Pair(pair_name(key), s.body.name, ft, s.layer.solid.normals[ft],
+                        np.zeros(len(ft)), points=s.layer.surface.points[ft], key=key,
+                        **_femoral_master(s, PairKind.FEMUR_TIBIA, ft)))
         if s.meniscus is None:
             continue
         m = s.meniscus
-        fm = cands[f"{s.name} femur-meniscus"]
-        out.append(Pair(f"{s.name} femur-meniscus", m.body.name, m.superior[fm],
+        key = (s.name, PairKind.FEMUR_MENISCUS)
+        fm = cands[key]
+        out.append(Pair(pair_name(key), m.body.name, m.superior[fm],
                         m.superior_normals[fm], np.zeros(len(fm)),
-                        points=m.points[m.superior[fm]],
-                        **_femoral_master(s, "femur-meniscus", fm)))
-        mt = cands[f"{s.name} meniscus-tibia"]
-        out.append(Pair(f"{s.name} meniscus-tibia", s.body.name, mt, s.layer.solid.normals[mt],
-                        s.gap[mt], m.body.name, m.inferior_faces[s.face[mt]], s.weights[mt]))
+                        points=m.points[m.superior[fm]], key=key,
+                        **_femoral_master(s, PairKind.FEMUR_MENISCUS, fm)))
+        key = (s.name, PairKind.MENISCUS_TIBIA)
+        mt = cands[key]
+        out.append(Pair(pair_name(key), s.body.name, mt, s.layer.solid.normals[mt],
+                        s.gap[mt], m.body.name, m.inferior_faces[s.face[mt]], s.weights[mt],
+                        key=key))
     return out
 
 
-def _femoral_master(s: _Side, kind: str, rows: np.ndarray) -> dict:
+def _femoral_master(s: _Side, kind: PairKind, rows: np.ndarray) -> dict:
     """The master of femur pair `kind` on its vertices `rows`: none (the rigid femur), or
     the femoral layer's faces and weights its rays hit (`_Side.hits`)."""
     if s.femoral is None:
@@ -749,7 +784,7 @@ def _femoral_master(s: _Side, kind: str, rows: np.ndarray) -> dict:
     if (face[rows] < 0).any():
         k = rows[np.argmax(face[rows] < 0)]
         x = _pair_points(s, kind)[0][k]
-        raise FecheckError(f"the normal of a {s.name} {kind} contact candidate at "
+        raise FecheckError(f"the normal of a {s.name} {kind.value} contact candidate at "
                            f"({', '.join(f'{v:.1f}' for v in x)}) mm (tibia frame) misses "
                            "the femoral layer built over the first candidates: lower "
                            "fe.candidate_gap_mm, or use fe.cartilage = 'series'")
@@ -758,7 +793,8 @@ def _femoral_master(s: _Side, kind: str, rows: np.ndarray) -> dict:
             "weights": weights[rows]}
 
 
-def _femoral_give(s: _Side, kind: str, u: dict[str, np.ndarray] | None) -> np.ndarray:
+def _femoral_give(s: _Side, kind: PairKind, u: dict[str, np.ndarray] | None
+                  ) -> np.ndarray:
     """How far the femoral layer's displacement (u, its kept dofs; None: undeformed)
     moves its surface along the normals of femur pair `kind` where they hit it, mm (0
     with a rigid femur or a miss)."""
@@ -768,17 +804,16 @@ def _femoral_give(s: _Side, kind: str, u: dict[str, np.ndarray] | None) -> np.nd
     face, weights = s.hits[kind]
     hit = face >= 0
     nodes = s.femoral.solid.surface.faces[face[hit]]
-    at = np.einsum("mk,mkc->mc", weights[hit],
-                   _disp(s.femoral_body, u[s.femoral_body.name], nodes.ravel()).reshape(
-                       -1, 3, 3))
     out = np.zeros(n)
-    out[hit] = np.einsum("ij,ij->i", at, _pair_points(s, kind)[1][hit])
+    out[hit] = surface_give(
+        _disp(s.femoral_body, u[s.femoral_body.name], nodes.ravel()).reshape(-1, 3, 3),
+        weights[hit], _pair_points(s, kind)[1][hit])
     return out
 
 
 def _all_gaps(sides: list[_Side], rot: np.ndarray, t: np.ndarray, travel: float,
               u: dict[str, np.ndarray] | None, turn: np.ndarray | None = None
-              ) -> dict[str, np.ndarray]:
+              ) -> dict[PairKey, np.ndarray]:
     """Every pair's gaps (mm) over all its possible vertices (inf where none) with the
     femur at `travel` turned by `turn` (`_femur_gap`) and the bodies displaced by `u`
     (None: undeformed)."""
@@ -788,24 +823,49 @@ def _all_gaps(sides: list[_Side], rot: np.ndarray, t: np.ndarray, travel: float,
         every = np.arange(len(pts))
         u_t = _disp(s.body, u[s.body.name], every) if u else np.zeros_like(pts)
         g = (_femur_gap(s.indenter, pts, nrm, rot, t, travel, turn)
-             - np.einsum("ij,ij->i", u_t, nrm) + _femoral_give(s, "femur-tibia", u))
-        out[f"{s.name} femur-tibia"] = np.where(s.under, np.inf, g)
+             - np.einsum("ij,ij->i", u_t, nrm) + _femoral_give(s, PairKind.FEMUR_TIBIA, u))
+        out[s.name, PairKind.FEMUR_TIBIA] = np.where(s.under, np.inf, g)
         if s.meniscus is None:
             continue
         m = s.meniscus
         u_m = (u[m.body.name] if u else np.zeros(m.body.K.shape[0]))
         sup = _disp(m.body, u_m, m.superior)
-        out[f"{s.name} femur-meniscus"] = (
+        out[s.name, PairKind.FEMUR_MENISCUS] = (
             _femur_gap(s.indenter, m.points[m.superior], m.superior_normals, rot, t, travel,
                        turn)
             - np.einsum("ij,ij->i", sup, m.superior_normals) - s.lift
-            + _femoral_give(s, "femur-meniscus", u))
+            + _femoral_give(s, PairKind.FEMUR_MENISCUS, u))
         faces = m.inferior_faces[np.maximum(s.face, 0)]
         at = np.einsum("mk,mkc->mc", s.weights, _disp(m.body, u_m, faces.ravel()).reshape(
             -1, 3, 3))
-        out[f"{s.name} meniscus-tibia"] = np.where(
+        out[s.name, PairKind.MENISCUS_TIBIA] = np.where(
             s.under, s.gap + np.einsum("ij,ij->i", at - u_t, nrm), np.inf)
     return out
+
+
+@dataclass(eq=False)
+class _Femur:
+    """The femur's place while the candidates' rounds solve: its travel along its axis
+    (mm) and turns (rad), the last condensation (reused by the next), the pose updates
+    and the seconds spent condensing and solving."""
+
+    travel: float
+    angles: np.ndarray
+    condensed: Condensed | None = None
+    outer: int = 0
+    condense_s: float = 0.0
+    solve_s: float = 0.0
+
+
+@dataclass(frozen=True, eq=False)
+class _Settled:
+    """One round's contact: its pairs, the solution, every pair's gaps after it (mm) and
+    where the deepest penetration is."""
+
+    pairs: list[Pair]
+    sol: MultibodySolution
+    gaps: dict[PairKey, np.ndarray]
+    where: str
 
 
 def _solve(sides: list[_Side], rot: np.ndarray, t: np.ndarray, load: float,
@@ -821,11 +881,9 @@ def _solve(sides: list[_Side], rot: np.ndarray, t: np.ndarray, load: float,
     bodies = ([s.body for s in sides] + [s.meniscus.body for s in sides if s.meniscus]
               + [s.femoral_body for s in sides if s.femoral_body is not None])
     gaps = _all_gaps(sides, rot, t, 0.0, None)
-    cands = {name: np.flatnonzero(g < margin) for name, g in gaps.items()}
-    travel, outer, angles = 0.0, 0, np.zeros(len(turn_axes))
-    t_condense = t_solve = 0.0
-    condensed = None
-    for _ in range(MAX_CONDENSATIONS):
+    state = _Femur(travel=0.0, angles=np.zeros(len(turn_axes)))
+
+    def solve(cands: dict[PairKey, np.ndarray]) -> Round[_Settled]:
         pairs = [p for p in _pairs(sides, cands) if len(p.nodes)]
         count = sum(len(p.nodes) for p in pairs)
         if count > MAX_CANDIDATES:
@@ -834,69 +892,74 @@ def _solve(sides: list[_Side], rot: np.ndarray, t: np.ndarray, load: float,
                                "lower fe.candidate_gap_mm or coarsen the sheets (fe.prepare "
                                "= 'on', fe.size_mm)")
         t0 = time.perf_counter()
-        condensed = Condensed(bodies, pairs, axis,
-                              turns=[(a, np.zeros(3)) for a in turn_axes], reuse=condensed)
-        t_condense += time.perf_counter() - t0
+        state.condensed = Condensed(bodies, pairs, axis,
+                                    turns=[(a, np.zeros(3)) for a in turn_axes],
+                                    reuse=state.condensed)
+        state.condense_s += time.perf_counter() - t0
         say(f"condensed {sum(len(p.nodes) for p in pairs)} contact candidates in "
-            f"{condensed.seconds:.1f} s")
+            f"{state.condensed.seconds:.1f} s")
         t0 = time.perf_counter()
         previous = None
         for _ in range(50):
-            outer += 1
-            turn = angles @ turn_axes
-            g0 = np.concatenate([_pair_gaps(p, sides, rot, t, travel, turn) for p in pairs])
-            sol = condensed.solve(g0, load, start=previous, displace=False,
-                                  moments_Nmm=moments)
+            state.outer += 1
+            turn = state.angles @ turn_axes
+            g0 = np.concatenate([_pair_gaps(p, sides, rot, t, state.travel, turn)
+                                 for p in pairs])
+            sol = state.condensed.solve(g0, load, start=previous, displace=False,
+                                        moments_Nmm=moments)
             previous = np.concatenate([sol.pairs[p.name].active for p in pairs])
-            travel += sol.approach_mm
-            angles = angles + sol.turns_rad
+            state.travel += sol.approach_mm
+            state.angles = state.angles + sol.turns_rad
             arm = max(float(np.linalg.norm(p.points, axis=1).max())
-                      for p in pairs if _femur_pair(p.name))
+                      for p in pairs if p.key[1].femur)
             if np.abs(np.r_[sol.approach_mm, sol.turns_rad * arm]).max() <= MOVE_TOL_MM:
                 break
         else:
             raise FecheckError("the femur of the FE with menisci does not settle in 50 "
                                "re-linearisations; check the load and the meshes")
-        sol = replace(sol, u=condensed.displacements(
+        sol = replace(sol, u=state.condensed.displacements(
             np.concatenate([sol.pairs[p.name].force_N for p in pairs])))
-        t_solve += time.perf_counter() - t0
+        state.solve_s += time.perf_counter() - t0
         paired = {s.name: s.hits for s in sides}
         for s in sides:
             if s.femoral is not None:
-                s.hits = _femoral_hits(s, rot, travel, angles @ turn_axes)
-        gaps = _all_gaps(sides, rot, t, travel, sol.u, angles @ turn_axes)
+                s.hits = _femoral_hits(s, rot, state.travel, state.angles @ turn_axes)
+        gaps = _all_gaps(sides, rot, t, state.travel, sol.u, state.angles @ turn_axes)
         worst, where = _worst(gaps, sides)
-        grown = {name: np.union1d(cands[name], np.flatnonzero(g < margin))
-                 for name, g in gaps.items()}
-        if worst <= PENETRATION_TOL_MM:
-            break
-        moved = _moved_hits(paired, sides, cands)
-        stuck = all(len(grown[k]) == len(cands[k]) for k in cands) and not moved
-        if stuck:
-            break
-        say(f"a vertex penetrates by {worst:.2e} mm ({where}): "
-            + (f"re-pairing the {moved} contact candidates whose ray has moved on the femoral "
-               "layer" if moved else "widening the candidates"))
-        cands = grown
-    if worst > PENETRATION_TOL_MM:
-        fix = ("raise fe.candidate_gap_mm" if stuck else
+        moved = _moved_hits(paired, sides, cands) if worst > PENETRATION_TOL_MM else 0
+        return Round(_Settled(pairs, sol, gaps, where), gaps, worst, moved)
+
+    def widening(result: Round[_Settled]) -> None:
+        say(f"a vertex penetrates by {result.worst:.2e} mm ({result.solution.where}): "
+            + (f"re-pairing the {result.repaired} contact candidates whose ray has moved on "
+               "the femoral layer" if result.repaired else "widening the candidates"))
+
+    result, outcome, _ = widened(solve, {name: np.flatnonzero(g < margin)
+                                         for name, g in gaps.items()},
+                                 margin, MAX_CONDENSATIONS, PENETRATION_TOL_MM, widening)
+    pairs, sol, gaps, worst = (result.solution.pairs, result.solution.sol,
+                               result.solution.gaps, result.worst)
+    if outcome is not Outcome.SETTLED:
+        fix = ("raise fe.candidate_gap_mm" if outcome is Outcome.STUCK else
                f"the contact did not settle in {MAX_CONDENSATIONS} condensations; refine "
                "the sheets at the contact, or use fe.cartilage = 'series'")
         raise FecheckError(f"the FE with menisci leaves a penetration of {worst:.2e} mm "
-                           f"({where}); {fix}")
+                           f"({result.solution.where}); {fix}")
+    travel, angles, outer = state.travel, state.angles, state.outer
+    t_condense, t_solve = state.condense_s, state.solve_s
     seconds |= {"condense": t_condense, "solve": t_solve}
     fe, balance, pressure, region = _report(sides, pairs, sol, axis, load)
     ef = _ef_rows(run, [s.name for s in sides])
     on_femur = sum(np.cross(p.points, p.normals).T @ sol.pairs[p.name].force_N
-                   for p in pairs if _femur_pair(p.name))
+                   for p in pairs if p.key[1].femur)
     records = {p.name: PairRecord(p.nodes, sol.pairs[p.name].force_N, sol.pairs[p.name].gap_mm,
                                   p.normals) for p in pairs}
     springs = {s.name: -np.einsum("nij,nj->i", s.meniscus.spring_N_per_mm, _disp(
         s.meniscus.body, sol.u[s.meniscus.body.name], s.meniscus.spring_nodes))
         for s in sides if s.meniscus}
     reports = {s.name: meniscus_report(s.meniscus, sol.u[s.meniscus.body.name],
-                                       gaps[f"{s.name} femur-meniscus"],
-                                       records[f"{s.name} femur-meniscus"])
+                                       gaps[s.name, PairKind.FEMUR_MENISCUS],
+                                       records[pair_name((s.name, PairKind.FEMUR_MENISCUS))])
                for s in sides if s.meniscus}
     return KneeMenisciFE(load, fe, ef, travel, axis, balance, worst,
                          sum(b.K.shape[0] for b in bodies), outer, seconds, records, springs,
@@ -927,15 +990,15 @@ def superior_pressure(m: MeniscusBody, record: PairRecord | None
     return surface, np.divide(force[used], area, out=np.zeros(len(used)), where=area > 0)
 
 
-def _moved_hits(paired: dict[str, dict], sides: list[_Side], cands: dict[str, np.ndarray]
-                ) -> int:
+def _moved_hits(paired: dict[str, dict], sides: list[_Side],
+                cands: dict[PairKey, np.ndarray]) -> int:
     """How many femur-pair candidates' rays hit the femoral layer elsewhere (another face,
     or weights moved by over `REPAIR_WEIGHT`) than at the pairing `paired` (per side,
     `_Side.hits`) the solve used."""
     count = 0
     for s in sides:
         for kind, (face, weights) in s.hits.items():
-            rows = cands[f"{s.name} {kind}"]
+            rows = cands[s.name, kind]
             old_face, old_weights = paired[s.name][kind]
             count += int(((face[rows] != old_face[rows])
                           | (np.abs(weights[rows] - old_weights[rows]).max(axis=1)
@@ -1014,24 +1077,24 @@ def radial_displacement(m: MeniscusBody, full: np.ndarray) -> float:
     return float(vol @ np.einsum("ij,ij->i", disp[body], out[body]) / vol.sum())
 
 
-def _worst(gaps: dict[str, np.ndarray], sides: list[_Side]) -> tuple[float, str]:
+def _worst(gaps: dict[PairKey, np.ndarray], sides: list[_Side]) -> tuple[float, str]:
     """(the deepest penetration over every pair's vertices (mm, ≥ 0), the pair and the
     vertex's place in the tibia frame)."""
-    name = min(gaps, key=lambda k: float(gaps[k].min()))
-    k = int(np.argmin(gaps[name]))
-    side = next(s for s in sides if name.startswith(f"{s.name} "))
-    point = (side.meniscus.points[side.meniscus.superior[k]] if "femur-meniscus" in name
-             else side.layer.surface.points[k])
-    return (max(0.0, -float(gaps[name][k])),
-            f"{name} at ({', '.join(f'{v:.1f}' for v in point)}) mm, tibia frame")
+    key = min(gaps, key=lambda k: float(gaps[k].min()))
+    k = int(np.argmin(gaps[key]))
+    side = next(s for s in sides if s.name == key[0])
+    point = (side.meniscus.points[side.meniscus.superior[k]]
+             if key[1] is PairKind.FEMUR_MENISCUS else side.layer.surface.points[k])
+    return (max(0.0, -float(gaps[key][k])),
+            f"{pair_name(key)} at ({', '.join(f'{v:.1f}' for v in point)}) mm, tibia frame")
 
 
 def _pair_gaps(p: Pair, sides: list[_Side], rot: np.ndarray, t: np.ndarray,
                travel: float, turn: np.ndarray | None = None) -> np.ndarray:
     """The reference gaps (mm) of pair `p` with the femur at `travel` turned by `turn`
     (`_femur_gap`; undeformed)."""
-    side = next(s for s in sides if p.name.startswith(f"{s.name} "))
-    if not _femur_pair(p.name):
+    side = next(s for s in sides if s.name == p.key[0])
+    if not p.key[1].femur:
         return p.gap0_mm
     if p.slave == side.body.name:
         return _femur_gap(side.indenter, side.layer.surface.points[p.nodes], p.normals,
@@ -1048,7 +1111,7 @@ def _report(sides: list[_Side], pairs: list[Pair], sol, axis: np.ndarray, load: 
     regions (`REGION_NAMES` keys)."""
     from fecheck.fe.recovery import zero_contour_area
 
-    by_name = {p.name: p for p in pairs}
+    by_key = {p.key: p for p in pairs}
     femur_total = 0.0
     out, pressures, regions_at = {}, {}, {}
     for s in sides:
@@ -1057,17 +1120,17 @@ def _report(sides: list[_Side], pairs: list[Pair], sol, axis: np.ndarray, load: 
         axial_at = np.zeros(n_pts)
         region = np.zeros(n_pts, dtype=np.int64)
         axial = {}
-        for kind in ("femur-tibia", "meniscus-tibia", "femur-meniscus"):
-            p = by_name.get(f"{s.name} {kind}")
+        for kind in (PairKind.FEMUR_TIBIA, PairKind.MENISCUS_TIBIA, PairKind.FEMUR_MENISCUS):
+            p = by_key.get((s.name, kind))
             lam = sol.pairs[p.name].force_N if p else np.zeros(0)
             normals = p.normals if p else np.zeros((0, 3))
             axial[kind] = float(lam @ normals[:, 2])
-            if p and _femur_pair(p.name):
+            if p and kind.femur:
                 femur_total -= float(lam @ (normals @ axis))
             if p and p.slave == s.body.name:
                 force[p.nodes] += lam
                 axial_at[p.nodes] += lam * normals[:, 2]
-            if p and kind == "meniscus-tibia":
+            if p and kind is PairKind.MENISCUS_TIBIA:
                 inferior = s.meniscus.solid.face_region[s.meniscus.solid.face_label == INFERIOR]
                 region[p.nodes] = inferior[s.face[p.nodes]]
         springs, balance, slide = 0.0, 0.0, 0.0
@@ -1079,26 +1142,26 @@ def _report(sides: list[_Side], pairs: list[Pair], sol, axis: np.ndarray, load: 
                                _disp(m.body, sol.u[m.body.name], m.spring_nodes))
             springs = -float(spring[:, 2].sum())
             on_men = -spring.sum(axis=0)
-            for kind, sign in (("femur-meniscus", -1.0), ("meniscus-tibia", 1.0)):
-                p = by_name.get(f"{s.name} {kind}")
+            for kind, sign in ((PairKind.FEMUR_MENISCUS, -1.0), (PairKind.MENISCUS_TIBIA, 1.0)):
+                p = by_key.get((s.name, kind))
                 if p:
                     on_men += sign * sol.pairs[p.name].force_N @ p.normals
             balance = float(np.linalg.norm(on_men))
         pressure = force / s.layer.solid.tributary_mm2
         pressures[s.name] = pressure
         regions_at[s.name] = region
-        ft = by_name[f"{s.name} femur-tibia"]
+        ft = by_key[s.name, PairKind.FEMUR_TIBIA]
         sink = -np.einsum("ij,ij->i", _disp(s.body, sol.u[s.body.name], ft.nodes), ft.normals)
         pressed = sol.pairs[ft.name].force_N > 0
         area = zero_contour_area(s.layer.surface.points, s.layer.surface.faces, pressure,
                                  force > 0)
-        through = axial["meniscus-tibia"] + springs
-        total = through + axial["femur-tibia"]
+        through = axial[PairKind.MENISCUS_TIBIA] + springs
+        total = through + axial[PairKind.FEMUR_TIBIA]
         regions = {name: _region(s.layer.surface, np.where(region == k, pressure, 0.0),
                                  float(axial_at[region == k].sum()))
                    for k, name in REGION_NAMES.items() if k == 0 or s.meniscus is not None}
-        out[s.name] = CompartmentFE(through, springs, axial["femur-tibia"],
-                                    axial["femur-meniscus"], through / total, float(area),
+        out[s.name] = CompartmentFE(through, springs, axial[PairKind.FEMUR_TIBIA],
+                                    axial[PairKind.FEMUR_MENISCUS], through / total, float(area),
                                     float(pressure.max()), balance, slide,
                                     float(sink[pressed].max(initial=0.0)), regions)
     return out, femur_total - load, pressures, regions_at

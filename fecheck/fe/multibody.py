@@ -25,10 +25,10 @@ pair it masters reads δ a·n as an indenter pair does, and the forces on it loa
 indenter,
 and C = Σ_bodies D_b K_b⁻¹ D_bᵀ (D_b: the gaps' map to body b's kept dofs; one sparse
 factorization per body, K_b⁻¹ on the dofs D_b reads from its trailing block:
-`fecheck.fe.contact.condensed_compliance` along the normals for a body that is only a
+`fecheck.fe.contact.compliance.condensed_compliance` along the normals for a body that is only a
 slave, `nodal_compliance` otherwise, or block solves with another solver). The mixed
 complementarity problem g ≥ 0, λ ≥ 0, λ·g = 0 with the equilibria Jᵀλ = (−F, 0, ...)
-is solved exactly by the primal-dual active set of `fecheck.fe.contact.active_set`: no
+is solved exactly by the primal-dual active set of `fecheck.fe.contact.active_set.active_set`: no
 penalty. Gaps are in the reference configuration (small displacements, pairs fixed).
 Units: mm, N, MPa.
 """
@@ -36,19 +36,21 @@ Units: mm, N, MPa.
 from __future__ import annotations
 
 import time
-from collections.abc import Sequence
+from collections.abc import Hashable, Sequence
 from dataclasses import dataclass, field
 
 import numpy as np
 import scipy.sparse as sp
 
 from fecheck.errors import FecheckError
-from fecheck.fe.contact import (
-    active_set,
+from fecheck.fe.contact.active_set import active_set
+from fecheck.fe.contact.compliance import (
+    block_compliance,
     condensed_compliance,
     factorize,
     nodal_compliance,
 )
+from fecheck.fe.contact.gap import kept_dofs, surface_entries
 
 
 @dataclass(frozen=True, eq=False)
@@ -71,7 +73,9 @@ class Pair:
     """Slave `nodes` (m,) of body `slave` with unit `normals` (m, d) toward the master and
     reference gaps `gap0_mm` (m,); `master` None for the rigid indenter, else a body
     hit at `master_nodes` (m, k) with `weights` (m, k); `points` (m, 3) the slave nodes'
-    places (mm), the lever arms of an indenter pair when the indenter turns."""
+    places (mm), the lever arms of an indenter pair when the indenter turns; `key` what
+    the model that built the pair knows it by (its bodies and kind, typed), the solver
+    does not read it."""
 
     name: str
     slave: str
@@ -82,6 +86,7 @@ class Pair:
     master_nodes: np.ndarray | None = None
     weights: np.ndarray | None = None
     points: np.ndarray | None = None
+    key: Hashable = None
 
 
 @dataclass(frozen=True)
@@ -133,16 +138,6 @@ class MultibodySolution:
     def max_penetration_mm(self) -> float:
         """The largest penetration over every pair, mm (≥ 0)."""
         return float(max(0.0, -min(p.gap_mm.min() for p in self.pairs.values())))
-
-
-def _entries(body: Body, nodes: np.ndarray, coef: np.ndarray, row: np.ndarray
-             ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """(rows, cols, values) of coef (r, d) on `nodes` (r,) of `body` in gap rows `row`,
-    fixed components dropped."""
-    cols = body.node_dofs[nodes]
-    rows = np.broadcast_to(row[:, None], cols.shape)
-    keep = cols >= 0
-    return rows[keep], cols[keep], coef[keep]
 
 
 def _check(bodies: Sequence[Body], pairs: Sequence[Pair], indenter: Indenter) -> dict:
@@ -226,11 +221,11 @@ class Condensed:
                 if (old is not None and old.directions is not None
                         and np.array_equal(old.dofs, dofs)
                         and np.array_equal(old.directions, directions)):
-                    block, self.solves[b.name] = old.block, old.solve
+                    along, self.solves[b.name] = old.block, old.solve
                 else:
-                    block, self.solves[b.name] = condensed_compliance(b.K, dofs, directions)
-                self.kept[b.name] = Compliance(dofs, block, self.solves[b.name], directions)
-                C[np.ix_(rows, rows)] += block
+                    along, self.solves[b.name] = condensed_compliance(b.K, dofs, directions)
+                self.kept[b.name] = Compliance(dofs, along, self.solves[b.name], directions)
+                C[np.ix_(rows, rows)] += along
                 continue
             if solver == "cholmod":       # (K⁻¹) on the dofs the gaps read, one factorization
                 cols = np.unique(c)
@@ -248,18 +243,15 @@ class Condensed:
                 continue
             touched = np.unique(r)
             self.solves[b.name] = factorize(b.K, solver)
-            Dt = D[touched]
-            for s in range(0, len(touched), block):
-                part = slice(s, s + block)
-                X = self.solves[b.name](Dt[part].T.toarray())
-                C[np.ix_(touched, touched[part])] += Dt @ X
+            C[np.ix_(touched, touched)] += block_compliance(D[touched], self.solves[b.name],
+                                                            block)
         self.C = 0.5 * (C + C.T)
         self.seconds = time.perf_counter() - t0
 
     def _normal_gaps(self, body: Body) -> tuple[np.ndarray, np.ndarray, np.ndarray] | None:
         """(gap rows, node dof triplets, normals) when `body` is only ever a slave, at
         distinct nodes with all three dofs kept (each gap reads one node's normal
-        displacement: `fecheck.fe.contact.condensed_compliance` applies); else None."""
+        displacement: `fecheck.fe.contact.compliance.condensed_compliance` applies); else None."""
         mine = [(p, start) for p, start in zip(self.pairs, self.offsets[:-1], strict=True)
                 if body.name in (p.slave, p.master)]
         if any(p.master == body.name for p, _ in mine):
@@ -279,7 +271,9 @@ class Condensed:
         self._entries: dict[str, list] = {name: [] for name in names}
         for p, start in zip(self.pairs, self.offsets[:-1], strict=True):
             row = np.arange(start, start + len(p.nodes))
-            self._entries[p.slave].append(_entries(names[p.slave], p.nodes, -p.normals, row))
+            self._entries[p.slave].append(surface_entries(
+                row, p.nodes[:, None], -np.ones((len(row), 1)), p.normals,
+                kept_dofs(names[p.slave].node_dofs)))
             for k in (k for k, (who, _) in enumerate(unknowns) if who == p.slave):
                 J[row, k] -= p.normals @ unknowns[k][1]
             if names[p.slave].carried:
@@ -287,10 +281,9 @@ class Condensed:
             if p.master is None:
                 self._indenter_columns(J, row, p, 1.0)
                 continue
-            wn = p.weights[:, :, None] * p.normals[:, None, :]                   # (r, k, d)
-            rows = np.repeat(row, p.master_nodes.shape[1])
-            self._entries[p.master].append(_entries(names[p.master], p.master_nodes.ravel(),
-                                                    wn.reshape(-1, wn.shape[2]), rows))
+            self._entries[p.master].append(surface_entries(
+                row, p.master_nodes, p.weights, p.normals,
+                kept_dofs(names[p.master].node_dofs)))
             for k in (k for k, (who, _) in enumerate(unknowns) if who == p.master):
                 J[row, k] += p.weights.sum(axis=1) * (p.normals @ unknowns[k][1])
             if names[p.master].carried:

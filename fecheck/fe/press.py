@@ -26,8 +26,10 @@ import scipy.sparse as sp
 from fecheck.errors import FecheckError
 from fecheck.fe.bodies import FEBody
 from fecheck.fe.budget import MAX_DOFS, guard_layers, prepared_for_size
+from fecheck.fe.contact.candidates import Outcome, Round, widened
 from fecheck.fe.indenter import MeshIndenter, barycentric
 from fecheck.fe.joint import ContactLayer, JointContact, JointSolution, femoral_shift
+from fecheck.fe.pose import FramePose
 from fecheck.fe.settings import FESettings
 from fecheck.fe.solid import LayerSolid, layer_solid, release_freed_heap
 from fecheck.fe.volume import SolidMesh, mesh_solid, parent_faces, solid_layers
@@ -286,10 +288,11 @@ def solid_layer(body: FEBody, youngs_MPa: float, poisson: float, settings: FESet
 
 @dataclass(frozen=True)
 class Drive:
-    """The FE's rigid-body unknowns: pose, twist basis, generalised load and its
-    stiffness as functions of the unknowns x, and the start x0."""
+    """The FE's rigid-body unknowns: the tibia's pose in the world (the femur's frame),
+    X_WT, its twist basis, the generalised load and its stiffness as functions of the
+    unknowns x, and the start x0."""
 
-    pose: Callable[[np.ndarray], tuple[np.ndarray, np.ndarray]]
+    pose: Callable[[np.ndarray], FramePose]
     basis: Callable[[np.ndarray], np.ndarray]
     load: Callable[[np.ndarray], np.ndarray]
     stiffness: Callable[[np.ndarray], np.ndarray] | None
@@ -330,41 +333,42 @@ def joint_drive(scene: Scene, q_ef: np.ndarray, springs: Sequence[Callable],
         b = twist_basis(q, theta, base)
         return (b.T @ dw @ b + geometric_tangent(q, w, theta, base))[np.ix_(free, free)]
 
-    return Drive(lambda x: pose(full(x), theta, base),
+    return Drive(lambda x: FramePose(*pose(full(x), theta, base), "W", "T"),
                   lambda x: twist_basis(full(x), theta, base)[:, free], load, stiffness,
                   np.asarray(q_ef, dtype=float)[free], full)
 
 
-def push_drive(rot: np.ndarray, t: np.ndarray, force_on_tibia: np.ndarray) -> Drive:
-    """One compartment pushed from pose (R, t) along the line of the EF force on the
-    tibia, with its magnitude: the unknown is the translation s (mm) into the femur."""
+def push_drive(X_WT: FramePose, force_on_tibia: np.ndarray) -> Drive:
+    """One compartment pushed from the tibia's pose X_WT along the line of the EF force
+    on the tibia (world), with its magnitude: the unknown is the translation s (mm) into
+    the femur."""
     magnitude = float(np.linalg.norm(force_on_tibia))
     u = -np.asarray(force_on_tibia, dtype=float) / magnitude
     twist = np.concatenate([u, np.zeros(3)])[:, None]
-    return Drive(lambda x: (rot, t + x[0] * u), lambda x: twist,
+    return Drive(lambda x: FramePose(X_WT.rotation, X_WT.translation + x[0] * u, "W", "T"),
+                 lambda x: twist,
                   lambda x: np.array([magnitude]), None, np.zeros(1),
                   lambda x: np.asarray(x, dtype=float))
 
 
-def rigid_gaps(layer: FELayer, rot: np.ndarray, t: np.ndarray, idx: np.ndarray | None = None
-          ) -> np.ndarray:
+def rigid_gaps(layer: FELayer, X_WT: FramePose, idx: np.ndarray | None = None) -> np.ndarray:
     """Rigid gaps (mm) along the normals of the layer's surface vertices (all, or `idx`)
-    at tibia pose (R, t)."""
+    with the tibia at X_WT."""
     pts, nrm = layer.surface.points, layer.solid.normals
     if idx is not None:
         pts, nrm = pts[idx], nrm[idx]
-    return layer.indenter.gap(pts @ rot.T + t, nrm @ rot.T).gap_mm
+    return layer.indenter.gap(X_WT.points(pts), X_WT.vectors(nrm)).gap_mm
 
 
-def femoral_give(layer: FELayer, contact, rot: np.ndarray, t: np.ndarray) -> np.ndarray:
+def femoral_give(layer: FELayer, contact, X_WT: FramePose) -> np.ndarray:
     """(s,) the give of the deformable femoral layer `contact` pressed (0 for a rigid
-    femoral surface) along the normal of every surface vertex of `layer` at tibia pose
-    (R, t), mm: what it adds to their gaps."""
+    femoral surface) along the normal of every surface vertex of `layer` with the tibia
+    at X_WT, mm: what it adds to their gaps."""
     if contact.femur is None:
         return np.zeros(layer.surface.n_points)
-    nrm = layer.solid.normals @ rot.T
+    nrm = X_WT.vectors(layer.solid.normals)
     _, face, weights = MeshIndenter(contact.femur.solid.surface).hits(
-        layer.surface.points @ rot.T + t, nrm)
+        X_WT.points(layer.surface.points), nrm)
     return femoral_shift(contact.femur, contact.femoral_u, face, weights, nrm)
 
 
@@ -374,52 +378,56 @@ def solve_pressed(layers: Sequence[FELayer], drive: Drive, margin_mm: float,
                            ) -> tuple[JointSolution, float, list[np.ndarray], float]:
     """Condense onto the vertices within `margin_mm` of the femoral surface at the start
     pose, solve, and widen the candidates while a vertex outside them penetrates;
-    `femoral` ((layers, candidates, R, t) → their femoral layers, or None: rigid femoral
+    `femoral` ((layers, candidates, X_WT) → their femoral layers, or None: rigid femoral
     surfaces) builds deformable femoral layers under the candidates.
 
     Returns the solution, the condensation time (s), every layer's final gaps at all its
     surface vertices (mm) and the worst penetration found (mm, ≥ 0)."""
-    rot, t = drive.pose(drive.x0)
-    cands = [np.flatnonzero(rigid_gaps(lay, rot, t) < margin_mm) for lay in layers]
+    placed = drive.pose(drive.x0)
+    start = {i: np.flatnonzero(rigid_gaps(lay, placed) < margin_mm)
+             for i, lay in enumerate(layers)}
     condense = 0.0
-    for round_ in range(MAX_CANDIDATE_ROUNDS + 1):
-        if any(len(c) == 0 for c in cands):
-            empty = [lay.body.name for lay, c in zip(layers, cands, strict=True) if not len(c)]
+
+    def solve(cands: dict[int, np.ndarray]) -> Round[JointSolution]:
+        nonlocal condense, placed
+        if any(len(c) == 0 for c in cands.values()):
+            empty = [lay.body.name for i, lay in enumerate(layers) if not len(cands[i])]
             raise FecheckError(f"no {' or '.join(empty)} surface vertex lies within "
                                f"{margin_mm:.2f} mm of the femoral surface at the EF pose: "
                                "nothing for the FE contact to act on")
-        if max(len(c) for c in cands) > MAX_CANDIDATES:
-            raise FecheckError(f"{max(len(c) for c in cands)} surface vertices may touch "
+        most = max(len(c) for c in cands.values())
+        if most > MAX_CANDIDATES:
+            raise FecheckError(f"{most} surface vertices may touch "
                                f"(within {margin_mm:.2f} mm of the femoral surface), more "
                                f"than the {MAX_CANDIDATES} the dense contact solve takes: "
                                "coarsen the surface (fe.refine, scanned.decimate_faces) or "
                                "lower fe.candidate_gap_mm")
-        femurs = [None] * len(layers) if femoral is None else femoral(layers, cands, rot, t)
+        listed = [cands[i] for i in range(len(layers))]
+        femurs = ([None] * len(layers) if femoral is None
+                  else femoral(layers, listed, placed))
         joint = JointContact([ContactLayer(lay.body.name, lay.solid, lay.indenter, c)
                               if f is None else
                               ContactLayer(lay.body.name, lay.solid,
                                            MeshIndenter(f.solid.surface), c, f)
-                              for lay, c, f in zip(layers, cands, femurs, strict=True)],
+                              for lay, c, f in zip(layers, listed, femurs, strict=True)],
                              solver=settings.solver, log=log)
         condense += joint.seconds
         sol = joint.solve(drive.pose, drive.basis, drive.load, drive.x0,
                           stiffness=drive.stiffness)
-        rot, t = drive.pose(sol.q)
-        gaps = [rigid_gaps(lay, rot, t) - lay.solid.normal_rows @ lc.u
-                + femoral_give(lay, lc, rot, t)
-                for lay, lc in zip(layers, sol.layers, strict=True)]
-        worst = max(float(max(0.0, -g.min())) for g in gaps)
-        if worst <= PENETRATION_TOL_MM:
-            return sol, condense, gaps, worst
-        grown = [np.union1d(c, np.flatnonzero(g < margin_mm))
-                 for c, g in zip(cands, gaps, strict=True)]
-        if round_ == MAX_CANDIDATE_ROUNDS or all(
-                len(a) == len(b) for a, b in zip(grown, cands, strict=True)):
-            break
-        log(f"a vertex outside the contact candidates penetrates by {worst:.2e} mm: "
+        placed = drive.pose(sol.q)
+        gaps = {i: rigid_gaps(lay, placed) - lay.solid.normal_rows @ lc.u
+                + femoral_give(lay, lc, placed)
+                for i, (lay, lc) in enumerate(zip(layers, sol.layers, strict=True))}
+        return Round(sol, gaps, max(float(max(0.0, -g.min())) for g in gaps.values()))
+
+    def widening(result: Round[JointSolution]) -> None:
+        log(f"a vertex outside the contact candidates penetrates by {result.worst:.2e} mm: "
             "widening the candidates")
-        cands = grown
-    raise FecheckError(f"the FE contact leaves a penetration of {worst:.2e} mm outside its "
-                       "candidate vertices; raise fe.candidate_gap_mm")
 
-
+    result, outcome, _ = widened(solve, start, margin_mm, MAX_CANDIDATE_ROUNDS + 1,
+                                 PENETRATION_TOL_MM, widening)
+    if outcome is Outcome.SETTLED:
+        return (result.solution, condense, [result.gaps[i] for i in range(len(layers))],
+                result.worst)
+    raise FecheckError(f"the FE contact leaves a penetration of {result.worst:.2e} mm outside "
+                       "its candidate vertices; raise fe.candidate_gap_mm")

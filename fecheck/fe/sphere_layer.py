@@ -19,6 +19,7 @@ import numpy as np
 
 from fecheck.fe.bodies import FEBody
 from fecheck.fe.indenter import SphereIndenter
+from fecheck.fe.pose import FramePose
 from fecheck.fe.press import FELayer, build_layers, push_drive, rigid_gaps, solve_pressed
 from fecheck.fe.recovery import contact_metrics, zero_contour_area
 from fecheck.fe.results import FEContactResult
@@ -95,15 +96,14 @@ def sphere_on_flat_layer(load_N: float, radius_mm: float, youngs_MPa: float, poi
                                  formulation=formulation)
     surface = layer.surface
     t1 = time.perf_counter()
-    drive = push_drive(np.eye(3), np.zeros(3), -load_N * UP)
+    drive = push_drive(FramePose.identity("W", "T"), -load_N * UP)
     margin = candidate_margin(load_N, radius_mm, youngs_MPa, poisson)
     sol, condense, gaps, worst = solve_pressed([layer], drive, margin, settings, say)
     t2 = time.perf_counter()
     contact = sol.layers[0]
-    rot, t = drive.pose(sol.q)
     pressure = contact.force_N / layer.solid.tributary_mm2
     area = zero_contour_area(surface.points, surface.faces, pressure, contact.active)
-    rigid = rigid_gaps(layer, rot, t)
+    rigid = rigid_gaps(layer, drive.pose(sol.q))
     metrics = contact_metrics(pressure, contact.force_N, area, float(sol.q[0]))
     inside = contact.active[surface.faces].all(axis=1)
     edges = np.linalg.norm(surface.points[surface.faces[inside][:, [1, 2, 0]]]

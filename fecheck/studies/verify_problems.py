@@ -11,6 +11,7 @@ from functools import lru_cache
 
 import numpy as np
 
+from fecheck.fe.pose import FramePose
 from fecheck.reference.closed_forms import (
     column_stiffness,
     ef_sphere_on_plane,
@@ -411,7 +412,7 @@ def _pressed_layer(surface, up: np.ndarray, load_N: float, settings) -> np.ndarr
     body = FEBody("layer", surface, np.full(surface.n_points, 6.0), indenter, "plane",
                   indenter.describe(), "uniform")
     layer = build_layers([body], E_MPA, 0.3, settings, lambda m: None)[0]
-    drive = push_drive(np.eye(3), np.zeros(3), -load_N * up)
+    drive = push_drive(FramePose.identity("W", "T"), -load_N * up)
     sol, _, _, _ = solve_pressed([layer], drive, candidate_margin(load_N, R_MM, E_MPA, 0.3),
                                  settings, lambda m: None)
     c = sol.layers[0]

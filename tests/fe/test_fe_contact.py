@@ -8,7 +8,8 @@ import scipy.sparse as sp
 from scipy.optimize import brentq
 
 from fecheck.errors import FecheckError
-from fecheck.fe.contact import active_set, solve_contact
+from fecheck.fe.contact.active_set import active_set
+from fecheck.fe.contact.load_control import solve_contact
 from fecheck.reference.closed_forms import ef_sphere_on_plane, hertz_sphere_on_plane
 
 
@@ -80,7 +81,7 @@ def test_hertz_closed_form_is_self_consistent():
 def test_condensed_compliance_equals_the_solves_it_replaces():
     # a P2 layer's compliance along tilted unit directions at scattered surface nodes,
     # against K⁻¹ column by column; and its solver solves K
-    from fecheck.fe.contact import condensed_compliance
+    from fecheck.fe.contact.compliance import condensed_compliance
     from fecheck.fe.solid import layer_solid
     from geometry.plateau import plane_patch
 

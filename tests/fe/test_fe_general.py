@@ -12,6 +12,7 @@ import pytest
 from fecheck.fe.axisym import axisym_sphere_on_layer
 from fecheck.fe.indenter import MeshIndenter, SphereIndenter
 from fecheck.fe.joint import ContactLayer, JointContact
+from fecheck.fe.pose import FramePose
 from fecheck.fe.recovery import zero_contour_area
 from fecheck.fe.solid import layer_solid
 from fecheck.statics.frames import rotation
@@ -39,7 +40,7 @@ def _press(surface: TriMesh, indenter, direction: np.ndarray, force: float,
     cand = np.flatnonzero(gap < 1.5)
     joint = JointContact([ContactLayer("c", solid, indenter, cand)])
     d = np.asarray(direction, dtype=float)
-    sol = joint.solve(lambda q: (np.eye(3), q[0] * d),
+    sol = joint.solve(lambda q: FramePose(np.eye(3), q[0] * d),
                       lambda q: np.concatenate([d, np.zeros(3)])[:, None],
                       lambda q: np.array([force]), np.zeros(1))
     contact = sol.layers[0]
@@ -140,7 +141,7 @@ def test_pressure_is_smooth_in_the_load():
     joint = JointContact([ContactLayer("c", solid, ind, cand)])
     pmax = []
     for load in np.arange(324.0, 324.3 + 1e-9, 1e-3):
-        sol = joint.solve(lambda q: (np.eye(3), q[0] * UP),
+        sol = joint.solve(lambda q: FramePose(np.eye(3), q[0] * UP),
                           lambda q: np.concatenate([UP, np.zeros(3)])[:, None],
                           lambda q, f=load: np.array([f]), np.zeros(1))
         pmax.append((sol.layers[0].force_N / solid.tributary_mm2).max())

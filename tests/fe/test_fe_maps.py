@@ -22,13 +22,13 @@ from fecheck.fe.indenter import SphereIndenter
 from fecheck.fe.press import FELayer
 from fecheck.fe.results import SideMetrics
 from fecheck.fe.settings import FESettings
-from fecheck.model.results import POSE_KEYS
+from fecheck.model.results import Pose
 from geometry.mesh import TriMesh
 
 CENTRES = {"medial": (-20.0, 2.0, -8.0), "lateral": (20.0, 2.0, -6.0)}
 """Centre of each compartment's FE pressure cap (and of its square surface), mm."""
 EF_SHIFT = np.array([0.3, 0.2, 0.0])        # the EF cap's centre from the FE one, mm
-POSE = {k: 0.0 for k in POSE_KEYS}
+POSE = Pose.of(np.zeros(5))
 
 
 # ---------------------------------------------------------------------- synthetic data

@@ -17,6 +17,7 @@ from fecheck.fe.bodies import FEBody
 from fecheck.fe.crosscheck import ROUGH_FEATURE_SHARE, assess_peaks
 from fecheck.fe.indenter import SphereIndenter
 from fecheck.fe.joint import ContactLayer, JointContact
+from fecheck.fe.pose import FramePose
 from fecheck.fe.press import FELayer
 from fecheck.fe.recovery import SPIKE_RATIO, pressure_peaks, smoothing_length
 from fecheck.fe.solid import layer_solid
@@ -62,7 +63,7 @@ def press(surface: TriMesh):
     sphere = SphereIndenter(np.array([0.0, 0.0, R]), R)
     gap = sphere.gap(surface.points, surface.vertex_normals).gap_mm
     joint = JointContact([ContactLayer("c", solid, sphere, np.flatnonzero(gap < 1.5))])
-    sol = joint.solve(lambda q: (np.eye(3), q[0] * UP),
+    sol = joint.solve(lambda q: FramePose(np.eye(3), q[0] * UP),
                       lambda q: np.concatenate([UP, np.zeros(3)])[:, None],
                       lambda q: np.array([F]), np.zeros(1))
     moved = sphere.gap(surface.points + sol.q[0] * UP, surface.vertex_normals).gap_mm

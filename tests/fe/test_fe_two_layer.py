@@ -20,6 +20,7 @@ from fecheck.fe import crosscheck
 from fecheck.fe.crosscheck import cross_check
 from fecheck.fe.indenter import MeshIndenter
 from fecheck.fe.joint import ContactLayer, FemoralLayer, JointContact
+from fecheck.fe.pose import FramePose
 from fecheck.fe.recovery import zero_contour_area
 from fecheck.fe.solid import layer_solid
 from fecheck.model.assembly import applied_load, free_indices
@@ -73,7 +74,7 @@ def _joint(tibial: TriMesh, h_t: float, femoral: TriMesh, h_f: float, *, levels:
 
 def _push(joint: JointContact, force: float, direction: np.ndarray = UP):
     """The tibial layer pushed along `direction` with `force` (N): (solution, contact)."""
-    sol = joint.solve(lambda q: (np.eye(3), q[0] * direction),
+    sol = joint.solve(lambda q: FramePose(np.eye(3), q[0] * direction),
                       lambda q: np.concatenate([direction, np.zeros(3)])[:, None],
                       lambda q: np.array([force]), np.zeros(1))
     return sol, sol.layers[0]

@@ -20,6 +20,7 @@ from fecheck.cli import main
 from fecheck.fe import volume
 from fecheck.fe.indenter import SphereIndenter
 from fecheck.fe.joint import ContactLayer, JointContact
+from fecheck.fe.pose import FramePose
 from fecheck.fe.recovery import zero_contour_area
 from fecheck.fe.volume import TibiaSolid, solid_layers
 from fecheck.reference.closed_forms import hertz_sphere_on_plane
@@ -39,7 +40,7 @@ def _press(layers: dict, force: float):
         gap = sphere.gap(solid.surface.points, solid.normals).gap_mm
         contact.append(ContactLayer(name, solid, sphere, np.flatnonzero(gap < 0.3)))
     joint = JointContact(contact)
-    return joint.solve(lambda q: (np.eye(3), q[0] * UP),
+    return joint.solve(lambda q: FramePose(np.eye(3), q[0] * UP),
                        lambda q: np.concatenate([UP, np.zeros(3)])[:, None],
                        lambda q: np.array([force]), np.zeros(1))
 

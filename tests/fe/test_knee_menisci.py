@@ -101,6 +101,7 @@ def test_without_menisci_it_is_the_pressed_layers(coarse):
     # is the tibial layers pressed by the rigid femur along the tibial z axis under the
     # same load: `fecheck.fe.press`'s joint solver (re-linearised in the pose, its own
     # condensation) on the same layers gives the same force at every vertex.
+    from fecheck.fe.pose import FramePose
     from fecheck.fe.press import push_drive, solve_pressed
     from fecheck.fe.settings import FESettings
     from fecheck.model.menisci import run_menisci
@@ -111,8 +112,8 @@ def test_without_menisci_it_is_the_pressed_layers(coarse):
     ef = run_menisci(bare)
     r = knee_menisci.knee_menisci_fe(bare, ef=ef, layers=layers, hold_rotation=True)
     assert set(r.pairs) == {"medial femur-tibia", "lateral femur-tibia"}
-    rot, t = body_pose(np.asarray(ef.menisci["poses"]["tibia"]["q"]))
-    sol, _, _, worst = solve_pressed(layers, push_drive(rot, t, np.array([0.0, 0.0, -r.load_N])),
+    X_WT = FramePose(*body_pose(np.asarray(ef.menisci["poses"]["tibia"]["q"])))
+    sol, _, _, worst = solve_pressed(layers, push_drive(X_WT, np.array([0.0, 0.0, -r.load_N])),
                                      0.5, FESettings.from_scene(bare), lambda m: None)
     assert worst <= 1e-6
     for lay, ref in zip(layers, sol.layers, strict=True):

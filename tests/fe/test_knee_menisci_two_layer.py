@@ -35,6 +35,7 @@ def test_without_menisci_it_is_the_pressed_two_layer_joint():
     # vertex (measured to 3.6e-7 of the peak: both stop at their own tolerances on the
     # femur's step and the pairing).
     from fecheck.fe.femoral import FemoralBuilder, femoral_sheet
+    from fecheck.fe.pose import FramePose
     from fecheck.fe.press import push_drive, solve_pressed
     from fecheck.fe.settings import FESettings
     from fecheck.model.menisci import run_menisci
@@ -47,10 +48,10 @@ def test_without_menisci_it_is_the_pressed_two_layer_joint():
     assert r.cartilage == "two-layer"
     assert r.max_penetration_mm <= 1e-6 and abs(r.balance_N) <= 1e-8 * r.load_N
     settings = FESettings.from_scene(bare)
-    rot, t = body_pose(np.asarray(ef.menisci["poses"]["tibia"]["q"]))
+    X_WT = FramePose(*body_pose(np.asarray(ef.menisci["poses"]["tibia"]["q"])))
     femoral = FemoralBuilder(femoral_sheet(bare, layers[0].indenter.mesh), settings,
                              lambda m: None)
-    sol, _, _, worst = solve_pressed(layers, push_drive(rot, t, np.array([0.0, 0.0, -r.load_N])),
+    sol, _, _, worst = solve_pressed(layers, push_drive(X_WT, np.array([0.0, 0.0, -r.load_N])),
                                      settings.candidate_gap_mm + knee_menisci.REACH_MM,
                                      settings, lambda m: None, femoral)
     assert worst <= 1e-6

@@ -24,6 +24,7 @@ from fecheck.fe.bodies import _tibial_thickness
 from fecheck.fe.femoral import femoral_sheet
 from fecheck.fe.indenter import MeshIndenter
 from fecheck.fe.joint import ContactLayer, FemoralLayer, JointContact
+from fecheck.fe.pose import FramePose
 from fecheck.fe.solid import layer_solid
 from fecheck.laws import layer
 from fecheck.laws.materials import ef_stiffness
@@ -215,7 +216,7 @@ def test_a_femoral_layer_twice_as_stiff_takes_a_third_of_the_approach():
     femur = FemoralLayer("femur", fem, np.unique(femoral.faces[face[cand]]))
     joint = JointContact([ContactLayer("tibia", tib, indenter, cand, femur)])
     up = np.array([0.0, 0.0, 1.0])
-    sol = joint.solve(lambda q: (np.eye(3), q[0] * up),
+    sol = joint.solve(lambda q: FramePose(np.eye(3), q[0] * up),
                       lambda q: np.concatenate([up, np.zeros(3)])[:, None],
                       lambda q: np.array([60.0]), np.zeros(1))
     lc = sol.layers[0]

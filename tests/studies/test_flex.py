@@ -449,8 +449,7 @@ def test_the_one_at_a_time_active_set_solves_the_block_updates_complementarity()
     # block (Hintermüller-Ito-Kunisch) update finds; the one-change-per-solve fallback
     # must find the same forces (round-off ~1e-12 of the load), from every candidate in
     # contact (releases needed) and from the deepest alone (additions needed).
-    from fecheck.fe.contact import active_set
-    from fecheck.fe.joint import _one_at_a_time
+    from fecheck.fe.contact.active_set import active_set, one_at_a_time
 
     rng = np.random.default_rng(3)
     a = rng.normal(size=(30, 30))
@@ -463,7 +462,7 @@ def test_the_one_at_a_time_active_set_solves_the_block_updates_complementarity()
     lam_b, dq_b, set_b, _ = active_set(C, g0, J, G, Q, dQ, deepest.copy(), 200, "")
     assert 1 < set_b.sum() < 30
     for start in (np.ones(30, dtype=bool), deepest):
-        lam_o, dq_o, set_o, _ = _one_at_a_time(C, g0, J, G, Q, dQ, start.copy(), 600)
+        lam_o, dq_o, set_o, _ = one_at_a_time(C, g0, J, G, Q, dQ, start.copy(), 600)
         assert np.array_equal(set_o, set_b)
         assert np.allclose(lam_o, lam_b, rtol=0, atol=1e-9) and dq_o == pytest.approx(dq_b)
         assert lam_o.sum() == pytest.approx(100.0, rel=1e-12)
