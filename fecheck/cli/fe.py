@@ -362,14 +362,15 @@ def refuse_unsupported(args: argparse.Namespace) -> None:
 
 
 def start_ef(scene):
-    """The EF equilibrium the FE with menisci starts from: the scene's, its cartilage of
-    ``fe.start_youngs_MPa`` and ``fe.start_poisson`` where they are set."""
+    """The EF equilibrium the FE with menisci starts from where the scene names its
+    cartilage (``fe.start_youngs_MPa``, ``fe.start_poisson``): the scene's EF with that
+    cartilage; None where it names none (the FE then runs the scene's own EF)."""
     from fecheck.model.menisci import run_menisci
     from fecheck.scene import with_values
 
-    start = {k: scene[f"fe.start_{k}"] for k in ("youngs_MPa", "poisson")}
-    return run_menisci(with_values(scene, **{f"contact__{k}": v for k, v in start.items()
-                                             if v is not None}))
+    start = {f"contact__{k}": scene[f"fe.start_{k}"] for k in ("youngs_MPa", "poisson")
+             if scene[f"fe.start_{k}"] is not None}
+    return run_menisci(with_values(scene, **start)) if start else None
 
 
 def run_menisci_fe(args: argparse.Namespace, scene, out) -> int:

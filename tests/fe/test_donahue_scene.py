@@ -87,7 +87,9 @@ def test_the_fe_starts_from_the_ef_of_the_start_material(scene, monkeypatch):
     monkeypatch.setattr(menisci, "run_menisci", _cartilage)
     assert start_ef(scene) == (20.0, 0.3)                   # the scene's fe.start_*
     plain = with_values(scene, fe__start_youngs_MPa=None, fe__start_poisson=None)
-    assert start_ef(plain) == (15.0, 0.475)                 # unset: the contact material
+    assert start_ef(plain) is None                          # unset: the FE runs the scene's EF
+    half = with_values(plain, fe__start_poisson=0.3)
+    assert start_ef(half) == (15.0, 0.3)                    # the other from contact.*
 
 
 def test_fecheck_fe_prints_the_choices_and_the_published_numbers(monkeypatch, capsys):
