@@ -383,9 +383,8 @@ def run_menisci_fe(args: argparse.Namespace, scene, out) -> int:
     from fecheck.fe.knee_menisci_report import (
         as_dict,
         choice_lines,
-        choice_rows,
+        comparison_dict,
         published_lines,
-        published_rows,
         report_lines,
     )
     from fecheck.io.outputs import write_text
@@ -407,8 +406,7 @@ def run_menisci_fe(args: argparse.Namespace, scene, out) -> int:
         print(line, file=out)
     print("error estimate: none (not made for the FE with menisci)", file=out)
     if args.json is not None:
-        data = with_provenance(as_dict(result, name) | {
-            "published": published_rows(result), "choices": choice_rows(scene)}, scene)
+        data = with_provenance(as_dict(result, name) | comparison_dict(result, scene), scene)
         write_text(args.json, json.dumps(data, indent=2) + "\n")
         if str(args.json) != "-":
             print(f"wrote {args.json}", file=out)

@@ -209,6 +209,12 @@ def published_lines(result) -> list[str]:
     return out
 
 
+def comparison_dict(result, scene) -> dict:
+    """The JSON of the two blocks: ``published`` (`published_rows`, null where a model gives
+    no SD) and ``choices`` (`choice_rows`)."""
+    return _finite({"published": published_rows(result), "choices": choice_rows(scene)})
+
+
 def load_path_lines(result) -> list[str]:
     """Per meniscus the load path (axial N: femur → meniscus; meniscus → tibia by contact
     and through its horn roots) with each root's tension, and its hoop force along the

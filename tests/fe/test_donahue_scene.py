@@ -5,6 +5,7 @@ stand-in result carries the FE's numbers)."""
 
 from __future__ import annotations
 
+import json
 from types import SimpleNamespace
 
 import pytest
@@ -79,6 +80,10 @@ def test_published_lines_carry_the_published_numbers():
         assert number in text, number
 
 
+def _no_nan(text):
+    raise AssertionError(f"{text} in the JSON")
+
+
 def _cartilage(scene):
     return scene["contact.youngs_MPa"], scene["contact.poisson"]
 
@@ -92,17 +97,25 @@ def test_the_fe_starts_from_the_ef_of_the_start_material(scene, monkeypatch):
     assert start_ef(half) == (15.0, 0.3)                    # the other from contact.*
 
 
-def test_fecheck_fe_prints_the_choices_and_the_published_numbers(monkeypatch, capsys):
+def test_fecheck_fe_prints_the_choices_and_the_published_numbers(monkeypatch, capsys,
+                                                                 tmp_path):
     starts = []
     monkeypatch.setattr(menisci, "run_menisci", _cartilage)
     monkeypatch.setattr(knee_menisci, "knee_menisci_fe",
                         lambda *a, ef=None, **k: starts.append(ef) or _stand_in())
     monkeypatch.setattr(knee_menisci_report, "report_lines", lambda result, wall: [])
-    assert main(["fe", "donahue2002"]) == 0
+    monkeypatch.setattr(knee_menisci_report, "as_dict", lambda result, name: {})
+    path = tmp_path / "fe.json"
+    assert main(["fe", "donahue2002", "--json", str(path)]) == 0
     out = capsys.readouterr().out
     assert "modelling choices beside Donahue 2002's (10 of 10 the same" in out
     assert "Haut Donahue et al. 2003, J Biomech 36:19" in out
     for number in PUBLISHED:
         assert number in out, number
     assert starts == [(20.0, 0.3)]
+    data = json.loads(path.read_text(encoding="utf-8"), parse_constant=_no_nan)
+    donahue = {r["compartment"]: (r["area_mm2"], r["p_max_MPa"]) for r in data["published"]
+               if r["model"] == "Donahue 2002"}
+    assert donahue == {"medial": (490.0, 2.55), "lateral": (415.0, 2.36)}
+    assert all(r["same"] for r in data["choices"])
     assert "the FE's start pose: the EF equilibrium with its cartilage at E MPa 20, nu 0.3" in out
