@@ -22,11 +22,12 @@ Per row and compartment: tibial contact area (mm²), vertex p_max (MPa), menisca
 the ratio of area and p_max to Donahue's (to the subject FE's for the 1150 N row), with the
 change from the packaged scene (%). Writes DIR/donahue_factors.md and DIR/donahue_factors.json.
 
-    python validation/donahue_factors.py [--quick] [--out DIR]
+    python validation/donahue_factors.py [--quick [--all-rows]] [--out DIR]
 
 --quick: the packaged scene and the menisci as shipped only, with one deformable cartilage
 layer of both thicknesses in series on tibial sheets remeshed at 2 mm (``fe.cartilage =
-"series"``) and 2.5 mm meniscus tetrahedra: a check that the script runs, not Donahue's model.
+"series"``) and 2.5 mm meniscus tetrahedra: a check that the script runs, not Donahue's model;
+--all-rows: every row on that model.
 """
 
 from __future__ import annotations
@@ -164,13 +165,15 @@ def main(argv=None) -> int:
     p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     p.add_argument("--quick", action="store_true",
                    help="two rows, one cartilage layer on 2 mm sheets")
+    p.add_argument("--all-rows", action="store_true",
+                   help="with --quick: every row, on the quick model")
     p.add_argument("--out", type=Path, default=Path("out/validation"), help="output folder")
     args = p.parse_args(argv)
 
     def say(m):
         print(f"  {m}", file=sys.stderr)
 
-    factors = FACTORS[:QUICK_ROWS] if args.quick else FACTORS
+    factors = FACTORS[:QUICK_ROWS] if args.quick and not args.all_rows else FACTORS
     args.out.mkdir(parents=True, exist_ok=True)
     rows, failed = [], []
     for n, k, s in factors:
