@@ -361,6 +361,18 @@ def refuse_unsupported(args: argparse.Namespace) -> None:
             raise FecheckError(f"fecheck fe on a scene with menisci does not take {what}")
 
 
+def start_ef(scene):
+    """The EF equilibrium the FE with menisci starts from where the scene names its
+    cartilage (``fe.start_youngs_MPa``, ``fe.start_poisson``): the scene's EF with that
+    cartilage; None where it names none (the FE then runs the scene's own EF)."""
+    from fecheck.model.menisci import run_menisci
+    from fecheck.scene import with_values
+
+    start = {f"contact__{k}": scene[f"fe.start_{k}"] for k in ("youngs_MPa", "poisson")
+             if scene[f"fe.start_{k}"] is not None}
+    return run_menisci(with_values(scene, **start)) if start else None
+
+
 def run_menisci_fe(args: argparse.Namespace, scene, out) -> int:
     """Run the FE with menisci of `scene`, print the report to `out`, write --json."""
     import json
@@ -368,7 +380,13 @@ def run_menisci_fe(args: argparse.Namespace, scene, out) -> int:
 
     from fecheck.fe import knee_menisci
     from fecheck.fe.crosscheck import stderr_log
-    from fecheck.fe.knee_menisci_report import as_dict, report_lines
+    from fecheck.fe.knee_menisci_report import (
+        as_dict,
+        choice_lines,
+        comparison_dict,
+        published_lines,
+        report_lines,
+    )
     from fecheck.io.outputs import write_text
     from fecheck.scene.provenance import with_provenance
     from geometry.budget import policy
@@ -380,15 +398,15 @@ def run_menisci_fe(args: argparse.Namespace, scene, out) -> int:
     t0 = time.perf_counter()
     with policy("fecheck fe", force=args.force, force_hint="--force"):
         result = knee_menisci.knee_menisci_fe(scene, meniscus_size_mm=size, log=stderr_log,
-                                              without=True)
+                                              ef=start_ef(scene), without=True)
     wall = time.perf_counter() - t0
     print(f"{name}: FE with menisci at the EF pose, load on the tibia {result.load_N:.2f} N, "
           f"meniscus tetrahedra {size:g} mm", file=out)
-    for line in report_lines(result, wall):
+    for line in report_lines(result, wall) + published_lines(result) + choice_lines(scene):
         print(line, file=out)
     print("error estimate: none (not made for the FE with menisci)", file=out)
     if args.json is not None:
-        data = with_provenance(as_dict(result, name), scene)
+        data = with_provenance(as_dict(result, name) | comparison_dict(result, scene), scene)
         write_text(args.json, json.dumps(data, indent=2) + "\n")
         if str(args.json) != "-":
             print(f"wrote {args.json}", file=out)

@@ -13,7 +13,9 @@ from __future__ import annotations
 import math
 from dataclasses import asdict
 
+from fecheck.fe.anisotropy import MENISCUS
 from fecheck.reference.closed_forms import DONAHUE_2002
+from fecheck.reference.published_fe import DONAHUE_2002_CHOICES, SUBJECT_FE_2020
 
 PUBLISHED_SHARE = {"medial": 0.5, "lateral": 0.7}
 """Meniscal share of intact knees near full extension, as usually quoted (docstring)."""
@@ -123,6 +125,94 @@ def report_lines(result, wall_s: float | None = None) -> list[str]:
         f"{k} {v:.1f}" for k, v in result.seconds.items()) + wall)
     out.append(donahue_note(result.cartilage))
     return out
+
+
+def _shown(value) -> str:
+    if isinstance(value, list | tuple):
+        return ", ".join(f"{v:g}" if isinstance(v, float) else str(v) for v in value)
+    return f"{value:g}" if isinstance(value, float) else str(value)
+
+
+def choice_rows(scene) -> list[dict]:
+    """Per modelling choice of Donahue 2002 (`DONAHUE_2002_CHOICES`): what it is, its scene
+    key, Donahue's value, the scene's (fecheck's meniscus material where no key makes it),
+    whether they agree, and the source."""
+    out = []
+    for ch in DONAHUE_2002_CHOICES:
+        if ch.key is None:
+            mine = (MENISCUS.E_t, MENISCUS.E_p, MENISCUS.nu_tp, MENISCUS.nu_p)
+            same = mine == ch.value
+        else:
+            mine = scene[ch.key]
+            same = (sorted(mine) == sorted(ch.value) if isinstance(ch.value, list)
+                    else mine == ch.value)
+        out.append({"what": ch.what, "key": ch.key or "(fecheck's meniscus material)",
+                    "donahue_2002": _shown(ch.value), "scene": _shown(mine),
+                    "same": bool(same), "source": ch.source})
+    return out
+
+
+def choice_lines(scene) -> list[str]:
+    """The modelling-choices block: per choice of Donahue 2002 the scene key, the scene's
+    value, whether it is Donahue's, and the source."""
+    rows_ = choice_rows(scene)
+    out = [f"modelling choices beside Donahue 2002's ({sum(r['same'] for r in rows_)} of "
+           f"{len(rows_)} the same; the geometry is this knee's, not Donahue's cadaver's):"]
+    for r in rows_:
+        mark = "same as" if r["same"] else "differs from"
+        out.append(f"  {r['what']}: {r['key']} = {r['scene']}, {mark} Donahue's "
+                   f"{r['donahue_2002']} [{r['source']}]")
+    start = [f"{name} {scene[f'fe.start_{k}']:g}" for k, name in
+             (("youngs_MPa", "E MPa"), ("poisson", "nu")) if scene[f"fe.start_{k}"] is not None]
+    if start:
+        out.append(f"  the FE's start pose: the EF equilibrium with its cartilage at "
+                   f"{', '.join(start)} (fe.start_*), not the FE's material; the EF rows above "
+                   "are that EF's")
+    return out
+
+
+def published_rows(result) -> list[dict]:
+    """Per compartment the tibial contact area (mm²) and p_max (MPa) of this FE (at its
+    load), Donahue 2002 (800 N, 1 mm elements) and the subject FE of 2020 (1150 N; its
+    largest compressive stress, mean ± SD)."""
+    out = []
+    for c, fe in result.fe.items():
+        don, sub = DONAHUE_2002[c][1.0], SUBJECT_FE_2020[c]
+        out += [{"compartment": c, "model": "fecheck FE", "load_N": result.load_N,
+                 "area_mm2": fe.area_mm2, "area_sd_mm2": float("nan"),
+                 "p_max_MPa": fe.p_max_MPa, "p_max_sd_MPa": float("nan")},
+                {"compartment": c, "model": "Donahue 2002", "load_N": 800.0,
+                 "area_mm2": don.area_mm2, "area_sd_mm2": float("nan"),
+                 "p_max_MPa": don.max_pressure_MPa, "p_max_sd_MPa": float("nan")},
+                {"compartment": c, "model": "subject FE 2020", "load_N": sub.load_N,
+                 "area_mm2": sub.area_mm2, "area_sd_mm2": sub.area_sd_mm2,
+                 "p_max_MPa": sub.p_max_MPa, "p_max_sd_MPa": sub.p_max_sd_MPa}]
+    return out
+
+
+def published_lines(result) -> list[str]:
+    """The table beside the published FE knees: tibial contact area and p_max per
+    compartment of this FE, Donahue 2002 and the subject FE at 1150 N, each at its load."""
+    out = ["tibial contact beside published FE knees with menisci (each at its own load; "
+           "Donahue 2002: 1 mm elements; subject FE 2020: mean ± SD, its largest compressive "
+           "stress)",
+           f"{'compartment':<11} {'model':<16} {'load N':>7} {'area mm²':>13} "
+           f"{'p_max MPa':>12}"]
+    for r in published_rows(result):
+        sd = math.isfinite(r["area_sd_mm2"])
+        area = (f"{r['area_mm2']:.0f} ± {r['area_sd_mm2']:.0f}" if sd
+                else f"{r['area_mm2']:.1f}")
+        peak = (f"{r['p_max_MPa']:.2f} ± {r['p_max_sd_MPa']:.2f}" if sd
+                else f"{r['p_max_MPa']:.3f}")
+        out.append(f"{r['compartment']:<11} {r['model']:<16} {r['load_N']:7.0f} "
+                   f"{area:>13} {peak:>12}")
+    return out
+
+
+def comparison_dict(result, scene) -> dict:
+    """The JSON of the two blocks: ``published`` (`published_rows`, null where a model gives
+    no SD) and ``choices`` (`choice_rows`)."""
+    return _finite({"published": published_rows(result), "choices": choice_rows(scene)})
 
 
 def load_path_lines(result) -> list[str]:
