@@ -23,9 +23,10 @@ from xml.sax.saxutils import quoteattr
 import numpy as np
 
 from fecheck.errors import FecheckError
+from fecheck.model.patella import PF_COORDINATES, PF_SIGNS
 from fecheck.scene import Scene
 from fecheck.scene.provenance import provenance
-from fecheck.studies.flex import FLEX_SIGNS, LIGAMENT_GROUPS, FlexRun
+from fecheck.studies.flex import FLEX_SIGNS, LIGAMENT_GROUPS, PATELLA_GROUPS, FlexRun
 from geometry.files import write_output
 from geometry.mesh import TriMesh
 
@@ -57,10 +58,14 @@ def json_text(run: FlexRun, scene: Scene | None = None) -> str:
                     "source": axis.source,
                     "spheres": {k: {"center_mm": c.tolist(), "radius_mm": r}
                                 for k, (c, r) in axis.spheres.items()}},
-           "signs": dict(FLEX_SIGNS),
+           "signs": dict(FLEX_SIGNS) | (dict(PF_SIGNS) if run.patella is not None else {}),
            "build_seconds": run.build_seconds, "stopped": run.stopped,
            "angles": [{**{k: _num(v) for k, v in p.row().items()},
-                       "ligaments_N": p.ligaments} for p in run.points],
+                       "ligaments_N": p.ligaments}
+                      | ({} if p.patella is None else
+                         {"patella_ligaments_N": p.patella.ligaments,
+                          "quadriceps_muscles_N": p.patella.quadriceps})
+                      for p in run.points],
            "fe": [{k: _num(v) for k, v in r.items() if k != "check"} for r in run.fe],
            "provenance": provenance(scene)}
     return json.dumps(doc, indent=2) + "\n"
@@ -174,7 +179,29 @@ def table_text(run: FlexRun) -> str:
                 f" {sum(t for k, t in p.ligaments.items() if k.startswith(g)):7.1f}"
                 for g in groups)
         lines.append(text)
+    if run.points and run.points[0].patella is not None:
+        lines += _patella_table(run)
     return "\n".join(lines) + "\n"
+
+
+def _patella_table(run: FlexRun) -> list[str]:
+    """The patella's lines of the per-angle table: its coordinates (the source model's
+    pf_r), the patellofemoral contact and its bundle groups."""
+    names = [k.removesuffix("_deg").removesuffix("_mm") for k in PF_COORDINATES]
+    head = (f"{'flex°':>6s} " + " ".join(f"{n:>7s}" for n in names)
+            + " | PF F N  A mm²  p MPa  CoP x, y, z mm (femur frame) |"
+            + "".join(f" {g + ' N':>7s}" for g in PATELLA_GROUPS))
+    lines = ["patella per angle: pf_flex° (+ flexed with the knee), pf_rot°, pf_tilt° and "
+             "pf_tx, pf_ty, pf_tz mm (anterior, superior, right), the source model's pf_r "
+             "coordinates of the patella relative to the femur", head]
+    for p in run.points:
+        r = p.row()
+        lines.append(f"{p.flexion_deg:6g} " + " ".join(f"{r[k]:7.2f}" for k in PF_COORDINATES)
+                     + f" | {r['PF_force_N']:6.1f} {r['PF_area_mm2']:6.1f} "
+                     f"{r['PF_max_pressure_MPa']:6.2f}  {r['PF_cop_x_mm']:6.1f} "
+                     f"{r['PF_cop_y_mm']:6.1f} {r['PF_cop_z_mm']:6.1f} |"
+                     + "".join(f" {r[g + '_N']:7.1f}" for g in PATELLA_GROUPS))
+    return lines
 
 
 def _series(run: FlexRun, key: str) -> np.ndarray:
