@@ -298,6 +298,71 @@ def source_comparison(quick: bool, folder: Path, out: Path) -> list[str]:
     return lines
 
 
+PATELLA_SETTINGS = ["patella.dir='fecheck:knee/lenhart2015_patella'"]
+"""The source set-up with the patella: its 20 bundles and the quadriceps at the default
+patella.quadriceps_N (2 % of their maximum isometric forces, the source runs' activation)."""
+
+
+def patella_comparison(out: Path) -> list[str]:
+    """The source set-up with the patella, about the source axis 0-90° every 1°: the
+    markdown lines of the table (the six pf_r coordinates at `reference.TABLE_DEG`, 'out'
+    beyond the band) and DIR/flex_passive_patella.png (each coordinate over the two runs
+    and the band), also the tibia's two changes from 0°."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    angles = np.arange(0.0, 91.0, 1.0)
+    table = np.array(reference.TABLE_DEG, dtype=float)
+    run = run_variant([FOLLOWER, "load.force_N=30.0", *PATELLA_SETTINGS], "source", None,
+                      angles, out)
+    print(f"source set-up with the patella: {len(run.points)} of {len(angles)} angles solved"
+          + ("" if run.stopped is None else f" ({run.stopped})"), flush=True)
+    phi = np.array([p.flexion_deg for p in run.points])
+    rows = [p.row() for p in run.points]
+    fine = np.arange(0.0, 90.5, 0.5)
+    fig, ax = plt.subplots(2, 4, figsize=(20, 9), constrained_layout=True)
+    panels = [*reference.PATELLA.items(),
+              *((c, (s, reference.MARGIN_DEG)) for c, s in reference.COORDINATES.items())]
+    lines = ["| coordinate | " + " | ".join(f"{a:g}°" for a in table) + " |",
+             "|---|" + "---|" * len(table)]
+    for a, (column, (source, margin)) in zip(ax.flat, panels, strict=True):
+        tibial = column in reference.COORDINATES
+        for name in reference.RUNS:
+            ref = reference.read_run(name)
+            curve = (reference.change_at(ref, source, fine) if tibial
+                     else reference.value_at(ref, source, fine))
+            a.plot(fine, curve, "k--", lw=1, label=f"OpenSim-JAM {name}")
+        band = reference.band if tibial else (
+            lambda c, x, m=margin: reference.value_band(c, x, m))
+        low, high = band(source, fine)
+        a.fill_between(fine, low, high, color="0.85", label=f"band: the runs ±{margin:g}")
+        values = np.array([r[column] for r in rows])
+        if tibial:
+            values = values - values[0]
+        a.plot(phi, values, "C0", label="fecheck, with the patella")
+        a.set(xlabel="knee flexion, deg",
+              ylabel=f"{column}{' change from 0°' if tibial else ''}")
+        a.grid(alpha=0.3)
+        low, high = band(source, table)
+        at = np.interp(table, phi, values, left=np.nan, right=np.nan)
+        cells = [("–" if not np.isfinite(v) else f"{v:+.2f}" + (" out" if not lo <= v <= hi
+                                                               else ""))
+                 for v, lo, hi in zip(at, low, high, strict=True)]
+        lines.append(f"| {column} | " + " | ".join(cells) + " |")
+        lines.append("| band | " + " | ".join(f"{lo:+.1f} to {hi:+.1f}" for lo, hi in
+                                                zip(low, high, strict=True)) + " |")
+    ax[0, 0].legend(fontsize=8)
+    fig.suptitle("Passive flexion with the patella (source axis, 30 N along the tibia, "
+                 "quadriceps 2 % of their maximum force) against OpenSim-JAM's passive "
+                 "flexion of the same knee: the six pf_r coordinates (values) and the "
+                 "tibia's internal rotation and adduction (changes from 0°)", fontsize=10)
+    fig.savefig(out / "flex_passive_patella.png", dpi=90)
+    plt.close(fig)
+    return lines
+
+
 def main(argv=None) -> int:
     args = knee_script_args(__doc__.splitlines()[0], "800 N and 30 N, both frames, every "
                             "10°", argv)
@@ -344,6 +409,10 @@ def main(argv=None) -> int:
     print("changes from 0° (deg) against the two OpenSim-JAM runs ±2° ('*': outside):")
     print("\n".join(lines))
     print(f"wrote {args.out / 'flex_passive_source.png'}")
+    lines = patella_comparison(args.out)
+    print("the patella against the two OpenSim-JAM runs (values; 'out': beyond the band):")
+    print("\n".join(lines))
+    print(f"wrote {args.out / 'flex_passive_patella.png'}")
     return 1 if failed else 0
 
 

@@ -35,7 +35,7 @@ from fecheck.errors import FecheckError
 from fecheck.fe.balance import free_dof_balance
 from fecheck.laws.coldstart import announce_cold_kernels
 from fecheck.model.knee_surfaces import femoral_master
-from fecheck.model.patella import PatellaModel, PatellaState, build_patella
+from fecheck.model.patella import PatellaModel, PatellaState, build_patella, solve_knee
 from fecheck.scene import Scene
 from geometry.mesh import TriMesh
 
@@ -462,7 +462,6 @@ def _sweep(scene: Scene, angles: Sequence[float], axis: FlexionAxis, run: FlexRu
     """The angles of `run_flex` in turn, appended to `run.points` (`run.stopped` set
     where they stop)."""
     from fecheck.model.equilibrium import compartment_results, solve_equilibrium
-    from fecheck.model.patella import solve_knee
     from fecheck.model.scanned import bundle_parts
 
     names, springs = bundles
