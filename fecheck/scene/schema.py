@@ -517,7 +517,8 @@ SCHEMA: dict[str, Key] = {
         "vasti toward their last femoral path point; the rectus femoris along the "
         "femoral shaft). Default: 2 % of the 5,572.1 N summed, the source model's passive "
         "flexion (muscles at 2 % activation; force-length and passive fibre forces not "
-        "modelled).", low=0.0),
+        "modelled). Above 0: without it nothing presses the patella on the trochlea.",
+        low=0.0, low_open=True),
     "menisci.dir": Key(
         "str", "",
         "Femur-tibia model with menisci: the folder of the smith2019 menisci of the scanned "

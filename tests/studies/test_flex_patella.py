@@ -69,6 +69,13 @@ def test_fe_at_with_the_patella_is_refused_on_one_line(capsys):
     assert "--fe-at with patella.dir" in err and "Traceback" not in err
 
 
+def test_no_quadriceps_force_is_refused_on_one_line(capsys):
+    code = _main([PATELLA, "--set=patella.quadriceps_N=0.0", "--angles", "0"])
+    _, err = capsys.readouterr()
+    assert code == 2
+    assert "patella.quadriceps_N" in err and "Traceback" not in err
+
+
 def test_a_missing_patella_folder_is_refused_on_one_line(tmp_path, capsys):
     code = _main([f"--set=patella.dir='{tmp_path}'", "--angles", "0"])
     _, err = capsys.readouterr()
