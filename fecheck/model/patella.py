@@ -322,7 +322,11 @@ def _quadriceps(scene: Scene, muscles: list[dict]) -> Quadriceps:
 
 
 def build_patella(scene: Scene) -> PatellaModel:
-    """The scene's patella (module docstring) from ``patella.dir``."""
+    """The scene's patella (module docstring) from ``patella.dir``: a right knee's."""
+    if scene["knee.side"] != "right":
+        raise FecheckError(f"patella.dir with knee.side = {scene['knee.side']!r}: the "
+                           "patella data and its pf_r coordinates are a right knee's; set "
+                           "knee.side = 'right' or patella.dir = ''")
     folder = patella_dir(scene)
     slave = surfaces.read_surface(folder / CARTILAGE)
     bone = surfaces.read_surface(folder / BONE, manifold=False)

@@ -76,6 +76,15 @@ def test_no_quadriceps_force_is_refused_on_one_line(capsys):
     assert "patella.quadriceps_N" in err and "Traceback" not in err
 
 
+def test_a_left_knee_with_the_patella_is_refused():
+    from fecheck.errors import FecheckError
+
+    with pytest.raises(FecheckError, match="the patella data and its pf_r coordinates are a "
+                                           "right knee's"):
+        patella.build_patella({"knee.side": "left",
+                               "patella.dir": "fecheck:knee/lenhart2015_patella"})
+
+
 def test_a_missing_patella_folder_is_refused_on_one_line(tmp_path, capsys):
     code = _main([f"--set=patella.dir='{tmp_path}'", "--angles", "0"])
     _, err = capsys.readouterr()
