@@ -5,6 +5,7 @@ it untouched."""
 from __future__ import annotations
 
 import json
+import re
 
 import numpy as np
 import pytest
@@ -45,6 +46,11 @@ def test_cli_reports_the_patella_per_angle_and_writes_it_to_vtk(tmp_path, capsys
     assert "pf_flex_deg" in doc["signs"]
     # the patella sits on the trochlea: anterior of the tibial plateau, above it
     assert first["PF_cop_y_mm"] > 30.0 and first["PF_force_N"] > 50.0
+    estimate = float(re.search(r"at most ([0-9.]+) MB", err).group(1))
+    assert _main(["--angles", "0:2:1", "--vtk", str(tmp_path / "bare")]) == 0
+    bare = float(re.search(r"at most ([0-9.]+) MB", capsys.readouterr()[1]).group(1))
+    patella_mb = sum(f.stat().st_size for f in (tmp_path / "vtk").glob("patella_*")) / 1e6
+    assert patella_mb <= estimate - bare + 0.1     # the estimate counts the patella's files
     names = {p.name for p in (tmp_path / "vtk").iterdir()}
     assert {f"patella_{i:03d}.vtu" for i in range(3)} <= names
     assert {f"patella_ligaments_{i:03d}.vtu" for i in range(3)} <= names
