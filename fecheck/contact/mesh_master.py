@@ -27,6 +27,11 @@ the closest point, positive inside. Inside/outside:
   point-cloud fast winding number (precomputed octree) was 24 µs per point and wrong by
   up to 0.93 within 2 mm of the surface, so it is not used.
 
+A pair may fade the depths to zero near the rim of an open sheet (``rim_mm`` of
+`fecheck.contact.pair.ContactPair`; `rim_distance`, `fecheck.contact.kernels.fade_at_rim`):
+behind the rim the side-of-normal sign acts as a wall, where a ray along the slave's
+normal would miss the sheet.
+
 While a contact pair reuses its candidate set, the candidate points keep what they
 learnt at the last call (`fecheck.contact.coherent.WalkState`). A point needs no
 closest point when every face it belongs to has a negative depth bound (last depth +

@@ -9,7 +9,8 @@ face the femur), the patella bone (the bone-distance thickness) and ``patellofem
 
 * Contact: the patellar cartilage sheet against the scene's femoral articular surface
   (`fecheck.model.knee_surfaces.femoral_master`), the scene's law, detection and area
-  mode; with ``scanned.thickness = 'bone-distance'`` the foundation thickness per face is
+  mode, fading to nothing within `RIM_MM` of the femoral sheet's rim (BVH detection);
+  with ``scanned.thickness = 'bone-distance'`` the foundation thickness per face is
   the patellar cartilage (distance to the patella bone) and the femoral cartilage in series,
   as for the tibia (`fecheck.laws.layer`).
 * Bundles (Blankevoort 1991 springs, straight lines, own slack lengths and stiffnesses):
@@ -106,6 +107,14 @@ PASSIVE_ACTIVATION = 0.02
 """The source model's muscle activation in its passive flexion (the passive-flexion data
 README: muscles at 2 % activation); the default quadriceps total is this share of their
 summed maximum isometric forces (force-length and passive fibre force not modelled)."""
+RIM_MM = 2.0
+"""The patellofemoral contact fades to nothing over this width (mm) at the rim of the
+femoral cartilage sheet (`fecheck.contact.pair.ContactPair`'s rim_mm; about 2.6 of its
+0.76 mm edges): over the open apex of the intercondylar notch the patella's ridge meets no
+femoral face, as the source model's rays find none. Measured with the source set-up every
+1° to 120°: without the fade the run stops at 89° (the side-of-normal test makes the
+rim a wall); a 1 mm fade stops at 94° (no stiffness at an iterate); 2 mm solves every
+angle, and at 0-75° the six coordinates of the unfaded run (to 0.1° and 0.1 mm)."""
 SHAFT_MM = 400.0
 """The rectus femoris pulls toward a point this far up the femoral shaft from its first
 patellar point, mm (a thigh's length: its line of action is the shaft's)."""
@@ -331,8 +340,10 @@ def build_patella(scene: Scene) -> PatellaModel:
     slave = surfaces.read_surface(folder / CARTILAGE)
     bone = surfaces.read_surface(folder / BONE, manifold=False)
     doc = json.loads((folder / BUNDLES).read_text(encoding="utf-8"))
+    rim = RIM_MM if scene["contact.detection"] in ("auto", "bvh") else 0.0
     pair = ContactPair(slave, femoral_master(scene), method=scene["contact.detection"],
-                       area=scene["contact.area"], margin_mm=scene["contact.margin_mm"])
+                       area=scene["contact.area"], margin_mm=scene["contact.margin_mm"],
+                       rim_mm=rim)
     comp = Compartment(COMPARTMENT, pair, _law(scene, slave, bone), True, math.nan)
     tendon, femoral = [], []
     for b in doc["ligaments"]:
