@@ -75,22 +75,28 @@ Measured (every variant solves every 5°; 121 angles at 1° take 6-10 s after th
   75° pf_flex +12.5, +14.8, +21.6, +34.5, +48.2, +59.9° (band centres about 13-55°),
   pf_tilt -2.1 to -0.6°, pf_tx 52.8 to 18.6 mm, pf_ty +1.4 to -29.6 mm, pf_tz 4.4-5.9 mm;
   at 0° pf_flex +8.5°, pf_tilt -4.8°, pf_ty 9.2 mm against the runs' settled 5.5-9.5°,
-  -2.6 to -3.2°, 7.5-8.1 mm. 90° is not reached: the run stops at 89° (no equilibrium,
-  residual 1.45 N; at 88.5° it converges but pf_flex no longer follows the knee, 70.18 to
-  70.22°): the patella's central ridge is on the rim of the femoral cartilage sheet at the
-  apex of the intercondylar notch (rim vertex at (-2.0, 18.9, 8.6) mm; its most loaded faces
-  0.4-1.5 mm from the rim, 0.4-0.95 mm deep), p_max rising from 6.8 to 15.2 MPa over 85-88°
-  at nearly the same force (164-168 N). The contact's inside is the side of the closest
-  femoral face's normal, which behind an open sheet's rim acts as a wall; the source
-  model's contact casts a ray along each patellar face's normal, which finds no femoral
-  face over the notch. The tibia with the patella: adduction stays inside its band (+0.5 to
-  +4.4° change at 10-75°), internal rotation leaves it at 10-60° (+4.7, +6.4, +7.6, +8.4,
-  +5.3°): beyond the +4.7, +5.8, +4.8, +3.4, +1.6° of the knee without the patella (the
-  straight posteromedial bundles, above), the patellar tendon's pull (127 N at 0°, 85 N at
-  30°, 51 N at 60°, a straight line: the source model wraps it over PatTen_r) adds +0.5 to
-  +5.0° at 20-60°. With the quadriceps at 0 N nothing presses the patella on the trochlea
-  and it has no stiffness (refused: patella.quadriceps_N > 0). Not modelled here, and
-  candidates: the menisci, the hamstrings, the wrapping of the bundles and the tendon.
+  -2.6 to -3.2°, 7.5-8.1 mm. Every angle to 120° is solved, and at 90° all six are inside
+  the band too: pf_flex +69.9°, pf_rot -3.3°, pf_tilt +0.9°, pf_tx 7.8, pf_ty -29.0,
+  pf_tz 6.0 mm (PF force 179 N, 127 mm², p_max 11.4 MPa). Over 85-95° the patella's
+  central ridge passes the rim of the femoral cartilage sheet at the open apex of the
+  intercondylar notch (rim vertex at (-2.0, 18.9, 8.6) mm); there the patella turns (pf_rot
+  -0.9° at 85° to -6.1° at 95°, pf_tilt -0.9 to +3.3°) and p_max peaks (8.4 at 85°, 11.7
+  MPa at 95°, 7.5 at 120°). The contact fades to nothing within 2 mm of the femoral rim
+  (`fecheck.model.patella.RIM_MM`): without it the side-of-normal inside test makes the
+  rim a wall and the run stopped at 89° (p_max 6.8 to 15.2 MPa over 85-88° at 164-168 N),
+  with a 1 mm fade at 94° (no stiffness at an iterate); the source model's rays find no
+  femoral face over the notch. At 100, 110, 120°: pf_flex +74.8, +79.2, +87.4°, pf_rot
+  -6.1, -8.0, -9.7°, pf_tilt +4.4, +5.8, +6.4°, pf_tx 1.8, -3.5, -8.3 mm, pf_ty -27.5,
+  -26.4, -24.9 mm, pf_tz 5.4, 4.6, 4.1 mm; PF force 224, 299, 389 N (the source runs end at
+  90°). The tibia with the patella: adduction stays inside its band (+0.5 to +4.9° change
+  at 10-90°), internal rotation leaves it at 10-60° (+4.7, +6.4, +7.6, +8.4, +5.3°) and at
+  90° (-6.7° against -3.7 to +0.9°): beyond the +4.7, +5.8, +4.8, +3.4, +1.6° of the knee
+  without the patella (the straight posteromedial bundles, above), the patellar tendon's
+  pull (127 N at 0°, 85 N at 30°, 51 N at 60°, a straight line: the source model wraps it
+  over PatTen_r) adds +0.5 to +5.0° at 20-60°. With the quadriceps at 0 N nothing presses
+  the patella on the trochlea and it has no stiffness (refused: patella.quadriceps_N > 0).
+  Not modelled here, and candidates: the menisci, the hamstrings, the wrapping of the
+  bundles and the tendon.
 
 Against the source model's own passive flexion (`validation.passive_reference`: two published
 OpenSim-JAM runs; band = their span ±2°, changes from 0°), the source set-up: its
@@ -101,7 +107,7 @@ curve that leaves the band. The table marks values outside the band with '*'.
     python validation/flex_passive.py [--quick] [--out DIR]
 
 --quick: the 800 N and 30 N loads of both frames, every 10°, the source set-up alone, and
-with the patella to 30°.
+with the patella to 30° (in full: to 120°).
 Writes DIR/flex_passive.csv (one row per variant and angle), DIR/flex_passive.png (internal
 rotation and the two centres of pressure against flexion), DIR/flex_passive_source.png
 (internal rotation and adduction, changes from 0°, over the two published runs and the band)
@@ -329,8 +335,8 @@ patella.quadriceps_N (2 % of their maximum isometric forces, the source runs' ac
 
 
 def patella_comparison(out: Path, quick: bool = False) -> list[str]:
-    """The source set-up with the patella, about the source axis 0-90° every 1° (0-30° with
-    `quick`): the
+    """The source set-up with the patella, about the source axis 0-120° every 1° (0-30°
+    with `quick`): the
     markdown lines of the table (the six pf_r coordinates at `reference.TABLE_DEG`, 'out'
     beyond the band) and DIR/flex_passive_patella.png (each coordinate over the two runs
     and the band), also the tibia's two changes from 0°."""
@@ -339,7 +345,7 @@ def patella_comparison(out: Path, quick: bool = False) -> list[str]:
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    angles = np.arange(0.0, 31.0 if quick else 91.0, 1.0)
+    angles = np.arange(0.0, 31.0 if quick else 121.0, 1.0)
     table = np.array(reference.TABLE_DEG, dtype=float)
     run = run_variant([FOLLOWER, "load.force_N=30.0", *PATELLA_SETTINGS], "source", None,
                       angles, out)
