@@ -479,8 +479,9 @@ def _sweep(scene: Scene, angles: Sequence[float], axis: FlexionAxis, run: FlexRu
                 eq = solve_equilibrium(scene, comps, parts, (), warm, (-phi, q_rot),
                                        check=i == 0)
             else:
-                eq, state = _solve_with_patella(scene, comps, parts, run.patella, warm,
-                                                run.points, phi_deg, (-phi, q_rot), i == 0)
+                eq, state = solve_knee(scene, comps, parts, run.patella, warm,
+                                       None if state is None else state.q, (-phi, q_rot),
+                                       check=i == 0)
         except FecheckError as err:
             run.stopped = f"flexion {phi_deg:g}°: {err}{_edge_note(scene, run.points)}"
             return
@@ -499,40 +500,6 @@ def _sweep(scene: Scene, angles: Sequence[float], axis: FlexionAxis, run: FlexRu
         d = eq.rot @ axis.point + eq.t - axis.point
         if progress is not None:
             progress(i, point)
-
-
-def _patella_start(done: list[FlexPoint], phi_deg: float) -> np.ndarray | None:
-    """The patella's start at flexion `phi_deg`: its coordinates extrapolated linearly from
-    the last two solved angles (the last one's with one, None with none)."""
-    if not done:
-        return None
-    last = done[-1]
-    if len(done) < 2 or done[-2].flexion_deg == last.flexion_deg:
-        return last.patella.q
-    before = done[-2]
-    share = (phi_deg - last.flexion_deg) / (last.flexion_deg - before.flexion_deg)
-    return last.patella.q + share * (last.patella.q - before.patella.q)
-
-
-def _solve_with_patella(scene: Scene, comps, parts, patella, warm: np.ndarray | None,
-                        done: list[FlexPoint], phi_deg: float, flexion: tuple,
-                        check: bool) -> tuple:
-    """`solve_knee` at `phi_deg` from the extrapolated patella start (`_patella_start`);
-    where that finds no equilibrium with the patella in contact, again from the last
-    solved angle's patella. Measured on the source passive set-up 0-120° every 1° (one
-    run, load average 15 on 2 cores): 511 Newton iterations in the kept solves instead of
-    661 from the last angle's patella, 47.5 s instead of 49.3 s: the broad phase's rebuild
-    at every angle, not the iterations, dominates."""
-    try:
-        eq, state = solve_knee(scene, comps, parts, patella, warm,
-                               _patella_start(done, phi_deg), flexion, check=check)
-        if len(done) < 2 or (eq.solution.converged and state.contact.force_N > 0.0):
-            return eq, state
-    except FecheckError:
-        if len(done) < 2:
-            raise
-    return solve_knee(scene, comps, parts, patella, warm, done[-1].patella.q, flexion,
-                      check=False)
 
 
 def _stop_reason(phi_deg: float, eq, lost: list[str], done: list[FlexPoint]) -> str:
