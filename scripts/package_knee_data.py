@@ -1,5 +1,6 @@
 """Rebuild or check the scanned knee packaged with fecheck (fecheck/data/knee/lenhart2015,
-and its menisci, fecheck/data/knee/smith2019_menisci).
+its menisci, fecheck/data/knee/smith2019_menisci, and its patella,
+fecheck/data/knee/lenhart2015_patella).
 
 The package holds, byte for byte, the files of the lenhart2015 and smith2019_menisci data
 sets that the packaged scenes, the knee presets and the validation read, with each data
@@ -12,7 +13,8 @@ set's licence, NOTICE and README. The data sets themselves live beside the repos
 ``--check`` exits 1 (one line per problem) when a packaged file differs from SHA256SUMS,
 a file is missing or unlisted, or, where the source folder is present, the source no
 longer has the hashes the package was built from. The source is ``--source`` (the
-lenhart2015 folder; its menisci are read from ``smith2019_menisci`` beside it), else
+lenhart2015 folder; its menisci and patella are read from ``smith2019_menisci`` and
+``lenhart2015_patella`` beside it), else
 ``$FECHECK_SHARED_DATA/knee/lenhart2015`` (as for the tests), else the folder above.
 """
 
@@ -66,6 +68,18 @@ closed volumes (their contact surfaces), the meniscal ligaments and contact para
 menisci.json (the femur's smith2019 pose, the files' sha256), README, licence and NOTICE;
 and the four articular surfaces and their twelve regions (``regions/``), which label the
 meniscus solids of the FE (`fecheck.fe.meniscus_solid`). Not packaged: preview.png."""
+PATELLA = "lenhart2015_patella"
+PATELLA_FILES = (
+    "lenhart2015_R_patella_cartilage.stl",
+    "lenhart2015_R_patella_bone.stl",
+    "patellofemoral.json",
+    "README.md",
+    "LICENSE",
+    "NOTICE-opensim-core",
+)
+"""The patella files the scene key ``patella.dir`` reads (`fecheck.model.patella`): the
+articular sheet and the bone (its bone-distance thickness), the 20 bundles and four
+quadriceps paths, README, licence and NOTICE. Not packaged: preview.png."""
 
 
 def sha256(path: Path) -> str:
@@ -130,7 +144,8 @@ def main(argv: list[str] | None = None) -> int:
                         help=f"the lenhart2015 data set folder (default {SOURCE})")
     args = parser.parse_args(argv)
     sets = ((args.source, TARGET, FILES),
-            (args.source.parent / MENISCI, TARGET.parent / MENISCI, MENISCI_FILES))
+            (args.source.parent / MENISCI, TARGET.parent / MENISCI, MENISCI_FILES),
+            (args.source.parent / PATELLA, TARGET.parent / PATELLA, PATELLA_FILES))
     failed = False
     for source, target, files in sets:
         if not args.check:

@@ -34,6 +34,14 @@ COORDINATES = {"adduction_deg": "knee_add_r_deg", "internal_rotation_deg": "knee
 """fecheck's flex column → the source model's coordinate."""
 MARGIN_DEG = 2.0
 TABLE_DEG = (10, 20, 30, 45, 60, 75, 90)
+PATELLA = {"pf_flex_deg": ("pf_flex_r_deg", 5.0), "pf_rot_deg": ("pf_rot_r_deg", 5.0),
+           "pf_tilt_deg": ("pf_tilt_r_deg", 5.0), "pf_tx_mm": ("pf_tx_r_mm", 3.0),
+           "pf_ty_mm": ("pf_ty_r_mm", 3.0), "pf_tz_mm": ("pf_tz_r_mm", 3.0)}
+"""fecheck's patella column → (the source model's pf_r coordinate, margin of its band: ±5°
+for the rotations, ±3 mm for the translations). The patella's coordinates are compared as
+values, not changes: fecheck reads them in the source model's own frames
+(`fecheck.model.patella.pf_coordinates`). pf_rot is plotted and listed but is not one of
+the acceptance's coordinates (patellar flexion, tilt and the translations)."""
 
 
 def available() -> bool:
@@ -64,3 +72,14 @@ def band(column: str, angles) -> tuple[np.ndarray, np.ndarray]:
     `MARGIN_DEG`."""
     values = np.array([change_at(read_run(name), column, angles) for name in RUNS])
     return values.min(axis=0) - MARGIN_DEG, values.max(axis=0) + MARGIN_DEG
+
+
+def value_at(run: dict, column: str, angles) -> np.ndarray:
+    """The run's `column` at knee flexion `angles` (deg), after settling."""
+    return np.interp(angles, run["knee_flex_r_deg"], run[column])
+
+
+def value_band(column: str, angles, margin: float) -> tuple[np.ndarray, np.ndarray]:
+    """(low, high) of the two runs' values of `column` at `angles`, widened by `margin`."""
+    values = np.array([value_at(read_run(name), column, angles) for name in RUNS])
+    return values.min(axis=0) - margin, values.max(axis=0) + margin

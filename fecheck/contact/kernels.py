@@ -31,7 +31,10 @@ import numpy as np
 from numba import njit
 
 from fecheck.contact.clip import N_POINTS, RULE, clip_line_motion, face_rule, pattern_of
-from fecheck.contact.coherent import coherent_closest
+from fecheck.contact.coherent import closest_on_triangle, coherent_closest
+
+NO_RIM = np.zeros((0, 3))
+"""The rim table of a pair without a rim fade (`fade_at_rim`; a width of 0)."""
 
 
 # One fused compiled loop over the faces for speed: its branches are the cases of one
@@ -386,6 +389,53 @@ def _signed(o0: float, o1: float, o2: float, sq: float, out: bool, n0: float, n1
     return (-dist if out else dist), s * o0, s * o1, s * o2
 
 
+@njit(cache=True, fastmath=False, inline="always")
+def _rim_faded(d: float, g0: float, g1: float, g2: float, qx: float, qy: float, qz: float,
+               f: int, E: np.ndarray, rim: np.ndarray, rim_mm: float
+               ) -> tuple[float, float, float, float]:
+    """Depth d and gradient g of a point whose closest master point q lies on face f,
+    faded near the master's rim: w·d with w = 3x² - 2x³, x = min(1, φ(q)/rim_mm), φ the
+    distance to the rim interpolated over the face from its corners (rim (n_faces, 3),
+    mm; E the master's `edge_frames`). The gradient adds d·w'(φ)·∇φ, ∇φ the in-plane
+    gradient of φ over the face (exact while q is inside the face; at a rim edge or
+    vertex φ = 0, so w = w' = 0: no contact behind the rim)."""
+    abx, aby, abz = E[f, 3], E[f, 4], E[f, 5]
+    acx, acy, acz = E[f, 6], E[f, 7], E[f, 8]
+    wx, wy, wz = qx - E[f, 0], qy - E[f, 1], qz - E[f, 2]
+    g11 = abx * abx + aby * aby + abz * abz
+    g12 = abx * acx + aby * acy + abz * acz
+    g22 = acx * acx + acy * acy + acz * acz
+    det = g11 * g22 - g12 * g12
+    r1 = abx * wx + aby * wy + abz * wz
+    r2 = acx * wx + acy * wy + acz * wz
+    s = (g22 * r1 - g12 * r2) / det
+    t = (g11 * r2 - g12 * r1) / det
+    p1, p2 = rim[f, 1] - rim[f, 0], rim[f, 2] - rim[f, 0]
+    x = (rim[f, 0] + s * p1 + t * p2) / rim_mm
+    if x >= 1.0:
+        return d, g0, g1, g2
+    if x <= 0.0:
+        return 0.0, 0.0, 0.0, 0.0
+    w = x * x * (3.0 - 2.0 * x)
+    k = d * 6.0 * x * (1.0 - x) / rim_mm
+    alpha = k * (g22 * p1 - g12 * p2) / det
+    beta = k * (g11 * p2 - g12 * p1) / det
+    return (w * d, w * g0 + alpha * abx + beta * acx, w * g1 + alpha * aby + beta * acy,
+            w * g2 + alpha * abz + beta * acz)
+
+
+@njit(cache=True, fastmath=False)
+def fade_at_rim(points: np.ndarray, face: np.ndarray, depth: np.ndarray, grad: np.ndarray,
+                E: np.ndarray, rim: np.ndarray, rim_mm: float) -> None:
+    """`_rim_faded` in place over points (n, 3) with closest master faces face (n,),
+    depths (n,) and gradients (n, 3) (master frame, mm)."""
+    for i in range(points.shape[0]):
+        f = face[i]
+        qx, qy, qz, _ = closest_on_triangle(points[i, 0], points[i, 1], points[i, 2], E, f)
+        depth[i], grad[i, 0], grad[i, 1], grad[i, 2] = _rim_faded(
+            depth[i], grad[i, 0], grad[i, 1], grad[i, 2], qx, qy, qz, f, E, rim, rim_mm)
+
+
 @njit(cache=True, fastmath=False)
 def signed_closest(points: np.ndarray, closest: np.ndarray, sq: np.ndarray,
                    face_normal: np.ndarray, outside: np.ndarray, by_normal: bool):
@@ -452,8 +502,9 @@ def walked_mesh_surface(clipped: bool, moving: bool, points: np.ndarray, local_f
                         normals: np.ndarray, areas: np.ndarray, R: np.ndarray, t: np.ndarray,
                         Rm: np.ndarray, tm: np.ndarray, Rs: np.ndarray, E: np.ndarray,
                         ring_ptr: np.ndarray, ring_index: np.ndarray, master_normals: np.ndarray,
-                        face: np.ndarray, position: np.ndarray, upper: np.ndarray,
-                        travel: np.ndarray, ring: np.ndarray, max_steps: int):
+                        rim: np.ndarray, rim_mm: float, face: np.ndarray, position: np.ndarray,
+                        upper: np.ndarray, travel: np.ndarray, ring: np.ndarray,
+                        max_steps: int):
     """`mesh_surface` of a mesh master (inside by the closest face's normal), from the
     last call's state of the candidate points, in one compiled call.
 
@@ -463,7 +514,9 @@ def walked_mesh_surface(clipped: bool, moving: bool, points: np.ndarray, local_f
     negative bound is not in contact and its vertices need no closest point. The others
     are found by `fecheck.contact.coherent.coherent_closest` (E, ring_ptr, ring_index:
     the master's `edge_frames` and `face_rings`; master_normals (n_faces, 3) its unit
-    face normals).
+    face normals). With rim_mm > 0 the depths fade to zero at the master's rim
+    (`_rim_faded`, rim (n_faces, 3) its corners' distances to the rim, mm); `upper` keeps
+    the unfaded depth (the fade keeps its sign or makes it 0).
 
     Returns (settled,) followed by the returns of `mesh_surface`; if a walk does not
     settle, settled is False, the contact is empty and the state is spoilt (the caller
@@ -500,5 +553,8 @@ def walked_mesh_surface(clipped: bool, moving: bool, points: np.ndarray, local_f
         dv[p], grad[p, 0], grad[p, 1], grad[p, 2] = _signed(
             o0, o1, o2, sq, o0 * n0 + o1 * n1 + o2 * n2 > 0.0, n0, n1, n2)
         face[p], upper[p] = f, dv[p]
+        if rim_mm > 0.0:
+            dv[p], grad[p, 0], grad[p, 1], grad[p, 2] = _rim_faded(
+                dv[p], grad[p, 0], grad[p, 1], grad[p, 2], qx, qy, qz, f, E, rim, rim_mm)
     return (True,) + mesh_surface(clipped, moving, local_faces, y, dv, grad, normals, areas,
                                   Rm, tm, Rs)

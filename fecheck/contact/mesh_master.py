@@ -27,6 +27,11 @@ the closest point, positive inside. Inside/outside:
   point-cloud fast winding number (precomputed octree) was 24 µs per point and wrong by
   up to 0.93 within 2 mm of the surface, so it is not used.
 
+A pair may fade the depths to zero near the rim of an open sheet (``rim_mm`` of
+`fecheck.contact.pair.ContactPair`; `rim_distance`, `fecheck.contact.kernels.fade_at_rim`):
+behind the rim the side-of-normal sign acts as a wall, where a ray along the slave's
+normal would miss the sheet.
+
 While a contact pair reuses its candidate set, the candidate points keep what they
 learnt at the last call (`fecheck.contact.coherent.WalkState`). A point needs no
 closest point when every face it belongs to has a negative depth bound (last depth +
@@ -54,11 +59,19 @@ call (45 ms); trimesh's rtree-based proximity is slower still (see
 
 from __future__ import annotations
 
+from functools import cached_property
+
 import numpy as np
 
 from fecheck.contact.bvh import BOX
 from fecheck.contact.coherent import WalkState, edge_frames, face_rings, local_closest
-from fecheck.contact.kernels import mesh_surface, signed_closest, walked_mesh_surface
+from fecheck.contact.kernels import (
+    NO_RIM,
+    fade_at_rim,
+    mesh_surface,
+    signed_closest,
+    walked_mesh_surface,
+)
 from fecheck.contact.winding import GRID_PAD_MM, SideGrid, WindingTree
 from fecheck.errors import FecheckError
 from geometry.cache import cached_arrays
@@ -66,6 +79,7 @@ from geometry.mesh import TriMesh, is_closed
 
 MAX_STEPS = 4            # 1-ring moves of a warm-started closest-face walk
 GRID_MM = 1.0            # spacing of the winding number's side grid (`SideGrid`)
+RIM_SAMPLES = 8          # points per boundary edge in the distance to the rim
 
 
 class MeshMaster:
@@ -128,10 +142,12 @@ class MeshMaster:
                        True)
         mesh_surface(True, True, no_faces, no_points, np.zeros(0), no_points, no_points,
                      np.zeros(0), eye, zero, eye)
+        fade_at_rim(no_points, none, np.zeros(0), no_points, self._edges, NO_RIM, 0.0)
         state = self.empty_state()
         walked_mesh_surface(True, True, no_points, no_faces, no_points, np.zeros(0), eye, zero,
-                            eye, zero, eye, self._edges, *self._ring, self._normals, state.face,
-                            state.position, state.upper, state.travel, state.ring, MAX_STEPS)
+                            eye, zero, eye, self._edges, *self._ring, self._normals, NO_RIM,
+                            0.0, state.face, state.position, state.upper, state.travel,
+                            state.ring, MAX_STEPS)
 
     def empty_state(self) -> WalkState:
         """The walk state of no points (for loading the kernels)."""
@@ -143,6 +159,23 @@ class MeshMaster:
         """The closest-face walk's master tables (edge frames, face-ring pointers and
         indices, unit face normals), as `walked_mesh_surface` takes them."""
         return (self._edges, *self._ring, self._normals)
+
+    @cached_property
+    def rim_distance(self) -> np.ndarray:
+        """(n_faces, 3) distance (mm) of each face's corners to the mesh's rim (its
+        boundary edges, each sampled at `RIM_SAMPLES` points: within 1/16 of an edge's
+        length); all inf for a closed mesh."""
+        from scipy.spatial import cKDTree
+
+        e = np.sort(self._F[:, [0, 1, 1, 2, 2, 0]].reshape(-1, 2), axis=1)
+        edges, counts = np.unique(e, axis=0, return_counts=True)
+        rim = edges[counts == 1]
+        if rim.size == 0:
+            return np.full(self._F.shape, np.inf)
+        s = (np.arange(RIM_SAMPLES) / RIM_SAMPLES)[None, :, None]
+        a, b = self._V[rim[:, 0]][:, None], self._V[rim[:, 1]][:, None]
+        dist, _ = cKDTree((a + s * (b - a)).reshape(-1, 3)).query(self._V)
+        return np.ascontiguousarray(dist[self._F])
 
     def describe(self) -> str:
         sign = ("side of the closest face normal" if self.sign == "normal"
@@ -233,7 +266,8 @@ class MeshMaster:
         return self._query(y, start)
 
     def surface(self, clipped: bool, cand, R: np.ndarray, t: np.ndarray, Rm: np.ndarray,
-                tm: np.ndarray, Rs: np.ndarray, state: WalkState | None = None) -> tuple:
+                tm: np.ndarray, Rs: np.ndarray, state: WalkState | None = None,
+                rim: tuple[np.ndarray, float] = (NO_RIM, 0.0)) -> tuple:
         """Contact of candidate slave faces `cand` (`fecheck.contact.broadphase.Candidates`)
         at the relative pose y = R p + t (master pose Rm, tm; slave rotation Rs).
 
@@ -241,12 +275,14 @@ class MeshMaster:
         `fecheck.contact.kernels.mesh_surface`). With the last call's `state` and the
         side-of-normal sign, one compiled call walks and integrates
         (`walked_mesh_surface`); the tree answers otherwise, or if a walk does not settle.
+        `rim`: (`rim_distance`, fade width mm) to fade the depths to zero at the rim (a
+        width of 0: no fade, `NO_RIM`).
         """
         if state is not None and self.sign == "normal":
             settled, *out = walked_mesh_surface(
                 clipped, True, cand.points, cand.local_faces, cand.normals, cand.areas, R, t, Rm,
-                tm, Rs, self._edges, *self._ring, self._normals, state.face, state.position,
-                state.upper, state.travel, state.ring, MAX_STEPS)
+                tm, Rs, self._edges, *self._ring, self._normals, *rim, state.face,
+                state.position, state.upper, state.travel, state.ring, MAX_STEPS)
             if settled:
                 return state, out
         y = cand.points @ R.T + t
@@ -255,9 +291,11 @@ class MeshMaster:
         # makes the depth depend on the calls before
         warm = state is not None and self.sign == "normal"
         depth, grad, face = self._query(y, state.face if warm else None)
-        return WalkState.start(face, y, depth, self._ring_width), mesh_surface(
-            clipped, True, cand.local_faces, y, depth, grad, cand.normals, cand.areas, Rm, tm,
-            Rs)
+        start = WalkState.start(face, y, depth, self._ring_width)
+        if rim[1] > 0.0:
+            fade_at_rim(y, face, depth, grad, self._edges, *rim)
+        return start, mesh_surface(clipped, True, cand.local_faces, y, depth, grad,
+                                   cand.normals, cand.areas, Rm, tm, Rs)
 
     def depth_gradients(self, y: np.ndarray, u: np.ndarray | None = None):
         """(∂d/∂y, None) at points of any leading shape, see `depth_and_gradients`."""

@@ -26,7 +26,7 @@ from fecheck.contact.broadphase import (
     checked_relative_pose,
     pose_status,
 )
-from fecheck.contact.kernels import plane_surface, sphere_surface
+from fecheck.contact.kernels import NO_RIM, plane_surface, sphere_surface
 from fecheck.contact.surface import ContactSurface, build_surface
 from fecheck.errors import FecheckError
 from geometry.mesh import TriMesh
@@ -205,6 +205,13 @@ class ContactPair:
     mesh_sign : inside/outside test of a mesh master, "normal" (side of the closest
         face normal; open sheets) or "winding" (generalised winding number; closed
         meshes), see `fecheck.contact.mesh_master`
+    rim_mm : 0 (default) or the width (mm) of a fade at the rim of an open mesh master
+        (BVH, "normal" sign): a slave point's depth is scaled by a smoothstep of the
+        distance from its closest master point to the master's boundary edges, from 0
+        on the rim to 1 at `rim_mm` inside it. A point whose closest master point is on
+        the rim (behind or beyond an open sheet's edge, where the side-of-normal test
+        would see a wall) carries no contact, as a ray along its normal missing the sheet
+        would; the fade keeps the force and its tangent continuous there
 
     `Plane` and `Sphere` masters are evaluated by compiled kernels
     (`fecheck.contact.kernels`); a pair loads its kernel when it is built (from numba's
@@ -213,18 +220,26 @@ class ContactPair:
 
     def __init__(self, slave: TriMesh, master, *, method: str = "auto",
                  area: str = "clipped", margin_mm: float = 2.0,
-                 mesh_sign: str = "normal") -> None:
+                 mesh_sign: str = "normal", rim_mm: float = 0.0) -> None:
         method = _resolved_method(slave, master, method, area, margin_mm)
+        if not (np.isfinite(rim_mm) and rim_mm >= 0.0):
+            raise FecheckError(f"rim_mm must be 0 or a positive number of mm, got {rim_mm}")
+        if rim_mm > 0.0 and (method != "bvh" or mesh_sign != "normal"):
+            raise FecheckError("rim_mm (a fade at an open master sheet's rim) needs a mesh "
+                               "master with the 'bvh' method and mesh_sign='normal'")
         slave = drop_duplicate_faces(slave)
         self.slave, self.method, self.area_mode = slave, method, area
         self.boundary_vertex = boundary_vertices(slave)
         self.margin_mm = float(margin_mm)
         self.resolved_method = method
         self._thesis = None
+        self._rim = (NO_RIM, 0.0)
         if method == "closed-form":
             self.master = master
         elif method == "bvh":
             self.master = _mesh_master(master, mesh_sign)
+            if rim_mm > 0.0:
+                self._rim = (self.master.rim_distance, float(rim_mm))
         else:
             from fecheck.contact.thesis import thesis_detector
             self.master = master
@@ -264,6 +279,18 @@ class ContactPair:
         """A plane or sphere master as `fecheck.laws.fused.closed_form_wrench` takes it:
         (is a sphere, (point, normal) or (centre, radius) in one array, mm); else None."""
         return self._closed_form
+
+    @property
+    def rim(self) -> tuple[np.ndarray, float]:
+        """The rim fade: (the mesh master's `rim_distance`, width mm), or (`NO_RIM`, 0)
+        without one."""
+        return self._rim
+
+    @property
+    def walk_tables(self) -> tuple:
+        """A mesh master's `walk_tables` and the pair's `rim`, as
+        `fecheck.contact.kernels.walked_mesh_surface` takes them."""
+        return (*self.master.walk_tables, *self._rim)
 
     @property
     def cache(self) -> CandidateCache:
@@ -313,7 +340,8 @@ class ContactPair:
                                   self.slave.n_faces)
         if self.resolved_method == "bvh":
             state, (hit, normal, depth, *qp) = master.surface(
-                self.area_mode == "clipped", cand, R, t, Rm, tm, Rs, self.warm_state(cand))
+                self.area_mode == "clipped", cand, R, t, Rm, tm, Rs, self.warm_state(cand),
+                self._rim)
             self._warm = (cand, state)
             if hit.size == 0:
                 return ContactSurface.empty(self.slave.n_faces, master.normal_body)

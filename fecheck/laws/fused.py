@@ -375,14 +375,14 @@ def closed_form_wrench(state, Rs, ts, Rm, tm, sphere, master, clipped, kind, par
 
 @njit(cache=True, fastmath=False)
 def walked_mesh_wrench(clipped, points, local_faces, normals, areas, faces, R, t, Rm, tm, Rs,
-                       E, ring_ptr, ring_index, master_normals, face, position, upper,
-                       travel, ring, max_steps, kind, params, face_scale, about, out):
+                       E, ring_ptr, ring_index, master_normals, rim, rim_mm, face, position,
+                       upper, travel, ring, max_steps, kind, params, face_scale, about, out):
     """`fecheck.contact.kernels.walked_mesh_surface` and the law's resultant (into `out`,
     a `Wrench`'s packed array) in one call; whether the walk settled."""
     surface = walked_mesh_surface(clipped, kind != LINEAR, points, local_faces, normals,
                                   areas, R, t, Rm, tm, Rs, E, ring_ptr, ring_index,
-                                  master_normals, face, position, upper, travel, ring,
-                                  max_steps)
+                                  master_normals, rim, rim_mm, face, position, upper, travel,
+                                  ring, max_steps)
     _reduce(surface[1:], True, faces, kind, params, face_scale, about, out)
     return surface[0]
 
@@ -439,7 +439,7 @@ class HotPath:
             state = pair.master.empty_state()
             walked_mesh_wrench(True, no_points, np.zeros((0, 3), dtype=np.int64), no_points,
                                np.zeros(0), none, eye, zero, eye, zero, eye,
-                               *pair.master.walk_tables, state.face, state.position,
+                               *pair.walk_tables, state.face, state.position,
                                state.upper, state.travel, state.ring, MAX_STEPS, law.kind,
                                law.params, law.face_scale, ORIGIN, np.empty(PACKED))
 
@@ -468,7 +468,7 @@ class HotPath:
         out = np.empty(PACKED)
         if walked_mesh_wrench(
                 self._clipped, cand.points, cand.local_faces, cand.normals, cand.areas,
-                cand.faces, R, t, Rm, tm, Rs, *master.walk_tables, state.face, state.position,
+                cand.faces, R, t, Rm, tm, Rs, *pair.walk_tables, state.face, state.position,
                 state.upper, state.travel, state.ring, MAX_STEPS, law.kind, law.params,
                 law.face_scale, ORIGIN, out):
             return Wrench(out)

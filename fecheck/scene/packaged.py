@@ -28,7 +28,7 @@ from fecheck.errors import FecheckError
 
 PACKAGE_PREFIX = "fecheck:"
 """A ``geometry.dir`` value starting so names a data set packaged with fecheck."""
-DATA_SETS = ("knee/lenhart2015", "knee/smith2019_menisci")
+DATA_SETS = ("knee/lenhart2015", "knee/smith2019_menisci", "knee/lenhart2015_patella")
 """The data sets packaged in ``fecheck/data`` (``geometry.dir = "fecheck:NAME"``)."""
 ALIASES = {"scanned-knee": "femur_tibia"}
 """Friendly scene names → packaged scene: the scanned femur on the scanned tibia."""

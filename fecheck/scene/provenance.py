@@ -37,6 +37,8 @@ FILE_KEYS = ("geometry.femur", "geometry.tibia", "geometry.tibia_lateral",
              "geometry.femur_bone", "geometry.tibia_bone", "geometry.ligaments",
              "geometry.tibia_solid", "contact.calibration", "menisci.calibration")
 """Scene keys that name one input file."""
+FOLDER_KEYS = ("menisci.dir", "patella.dir")
+"""Scene keys that name a data folder, whose data files are inputs."""
 
 _started = (time.perf_counter(), time.process_time(), os.times())
 _command: list[str] | None = None
@@ -112,23 +114,24 @@ def _file(scene: Scene, key: str) -> Path | None:
 
 def input_files(scene: Scene) -> list[tuple[str, Path]]:
     """(role, path) of every input file `scene` reads: the scene file, each file key that
-    has an effect in it, and the data files of ``menisci.dir``. Keys without effect in
-    the scene's configuration (`fecheck.scene.relevance`) and missing files are left out
-    (a run that needs one stops before it writes a result)."""
+    has an effect in it, and the data files of ``menisci.dir`` and ``patella.dir``. Keys
+    without effect in the scene's configuration (`fecheck.scene.relevance`) and missing
+    files are left out (a run that needs one stops before it writes a result)."""
     out: list[tuple[str, Path]] = []
     source = Path(scene.source)
     if source.is_file():
         out.append(("scene", source.resolve()))
-    set_keys = [k for k in (*FILE_KEYS, "menisci.dir") if scene[k]]
+    set_keys = [k for k in (*FILE_KEYS, *FOLDER_KEYS) if scene[k]]
     inert = {k for k, _ in inert_keys(scene, set_keys)}
     for key in set_keys:
-        path = None if key in inert or key == "menisci.dir" else _file(scene, key)
+        path = None if key in inert or key in FOLDER_KEYS else _file(scene, key)
         if path is not None:
             out.append((key, path.resolve()))
-    folder = _folder(scene, "menisci.dir") if "menisci.dir" not in inert else None
-    if folder is not None:
-        out += [("menisci.dir", p.resolve()) for p in sorted(folder.rglob("*"))
-                if p.is_file() and p.suffix.lower() in DATA_SUFFIXES]
+    for key in FOLDER_KEYS:
+        folder = _folder(scene, key) if key in set_keys and key not in inert else None
+        if folder is not None:
+            out += [(key, p.resolve()) for p in sorted(folder.rglob("*"))
+                    if p.is_file() and p.suffix.lower() in DATA_SUFFIXES]
     return out
 
 

@@ -268,6 +268,12 @@ def _one_layer(scene: SceneValues) -> str | None:
             f"(only the {titles} law and the two-layer FE read the femoral one apart)")
 
 
+def _no_patella(scene: SceneValues) -> str | None:
+    if not scene["patella.dir"]:
+        return "patella.dir = '': no patella"
+    return None
+
+
 def _no_prepare(scene: SceneValues) -> str | None:
     if scene["fe.prepare"] == "off":
         return "fe.prepare = 'off': `fecheck fe` meshes the EF run's own faces, unprepared"
@@ -321,6 +327,7 @@ RULES: tuple[tuple[tuple[str, ...], Reason], ...] = (
     (("scanned.thickness_scale",), _no_bones),
     (("fe.axisym_size_mm",), _no_axisymmetric),
     (("fe.size_mm", "fe.smooth_mm", "fe.terraces"), _no_prepare),
+    (("patella.quadriceps_N",), _no_patella),
     (_LAYER_KEYS, _one_layer),
 )
 """(keys, reason): the keys have no effect in a scene where ``reason(scene)`` is not None.

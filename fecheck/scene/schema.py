@@ -82,6 +82,7 @@ SECTIONS: dict[str, str] = {
     "scanned": "Sphere-tibia and femur-tibia models: thickness, decimation, condyles, "
                "ligament bundles",
     "menisci": "Femur-tibia model with menisci (rigid bodies between the cartilages)",
+    "patella": "The patellofemoral joint in driven flexion (`fecheck flex`)",
     "fe": "FE cross-check (`fecheck fe`)",
     "flexion": "Driven flexion (`fecheck flex`)",
 }
@@ -495,6 +496,29 @@ SCHEMA: dict[str, Key] = {
         "'bundles'), dimensionless: below 1 tightens every bundle (a bundle at its rest "
         "length l has strain l / (factor · l0) − 1). 1 = the file's slack lengths.",
         low=0.5, high=2.0, unit=DIMENSIONLESS),
+    "patella.dir": Key(
+        "str", "",
+        "The patellofemoral joint in `fecheck flex`: the folder of the scanned knee's "
+        "patella ('fecheck:knee/lenhart2015_patella' = the lenhart2015 patella packaged with "
+        "fecheck; a path is relative to the scene file's folder); '' = no patella. The "
+        "patella is a rigid body with six free DOFs, in contact with the femoral articular "
+        "surface (its cartilage sheet, the scene's law and scanned.thickness, as the "
+        "tibia's), held by its 20 bundles (the patellar tendon to the tibia, the lateral "
+        "and medial patellofemoral bundles to the femur, straight lines, "
+        "scanned.ligament_*_scale applied) and pulled by the quadriceps "
+        "(patella.quadriceps_N), solved with the tibia at each angle. Read by `fecheck "
+        "flex` only; `fecheck run` and `fecheck fe` leave it out.",
+        example="fecheck:knee/lenhart2015_patella"),
+    "patella.quadriceps_N": Key(
+        "float", 111.442,
+        "Total quadriceps tension with patella.dir, N, split between rectus femoris, vastus "
+        "intermedius, lateralis and medialis by their maximum isometric forces (848.8, "
+        "1024.2, 2255.4, 1443.7 N), each along its line of action at the patella (the "
+        "vasti toward their last femoral path point; the rectus femoris along the "
+        "femoral shaft). Default: 2 % of the 5,572.1 N summed, the source model's passive "
+        "flexion (muscles at 2 % activation; force-length and passive fibre forces not "
+        "modelled). Above 0: without it nothing presses the patella on the trochlea.",
+        low=0.0, low_open=True),
     "menisci.dir": Key(
         "str", "",
         "Femur-tibia model with menisci: the folder of the smith2019 menisci of the scanned "

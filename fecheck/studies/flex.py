@@ -35,6 +35,7 @@ from fecheck.errors import FecheckError
 from fecheck.fe.balance import free_dof_balance
 from fecheck.laws.coldstart import announce_cold_kernels
 from fecheck.model.knee_surfaces import femoral_master
+from fecheck.model.patella import PatellaModel, PatellaState, build_patella, solve_knee
 from fecheck.scene import Scene
 from geometry.mesh import TriMesh
 
@@ -59,6 +60,8 @@ SECONDS_PER_ANGLE = 0.8
 after the build), s."""
 LIGAMENT_GROUPS = ("ACL", "PCL", "MCL", "LCL", "PFL", "pCAP")
 """Bundle-name prefixes summed per ligament in the reports."""
+PATELLA_GROUPS = ("PT", "lPFL", "mPFL")
+"""Bundle-name prefixes of the patella's bundles summed in the reports (with patella.dir)."""
 
 FLEX_SIGNS = {
     "flexion_deg": "+ flexion (the ankle moves posterior), driven about the flexion axis",
@@ -206,6 +209,8 @@ class FlexPoint:
     iterations, seconds : Newton iterations and wall time of this angle
     q : (5,) the solved coordinates (x, y, z mm, θy, θz rad) with the flexion held
     side : "right" or "left", the knee's side (sets `adduction_deg`'s sign)
+    patella : the patella at this angle (`fecheck.model.patella.PatellaState`), with
+        patella.dir; else None
     """
 
     flexion_deg: float
@@ -221,6 +226,7 @@ class FlexPoint:
     seconds: float
     q: np.ndarray | None = None
     side: str = "right"
+    patella: PatellaState | None = None
 
     @property
     def adduction_deg(self) -> float:
@@ -244,8 +250,27 @@ class FlexPoint:
         for group in LIGAMENT_GROUPS:
             out[f"{group}_N"] = sum(v for k, v in self.ligaments.items()
                                     if k.startswith(group))
+        if self.patella is not None:
+            out.update(patella_row(self.patella))
         out.update(iterations=self.iterations, seconds=self.seconds)
         return out
+
+
+def patella_row(state: PatellaState) -> dict:
+    """The patella's columns of a row: its six coordinates (the source
+    model's pf_r), the patellofemoral contact (PF_force_N, PF_area_mm2,
+    PF_max_pressure_MPa, centre of pressure PF_cop_x/y/z_mm in the femur frame), its
+    bundle groups (`PATELLA_GROUPS`, N) and the quadriceps total (N)."""
+    c = state.contact
+    cop = state.centre_of_pressure()
+    out = dict(state.coordinates())
+    out.update(PF_force_N=c.force_N, PF_area_mm2=c.area_mm2,
+               PF_max_pressure_MPa=c.max_pressure_MPa, PF_cop_x_mm=float(cop[0]),
+               PF_cop_y_mm=float(cop[1]), PF_cop_z_mm=float(cop[2]))
+    for group in PATELLA_GROUPS:
+        out[f"{group}_N"] = sum(v for k, v in state.ligaments.items() if k.startswith(group))
+    out["quadriceps_N"] = sum(state.quadriceps.values())
+    return out
 
 
 @dataclass
@@ -255,7 +280,8 @@ class FlexRun:
     one-line reason); `fe`: the FE cross-check rows of the --fe-at angles (`fe_row`);
     `femur`: {part: TriMesh} of the fixed femur (mm, world; the articular surface, to which
     the caller may add the bone, `femur_bone`); `bundles`: (names, femoral points (n, 3)
-    world, tibial points (n, 3) tibia frame) of the ligament bundles, mm."""
+    world, tibial points (n, 3) tibia frame) of the ligament bundles, mm; `patella`: the
+    patella's model (`fecheck.model.patella.PatellaModel`) with patella.dir, else None."""
 
     axis: FlexionAxis
     points: list[FlexPoint]
@@ -266,6 +292,7 @@ class FlexRun:
     fe: list[dict] = field(default_factory=list)
     femur: dict = field(default_factory=dict)
     bundles: tuple = ((), np.zeros((0, 3)), np.zeros((0, 3)))
+    patella: PatellaModel | None = None
 
 
 def scene_axis(scene: Scene) -> FlexionAxis:
@@ -352,15 +379,20 @@ def run_flex(scene: Scene, angles: Sequence[float], axis: FlexionAxis,
     from fecheck.model.scanned import build_compartments, bundle_springs
 
     check_kind(scene)
+    if fe_at and scene["patella.dir"]:
+        raise FecheckError("--fe-at with patella.dir: the FE cross-check has no patella yet; "
+                           "run the FE without it (--set patella.dir='') or leave out --fe-at")
     announce_cold_kernels()
     t0 = time.perf_counter()
     comps = build_compartments(scene)
     names, springs = bundle_springs(scene)
+    patella = build_patella(scene) if scene["patella.dir"] else None
     run = FlexRun(axis, [], time.perf_counter() - t0, {c.name: c.pair.slave for c in comps},
                   femur={"articular surface": comps[0].pair.master.mesh},
                   bundles=(tuple(names),
                            np.array([s.femur_point for s in springs]).reshape(-1, 3),
-                           np.array([s.tibia_point for s in springs]).reshape(-1, 3)))
+                           np.array([s.tibia_point for s in springs]).reshape(-1, 3)),
+                  patella=patella)
     t_built = time.perf_counter()
     try:
         _sweep(scene, angles, axis, run, comps, (names, springs), progress)
@@ -437,19 +469,28 @@ def _sweep(scene: Scene, angles: Sequence[float], axis: FlexionAxis, run: FlexRu
     q_rot = axis_rotation(axis.direction)
     sign = 1.0 if scene["knee.side"] == "right" else -1.0
     warm, ab, ie, d = None, 0.0, 0.0, np.zeros(3)
+    state = None
     for i, phi_deg in enumerate(angles):
         phi = math.radians(phi_deg)
         if run.points:
             warm = _warm(axis, q_rot, phi, ab, ie, d)
         try:
-            eq = solve_equilibrium(scene, comps, parts, (), warm, (-phi, q_rot),
-                                   check=i == 0)
+            if run.patella is None:
+                eq = solve_equilibrium(scene, comps, parts, (), warm, (-phi, q_rot),
+                                       check=i == 0)
+            else:
+                eq, state = solve_knee(scene, comps, parts, run.patella, warm,
+                                       None if state is None else state.q, (-phi, q_rot),
+                                       check=i == 0)
         except FecheckError as err:
             run.stopped = f"flexion {phi_deg:g}°: {err}{_edge_note(scene, run.points)}"
             return
         point = _point(scene, comps, eq, compartment_results(comps, eq), names, springs,
                        axis, q_rot, phi_deg, sign)
+        point.patella = state
         lost = [c for c, v in point.compartments.items() if v["force_N"] <= 0.0]
+        if state is not None and state.contact.force_N <= 0.0:
+            lost.append("patellofemoral")
         if not eq.solution.converged or lost:
             run.stopped = (_stop_reason(phi_deg, eq, lost, run.points)
                            + _edge_note(scene, run.points))
@@ -465,7 +506,7 @@ def _stop_reason(phi_deg: float, eq, lost: list[str], done: list[FlexPoint]) -> 
     """The one line of an angle that did not solve."""
     if lost:
         where = ""
-        if done:
+        if done and lost[0] in done[-1].compartments:
             last = done[-1].compartments[lost[0]]
             where = (f" (its centre of pressure at {done[-1].flexion_deg:g}° was at x = "
                      f"{last['cop_x_mm']:.1f}, y = {last['cop_y_mm']:.1f} mm, tibia frame)")

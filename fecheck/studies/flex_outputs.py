@@ -1,14 +1,19 @@
 """Outputs of `fecheck flex`: CSV and JSON tables, a ParaView time series, plots.
 
-The time series is a ``flex.pvd`` collection (timestep = the flexion angle, deg, world frame,
-mm) of three parts: part 0, ``flex_NNN.vtu`` per angle, both tibial articular surfaces at
-the angle's pose with cell data ``pressure_MPa`` and ``compartment``; part 1, ``femur.vtu``
-(written once, the femur is fixed), the femoral articular surface and bone with cell data
-``part`` (0 surface, 1 bone); part 2, ``ligaments_NNN.vtu`` per angle, each bundle a
-straight line cell with cell data ``tension_N`` and ``strain``. Its size is estimated
-before writing (`vtk_size_bytes`). The plots are ``kinematics.png`` (secondary kinematics,
-compartment forces and ligament forces against flexion) and ``contact_paths.png`` (each
-compartment's centre of pressure on the tibial plateau, coloured by flexion).
+The time series is a ``flex.pvd`` collection (timestep = the flexion angle, deg, world
+frame, mm) of three parts (five with the patella): part 0, ``flex_NNN.vtu`` per angle, both
+tibial articular surfaces at the angle's pose with cell data ``pressure_MPa`` and
+``compartment``; part 1, ``femur.vtu`` (written once, the femur is fixed), the femoral
+articular surface and bone with cell data ``part`` (0 surface, 1 bone); part 2,
+``ligaments_NNN.vtu`` per angle, each bundle a straight line cell with cell data
+``tension_N`` and ``length_mm``; with the patella (patella.dir), part 3,
+``patella_NNN.vtu`` per angle, its cartilage sheet and bone at the angle's pose with cell
+data ``pressure_MPa`` (0 on the bone) and ``part`` (0 cartilage, 1 bone), and part 4,
+``patella_ligaments_NNN.vtu``, its 20 bundles as lines (``tension_N``, ``length_mm``).
+Its size is estimated before writing (`vtk_size_bytes`). The plots are ``kinematics.png``
+(secondary kinematics, compartment forces and ligament forces against flexion) and
+``contact_paths.png`` (each compartment's centre of pressure on the tibial plateau,
+coloured by flexion).
 """
 
 from __future__ import annotations
@@ -23,9 +28,10 @@ from xml.sax.saxutils import quoteattr
 import numpy as np
 
 from fecheck.errors import FecheckError
+from fecheck.model.patella import PF_COORDINATES, PF_SIGNS
 from fecheck.scene import Scene
 from fecheck.scene.provenance import provenance
-from fecheck.studies.flex import FLEX_SIGNS, LIGAMENT_GROUPS, FlexRun
+from fecheck.studies.flex import FLEX_SIGNS, LIGAMENT_GROUPS, PATELLA_GROUPS, FlexRun
 from geometry.files import write_output
 from geometry.mesh import TriMesh
 
@@ -57,10 +63,14 @@ def json_text(run: FlexRun, scene: Scene | None = None) -> str:
                     "source": axis.source,
                     "spheres": {k: {"center_mm": c.tolist(), "radius_mm": r}
                                 for k, (c, r) in axis.spheres.items()}},
-           "signs": dict(FLEX_SIGNS),
+           "signs": dict(FLEX_SIGNS) | (dict(PF_SIGNS) if run.patella is not None else {}),
            "build_seconds": run.build_seconds, "stopped": run.stopped,
            "angles": [{**{k: _num(v) for k, v in p.row().items()},
-                       "ligaments_N": p.ligaments} for p in run.points],
+                       "ligaments_N": p.ligaments}
+                      | ({} if p.patella is None else
+                         {"patella_ligaments_N": p.patella.ligaments,
+                          "quadriceps_muscles_N": p.patella.quadriceps})
+                      for p in run.points],
            "fe": [{k: _num(v) for k, v in r.items() if k != "check"} for r in run.fe],
            "provenance": provenance(scene)}
     return json.dumps(doc, indent=2) + "\n"
@@ -81,6 +91,11 @@ def vtk_size_bytes(run: FlexRun, bone: TriMesh | None = None) -> int:
     lines = _vtu_bytes(2 * n_lig, n_lig, 2, 2) if n_lig else 0
     femur = list(run.femur.values()) + ([bone] if bone is not None else [])
     fixed = _vtu_bytes(sum(m.n_points for m in femur), sum(m.n_faces for m in femur), 3, 1)
+    if run.patella is not None:
+        sheet, bone = run.patella.compartment.pair.slave, run.patella.bone
+        n_pl = len(run.patella.tendon_names) + len(run.patella.femoral_names)
+        tibia += (_vtu_bytes(sheet.n_points + bone.n_points, sheet.n_faces + bone.n_faces, 3,
+                             2) + _vtu_bytes(2 * n_pl, n_pl, 2, 2) + 300)
     return len(run.points) * (tibia + lines + 300) + fixed
 
 
@@ -138,6 +153,8 @@ def write_vtk_series(run: FlexRun, directory: Path, bone: TriMesh | None = None)
             write_lines(directory / files[-1], femur_points, ends,
                         {"tension_N": np.array([p.ligaments[b] for b in bundle_names]),
                          "length_mm": np.linalg.norm(ends - femur_points, axis=1)})
+        if p.patella is not None:
+            files += _patella_vtus(run, p, i, directory, write_vtu, write_lines)
         entries += [f'    <DataSet timestep="{p.flexion_deg:.10g}" part="{k}" '
                     f'file={quoteattr(f)}/>' for k, f in enumerate(files)]
     text = ('<?xml version="1.0"?>\n<VTKFile type="Collection" version="0.1">\n'
@@ -145,6 +162,29 @@ def write_vtk_series(run: FlexRun, directory: Path, bone: TriMesh | None = None)
     pvd = directory / "flex.pvd"
     write_output(pvd, lambda tmp: tmp.write_text(text, encoding="utf-8"))
     return pvd
+
+
+def _patella_vtus(run: FlexRun, p, i: int, directory: Path, write_vtu, write_lines
+                  ) -> list[str]:
+    """Write the patella (cartilage and bone, pressure on the cartilage) and its bundles
+    at angle `p` (index `i`) with the writers of `fecheck.io.vtk`; their file names."""
+    model, state = run.patella, p.patella
+    sheet, bone = model.compartment.pair.slave, model.bone
+    names = [f"patella_{i:03d}.vtu", f"patella_ligaments_{i:03d}.vtu"]
+    points = np.vstack([sheet.points, bone.points]) @ state.rot.T + state.t
+    write_vtu(directory / names[0], points,
+              np.vstack([sheet.faces, bone.faces + sheet.n_points]),
+              {"pressure_MPa": np.concatenate([state.contact.face_pressure_MPa,
+                                               np.zeros(bone.n_faces)]),
+               "part": np.repeat([0, 1], [sheet.n_faces, bone.n_faces])})
+    tendon, femoral = model.tendon, model.femoral
+    starts = np.vstack([tendon.points_a @ p.rot.T + p.t, femoral.femur_points])
+    ends = np.vstack([tendon.points_b, femoral.tibia_points]) @ state.rot.T + state.t
+    tension = [state.ligaments[n] for n in (*model.tendon_names, *model.femoral_names)]
+    write_lines(directory / names[1], starts, ends,
+                {"tension_N": np.array(tension),
+                 "length_mm": np.linalg.norm(ends - starts, axis=1)})
+    return names
 
 
 def table_text(run: FlexRun) -> str:
@@ -174,7 +214,29 @@ def table_text(run: FlexRun) -> str:
                 f" {sum(t for k, t in p.ligaments.items() if k.startswith(g)):7.1f}"
                 for g in groups)
         lines.append(text)
+    if run.points and run.points[0].patella is not None:
+        lines += _patella_table(run)
     return "\n".join(lines) + "\n"
+
+
+def _patella_table(run: FlexRun) -> list[str]:
+    """The patella's lines of the per-angle table: its coordinates (the source model's
+    pf_r), the patellofemoral contact and its bundle groups."""
+    names = [k.removesuffix("_deg").removesuffix("_mm") for k in PF_COORDINATES]
+    head = (f"{'flex°':>6s} " + " ".join(f"{n:>7s}" for n in names)
+            + " | PF F N  A mm²  p MPa  CoP x, y, z mm (femur frame) |"
+            + "".join(f" {g + ' N':>7s}" for g in PATELLA_GROUPS))
+    lines = ["patella per angle: pf_flex° (+ flexed with the knee), pf_rot°, pf_tilt° and "
+             "pf_tx, pf_ty, pf_tz mm (anterior, superior, right), the source model's pf_r "
+             "coordinates of the patella relative to the femur", head]
+    for p in run.points:
+        r = p.row()
+        lines.append(f"{p.flexion_deg:6g} " + " ".join(f"{r[k]:7.2f}" for k in PF_COORDINATES)
+                     + f" | {r['PF_force_N']:6.1f} {r['PF_area_mm2']:6.1f} "
+                     f"{r['PF_max_pressure_MPa']:6.2f}  {r['PF_cop_x_mm']:6.1f} "
+                     f"{r['PF_cop_y_mm']:6.1f} {r['PF_cop_z_mm']:6.1f} |"
+                     + "".join(f" {r[g + '_N']:7.1f}" for g in PATELLA_GROUPS))
+    return lines
 
 
 def _series(run: FlexRun, key: str) -> np.ndarray:

@@ -27,6 +27,16 @@ PACKAGED = REPO / "fecheck" / "data" / "knee" / "lenhart2015"
 SOURCE = SHARED_DATA / "knee" / "lenhart2015"
 MENISCI = REPO / "fecheck" / "data" / "knee" / "smith2019_menisci"
 MENISCI_SOURCE = SHARED_DATA / "knee" / "smith2019_menisci"
+PATELLA = REPO / "fecheck" / "data" / "knee" / "lenhart2015_patella"
+PATELLA_SOURCE = SHARED_DATA / "knee" / "lenhart2015_patella"
+PATELLA_README_SHA256 = {
+    "lenhart2015_R_patella_bone.stl":
+        "1ec2a99318eac215260669f60113532ab86f77a555566806cb2450f27f05b4ed",
+    "lenhart2015_R_patella_cartilage.stl":
+        "30b96c654ff44b8599cfeecbd32069d408aa5eac7c5eb081c8006b1bf938e6c3",
+    "patellofemoral.json": "b0b0bc2280242ed2dc156ad4ebdb9f3f57645746060e52a5d7ff92c5e08d10d3",
+}
+"""The sha256 the patella data set's README lists for its files (copied from its text)."""
 SCANNED = ("femur_tibia", "femur_tibia_ligaments", "sphere_tibia", "sphere_tibia_ligaments",
            "inclined_ligaments", "polynomial_ligaments")
 """The packaged scenes that read the scanned knee's files."""
@@ -80,6 +90,26 @@ def test_the_menisci_source_still_has_the_packaged_hashes():
                                       package_knee_data.MENISCI_FILES) == []
 
 
+def test_packaged_patella_is_the_data_sets_own_files():
+    """The patella package holds exactly its manifest; its meshes and bundles have the
+    sha256 its README lists, with the licence and NOTICE."""
+    listed = package_knee_data.read_manifest(PATELLA)
+    assert sorted(listed) == sorted(package_knee_data.PATELLA_FILES)
+    assert package_knee_data.packaged_files(PATELLA) == set(listed) | {"SHA256SUMS"}
+    assert package_knee_data.problems(PATELLA, None, package_knee_data.PATELLA_FILES) == []
+    for name, digest in PATELLA_README_SHA256.items():
+        assert _sha256(PATELLA / name) == digest, name
+        assert digest in (PATELLA / "README.md").read_text()
+    assert "Apache License" in (PATELLA / "LICENSE").read_text()
+    assert "OpenSim" in (PATELLA / "NOTICE-opensim-core").read_text()
+
+
+@pytest.mark.skipif(not PATELLA_SOURCE.is_dir(), reason=f"no data set at {PATELLA_SOURCE}")
+def test_the_patella_source_still_has_the_packaged_hashes():
+    assert package_knee_data.problems(PATELLA, PATELLA_SOURCE,
+                                      package_knee_data.PATELLA_FILES) == []
+
+
 def test_the_check_reports_a_changed_file(tmp_path):
     copy = tmp_path / "lenhart2015"
     shutil.copytree(PACKAGED, copy)
@@ -116,6 +146,7 @@ def test_pyproject_packages_every_data_file_and_scene():
         "package-data"]["fecheck"]
     shipped = [p.relative_to(REPO / "fecheck").as_posix()
                for p in [*PACKAGED.iterdir(), *(p for p in MENISCI.rglob("*") if p.is_file()),
+                         *PATELLA.iterdir(),
                          *(REPO / "fecheck" / "scenes").glob("*.toml")]]
     missing = [f for f in shipped if not any(fnmatch.fnmatch(f, g) for g in globs)]
     assert not missing
@@ -133,7 +164,7 @@ def test_validation_scenes_are_links_to_the_packaged_scenes():
 def test_unknown_packaged_data_set_is_refused_when_the_scene_loads():
     with pytest.raises(FecheckError, match=r"geometry.dir = 'fecheck:knee/nope' names no data "
                        r"set packaged with fecheck \(packaged: fecheck:knee/lenhart2015, "
-                       r"fecheck:knee/smith2019_menisci\)"):
+                       r"fecheck:knee/smith2019_menisci, fecheck:knee/lenhart2015_patella\)"):
         load_scene("femur_tibia", ["geometry.dir='fecheck:knee/nope'"])
 
 

@@ -111,6 +111,13 @@ def test_input_files_are_the_meshes_the_scene_reads(tmp_path):
     files = [p for role, p in input_files(menisci) if role == "menisci.dir"]
     assert data_dir("fecheck:knee/smith2019_menisci") / "menisci.json" in files
     assert not any(p.name in ("README.md", "LICENSE") for p in files)
+    knee = load_scene("femur_tibia_ligaments",
+                      ["patella.dir='fecheck:knee/lenhart2015_patella'"])
+    files = {p.name for role, p in input_files(knee) if role == "patella.dir"}
+    assert files == {"lenhart2015_R_patella_cartilage.stl", "lenhart2015_R_patella_bone.stl",
+                     "patellofemoral.json"}
+    assert not [r for r, _ in input_files(load_scene("femur_tibia_ligaments"))
+                if r == "patella.dir"]
 
 
 def test_a_changed_input_stops_the_replay(tmp_path, capsys):
