@@ -153,3 +153,30 @@ def test_a_study_on_a_local_dask_cluster_equals_the_serial_one(tmp_path, capsys)
     serial = [_untimed(r) for r in csv.DictReader((tmp_path / "serial.csv").open())]
     cluster_rows = [_untimed(r) for r in csv.DictReader((tmp_path / "dask.csv").open())]
     assert len(serial) == 24 and cluster_rows == serial
+
+
+def test_a_sample_not_solved_from_the_baseline_pose_is_reached_by_a_continuation():
+    """With Newton cut to 3 iterations, the baseline's equilibrium at the far ends of the
+    load point and modulus is not reached from the baseline pose, but is along a path from
+    the scene's values: the same equilibrium as the uncut solve's (to its tolerance).
+    Cut to 2 iterations, no path gets there either: the unconverged direct result is
+    kept (the study counts it as not converged)."""
+    from fecheck.scene import load_scene
+    from fecheck.studies.population import baseline_pose, solve_sample
+    from fecheck.studies.population_inputs import parse_varied
+
+    keys = ["load.point_mm[0]=uniform:3:12", "contact.youngs_MPa=uniform:10:30"]
+    full = load_scene("baseline", [])
+    start = baseline_pose(full)
+    for u in ([1.0, 1.0], [0.0, 0.0]):
+        ref, steps = solve_sample(full, parse_varied(keys, full), np.array(u), start, {})
+        assert ref.converged and steps == 0
+        cut = load_scene("baseline", ["solver.max_iterations=3"])
+        result, steps = solve_sample(cut, parse_varied(keys, cut), np.array(u), start, {})
+        assert result.converged and steps >= 4
+        np.testing.assert_allclose(result.pose.q, ref.pose.q, rtol=0, atol=1e-9)
+        assert result.compartments["medial"].force_N == pytest.approx(
+            ref.compartments["medial"].force_N, rel=1e-9)
+    cut = load_scene("baseline", ["solver.max_iterations=2"])
+    result, steps = solve_sample(cut, parse_varied(keys, cut), np.array([0.0, 0.0]), start, {})
+    assert not result.converged and steps == 0
