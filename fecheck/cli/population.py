@@ -100,7 +100,7 @@ class _Checkpoint:
 def _prepare(args: argparse.Namespace):
     """Every check that can fail before a sample runs: keys, distributions, ranges,
     sample count, output paths, a resumable CSV, the rebuild cost; → (scene, plan, done,
-    notes)."""
+    notes, the baseline pose every sample starts from)."""
     from fecheck.errors import FecheckError
     from fecheck.io.outputs import check_output
     from fecheck.scene import load_scene
@@ -130,7 +130,7 @@ def _prepare(args: argparse.Namespace):
                   for k, v in found.rebuild_s.items()]
     else:
         notes += check_rebuilds(found, plan)
-    return scene, plan, done, notes
+    return scene, plan, done, notes, found.start
 
 
 def _outputs(args, samples) -> list[str]:
@@ -262,7 +262,7 @@ def run(args: argparse.Namespace) -> int:
     from fecheck.studies.population import PopulationInterrupted, run_population
     from fecheck.studies.sweep import dask_executor
 
-    scene, plan, done, notes = _prepare(args)
+    scene, plan, done, notes, start = _prepare(args)
     if done:
         print(f"fecheck: resuming: {len(done)} of {plan.runs} samples already in {args.csv}",
               file=sys.stderr)
@@ -270,7 +270,8 @@ def run(args: argparse.Namespace) -> int:
                 else contextlib.nullcontext(None))
     try:
         with interrupts_raised(), executor as pool:
-            samples = run_population(scene, plan, done=done, workers=args.workers,
+            samples = run_population(scene, plan, done=done, start=start,
+                                     workers=args.workers,
                                      executor=pool, on_sample=_Checkpoint(args.csv, plan))
     except PopulationInterrupted as stop:
         with interrupts_ignored():

@@ -243,6 +243,10 @@ def current_set(state):
             state.cand_normals, state.cand_areas)
 
 
+REMEMBERED_BUILDS = 4
+"""How many rebuilt sets a `CandidateCache` keeps by their pose."""
+
+
 class CandidateCache:
     """Candidate faces of one slave against one master, rebuilt only when needed.
 
@@ -292,6 +296,7 @@ class CandidateCache:
             self._counts)
         self._seen = 0
         self._current: Candidates | None = None
+        self._builds: dict[bytes, tuple] = {}
         self._load_kernels()
 
     def _load_kernels(self) -> None:
@@ -322,8 +327,19 @@ class CandidateCache:
         else:
             n = reused_set(self.state, R, t)
             if n < 0:
-                n = store_set(self.state, R, t, *self._build(R, t))
+                n = store_set(self.state, R, t, *self._remembered(R, t))
         return self._read(n)
+
+    def _remembered(self, R: np.ndarray, t: np.ndarray):
+        """`_build` at (R, t), or the faces of an earlier build at exactly that pose (a
+        population's samples each start from one baseline pose): the set is a function
+        of the pose alone. The last `REMEMBERED_BUILDS` poses are kept."""
+        key = np.asarray(R, dtype=float).tobytes() + np.asarray(t, dtype=float).tobytes()
+        if key not in self._builds:
+            if len(self._builds) >= REMEMBERED_BUILDS:
+                del self._builds[next(iter(self._builds))]
+            self._builds[key] = self._build(R, t)
+        return self._builds[key]
 
     def _read(self, n: int) -> Candidates:
         """The current set as `Candidates`, read from the state when rebuild `n` is new."""

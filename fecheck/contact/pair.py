@@ -312,6 +312,14 @@ class ContactPair:
         cand = self._cache.get(R, t) if self._thesis is None else None
         return Prepared(cand, R, t, Rs, ts, Rm, tm)
 
+    def forget(self) -> None:
+        """Drop the candidate set and the walk state kept from earlier calls, so that the
+        next evaluation starts as a fresh pair's does (its numbers then do not depend on
+        the poses evaluated before, even at round-off)."""
+        if self._thesis is None:
+            self._cache.reset()
+        self._warm = (None, None)
+
     def warm_state(self, cand: Candidates):
         """The mesh master's walk state of the candidate points if it belongs to `cand`
         (the last call's set), else None."""

@@ -13,6 +13,7 @@ import numpy as np
 
 from fecheck.errors import FecheckError
 from fecheck.laws.coldstart import announce_cold_kernels
+from fecheck.model import scanned, sphere_plane
 from fecheck.model.plausibility import after_solve
 from fecheck.model.results import RunResult
 from fecheck.model.rigid import run_rigid
@@ -62,3 +63,24 @@ def ligament_springs(scene: Scene) -> list[Callable]:
     if scene["scanned.ligaments"] != "none":
         return bundle_parts(bundle_springs(scene)[1])
     return ligament_parts(scene)[0] if scene["model.kind"] == "sphere-plane" else []
+
+
+def forget_contact_state(scene: Scene) -> None:
+    """Make the next `run_scene` of `scene` start from fresh contact state: the contact
+    pairs that its run will reuse (inside `fecheck.model.reuse.reusing_builds`) drop the
+    candidate sets and closest-point states that earlier runs left (`ContactPair.forget`),
+    so that its numbers do not depend, even at round-off, on which runs came before (a
+    population's samples, wherever they run). Builds the pairs if they are not built."""
+    if scene["menisci.dir"]:
+        return
+    if scene["scanned.ligaments"] != "none" or scene["model.kind"] in ("sphere-tibia",
+                                                                      "femur-tibia"):
+        comps = scanned.build_compartments(scene)
+    elif scene["model.kind"] == "sphere-plane":
+        comps = sphere_plane.build_compartments(scene)
+    else:
+        return
+    for comp in comps:
+        forget = getattr(comp.pair, "forget", None)
+        if forget is not None:
+            forget()

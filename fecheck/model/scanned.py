@@ -46,10 +46,11 @@ from fecheck.model.condyles import fit_note, scene_knee
 from fecheck.model.equilibrium import compartment_results, not_converged_note, solve_equilibrium
 from fecheck.model.knee_surfaces import femoral_master, tibial_slaves
 from fecheck.model.notes import layer_depth_notes, mesh_resolution_notes, smoothing_notes
+from fecheck.model.plausibility import before_solve, check_meshes
 from fecheck.model.results import LigamentResult, Pose, RunResult, SolveRecord
 from fecheck.model.reuse import reusable
 from fecheck.scene import Scene, surfaces
-from fecheck.scene.bundles import read_bundles
+from fecheck.scene.bundles import Bundle, read_bundles
 from fecheck.scene.constants import COMPARTMENTS
 from fecheck.statics.ligaments import SpringLigament, SpringSet, transition_strain_check
 from geometry.cache import cached_arrays
@@ -177,6 +178,16 @@ def build_compartments(scene: Scene) -> list[Compartment]:
     return out
 
 
+@reusable
+def _bundles(scene: Scene) -> tuple[Bundle, ...]:
+    """The bundles of ``geometry.ligaments``, checked; kept while the file is."""
+    out = read_bundles(surfaces.required_path(scene, "ligaments",
+                                              "scanned.ligaments = 'bundles'"))
+    for b in out:
+        transition_strain_check(b.transition_strain)
+    return out
+
+
 def bundle_springs(scene: Scene) -> tuple[tuple[str, ...], list[SpringLigament]]:
     """Names and springs of the scanned knee's ligament bundles (none if not asked)."""
     if scene["scanned.ligaments"] == "none":
@@ -184,15 +195,26 @@ def bundle_springs(scene: Scene) -> tuple[tuple[str, ...], list[SpringLigament]]
     if scene["ligaments.model"] != "none":
         raise FecheckError("scanned.ligaments = 'bundles' replaces the three-ligament model: "
                            "set ligaments.model = 'none'")
-    out = read_bundles(surfaces.required_path(scene, "ligaments",
-                                              "scanned.ligaments = 'bundles'"))
-    for b in out:
-        transition_strain_check(b.transition_strain)
+    out = _bundles(scene)
     stiffness, slack = (scene["scanned.ligament_stiffness_scale"],
                         scene["scanned.ligament_slack_scale"])
     springs = [SpringLigament(b.femur_point, b.tibia_point, slack * b.slack_length_mm,
                               stiffness * b.stiffness_N, b.transition_strain) for b in out]
     return tuple(b.name for b in out), springs
+
+
+@reusable
+def _checked_meshes(scene: Scene) -> bool:
+    """Run the mesh checks of the scene's contact pairs (`check_meshes`); kept, so not
+    run again, while the pairs and the start pose are (a change of material or load keeps
+    them)."""
+    if scene["model.kind"] == "sphere-plane":
+        comps = sphere_plane.build_compartments(scene)
+    else:
+        comps = [Compartment(c, pair, None, True, radius)
+                 for c, (pair, radius) in contact_pairs(scene).items()]
+    check_meshes(scene, comps)
+    return True
 
 
 def bundle_parts(springs: list[SpringLigament]) -> list[SpringSet]:
@@ -213,18 +235,21 @@ def run_scanned(scene: Scene, warm_start: np.ndarray | None = None,
                            "(scanned.ligaments = 'bundles'); set ligaments.model = 'none'")
     t_start = time.perf_counter()
     comps, names, springs = built or (build_compartments(scene), *bundle_springs(scene))
+    if built is None:
+        before_solve(scene)
+        _checked_meshes(scene)
     t_built = time.perf_counter()
-    eq = solve_equilibrium(scene, comps, bundle_parts(springs), (), warm_start, flexion,
-                           check=built is None)
+    bundles = bundle_parts(springs)
+    eq = solve_equilibrium(scene, comps, bundles, (), warm_start, flexion, check=False)
     sol, rot, t = eq.solution, eq.rot, eq.t
     compartments = compartment_results(comps, eq)
     ligaments = {}
     lig_wrench = np.zeros(6)
-    for name, spring in zip(names, springs, strict=True):
-        x = rot @ spring.tibia_point + t
-        length = float(np.linalg.norm(spring.femur_point - x))
-        ligaments[name] = LigamentResult(spring.tension(length), length)
-        lig_wrench += spring(rot, t)[0]
+    if bundles:
+        lengths, tensions = bundles[0].lengths(rot, t), bundles[0].tensions(rot, t)
+        ligaments = {name: LigamentResult(float(f), float(length))
+                     for name, f, length in zip(names, tensions, lengths, strict=True)}
+        lig_wrench = bundles[0](rot, t)[0]
     # bone-distance thickness varies per face; the uniform layer is checked as a whole
     notes = (layer_depth_notes(scene, compartments)
              if scene["scanned.thickness"] == "uniform" else [])

@@ -4,10 +4,14 @@ The samples are a design in the unit cube (`fecheck.studies.sobol`: Saltelli's, 
 Sobol indices, or plain points) mapped to key values by each key's distribution
 (`fecheck.studies.population_inputs`). Each sample is one scene run with its overrides,
 through the sweep's machinery (`fecheck.studies.sweep`): serially in this process or
-on a local process pool or a Dask cluster, each worker reusing the model parts a
-sample's values do not change (`fecheck.model.reuse`) and starting from the last
-equilibrium it found. Only a flat row of numbers comes back from a sample (`slim_row`),
-so that 10,000 samples of the scanned knee fit in memory.
+on a local process pool or a Dask cluster in batches of samples (`run_batch`), each
+worker reusing the model parts a sample's values do not change (`fecheck.model.reuse`).
+Every sample starts from the scene's own equilibrium (the baseline pose) with fresh
+contact state, so that its numbers depend on its values alone, not on the worker or the
+samples before it: a study on a cluster equals the serial one. A sample not solved from
+the baseline pose is reached by a continuation from the scene's values (`solve_sample`).
+Only a flat row of numbers comes back from a sample (`slim_row`), so that 10,000 samples
+of the scanned knee fit in memory.
 
 A failed sample is recorded with its error and counted; a sample that did not converge
 is kept with ``converged`` false. Neither enters the statistics (NaN there), and a Sobol
@@ -25,6 +29,7 @@ import io
 import math
 import os
 import sys
+import threading
 import time
 import uuid
 from collections.abc import Callable, Sequence
@@ -39,7 +44,7 @@ from fecheck.errors import FecheckError
 from fecheck.io.outputs import write_text
 from fecheck.model.results import RunResult
 from fecheck.model.reuse import reusing_builds
-from fecheck.model.run import run_scene
+from fecheck.model.run import forget_contact_state, run_scene
 from fecheck.scene import Scene, apply_overrides
 from fecheck.studies import sobol
 from fecheck.studies.pool import (
@@ -54,7 +59,6 @@ from fecheck.studies.sweep import (
     describe_error,
     finished_futures,
     pin_geometry_dir,
-    solve_on_worker,
 )
 
 DEFAULT_OUTPUTS = ("max_pressure_MPa", "medial_share", "medial_max_pressure_MPa",
@@ -147,14 +151,94 @@ def slim_row(result: RunResult) -> dict[str, float]:
     return row
 
 
-def sample_on_worker(scene: Scene, overrides: tuple[str, ...], index: int, label: str,
-                     study_id: str) -> Sample:
-    """Run one sample on a worker (or in this process): the sweep's worker solve
-    (`solve_on_worker`: reused parts, warm start), its result cut to `slim_row`."""
-    point = solve_on_worker(scene, overrides, float(index), label, study_id)
-    if point.failed:
-        return Sample(index, None, point.error)
-    return Sample(index, slim_row(point.result))
+BATCH = 16
+"""Samples per task on a local pool or a Dask cluster (one task's scene and keys are sent
+once for all of them; a Ctrl-C loses at most the batches running)."""
+CONTINUATION_STEPS = 4
+"""A sample whose equilibrium is not found from the baseline pose is approached from the
+scene's own values in this many equal steps of all its keys at once, each step solved
+from the last one's pose."""
+CONTINUATION_HALVINGS = 4
+"""A continuation step that fails is halved, at most this many times in a sample."""
+
+_worker = threading.local()
+"""A worker thread's study (``study_id``) and the model parts it built (``memo``,
+`fecheck.model.reuse.reusing_builds`)."""
+
+
+def _memo(study_id: str) -> dict:
+    """This thread's built parts for the study `study_id` (new for another study)."""
+    if getattr(_worker, "study_id", None) != study_id:
+        _worker.study_id, _worker.memo = study_id, {}
+    return _worker.memo
+
+
+def _run_at(scene: Scene, overrides: Sequence[str], start: np.ndarray | None,
+            memo: dict) -> RunResult:
+    """The scene with `overrides`, solved from pose `start` with fresh contact state
+    (`forget_contact_state`) and the parts kept in `memo`."""
+    with reusing_builds(memo):
+        moved = apply_overrides(scene, list(overrides))
+        forget_contact_state(moved)
+        return run_scene(moved, start)
+
+
+def solve_sample(scene: Scene, varied: Sequence[Varied], u: np.ndarray,
+                 start: np.ndarray | None, memo: dict) -> tuple[RunResult, int]:
+    """One sample's run, `u` (d,) its unit coordinates, and the continuation steps it took
+    (0: solved directly from `start`, the baseline equilibrium).
+
+    Where the direct solve fails or stalls (a slack length far from the scene's leaves the
+    baseline pose without the bundles that hold it), the sample's values are reached from
+    the scene's in `CONTINUATION_STEPS` steps, each solved from the last one's pose, a
+    failing step halved (`CONTINUATION_HALVINGS`). If that fails too, the direct solve's
+    error is raised (or its unconverged result returned)."""
+    u = np.asarray(u, dtype=float)[None, :]
+    try:
+        direct = _run_at(scene, overrides_for(varied, scene, u)[0], start, memo)
+        if direct.converged:
+            return direct, 0
+        error = None
+    except Exception as err:        # any solver failure: the sample records it
+        direct, error = None, err
+    q, done, step, halvings, steps = start, 0.0, 1.0 / CONTINUATION_STEPS, 0, 0
+    while halvings <= CONTINUATION_HALVINGS:
+        target = min(1.0, done + step)
+        steps += 1
+        try:
+            result = _run_at(scene, overrides_for(varied, scene, u, target)[0], q, memo)
+        except Exception:
+            result = None
+        if result is not None and result.converged:
+            if target == 1.0:
+                return result, steps
+            q, done = result.pose.q, target
+            continue
+        halvings += 1
+        step *= 0.5
+    if error is not None:
+        raise error
+    return direct, 0
+
+
+def run_batch(scene: Scene, varied: Sequence[Varied], items: Sequence[tuple[int, np.ndarray]],
+              start: np.ndarray | None, study_id: str) -> list[Sample]:
+    """Run samples `items` = [(index, u (d,))] on a worker (or in this process), each from
+    the baseline pose `start` with fresh contact state, reusing the parts the worker built
+    for the study `study_id`: a sample's numbers depend on nothing but its values, so a
+    study's outcome does not depend on where or in which order its samples ran."""
+    memo = _memo(study_id)
+    out = []
+    for index, u in items:
+        try:
+            result, steps = solve_sample(scene, varied, u, start, memo)
+        except Exception as err:
+            out.append(Sample(index, None, f"{_label(index)}: {describe_error(err)}"))
+            continue
+        row = slim_row(result)
+        row["continuation_steps"] = float(steps)
+        out.append(Sample(index, row))
+    return out
 
 
 class PopulationInterrupted(KeyboardInterrupt):
@@ -209,33 +293,42 @@ def _label(index: int) -> str:
     return f"sample {index}"
 
 
-def _run_serial(scene: Scene, plan: Plan, todo: Sequence[int], progress: Progress,
-                study_id: str) -> None:
-    for i in todo:
-        sample = sample_on_worker(scene, plan.overrides[i], i, _label(i), study_id)
+def _batches(plan: Plan, todo: Sequence[int], size: int) -> list[list[tuple[int, np.ndarray]]]:
+    """The samples `todo` as (index, u) in batches of `size`."""
+    items = [(i, plan.u[i]) for i in todo]
+    return [items[k:k + size] for k in range(0, len(items), size)]
+
+
+def _run_serial(scene: Scene, plan: Plan, todo: Sequence[int], start: np.ndarray | None,
+                progress: Progress, study_id: str) -> None:
+    for batch in _batches(plan, todo, 1):
+        samples = run_batch(scene, plan.varied, batch, start, study_id)
         rearm_handlers()
         raise_pending_interrupt()
-        progress.add(sample)
+        for sample in samples:
+            progress.add(sample)
 
 
-def _collect(future: Future, index: int) -> Sample:
+def _collect(future: Future, batch: Sequence[tuple[int, np.ndarray]]) -> list[Sample]:
     try:
         return future.result()
     except Exception as err:
-        return Sample(index, None, f"{_label(index)} failed on a worker: {describe_error(err)}")
+        return [Sample(i, None, f"{_label(i)} failed on a worker: {describe_error(err)}")
+                for i, _ in batch]
 
 
 def _run_on(executor: Executor, scene: Scene, plan: Plan, todo: Sequence[int],
-            progress: Progress, study_id: str) -> None:
-    futures: dict[Future, int] = {}
+            start: np.ndarray | None, progress: Progress, study_id: str) -> None:
+    futures: dict[Future, list] = {}
     complete = False
     try:
         with interrupts_held():
-            for i in todo:
-                futures[executor.submit(sample_on_worker, scene, plan.overrides[i], i,
-                                        _label(i), study_id)] = i
+            for batch in _batches(plan, todo, BATCH):
+                futures[executor.submit(run_batch, scene, plan.varied, batch, start,
+                                        study_id)] = batch
         for future in finished_futures(list(futures)):
-            progress.add(_collect(future, futures[future]))
+            for sample in _collect(future, futures[future]):
+                progress.add(sample)
         complete = True
     finally:
         if not complete:
@@ -245,12 +338,15 @@ def _run_on(executor: Executor, scene: Scene, plan: Plan, todo: Sequence[int],
 
 
 def run_population(scene: Scene, plan: Plan, *, done: dict[int, Sample] | None = None,
+                   start: np.ndarray | None = None,
                    workers: int = 1, executor: Executor | None = None,
                    progress: bool = True,
                    on_sample: Callable[[dict[int, Sample]], None] | None = None
                    ) -> dict[int, Sample]:
     """Run the samples of `plan` not in `done`; every finished sample by index.
 
+    start : (5,) the baseline equilibrium every sample starts from (`baseline_pose`;
+        None: solved here)
     workers : 1 and no `executor`: serial in this process; more: a local pool.
     executor : run on it (a Dask cluster's); the caller owns it.
 
@@ -263,20 +359,22 @@ def run_population(scene: Scene, plan: Plan, *, done: dict[int, Sample] | None =
     tracker.resumed = len(tracker.done)
     todo = [i for i in range(plan.runs) if i not in tracker.done]
     study_id = uuid.uuid4().hex
+    if start is None and todo:
+        start = baseline_pose(scene)
     try:
         if executor is None and workers <= 1:
-            _run_serial(scene, plan, todo, tracker, study_id)
+            _run_serial(scene, plan, todo, start, tracker, study_id)
         elif executor is None:
             pool = ProcessPool(workers)
             ok = False
             try:
-                _run_on(pool, pin_geometry_dir(scene), plan, todo, tracker, study_id)
+                _run_on(pool, pin_geometry_dir(scene), plan, todo, start, tracker, study_id)
                 ok = True
             finally:
                 with interrupts_ignored():
                     pool.shutdown() if ok else pool.terminate()
         else:
-            _run_on(executor, pin_geometry_dir(scene), plan, todo, tracker, study_id)
+            _run_on(executor, pin_geometry_dir(scene), plan, todo, start, tracker, study_id)
     except KeyboardInterrupt:
         tracker.draw(final=True)
         raise PopulationInterrupted(tracker.done) from None
@@ -292,12 +390,21 @@ class Probe:
     """The scene's nominal run and the cost of the rebuilds the varied keys cause.
 
     solve_s : the nominal run's solve time, s (parts reused)
+    start : (5,) the nominal equilibrium q, where every sample starts (`baseline_pose`)
     rebuild_s : {varied name: build time of a run with that key moved, s} for the keys
         the model's reusable builds read (the others rebuild nothing)
     """
 
     solve_s: float
+    start: np.ndarray | None
     rebuild_s: dict[str, float]
+
+
+def baseline_pose(scene: Scene) -> np.ndarray | None:
+    """The scene's own equilibrium q (5,), where a study's samples start (None when it does
+    not converge: the samples then start from the scene's start pose)."""
+    result = run_scene(scene)
+    return np.asarray(result.pose.q, dtype=float) if result.converged else None
 
 
 def probe(scene: Scene, plan: Plan) -> Probe:
@@ -308,8 +415,9 @@ def probe(scene: Scene, plan: Plan) -> Probe:
 
     memo: dict = {}
     with reusing_builds(memo):
-        run_scene(scene)
+        first = run_scene(scene)
         warm = run_scene(scene)
+    start = np.asarray(first.pose.q, dtype=float) if first.converged else None
     solve_s = float(warm.timing_s.get("total", math.nan))
     read = set().union(*(entry[1] for entry in memo.values())) if memo else set()
     saved = dict(memo)
@@ -328,7 +436,7 @@ def probe(scene: Scene, plan: Plan) -> Probe:
             except FecheckError:
                 continue                         # the sample will record its own error
         costs[v.name] = float(result.timing_s.get("build", 0.0))
-    return Probe(solve_s, costs)
+    return Probe(solve_s, start, costs)
 
 
 def check_rebuilds(found: Probe, plan: Plan) -> list[str]:

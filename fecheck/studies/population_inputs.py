@@ -187,13 +187,18 @@ def _number(value: float) -> str:
     return repr(float(value))
 
 
-def overrides_for(varied: Sequence[Varied], scene: Scene, u: np.ndarray) -> list[tuple[str, ...]]:
+def overrides_for(varied: Sequence[Varied], scene: Scene, u: np.ndarray,
+                  fraction: float = 1.0) -> list[tuple[str, ...]]:
     """The ``KEY=VALUE`` overrides of each sample: `u` (n, len(varied)) unit coordinates.
-    Components of one vector key are set in one override."""
+    Components of one vector key are set in one override. A `fraction` below 1 moves
+    each value only that far from the scene's value towards the sample's (a path from
+    the scene to the sample, for a continuation of its equilibrium)."""
     n = u.shape[0]
     columns = {}
     for j, v in enumerate(varied):
-        columns[j] = v.dist.value(u[:, j], np.asarray(v.nominal))
+        nominal = np.asarray(v.nominal)
+        value = v.dist.value(u[:, j], nominal)
+        columns[j] = value if fraction == 1.0 else nominal + fraction * (value - nominal)
     out: list[tuple[str, ...]] = []
     for i in range(n):
         vectors: dict[str, list[float]] = {}

@@ -160,3 +160,34 @@ def test_boundary_vertices_are_the_rim_of_a_disc_and_none_of_a_sphere():
     np.testing.assert_array_equal(rim, np.isclose(r, 12.0, atol=1e-9))
     assert rim.sum() >= 12
     assert not PAIRS["plane"][0].boundary_vertex.any()
+
+
+SURFACE_FIELDS = ("face", "normal", "vertex_depth", "qp_point", "qp_depth", "qp_weight",
+                  "qp_depth_twist", "qp_weight_twist")
+
+
+def _assert_same_surface(a, b):
+    for name in SURFACE_FIELDS:
+        np.testing.assert_array_equal(getattr(a, name), getattr(b, name), err_msg=name)
+
+
+def test_a_forgotten_pair_evaluates_as_a_fresh_one_and_reuses_a_set_built_at_that_pose():
+    master = icosphere(25.5, 3, center=(0.3, -0.2, 25.5 - 0.8))
+    start = (np.eye(3), np.zeros(3))
+    moved = (Rotation.from_rotvec([0.002, -0.003, 0.004]).as_matrix(), np.array([0.2, -0.1, 0.05]))
+    pair = ContactPair(PLATEAU, master)
+    reach_calls = []
+    reach = pair.cache.reach
+    pair.cache.reach = lambda y: reach_calls.append(len(y)) or reach(y)
+    fresh = ContactPair(PLATEAU, master).evaluate(moved, IDENTITY)
+    pair.evaluate(start, IDENTITY)
+    pair.evaluate(moved, IDENTITY)       # from the set and closest faces kept at `start`
+    assert pair.cache.n_reuses == 1
+    pair.forget()
+    _assert_same_surface(pair.evaluate(moved, IDENTITY), fresh)
+    # a rebuild at a pose of an earlier one takes that set without asking the master again
+    pair.forget()
+    asked = len(reach_calls)
+    again = pair.evaluate(moved, IDENTITY)
+    assert len(reach_calls) == asked and pair.cache.n_rebuilds == 3
+    _assert_same_surface(again, fresh)
