@@ -12,10 +12,10 @@ default run leaves them out, ``bash scripts/test.sh`` (the README's test command
 runs) runs them after it, by ``python -m pytest -m validation``.
 
 The row scripts (``validation/row_*.py``, which run the rows of `fecheck.studies.thesis`)
-are the exception: CI's ``fecheck validate
---quick`` runs every one of them in its quick mode and fails on a failed row, as their
-``main_for`` does, so here one of them runs as a file (the command line they share) and
-the others only answer ``--help``.
+are the exception: CI's ``fecheck validate --quick`` runs every one of them in its quick
+mode and fails on a failed row, as their ``main_for`` does, so here one of them runs as a
+file (the command line they share; marked ``validation`` too) and the others only answer
+``--help``.
 """
 
 from __future__ import annotations
@@ -120,6 +120,7 @@ def test_the_row_scripts_are_the_ones_fecheck_validate_runs():
     assert rows and {ROWS + name for name in discover()} == rows
 
 
+@pytest.mark.validation
 def test_a_row_script_runs_as_a_file_in_its_quick_mode(tmp_path):
     # the command line every row script shares (`report.main_for`): rows printed
     done = _run([str(VALIDATION / "row_rigid.py"), "--quick", "--out", str(tmp_path)],
