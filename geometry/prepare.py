@@ -20,7 +20,9 @@ a femoral condyle), so it is prepared as one:
    faces' vertices, split at edge midpoints until the edges are at most half the lattice
    step or a quarter of ``smooth_mm``; each weighted by its area times the biweight
    (1 − r²/smooth_mm²)² of its distance r): a local quadric regression
-   (`quadric_heights`). A quadric is reproduced exactly and a smooth shape nearly so
+   (`quadric_heights`; its heights are kept in the mesh cache by the samples' content,
+   `geometry.cache.cached_arrays`: `fecheck knee import` and `fecheck fe` prepare the
+   same sheets). A quadric is reproduced exactly and a smooth shape nearly so
    (the synthetic plateau's 0.4 mm bump of 12 mm wavelength is kept to about 30 µm at
    4 mm), whatever ``size_mm``; voxel terraces and noise narrower than ``smooth_mm``
    are averaged out. (A smoothing spline that penalised curvature, the first version,
@@ -49,6 +51,7 @@ from dataclasses import dataclass
 import numpy as np
 import scipy.sparse as sp
 
+from geometry.cache import cached_arrays
 from geometry.errors import FecheckError
 from geometry.mesh import TriMesh
 from geometry.planar import inside_triangulation, locate_in_plane, plane_interpolation
@@ -151,7 +154,11 @@ def prepare_sheet(sheet: TriMesh, size_mm: float, *, axis: np.ndarray | None = N
         rel = dense.points[used] - origin
         suv, sz = rel @ frame.T, rel @ a
         if smooth_mm > 0:
-            h = quadric_heights(lattice, suv, sz, tributary_areas(dense)[used], smooth_mm)
+            weight = tributary_areas(dense)[used]
+            h = cached_arrays("quadric-heights", [lattice, suv, sz, weight,
+                                                  np.array([smooth_mm], float)],
+                              lambda: (quadric_heights(lattice, suv, sz, weight, smooth_mm),)
+                              )[0]
         else:
             h = _least_squares_heights(lattice, faces, lines, suv, sz)
     points = origin + lattice @ frame + h[:, None] * a

@@ -36,7 +36,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from geometry.cache import per_mesh
+from geometry.cache import cached_arrays, per_mesh
 from geometry.mesh import TriMesh
 
 SLIVER_QUALITY = 0.1
@@ -132,7 +132,15 @@ def _frames(mesh: TriMesh, i: np.ndarray, j: np.ndarray, weight: np.ndarray
 
 def quadric_offsets(mesh: TriMesh, radius_mm: float) -> tuple[np.ndarray, np.ndarray]:
     """(n,) offset a of each vertex to the quadric fitted within `radius_mm` (mm, along
-    the local normal; smoothed = raw + a·normal) and (n, 3) those local unit normals."""
+    the local normal; smoothed = raw + a·normal) and (n, 3) those local unit normals; kept
+    in the mesh cache by the mesh's content (`fecheck knee import` and `fecheck fe` measure
+    the same sheets)."""
+    offsets, normals = cached_arrays("quadric-offsets", [mesh, np.array([radius_mm], float)],
+                                     lambda: _quadric_offsets(mesh, radius_mm))
+    return offsets, normals
+
+
+def _quadric_offsets(mesh: TriMesh, radius_mm: float) -> tuple[np.ndarray, np.ndarray]:
     points = mesh.points
     weight = tributary_areas(mesh)
     i, j = _pairs(points, radius_mm)

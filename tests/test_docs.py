@@ -76,6 +76,9 @@ def test_the_readme_names_the_build_command_and_the_two_commands():
     text = _readme()
     for command in ("bash scripts/build_docs.sh",
                     "bash scripts/setup.sh && .venv/bin/fecheck run",
-                    "bash scripts/setup.sh && .venv/bin/python -m pytest"):
+                    "bash scripts/setup.sh && bash scripts/test.sh"):
         assert command in text
     assert (REPO / "scripts" / "build_docs.sh").is_file()
+    # CI runs the README's test command (the default run, then `pytest -m validation`)
+    assert (REPO / "scripts" / "test.sh").is_file()
+    assert "\nbash scripts/test.sh" in (REPO / ".ci" / "run").read_text(encoding="utf-8")

@@ -13,6 +13,7 @@ if __name__ == "__main__" and not __package__:  # python validation/x.py: as pyt
     sys.path[0] = str(Path(__file__).resolve().parents[1])
 
 from fecheck.studies.thesis import row_rigid
+from fecheck.studies.thesis.report import main_for
 
 if __name__ == "__main__":
-    raise SystemExit(row_rigid.main())
+    raise SystemExit(main_for(row_rigid.rows))

@@ -7,6 +7,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
+from geometry.cache import STATS
 from geometry.errors import FecheckError
 from geometry.mesh import TriMesh
 from geometry.planar import plane_interpolation
@@ -111,6 +112,20 @@ def test_a_plane_is_kept_exactly():
     assert np.abs(p[:, 2] - (0.2 * p[:, 0] - 0.1 * p[:, 1] + 3.0)).max() < 1e-6
     # the lattice covers the 20 x 20 mm square to about one element along its edges
     assert 400 - 4 * 20 < prepared.mesh.area / np.sqrt(1 + 0.2 ** 2 + 0.1 ** 2) < 400
+
+
+def test_the_same_sheet_prepared_again_reads_its_heights_from_the_cache():
+    """`fecheck knee import` and `fecheck fe` prepare the same sheets: a copy of a
+    prepared sheet reads the quadric heights back (one cache hit, no build, the same
+    points); another smoothing length fits anew."""
+    sheet = _plane_sheet(seed=7)
+    first = prepare_sheet(sheet, 1.0, smooth_mm=3.0)
+    hits, builds = STATS.hits, STATS.builds
+    again = prepare_sheet(TriMesh(sheet.points.copy(), sheet.faces.copy()), 1.0, smooth_mm=3.0)
+    assert (STATS.hits, STATS.builds) == (hits + 1, builds)
+    assert np.array_equal(again.mesh.points, first.mesh.points)
+    prepare_sheet(sheet, 1.0, smooth_mm=2.0)
+    assert (STATS.hits, STATS.builds) == (hits + 1, builds + 1)
 
 
 def test_a_quadric_is_kept_exactly():

@@ -7,6 +7,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
+from geometry.cache import STATS
 from geometry.mesh import TriMesh
 from geometry.roughness import roughness, roughness_report, sliver_count, smooth
 
@@ -62,6 +63,20 @@ def test_a_sphere_patch_is_smooth_and_stays_on_its_sphere():
     out = smooth(mesh, RADIUS)
     dist = np.linalg.norm(out.points - (0.0, 0.0, R), axis=1)
     assert np.abs(dist - R).max() < 2e-3                     # a plane fit: 0.09 mm off
+
+
+def test_the_same_sheet_measured_again_reads_its_fits_from_the_cache():
+    """`fecheck knee import` and `fecheck fe` measure the same sheets: a copy of a measured
+    sheet reads its quadric fits back (one cache hit, no build, the same values); another
+    smoothing length fits anew."""
+    mesh = grid(lambda x, y: 0.02 * x * y)
+    first = roughness(mesh, RADIUS)
+    hits, builds = STATS.hits, STATS.builds
+    again = roughness(TriMesh(mesh.points.copy(), mesh.faces.copy()), RADIUS)
+    assert (STATS.hits, STATS.builds) == (hits + 1, builds)
+    assert np.array_equal(again.residual_mm, first.residual_mm)
+    roughness(mesh, 2.0)
+    assert (STATS.hits, STATS.builds) == (hits + 1, builds + 1)
 
 
 def test_smoothing_removes_terraces_from_a_terraced_sphere():

@@ -4,18 +4,24 @@ The scripts are found by globbing ``validation/*.py``, so a new one is run witho
 editing this file; each runs as a file (``python validation/x.py``) in a subprocess from a
 temporary folder, with its output options (``--out``, ``--json``, ``--plot``, as its
 ``--help`` lists them) pointed there, and answers ``--help`` as a module of the package
-(``python -m validation.x`` from the repository root).
+(``python -m validation.x`` from the repository root: all of them in one subprocess, each
+run by `runpy` as ``-m`` runs it).
+
+The quick runs (minutes in all: each script is a study) are marked ``validation``: the
+default run leaves them out, ``bash scripts/test.sh`` (the README's test command, which CI
+runs) runs them after it, by ``python -m pytest -m validation``.
 
 The row scripts (``validation/row_*.py``, which run the rows of `fecheck.studies.thesis`)
-are the exception: CI's ``fecheck validate
---quick`` runs every one of them in its quick mode and fails on a failed row, as their
-``main_for`` does, so here one of them runs as a file (the command line they share) and
-the others only answer ``--help``.
+are the exception: CI's ``fecheck validate --quick`` runs every one of them in its quick
+mode and fails on a failed row, as their ``main_for`` does, so here one of them runs as a
+file (the command line they share; marked ``validation`` too) and the others only answer
+``--help``.
 """
 
 from __future__ import annotations
 
 import importlib.util
+import json
 import os
 import re
 import subprocess
@@ -63,14 +69,45 @@ def test_the_files_left_out_are_there():
     assert {p.name for p in VALIDATION.glob("*.py")} >= set(NOT_SCRIPTS)
 
 
+AS_MODULES = """\
+import contextlib, io, json, runpy, sys, traceback
+answers = {}
+for name in sys.argv[1:]:
+    sys.argv = ["-m", "--help"]
+    out, err, code = io.StringIO(), io.StringIO(), 0
+    with contextlib.redirect_stdout(out), contextlib.redirect_stderr(err):
+        try:
+            runpy.run_module("validation." + name, run_name="__main__", alter_sys=True)
+        except SystemExit as stop:
+            code = stop.code if isinstance(stop.code, int) else 1
+        except BaseException:
+            traceback.print_exc()
+            code = 1
+    answers[name] = [code, out.getvalue(), err.getvalue()]
+print(json.dumps(answers))
+"""
+"""Runs ``validation.<name> --help`` for each name of its arguments as ``python -m`` does
+(`runpy.run_module` as ``__main__``, the repository root first on sys.path) and prints
+{name: [exit status, stdout, stderr]} as JSON."""
+
+
+@pytest.fixture(scope="module")
+def help_as_modules() -> dict[str, list]:
+    """Each script's answer to ``--help`` run as a module of the package, from one process."""
+    done = _run(["-c", AS_MODULES, *(p.stem for p in SCRIPTS)], VALIDATION.parent)
+    assert done.returncode == 0, done.stderr[-3000:]
+    return json.loads(done.stdout.splitlines()[-1])
+
+
 @pytest.mark.parametrize("script", SCRIPTS, ids=lambda p: p.stem)
-def test_runs_as_a_module_of_the_package(script):
+def test_runs_as_a_module_of_the_package(script, help_as_modules):
     # `python -m validation.x` from the repository root finds the same script and its siblings
-    usage = _run(["-m", f"validation.{script.stem}", "--help"], VALIDATION.parent)
-    assert usage.returncode == 0, usage.stderr[-3000:]
-    assert "usage:" in usage.stdout
+    code, out, err = help_as_modules[script.stem]
+    assert code == 0, err[-3000:]
+    assert "usage:" in out
 
 
+@pytest.mark.validation
 @pytest.mark.parametrize("script", STUDIES, ids=lambda p: p.stem)
 def test_quick_mode_runs_to_the_end(script, tmp_path):
     module, install = NEEDS.get(script.name, (None, ""))
@@ -89,6 +126,7 @@ def test_the_row_scripts_are_the_ones_fecheck_validate_runs():
     assert rows and {ROWS + name for name in discover()} == rows
 
 
+@pytest.mark.validation
 def test_a_row_script_runs_as_a_file_in_its_quick_mode(tmp_path):
     # the command line every row script shares (`report.main_for`): rows printed
     done = _run([str(VALIDATION / "row_rigid.py"), "--quick", "--out", str(tmp_path)],

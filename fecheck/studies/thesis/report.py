@@ -349,10 +349,9 @@ def _rel(p: Path, out: Path) -> str:
 
 def main_for(rows_fn: Callable[[bool, Path], list[Row]], argv: Sequence[str] | None = None
              ) -> int:
-    """Command line of a row script: ``[--quick] [--out DIR]``; prints each row. Exit
-    status 1 when a row failed (a skipped row is not a failure)."""
-    import argparse
-
+    """The command line every row script shares (``validation/row_*.py`` pass their
+    module's ``rows``): ``[--quick] [--out DIR]``; prints each row. Exit status 1 when a
+    row failed (a skipped row is not a failure)."""
     p = argparse.ArgumentParser(description="Reproduce thesis rows; writes CSV/PNG to --out.")
     p.add_argument("--quick", action="store_true", help="reduced meshes and sweeps")
     p.add_argument("--out", type=Path, default=Path("out/validation"), help="output folder")

@@ -25,7 +25,6 @@ from fecheck.studies.thesis.report import (
     Row,
     figure,
     guarded,
-    main_for,
     save_figure,
     table_row,
     write_data_csv,
@@ -171,12 +170,3 @@ def rows(quick: bool, out: Path) -> list[Row]:
                     lambda: figs_3_21_3_25(quick, out)),
             guarded("fig_3_24", "ray-casting detection rate against depth", "Fig. 3.24", out,
                     lambda: fig_3_24(quick, out))]
-
-
-def main(argv: list[str] | None = None) -> int:
-    """Command line: ``[--quick] [--out DIR]`` (`report.main_for`)."""
-    return main_for(rows, argv)
-
-
-if __name__ == "__main__":
-    raise SystemExit(main())

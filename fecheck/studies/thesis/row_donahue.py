@@ -26,7 +26,6 @@ from fecheck.studies.thesis.report import (
     Row,
     figure,
     guarded,
-    main_for,
     save_figure,
     table_row,
 )
@@ -149,12 +148,3 @@ def rows(quick: bool, out: Path) -> list[Row]:
             guarded("table_5_8", "Donahue 2002 comparison, medial condyle", "Table 5.8", out,
                     lambda: _row("table_5_8", "Table 5.8", "medial", tv.TABLE_5_8B_MEDIAL,
                                  data(), out))]
-
-
-def main(argv: list[str] | None = None) -> int:
-    """Command line: ``[--quick] [--out DIR]`` (`report.main_for`)."""
-    return main_for(rows, argv)
-
-
-if __name__ == "__main__":
-    raise SystemExit(main())

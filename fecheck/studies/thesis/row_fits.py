@@ -22,7 +22,6 @@ from fecheck.studies.thesis.report import (
     Row,
     figure,
     guarded,
-    main_for,
     require_knee_data,
     save_figure,
     table_row,
@@ -142,12 +141,3 @@ def rows(quick: bool, out: Path) -> list[Row]:
                     lambda: table_2_4(quick, out)),
             guarded("table_2_5", "femoral polynomials r = f(θ, φ)", "Table 2.5", out,
                     lambda: table_2_5(quick, out))]
-
-
-def main(argv: list[str] | None = None) -> int:
-    """Command line: ``[--quick] [--out DIR]`` (`report.main_for`)."""
-    return main_for(rows, argv)
-
-
-if __name__ == "__main__":
-    raise SystemExit(main())

@@ -32,7 +32,6 @@ from fecheck.studies.thesis.report import (
     Row,
     figure,
     guarded,
-    main_for,
     save_figure,
     table_row,
     write_data_csv,
@@ -306,12 +305,3 @@ def rows(quick: bool, out: Path) -> list[Row]:
                     lambda: r47()[0]),
             guarded("fig_4_8", "EF and Hertz pressure profiles", "Fig. 4.8", out,
                     lambda: r47()[1])]
-
-
-def main(argv: list[str] | None = None) -> int:
-    """Command line: ``[--quick] [--out DIR]`` (`report.main_for`)."""
-    return main_for(rows, argv)
-
-
-if __name__ == "__main__":
-    raise SystemExit(main())

@@ -21,7 +21,6 @@ from fecheck.studies.thesis.report import (
     Row,
     guarded,
     knee_scene,
-    main_for,
     table_row,
 )
 from fecheck.studies.thesis.row_rigid import run, scene
@@ -142,12 +141,3 @@ def rows(quick: bool, out: Path) -> list[Row]:
                     out, lambda: fig_5_18(quick, out)),
             guarded("fig_5_21", "pressure maps, scanned knee with ligaments", "Fig. 5.21",
                     out, lambda: fig_5_21(quick, out))]
-
-
-def main(argv: list[str] | None = None) -> int:
-    """Command line: ``[--quick] [--out DIR]`` (`report.main_for`)."""
-    return main_for(rows, argv)
-
-
-if __name__ == "__main__":
-    raise SystemExit(main())

@@ -18,7 +18,6 @@ from fecheck.studies.thesis.report import (
     Row,
     figure,
     guarded,
-    main_for,
     require_knee_data,
     save_figure,
     table_row,
@@ -146,12 +145,3 @@ def rows(quick: bool, out: Path) -> list[Row]:
                     lambda: table_3_1(quick, out)),
             guarded("fig_3_3", "icosphere volume convergence", "Fig. 3.3", out,
                     lambda: fig_3_3(quick, out))]
-
-
-def main(argv: list[str] | None = None) -> int:
-    """Command line: ``[--quick] [--out DIR]`` (`report.main_for`)."""
-    return main_for(rows, argv)
-
-
-if __name__ == "__main__":
-    raise SystemExit(main())

@@ -25,7 +25,6 @@ from fecheck.studies.thesis.report import (
     Row,
     figure,
     guarded,
-    main_for,
     save_figure,
     status_within,
     table_row,
@@ -243,12 +242,3 @@ def rows(quick: bool, out: Path) -> list[Row]:
         guarded("fig_5_22", "additional left knee, force against load point", "Fig. 5.22",
                 out, lambda: fig_5_22(quick, out)),
     ]
-
-
-def main(argv: list[str] | None = None) -> int:
-    """Command line: ``[--quick] [--out DIR]`` (`report.main_for`)."""
-    return main_for(rows, argv)
-
-
-if __name__ == "__main__":
-    raise SystemExit(main())

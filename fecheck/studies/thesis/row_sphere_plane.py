@@ -28,7 +28,6 @@ from fecheck.studies.thesis.report import (
     figure,
     guarded,
     knee_scene,
-    main_for,
     save_figure,
     table_row,
 )
@@ -277,12 +276,3 @@ def rows(quick: bool, out: Path) -> list[Row]:
             ("table_5_12", "summary of the meshed models", "Table 5.12",
              lambda: table_5_12(out))]
     return [guarded(n, t, r, out, fn) for n, t, r, fn in spec]
-
-
-def main(argv: list[str] | None = None) -> int:
-    """Command line: ``[--quick] [--out DIR]`` (`report.main_for`)."""
-    return main_for(rows, argv)
-
-
-if __name__ == "__main__":
-    raise SystemExit(main())

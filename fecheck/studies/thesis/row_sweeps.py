@@ -28,7 +28,6 @@ from fecheck.studies.thesis.report import (
     figure,
     guarded,
     knee_scene,
-    main_for,
     save_figure,
     table_row,
     write_data_csv,
@@ -433,12 +432,3 @@ def rows(quick: bool, out: Path) -> list[Row]:
              fig_5_16),
             ("fig_5_19", "scanned knee with ligaments", "Fig. 5.19", fig_5_19)]
     return [guarded(n, t, r, out, lambda fn=fn: fn(quick, out)) for n, t, r, fn in spec]
-
-
-def main(argv: list[str] | None = None) -> int:
-    """Command line: ``[--quick] [--out DIR]`` (`report.main_for`)."""
-    return main_for(rows, argv)
-
-
-if __name__ == "__main__":
-    raise SystemExit(main())
