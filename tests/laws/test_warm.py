@@ -7,9 +7,12 @@ import subprocess
 import sys
 from pathlib import Path
 
+import pytest
+
 SCENES = Path(__file__).resolve().parents[2] / "validation" / "scenes"
 
 
+@pytest.mark.validation  # compiles every kernel from an empty cache: over a minute
 def test_a_run_after_the_warm_up_compiles_nothing(tmp_path):
     env = dict(os.environ, NUMBA_CACHE_DIR=str(tmp_path / "numba"))
     subprocess.run([sys.executable, "-m", "fecheck.laws.warm"], env=env, check=True,
