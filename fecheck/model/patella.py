@@ -62,7 +62,7 @@ from fecheck.model.results import CompartmentResult
 from fecheck.scene import Scene, surfaces
 from fecheck.scene.packaged import PACKAGE_PREFIX, data_dir
 from fecheck.statics.frames import rot_x, rot_y, rot_z, skew
-from fecheck.statics.ligaments import SpringSet, blankevoort_tension
+from fecheck.statics.ligaments import SpringSet, blankevoort_tension, point_forces
 from fecheck.statics.newton import (
     TIBIA_COORDINATES,
     Body,
@@ -213,20 +213,6 @@ class TwoBodySprings:
         w = np.concatenate([-total, -np.cross(xa, force).sum(0), total,
                             np.cross(xb, force).sum(0)])
         return (self.a, self.b), w, dw
-
-
-def point_forces(x: np.ndarray, force: np.ndarray, jac: np.ndarray
-                 ) -> tuple[np.ndarray, np.ndarray]:
-    """Summed wrench (6,) of forces (n, 3) N at body points x (n, 3) mm (world) and its
-    tangent dW/dξ (6, 6), each force changing with its point by `jac` (n, 3, 3)."""
-    xs, fs = skew(x), skew(force)
-    lower = xs @ jac - fs
-    dw = np.zeros((6, 6))
-    dw[:3, :3] = jac.sum(axis=0)
-    dw[:3, 3:] = -(jac @ xs).sum(axis=0)
-    dw[3:, :3] = lower.sum(axis=0)
-    dw[3:, 3:] = -(lower @ xs).sum(axis=0)
-    return np.concatenate([force.sum(axis=0), np.cross(x, force).sum(axis=0)]), dw
 
 
 @dataclass(frozen=True, eq=False)

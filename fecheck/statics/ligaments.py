@@ -142,14 +142,7 @@ class SpringSet:
         # the pull's Jacobian with x: -f'/l0·uuᵀ - f/l·(I - uuᵀ), per spring (n, 3, 3)
         uu = u[:, :, None] * u[:, None, :]
         jac = -(df / l0)[:, None, None] * uu - (f / length)[:, None, None] * (np.eye(3) - uu)
-        xs, fs = skew(x), skew(force)
-        lower = xs @ jac - fs                       # dM/dx (n, 3, 3): [x]×J - [F]×
-        dw = np.zeros((6, 6))
-        dw[:3, :3] = jac.sum(axis=0)
-        dw[:3, 3:] = -(jac @ xs).sum(axis=0)
-        dw[3:, :3] = lower.sum(axis=0)
-        dw[3:, 3:] = -(lower @ xs).sum(axis=0)
-        return np.concatenate([force.sum(axis=0), np.cross(x, force).sum(axis=0)]), dw
+        return point_forces(x, force, jac)
 
 
 
@@ -221,3 +214,17 @@ def spring_wrench(femur_point: np.ndarray, tibia_point: np.ndarray, reference_le
     return SpringLigament(np.asarray(femur_point, float), np.asarray(tibia_point, float),
                           reference_length_mm / (1 + reference_strain), float(stiffness_N),
                           float(transition_strain))
+
+
+def point_forces(x: np.ndarray, force: np.ndarray, jac: np.ndarray
+                 ) -> tuple[np.ndarray, np.ndarray]:
+    """Summed wrench (6,) of forces (n, 3) N at body points x (n, 3) mm (world) and its
+    tangent dW/dξ (6, 6), each force changing with its point by `jac` (n, 3, 3)."""
+    xs, fs = skew(x), skew(force)
+    lower = xs @ jac - fs                       # dM/dx (n, 3, 3): [x]×J - [F]×
+    dw = np.zeros((6, 6))
+    dw[:3, :3] = jac.sum(axis=0)
+    dw[:3, 3:] = -(jac @ xs).sum(axis=0)
+    dw[3:, :3] = lower.sum(axis=0)
+    dw[3:, 3:] = -(lower @ xs).sum(axis=0)
+    return np.concatenate([force.sum(axis=0), np.cross(x, force).sum(axis=0)]), dw

@@ -146,6 +146,16 @@ def _residuals(answers: list[Answer], fe: list[Answer]) -> np.ndarray:
     return np.asarray(r)
 
 
+def calibration_loads(scene: Scene, load_factors: Sequence[float]) -> list[float]:
+    """The loads (N) a calibration fits at: `load_factors` × load.force_N, each checked."""
+    if not scene["load.force_N"] > 0:
+        raise FecheckError("calibrate: the scene has no load (load.force_N = 0)")
+    if not load_factors or not all(math.isfinite(f) and f > 0 for f in load_factors):
+        raise FecheckError(f"calibrate: the load factors must be positive numbers (multiples "
+                           f"of load.force_N), got {list(load_factors)}")
+    return [f * scene["load.force_N"] for f in load_factors]
+
+
 def calibrate(scene: Scene, load_factors: Sequence[float] = LOAD_FACTORS,
               log: Callable[[str], None] = lambda s: None) -> CalibrationFit:
     """Fit the calibrated EF of `scene` to its FE at `load_factors` × load.force_N."""
@@ -154,12 +164,7 @@ def calibrate(scene: Scene, load_factors: Sequence[float] = LOAD_FACTORS,
     from fecheck.model.fingerprint import scene_fingerprint
     from fecheck.model.run import run_scene
 
-    if not scene["load.force_N"] > 0:
-        raise FecheckError("calibrate: the scene has no load (load.force_N = 0)")
-    if not load_factors or not all(math.isfinite(f) and f > 0 for f in load_factors):
-        raise FecheckError(f"calibrate: the load factors must be positive numbers (multiples "
-                           f"of load.force_N), got {list(load_factors)}")
-    loads = [f * scene["load.force_N"] for f in load_factors]
+    loads = calibration_loads(scene, load_factors)
     t0 = time.perf_counter()
     fe = fe_answers(scene, loads, log)
     t1 = time.perf_counter()

@@ -43,7 +43,7 @@ from fecheck.laws.calibrated import MENISCI_INTERFACES, Calibration
 from fecheck.model import menisci
 from fecheck.scene import Scene, with_values
 from fecheck.scene.provenance import provenance
-from fecheck.studies.calibrate import FIT_TOLERANCE, SPLIT_WEIGHT
+from fecheck.studies.calibrate import FIT_TOLERANCE, SPLIT_WEIGHT, calibration_loads
 
 LOAD_FACTORS = (1.0,)
 """Loads calibrated at by default, as multiples of load.force_N: the scene's load alone,
@@ -193,17 +193,12 @@ class MenisciFit:
 def calibrate_menisci(scene: Scene, load_factors: Sequence[float] = LOAD_FACTORS,
                       log: Callable[[str], None] = lambda s: None) -> MenisciFit:
     """Fit the meniscus laws of `scene` to its FE at `load_factors` × load.force_N."""
-    if not scene["load.force_N"] > 0:
-        raise FecheckError("calibrate: the scene has no load (load.force_N = 0)")
-    if not load_factors or not all(math.isfinite(f) and f > 0 for f in load_factors):
-        raise FecheckError(f"calibrate: the load factors must be positive numbers (multiples "
-                           f"of load.force_N), got {list(load_factors)}")
+    loads = calibration_loads(scene, load_factors)
     scene = with_values(scene, menisci__calibration="")
     sides = menisci.present_sides(scene)
     if not sides:
         raise FecheckError("calibrate: the scene's menisci are all removed (menisci.sides, "
                            "menisci.remove): no meniscus law to calibrate")
-    loads = [f * scene["load.force_N"] for f in load_factors]
     t0 = time.perf_counter()
     fe = fe_answers(scene, loads, log)
     t1 = time.perf_counter()
