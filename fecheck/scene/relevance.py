@@ -274,6 +274,12 @@ def _no_patella(scene: SceneValues) -> str | None:
     return None
 
 
+def _no_menisci(scene: SceneValues) -> str | None:
+    if not scene["menisci.dir"]:
+        return "menisci.dir = '': no menisci"
+    return None
+
+
 def _no_prepare(scene: SceneValues) -> str | None:
     if scene["fe.prepare"] == "off":
         return "fe.prepare = 'off': `fecheck fe` meshes the EF run's own faces, unprepared"
@@ -288,6 +294,10 @@ _CONTACT_KEYS = ("contact.law", "contact.area", "contact.master", "contact.detec
                  "contact.indenter_youngs_MPa", "contact.indenter_poisson")
 _LAYER_KEYS = ("contact.femoral_share", "contact.femoral_youngs_MPa", "contact.femoral_poisson")
 _SOLVER_KEYS = ("solver.start_gap_mm", "solver.max_iterations", "solver.tolerance")
+_MENISCI_KEYS = tuple(f"menisci.{k}" for k in (
+    "sides", "remove", "torn_roots", "partial", "roots", "root_N_per_mm", "coronary",
+    "transverse", "fit", "free", "youngs_MPa", "poisson", "thickness_mm", "layers",
+    "calibration"))
 _SPRING_KEYS = ("ligaments.transition_strain",) + tuple(
     f"ligaments.{n}.{p}" for n in LIGAMENTS for p in ("stiffness_N", "reference_strain"))
 
@@ -328,6 +338,7 @@ RULES: tuple[tuple[tuple[str, ...], Reason], ...] = (
     (("fe.axisym_size_mm",), _no_axisymmetric),
     (("fe.size_mm", "fe.smooth_mm", "fe.terraces"), _no_prepare),
     (("patella.quadriceps_N",), _no_patella),
+    (_MENISCI_KEYS + ("fe.start_youngs_MPa", "fe.start_poisson"), _no_menisci),
     (_LAYER_KEYS, _one_layer),
 )
 """(keys, reason): the keys have no effect in a scene where ``reason(scene)`` is not None.
