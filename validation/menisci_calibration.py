@@ -19,7 +19,6 @@ given, and DIR/menisci_calibration.csv. Units: N, mm², MPa.
 from __future__ import annotations
 
 import argparse
-import csv
 import sys
 import time
 import warnings
@@ -27,6 +26,7 @@ from pathlib import Path
 
 from fecheck.laws.calibrated import MENISCI_INTERFACES, Calibration, read_calibration
 from fecheck.model import menisci
+from fecheck.model.results import write_rows
 from fecheck.scene import load_scene, with_values
 from fecheck.studies import menisci_calibrate as mc
 
@@ -73,10 +73,7 @@ def main(argv: list[str] | None = None) -> int:
                   f"{100 * (cal[c]['share'] - fe[c]['share']):+.1f} points")
             for name, answer in (("FE", fe), ("EF uncalibrated", plain), ("EF calibrated", cal)):
                 rows.append({"load_N": load, "compartment": c, "model": name, **answer[c]})
-    with open(args.out / "menisci_calibration.csv", "w", newline="") as f:
-        writer = csv.DictWriter(f, fieldnames=list(rows[0]))
-        writer.writeheader()
-        writer.writerows(rows)
+    write_rows(args.out / "menisci_calibration.csv", rows)
     print(f"wrote {args.out / 'menisci_calibration.csv'}")
     return 0
 
