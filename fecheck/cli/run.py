@@ -205,6 +205,9 @@ def run(args: argparse.Namespace) -> int:
     scene = (load_scene(args.scene, args.overrides) if args.from_json is None
              else recorded_scene(args))
     check_ef_poisson(scene)
+    if scene["patella.dir"]:
+        print("note: patella.dir is read by `fecheck flex` only: this run solves the tibia "
+              "without the patella", file=out)
     if has_no_pressure_map(scene):
         _drop_per_face_outputs(args, out)
     check_outputs(args)

@@ -75,6 +75,13 @@ def test_poisson_close_to_half_warns_on_one_line(capsys):
     assert len(err) == 1 and err[0].startswith("fecheck: warning:") and "0.5" in err[0]
 
 
+def test_run_says_it_leaves_the_patella_out(capsys):
+    # the rigid model solves in milliseconds; patella.dir is read by `fecheck flex` alone
+    assert main(["run", str(SCENES / "rigid.toml"), "--set",
+                 "patella.dir='fecheck:knee/lenhart2015_patella'"]) == 0
+    assert "note: patella.dir is read by `fecheck flex` only" in capsys.readouterr().out
+
+
 def test_run_without_plot_does_not_import_pyvista():
     code = ("import sys; from fecheck.cli import main; "
             "rc = main(['run', '--set', 'mesh.plateau_refine_mm=1.5']); "
