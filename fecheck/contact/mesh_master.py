@@ -230,8 +230,8 @@ class MeshMaster:
 
     def tree_closest(self, pts: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """The tree's (squared distance mm², closest face, closest point mm) of points
-        (n, 3) (C-contiguous, master frame): the points bitwise equal to one of the last
-        call's take its answers, the others are asked."""
+        (n, 3) (master frame): the points bitwise equal to one of the last call's take its
+        answers, the others are asked; the arrays returned are the caller's to change."""
         pts = np.ascontiguousarray(pts, dtype=float)
         last = self._last_tree
         ask = np.arange(len(pts))
@@ -250,7 +250,8 @@ class MeshMaster:
         if ask.size:
             sq[ask], face[ask], closest[ask] = self._tree.squared_distance(self._V, self._F,
                                                                            pts[ask])
-        self._last_tree = (pts.copy(), sq, face, closest)
+        # copies: a walk updates the closest faces it is given in place (`WalkState`)
+        self._last_tree = (pts.copy(), sq.copy(), face.copy(), closest.copy())
         return sq, face, closest
 
     def reach(self, y: np.ndarray) -> np.ndarray:
