@@ -14,6 +14,15 @@ master's region, so it too costs ∝ the faces near the master, not the mesh.
 The cache's state (tree tables, reference pose, counters and the set) lives in one
 compiled object, `BroadPhaseState`, so that compiled code (`fecheck.laws.fused`) checks,
 reuses or rebuilds the set within the same call as the contact kernel.
+
+A rebuild that asks the master's ``reach`` (a mesh master: a closest-point query per
+vertex) asks it only where the answer can have changed: each vertex keeps the last value
+it was given and where it was then (master frame). A 1-Lipschitz reach is at most that
+value plus the vertex's straight-line move since, so a vertex whose value plus move is at
+or below ``-margin`` (less `BOUND_SLACK_MM`) is outside the set without a query, as a
+query would find it; the set is the one a from-scratch rebuild gives. In a flexion sweep
+the far vertices of the master's box (half of them, the costlier half of a closest-point
+query) are then asked once every few degrees instead of at every rebuild.
 """
 from __future__ import annotations
 
@@ -245,6 +254,10 @@ def current_set(state):
 
 REMEMBERED_BUILDS = 4
 """How many rebuilt sets a `CandidateCache` keeps by their pose."""
+BOUND_SLACK_MM = 1e-9
+"""A vertex is left out of a rebuild without asking the reach only if its bound lies this
+far below -margin (mm): round-off of the bound cannot then decide a vertex that a query
+would keep."""
 
 
 class CandidateCache:
@@ -261,6 +274,10 @@ class CandidateCache:
         a box: `reach` then decides). A rebuild asks a tree built once
         (`fecheck.contact.bvh.PointTree`), at a cost ∝ the faces near the master;
         without a region every vertex is tested.
+    lipschitz_reach : the reach is 1-Lipschitz in the point (a signed distance), so a
+        rebuild asks it only for the vertices whose last value plus their move since can
+        exceed -margin (module docstring); every value it gives at or below -margin must
+        then be an upper bound of the signed distance
 
     Notes
     -----
@@ -275,10 +292,18 @@ class CandidateCache:
 
     def __init__(self, slave: TriMesh, reach: Callable[[np.ndarray], np.ndarray],
                  margin_mm: float, reuse_fraction: float = 0.5,
-                 region: tuple[int, np.ndarray] | None = None) -> None:
+                 region: tuple[int, np.ndarray] | None = None,
+                 lipschitz_reach: bool = False) -> None:
         self.slave = slave
         self.reach = reach
         self.margin_mm = float(margin_mm)
+        # per vertex: the last reach asked (NaN: never) and the master-frame point it was
+        # asked at, the bounds of a rebuild's `_asked` (lipschitz_reach only)
+        self._bounded = bool(lipschitz_reach)
+        self._known_reach = np.full(slave.n_points, np.nan)
+        self._known_at = np.zeros((slave.n_points, 3))
+        self.n_reach_points = 0
+        """Vertices whose reach the rebuilds asked so far."""
         # built once per body, in the model's build
         self.tree = PointTree(slave.points, slave.faces, slave.face_normals, slave.face_areas)
         eye, zero = np.eye(3), np.zeros(3)
@@ -353,12 +378,33 @@ class CandidateCache:
         the region alone cannot tell (a box, or no region)."""
         if self.region is None:
             y = self.slave.points @ R.T + t
-            return self.tree.faces_of(np.flatnonzero(self.reach(y) > -self.margin_mm))
+            return self.tree.faces_of(np.flatnonzero(
+                self._asked(np.arange(self.slave.n_points), y) > -self.margin_mm))
         kind, params = self.region
         near = self.tree.near(kind, params, R, t)
         if near.size:
-            near = near[self.reach(self.slave.points[near] @ R.T + t) > -self.margin_mm]
+            near = near[self._asked(near, self.slave.points[near] @ R.T + t)
+                        > -self.margin_mm]
         return self.tree.faces_of(near)
+
+    def _asked(self, vertices: np.ndarray, y: np.ndarray) -> np.ndarray:
+        """The reach of `vertices` at their master-frame points `y` (n, 3), mm; with a
+        1-Lipschitz reach, -inf for those whose bound (last value plus straight-line move
+        since) proves them at or below -margin, the others asked (and their bounds
+        renewed)."""
+        if not self._bounded:
+            self.n_reach_points += len(y)
+            return self.reach(y)
+        bound = self._known_reach[vertices] + np.linalg.norm(y - self._known_at[vertices],
+                                                             axis=1)
+        ask = np.flatnonzero(~(bound <= -self.margin_mm - BOUND_SLACK_MM))   # NaN: ask
+        out = np.full(len(y), -np.inf)
+        if ask.size:
+            out[ask] = self.reach(y[ask])
+            self._known_reach[vertices[ask]] = out[ask]
+            self._known_at[vertices[ask]] = y[ask]
+        self.n_reach_points += ask.size
+        return out
 
     @property
     def current(self) -> Candidates | None:

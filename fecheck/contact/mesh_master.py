@@ -51,6 +51,11 @@ ring faces re-checked per point at 0.03 mm steps, ~8 after a 0.2 mm jump); the t
 path (a rebuilt set) ~1-2 ms. Of a reused evaluation, the quadrature of ~170 contact
 faces (~600 points with their twists) takes ~10 µs and boxing its ~10 arrays ~3 µs.
 
+A tree query keeps its points and answers until the next one (`MeshMaster.tree_closest`):
+the full evaluation that follows a broad-phase rebuild asks again for most of the points the
+rebuild's reach just asked, at the same pose, and takes those answers (bitwise the same
+points, so the same answers) instead of a second query.
+
 Measured alternatives for the closest point (one run, 20,480-face sphere, 500 points
 within 2 mm of it): igl.AABB 1.3 ms; ``igl.signed_distance`` rebuilds its tree every
 call (45 ms); trimesh's rtree-based proximity is slower still (see
@@ -124,6 +129,7 @@ class MeshMaster:
         self._ring_width = int(np.diff(self._ring[0]).max())
         self._edges = edge_frames(self._V, self._F)
         self._winding = self._grid = None
+        self._last_tree: tuple | None = None
         if sign == "winding":
             self._winding = WindingTree(mesh)
             self._grid = cached_arrays(
@@ -201,7 +207,7 @@ class MeshMaster:
         points closer than `unsigned_mm` to the surface are taken inside (neither)."""
         pts = np.ascontiguousarray(y.reshape(-1, 3))
         if start is None:
-            sq, face, closest = self._tree.squared_distance(self._V, self._F, pts)
+            sq, face, closest = self.tree_closest(pts)
         else:
             sq, face, closest, settled = local_closest(self._edges, *self._ring, pts, start,
                                                        MAX_STEPS)
@@ -221,6 +227,32 @@ class MeshMaster:
         depth, grad = signed_closest(pts, closest, sq, self._normals[face], outside,
                                      by_normal)
         return depth, grad, face
+
+    def tree_closest(self, pts: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """The tree's (squared distance mm², closest face, closest point mm) of points
+        (n, 3) (master frame): the points bitwise equal to one of the last call's take its
+        answers, the others are asked; the arrays returned are the caller's to change."""
+        pts = np.ascontiguousarray(pts, dtype=float)
+        last = self._last_tree
+        ask = np.arange(len(pts))
+        sq, face = np.empty(len(pts)), np.empty(len(pts), dtype=np.int64)
+        closest = np.empty((len(pts), 3))
+        if last is not None and len(last[0]) and len(pts):
+            row = np.dtype((np.void, 24))
+            known = last[0].view(row).ravel()
+            order = np.argsort(known, kind="stable")
+            keys = pts.view(row).ravel()
+            at = np.minimum(np.searchsorted(known[order], keys), len(known) - 1)
+            hit = known[order][at] == keys
+            old = order[at[hit]]
+            sq[hit], face[hit], closest[hit] = last[1][old], last[2][old], last[3][old]
+            ask = np.flatnonzero(~hit)
+        if ask.size:
+            sq[ask], face[ask], closest[ask] = self._tree.squared_distance(self._V, self._F,
+                                                                           pts[ask])
+        # copies: a walk updates the closest faces it is given in place (`WalkState`)
+        self._last_tree = (pts.copy(), sq.copy(), face.copy(), closest.copy())
+        return sq, face, closest
 
     def reach(self, y: np.ndarray) -> np.ndarray:
         """Signed distance, positive inside, mm (1-Lipschitz)."""

@@ -253,7 +253,8 @@ class ContactPair:
             reach = (self.master.margin_reach(self.margin_mm) if method == "bvh"
                      else self.master.reach)
             self._cache = CandidateCache(slave, reach, self.margin_mm,
-                                         region=region(self.margin_mm) if region else None)
+                                         region=region(self.margin_mm) if region else None,
+                                         lipschitz_reach=method == "bvh")
 
     def describe(self) -> str:
         """One line on how this pair is evaluated (for ``--explain``)."""

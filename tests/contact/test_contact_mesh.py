@@ -88,3 +88,30 @@ def test_fcl_per_face_depth_is_the_deepest_vertex_depth():
                                ours.vertex_depth[order_o].max(axis=1), atol=1e-6)
     np.testing.assert_allclose(fcl_surface.area, CONDYLE.face_areas[ours.face].sum(),
                                rtol=1e-12)
+
+
+def test_a_tree_query_takes_the_last_ones_answers_for_the_same_points_and_asks_the_rest():
+    """`MeshMaster.tree_closest` (the full evaluation after a broad-phase rebuild asks again
+    for the rebuild's points): the rows bitwise equal to the last query's take its answers,
+    which are igl's for them (whatever the caller did to the arrays it was given), and only
+    the other rows reach the tree."""
+    from fecheck.contact.mesh_master import MeshMaster
+
+    master = MeshMaster(icosphere(25.5, 3))
+    rng = np.random.default_rng(4)
+    first = rng.normal(scale=20.0, size=(200, 3))
+    later = np.concatenate([first[150:], rng.normal(scale=20.0, size=(30, 3)), first[:20]])
+    tree, asked = master._tree, []
+
+    class Counting:
+        def squared_distance(self, V, F, P):
+            asked.append(len(P))
+            return tree.squared_distance(V, F, P)
+
+    master._tree = Counting()
+    for a in master.tree_closest(first):
+        a[...] = -1                                 # a caller's walk changes its arrays
+    got = master.tree_closest(later)
+    assert asked == [200, 30]
+    for a, b in zip(got, tree.squared_distance(master._V, master._F, later), strict=True):
+        np.testing.assert_array_equal(a, b)
