@@ -14,7 +14,7 @@ Everything is in the frame of the body the object is fixed to (mm). P is the *fr
   in an ellipse, around which the shortest path within the plane is exact (the affine
   map x = c + R·D·y of the ellipsoid onto the unit sphere takes the section to a circle
   and keeps lines straight and tangent lines tangent: the circle's two tangents and
-  arc, mapped back; the arc's length in mm by 16-point Gauss-Legendre quadrature). The
+  arc, mapped back; the arc's length in mm by Gauss-Legendre quadrature). The
   plane is turned about PQ from the one through the centre to the shortest such path
   (Newton steps on the turn angle ψ with central differences, `PLANE_ITERATIONS`). The
   ellipsoid's geodesic is not planar in general; measured against OpenSim 4.6's
@@ -42,15 +42,15 @@ from dataclasses import dataclass
 
 import numpy as np
 
-GAUSS_POINTS = 16
-"""Gauss-Legendre points on the ellipsoid's arc (8 already give the 64-point value of the
-MCL arcs at rest to 1e-13 mm)."""
+GAUSS_POINTS = 8
+"""Gauss-Legendre points on the ellipsoid's arc: they give the 64-point value of the MCL
+arcs at rest to 1e-13 mm."""
 STEP_MM = 0.01
 """Central-difference step (mm) of the ellipsoid path's gradient and Hessian in P:
 rounding ~1e-16·L/h² ≈ 1e-10 /mm, truncation ~h²/s³ ≈ 1e-8 /mm for segments s ≥ 20 mm."""
 PLANE_ITERATIONS = 8
-"""Newton steps on the ellipsoid path's plane (each at most 0.2 rad): the MCL paths at rest
-converge in 5 (to 1e-8 mm)."""
+"""At most this many Newton steps on the ellipsoid path's plane (each at most 0.2 rad;
+they stop when all are below 1e-8 rad): the MCL paths at rest converge in 5."""
 PLANE_STEP = 1e-3
 """The turn (rad) of the central differences of those steps."""
 _NODES, _WEIGHTS = np.polynomial.legendre.leggauss(GAUSS_POINTS)
@@ -102,6 +102,11 @@ class WrapObjects:
         return cls(np.array([o.cylinder for o in objects]),
                    np.array([o.centre for o in objects]), np.array([o.axes for o in objects]),
                    np.array([o.radii for o in objects]))
+
+    def tiled(self, k: int) -> WrapObjects:
+        """The n objects repeated k times (k·n)."""
+        return WrapObjects(*(np.tile(a, (k,) + (1,) * (a.ndim - 1))
+                             for a in (self.cylinder, self.centre, self.axes, self.radii)))
 
     def take(self, index: np.ndarray) -> WrapObjects:
         """The objects at `index`."""
@@ -195,6 +200,10 @@ def _cylinder(obj: WrapObjects, p: np.ndarray, q: np.ndarray, hessian: bool):
     return paths, grad, hess
 
 
+def _cylinder_paths(obj: WrapObjects, p: np.ndarray, q: np.ndarray) -> Paths:
+    return _cylinder(obj, p, q, False)[0]
+
+
 def _body(obj: WrapObjects, local: np.ndarray) -> np.ndarray:
     """Points (n, 3) in the objects' local axes → their body's frame, mm."""
     return obj.centre + np.einsum("nij,nj->ni", obj.axes, local)
@@ -207,27 +216,46 @@ def _straight_derivatives(p: np.ndarray, q: np.ndarray):
     return u, (np.eye(3) - u[:, :, None] * u[:, None, :]) / length[:, None, None]
 
 
-def _ellipsoid_plane(obj: WrapObjects, p: np.ndarray, q: np.ndarray, psi: np.ndarray
-                     ) -> Paths:
-    """Ellipsoid paths in the plane through P and Q turned by ψ (n,) rad about PQ from
-    the plane through the centre: its section is an ellipse, and the planar path is
-    exact for it (the 2-D affine map of the circle's tangents and arc)."""
+def _cross(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """Row-wise a × b of (n, 3) arrays (np.cross costs several times more)."""
+    return np.stack([a[:, 1] * b[:, 2] - a[:, 2] * b[:, 1], a[:, 2] * b[:, 0] - a[:, 0] * b[:, 2],
+                     a[:, 0] * b[:, 1] - a[:, 1] * b[:, 0]], axis=1)
+
+
+def _unit_ball(obj: WrapObjects, p: np.ndarray, q: np.ndarray):
+    """P and Q in the coordinates y that map the ellipsoids onto the unit sphere (n, 3),
+    and whether the segment PQ meets the ellipsoid with both ends outside (n,)."""
+    yp = np.einsum("nji,nj->ni", obj.axes, p - obj.centre) / obj.radii
+    yq = np.einsum("nji,nj->ni", obj.axes, q - obj.centre) / obj.radii
+    d = yq - yp
+    s = np.clip(-np.sum(yp * d, axis=1) / np.maximum(np.sum(d * d, axis=1), 1e-300), 0, 1)
+    near = yp + s[:, None] * d
+    meets = ((np.sum(near * near, axis=1) < 1.0) & (np.sum(yp * yp, axis=1) > 1.0)
+             & (np.sum(yq * yq, axis=1) > 1.0))
+    return yp, yq, meets
+
+
+def _ellipsoid_plane(obj: WrapObjects, p: np.ndarray, q: np.ndarray, yp: np.ndarray,
+                     yq: np.ndarray, psi: np.ndarray, points: bool = False):
+    """Path lengths (n,) over ellipsoids that the segments PQ meet, in the plane through P
+    and Q turned by ψ (n,) rad about PQ from the plane through the centre (yp, yq: P and
+    Q in unit-sphere coordinates): the section is an ellipse, and the planar path is
+    exact for it (the affine map of the circle's two tangents and arc). With `points`,
+    also its tangent points (n, 3) each."""
     scale = obj.radii
-    yp = np.einsum("nji,nj->ni", obj.axes, p - obj.centre) / scale
-    yq = np.einsum("nji,nj->ni", obj.axes, q - obj.centre) / scale
     w = yq - yp
     w /= np.linalg.norm(w, axis=1)[:, None]
-    m0 = np.cross(yp, yq)
-    small = np.linalg.norm(m0, axis=1) < 1e-12
-    m0[small] = np.cross(w[small], np.where(np.abs(w[small, :1]) < 0.9, np.eye(3)[0],
-                                            np.eye(3)[1]))
+    m0 = _cross(yp, yq)
+    size = np.linalg.norm(m0, axis=1)
+    other = np.where(np.abs(w[:, :1]) < 0.9, np.eye(3)[0], np.eye(3)[1])
+    m0 = np.where((size > 1e-12)[:, None], m0, _cross(w, other))
     m0 /= np.linalg.norm(m0, axis=1)[:, None]
-    m = np.cos(psi)[:, None] * m0 + np.sin(psi)[:, None] * np.cross(w, m0)
+    m = np.cos(psi)[:, None] * m0 + np.sin(psi)[:, None] * _cross(w, m0)
     d = np.sum(m * yp, axis=1)
     o = d[:, None] * m                                  # the section circle's centre
     rho = np.sqrt(np.maximum(1.0 - d * d, 0.0))
     e1, e2, angle, rp, rq = _plane(yp - o, yq - o, m)
-    wraps, a1, a2, phi, _, _ = _circle(rp, rq, angle, rho)
+    _, a1, a2, phi, _, _ = _circle(rp, rq, angle, rho)
     b1, b2 = a1, angle - a2
     t1 = _body(obj, scale * (o + rho[:, None] * (np.cos(b1)[:, None] * e1
                                                  + np.sin(b1)[:, None] * e2)))
@@ -236,24 +264,37 @@ def _ellipsoid_plane(obj: WrapObjects, p: np.ndarray, q: np.ndarray, psi: np.nda
     beta = 0.5 * (b1 + b2)[:, None] + 0.5 * phi[:, None] * _NODES      # (n, k)
     tangent = (-np.sin(beta)[:, :, None] * e1[:, None, :]
                + np.cos(beta)[:, :, None] * e2[:, None, :]) * scale[:, None, :]
-    arc = 0.5 * phi * rho * (np.linalg.norm(tangent, axis=2) @ _WEIGHTS)
-    wrapped = np.linalg.norm(p - t1, axis=1) + arc + np.linalg.norm(q - t2, axis=1)
-    length = np.where(wraps, wrapped, np.linalg.norm(p - q, axis=1))
-    return Paths(length, wraps, np.where(wraps[:, None], t1, q),
-                 np.where(wraps[:, None], t2, p))
+    arc = 0.5 * phi * rho * (np.sqrt(np.sum(tangent * tangent, axis=2)) @ _WEIGHTS)
+    length = np.linalg.norm(p - t1, axis=1) + arc + np.linalg.norm(q - t2, axis=1)
+    return (length, t1, t2) if points else length
 
 
-def _ellipsoid(obj: WrapObjects, p: np.ndarray, q: np.ndarray) -> Paths:
-    """Ellipsoid paths (`Paths`): the shortest planar path (module docstring)."""
-    psi = np.zeros(len(p))
-    for _ in range(PLANE_ITERATIONS):
-        lo, mid, hi = (_ellipsoid_plane(obj, p, q, psi + s).length_mm
-                       for s in (-PLANE_STEP, 0.0, PLANE_STEP))
-        curv = lo - 2 * mid + hi
-        step = np.where(curv > 0, -0.5 * PLANE_STEP * (hi - lo) / np.maximum(curv, 1e-300),
-                        0.0)
-        psi = psi + np.clip(step, -0.2, 0.2)
-    return _ellipsoid_plane(obj, p, q, psi)
+def _ellipsoid(obj: WrapObjects, p: np.ndarray, q: np.ndarray,
+               start: np.ndarray | None = None) -> tuple[Paths, np.ndarray]:
+    """Ellipsoid paths (`Paths`): the shortest planar path (module docstring) where the
+    segment meets the ellipsoid, else the segment; and the planes' turns ψ (n,) rad,
+    searched from `start` (None: 0)."""
+    yp, yq, wraps = _unit_ball(obj, p, q)
+    length = np.linalg.norm(p - q, axis=1)
+    first, second, turn = q.copy(), p.copy(), np.zeros(len(p))
+    if wraps.any():
+        o, pw, qw, ypw, yqw = obj.take(wraps), p[wraps], q[wraps], yp[wraps], yq[wraps]
+        three = o.tiled(3)
+        args = [np.tile(a, (3, 1)) for a in (pw, qw, ypw, yqw)]
+        shift = np.repeat([-PLANE_STEP, 0.0, PLANE_STEP], len(pw))
+        psi = np.zeros(len(pw)) if start is None else start[wraps]
+        for _ in range(PLANE_ITERATIONS):
+            lo, mid, hi = _ellipsoid_plane(three, *args, np.tile(psi, 3) + shift).reshape(3, -1)
+            curv = lo - 2 * mid + hi
+            step = np.where(curv > 0, -0.5 * PLANE_STEP * (hi - lo)
+                            / np.maximum(curv, 1e-300), 0.0)
+            psi = psi + np.clip(step, -0.2, 0.2)
+            if np.abs(step).max() < 1e-8:
+                break
+        length[wraps], first[wraps], second[wraps] = _ellipsoid_plane(
+            o, pw, qw, ypw, yqw, psi, points=True)
+        turn[wraps] = psi
+    return Paths(length, wraps, first, second), turn
 
 
 _OFFSETS = np.concatenate([np.zeros((1, 3)), np.eye(3), -np.eye(3),
@@ -264,13 +305,20 @@ _OFFSETS = np.concatenate([np.zeros((1, 3)), np.eye(3), -np.eye(3),
 
 
 def _ellipsoid_derivatives(obj: WrapObjects, p: np.ndarray, q: np.ndarray):
-    """∇_P L (n, 3) and ∇²_P L (n, 3, 3) of the ellipsoid paths, central differences of
-    step `STEP_MM` (one vectorised evaluation of the 19 points)."""
+    """L (n,), ∇_P L (n, 3) and ∇²_P L (n, 3, 3) of the ellipsoid paths, central
+    differences of step `STEP_MM` (one vectorised evaluation of the 19 points, their
+    planes searched from the centre's)."""
     n, h = len(p), STEP_MM
     pts = (p[None] + h * _OFFSETS[:, None, :]).reshape(-1, 3)
-    tiled = WrapObjects(*(np.tile(a, (19,) + (1,) * (a.ndim - 1))
-                          for a in (obj.cylinder, obj.centre, obj.axes, obj.radii)))
-    lengths = _ellipsoid(tiled, pts, np.tile(q, (19, 1))).length_mm.reshape(19, n)
+    psi = _ellipsoid(obj, p, q)[1]
+    lengths = _ellipsoid(obj.tiled(19), pts, np.tile(q, (19, 1)),
+                         np.tile(psi, 19))[0].length_mm.reshape(19, n)
+    return lengths[0], *_differences(lengths, h)
+
+
+def _differences(lengths: np.ndarray, h: float) -> tuple[np.ndarray, np.ndarray]:
+    """Gradient (n, 3) and Hessian (n, 3, 3) from the lengths (19, n) at `_OFFSETS`·h."""
+    n = lengths.shape[1]
     l0, plus, minus = lengths[0], lengths[1:4], lengths[4:7]
     grad = ((plus - minus) / (2 * h)).T
     hess = np.zeros((n, 3, 3))
@@ -291,8 +339,8 @@ def paths(obj: WrapObjects, p: np.ndarray, q: np.ndarray) -> Paths:
     p, q = np.atleast_2d(np.asarray(p, float)), np.atleast_2d(np.asarray(q, float))
     length, wraps = np.empty(len(p)), np.zeros(len(p), dtype=bool)
     first, second = q.copy(), p.copy()
-    for mask, fn in ((obj.cylinder, lambda o, a, b: _cylinder(o, a, b, False)[0]),
-                     (~obj.cylinder, _ellipsoid)):
+    for mask, fn in ((obj.cylinder, _cylinder_paths),
+                     (~obj.cylinder, lambda o, a, b: _ellipsoid(o, a, b)[0])):
         if mask.any():
             part = fn(obj.take(mask), p[mask], q[mask])
             length[mask], wraps[mask] = part.length_mm, part.wraps
@@ -313,8 +361,14 @@ def length_derivatives(obj: WrapObjects, p: np.ndarray, q: np.ndarray
         part, g, h = _cylinder(obj.take(cyl), p[cyl], q[cyl], True)
         length[cyl], grad[cyl], hess[cyl] = part.length_mm, g, h
     ell = ~cyl
-    if ell.any():
-        o = obj.take(ell)
-        length[ell] = _ellipsoid(o, p[ell], q[ell]).length_mm
-        grad[ell], hess[ell] = _ellipsoid_derivatives(o, p[ell], q[ell])
+    if ell.any():           # central differences where a point of the stencil wraps
+        o, pe, qe = obj.take(ell), p[ell], q[ell]
+        pts = (pe[None] + STEP_MM * _OFFSETS[:, None, :]).reshape(-1, 3)
+        near = _unit_ball(o.tiled(19), pts,
+                          np.tile(qe, (19, 1)))[2].reshape(19, -1).any(axis=0)
+        lengths, g, h = np.linalg.norm(pe - qe, axis=1), *_straight_derivatives(pe, qe)
+        if near.any():
+            lengths[near], g[near], h[near] = _ellipsoid_derivatives(
+                o.take(near), pe[near], qe[near])
+        length[ell], grad[ell], hess[ell] = lengths, g, h
     return length, grad, hess
