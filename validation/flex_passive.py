@@ -143,12 +143,14 @@ PUBLISHED = ("passive knees: tibial internal rotation grows with flexion (Wilson
              "Blankevoort et al. 1988); lateral contact moves posterior about 15-20 mm, "
              "medial about 2-4 mm over 0-120° (Freeman & Pinskerova 2005)")
 KNOCKOUTS = ("MCLp", "MCLs", "MCLd", "PFL", "LCL", "PCL")
+STRAIGHT = "ligaments.wrap=false"
+"""The bundles as straight lines (the source model wraps MCLs, MCLd, MCLp, pCAP and the
+patellar tendon over its wrap objects, as fecheck does by default)."""
 
 
 def variants(quick: bool) -> list[tuple[str, list[str], str, str | None]]:
     """(label, scene settings, axis 'fitted' | 'source', ligament edit) of every run; the
-    edit is 'wrapped' (slack lengths from the wrapped strains) or a bundle-name prefix
-    to remove."""
+    edit is a bundle-name prefix to remove."""
     out = [("800 N in space (scene)", [], "fitted", None),
            ("800 N tibial axis", [FOLLOWER], "fitted", None),
            ("30 N in space", ["load.force_N=30.0"], "fitted", None),
@@ -159,7 +161,7 @@ def variants(quick: bool) -> list[tuple[str, list[str], str, str | None]]:
     out += [("30 N tibial axis, source axis", passive, "source", None),
             ("30 N tibial axis, abduction held",
              passive + ["dofs.free=['x', 'y', 'z', 'internal']"], "fitted", None),
-            ("30 N tibial axis, wrapped l0", passive, "fitted", "wrapped")]
+            ("30 N tibial axis, straight bundles", passive + [STRAIGHT], "fitted", None)]
     out += [(f"30 N tibial axis, no {g}", passive, "fitted", g) for g in KNOCKOUTS]
     return out
 
@@ -169,12 +171,7 @@ def edited_bundles(scene, edit: str, folder: Path) -> str:
     from fecheck.scene import surfaces
 
     items = json.loads(Path(surfaces.required_path(scene, "ligaments", "")).read_text())
-    if edit == "wrapped":
-        for b in items:
-            l0 = b["length_mm_at_rest"] / (1.0 + b["strain_at_rest_wrapped"])
-            b["parameters"]["slack_length"]["value"] = l0 / 1000.0
-    else:
-        items = [b for b in items if not b["name"].startswith(edit)]
+    items = [b for b in items if not b["name"].startswith(edit)]
     path = folder / f"ligaments_{edit}.json"
     path.write_text(json.dumps(items))
     return str(path)
@@ -276,7 +273,7 @@ def source_variants(quick: bool) -> list[tuple[str, list[str], str | None]]:
     out = [("source set-up", passive, None)]
     if not quick:
         out += [("no gravity", passive + ["gravity=false"], None),
-                ("wrapped l0", passive, "wrapped"), ("no MCLp", passive, "MCLp")]
+                ("straight bundles", passive + [STRAIGHT], None), ("no MCLp", passive, "MCLp")]
     return out
 
 
