@@ -2,8 +2,9 @@
 published passive directions (screw-home, medial pivot).
 
 The packaged scene ``femur_tibia_ligaments`` (lenhart2015 cartilage sheets, the 55 bundles
-as straight Blankevoort springs, no menisci, no patella, no muscles) is flexed 0-120° with
-`fecheck.studies.flex` under variants of
+as Blankevoort springs, MCL and posterior capsule over the source model's wrap objects,
+no menisci, no patella, no muscles) is flexed 0-120° with `fecheck.studies.flex` under
+variants of
 
 * the load's frame and size: 800 N fixed in space at the ankle (the scene: a standing
   ground reaction; at 90° it is a posterior shear on the tibia), 800 N or 30 N along the
@@ -13,8 +14,9 @@ as straight Blankevoort springs, no menisci, no patella, no muscles) is flexed 0
   z) or the source model's knee_flex_r axis (femoral x through the joint origin, (-1.757,
   -0.150, 22.272) mm, lenhart2015 README "Pose and transform");
 * the free DOFs (abduction held at 0);
-* the bundles' slack lengths: the model's l0 (straight lines, so MCLs and pCAP sit 0.3-7 %
-  slacker than the model's wrapped paths) or re-derived from the wrapped strains at rest;
+* the bundles' paths: wrapped (``ligaments.wrap``, the default) or straight lines
+  (``ligaments.wrap = false``: MCLs and pCAP then sit 0.3-7 % slacker than the model's
+  wrapped paths at rest);
 * one bundle group removed at a time (30 N follower), to find which structure drives the
   tibial rotation.
 
@@ -30,7 +32,8 @@ muscles at 2 % activation, no external load; knee_rot_r read from its
 results/forsim/passive_flexion_states.sto, positive = internal by our reading of the
 joint's +y axis) is listed beside them.
 
-Measured (every variant solves every 5°; 121 angles at 1° take 6-10 s after the build):
+Measured with straight bundles (``ligaments.wrap = false``; the wrapped default after
+this list; every variant solves every 5°; 121 angles at 1° take 6-10 s after the build):
 
 * Screw-home only in early flexion and under a small load: with 30 N, in either frame, the
   tibia turns internally by 5.0-5.5° from 0 to 20°, then externally from 30°: -7.7° at
@@ -42,7 +45,8 @@ Measured (every variant solves every 5°; 121 angles at 1° take 6-10 s after th
   7.4° are the posteromedial bundles MCLp, whose straight lines a hinge about the fitted
   axis would stretch by 68-85 % at 120° (43-54 % at 90°): without them -8.0°, and with the
   source axis too -2.7° at 90° and 120°. PFL resists (without it -22.2°); holding the
-  abduction, the wrapped slack lengths or removing the PCL change it by at most 1.3°.
+  abduction, slack lengths re-derived from the wrapped strains or removing the PCL change
+  it by at most 1.3°.
 * No medial pivot over 0-120°: under 30 N the medial centre of pressure moves 20 mm back
   and the lateral 6 mm (flexion facet centres, the sphere centres of the posterior
   condyles in the tibia frame: medial 22.5, lateral 10.9 mm), the reverse of the published
@@ -62,10 +66,11 @@ Measured (every variant solves every 5°; 121 angles at 1° take 6-10 s after th
   adduction inside the band at every angle (+0.6° at 10° to +5.0° at 90°); internal
   rotation +4.7, +5.8, +4.8, +3.4° at 10, 20, 30, 45°, 1.0-2.0° above the band, and inside
   it from 60° (-3.7° at 90°). Without the MCLp bundles it is inside from 10 to 75° (+3.4,
-  +3.6, +2.5, +1.1, -0.7, -3.4°) and 0.8° below at 90°; gravity off or the wrapped slack
-  lengths take it further out (up to +9.5° at 45°). The posteromedial bundles as straight
-  lines (the source model wraps them) are the measured excess; the patella and quadriceps
-  of the source model are not in this knee without patella.dir (below).
+  +3.6, +2.5, +1.1, -0.7, -3.4°) and 0.8° below at 90°; gravity off or slack lengths
+  re-derived from the wrapped strains take it further out (up to +9.5° at 45°). The
+  posteromedial bundles are the measured excess (wrapped, as the source model has them,
+  they still are: below); the patella and quadriceps of the source model are not in this
+  knee without patella.dir (below).
 * No setting tried gives both over the range, so the scene and `fecheck flex` keep their
   defaults.
 * With the patella (`PATELLA_SETTINGS`: its 20 bundles, the quadriceps at 2 % of their
@@ -95,13 +100,36 @@ Measured (every variant solves every 5°; 121 angles at 1° take 6-10 s after th
   pull (127 N at 0°, 85 N at 30°, 51 N at 60°, a straight line: the source model wraps it
   over PatTen_r) adds +0.5 to +5.0° at 20-60°. With the quadriceps at 0 N nothing presses
   the patella on the trochlea and it has no stiffness (refused: patella.quadriceps_N > 0).
-  Not modelled here, and candidates: the menisci, the hamstrings, the wrapping of the
-  bundles and the tendon.
+  Not modelled here, and candidates: the menisci, the hamstrings (the wrapping of the
+  bundles and the tendon: below).
+
+With the bundles wrapped (``ligaments.wrap = true``, the default; measured with this
+script's set-ups, in one process each, nothing tuned): wrapping lengthens MCLs1-6 by
+0.2-0.8 mm at rest and the posterior capsule pCAP1-8 by 2.9-3.9 mm (from slack, ε -0.007
+to -0.032, to the model's +0.03 to +0.04), and in flexion it tightens them further:
+
+* About the source axis, 30 N along the tibia, every 5°: internal rotation +5.18, +7.13,
+  +7.75, +6.71, +4.72, +0.21, -3.40° at 10, 20, 30, 45, 60, 75, 90° (straight: +4.65,
+  +5.83, +4.77, +3.35, +1.61, -1.09, -3.69°): out of the band at 10-60° and further out
+  than straight by 0.5-3.4°; adduction +0.67, +1.63, +2.58, +3.61, +4.05, +4.68, +4.96°
+  (straight +0.59 to +5.04°), inside. Wrapping moves the internal rotation away from
+  the source runs, as the wrapped slack lengths did on straight lines.
+* With the patella every 1°: internal rotation +5.27, +7.25, +8.54, +9.47, +6.15, -0.58°
+  at 10-75° (straight +4.66, +6.36, +7.60, +8.35, +5.26, -1.75°); adduction +0.52 to
+  +4.34°, inside; the six pf_r coordinates within 0.15° and 0.05 mm of the straight
+  run's, inside their bands. The patellar tendon's path meets its ellipsoid PatTen_r by
+  at most 0.002 mm over 0-83° (PT3 at 18-30°): at these poses its wrap does not act, so
+  the tendon's straight line is not what raises the internal rotation with the patella.
+  This run stops at 84° (no stiffness of the patella at an iterate, also with 2° steps),
+  where the straight one solves every angle to 120°.
+* About the fitted axis (--quick, every 10°): 30 N along the tibia -0.6° at 0°, +4.5,
+  +6.1, +6.3° at 10-30°, -7.6° at 90°, -15.4° at 120°; the scene's 800 N in space -9.3°
+  at 0° (straight: -10.8°) and -18.1° at 120°.
 
 Against the source model's own passive flexion (`validation.passive_reference`: two published
 OpenSim-JAM runs; band = their span ±2°, changes from 0°), the source set-up: its
 knee_flex_r axis, 30 N along the tibial axis, gravity as the scene's; then the same with one
-thing changed (no gravity, the wrapped slack lengths, no MCLp) to measure what moves each
+thing changed (no gravity, straight bundles, no MCLp) to measure what moves each
 curve that leaves the band. The table marks values outside the band with '*'.
 
     python validation/flex_passive.py [--quick] [--out DIR]

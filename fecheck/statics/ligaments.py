@@ -86,8 +86,8 @@ class SpringLigament:
     stiffness_N: float
     transition_strain: float
     wrap: WrapObject | None = None
-    """The wrap object of its path (`SpringSet` wraps it; the single spring's call and
-    `tension` take the length they are given or the straight line)."""
+    """The wrap object of its path, None: straight (`tension` takes the length it is
+    given)."""
 
     def tension(self, length_mm: float) -> float:
         """Spring force at a length, N (+ tension)."""
@@ -96,6 +96,8 @@ class SpringLigament:
         return float(f)
 
     def __call__(self, rot: np.ndarray, t: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        if self.wrap is not None:
+            return SpringSet.of([self])(rot, t)
         x = rot @ self.tibia_point + t
         return point_force(x, *_pull(self, self.femur_point, x))
 
