@@ -27,7 +27,7 @@ import numpy as np
 from fecheck.errors import FecheckError
 from fecheck.statics.frames import skew
 from fecheck.statics.newton import BodyPose, ConstraintFn, Part, point_force, two_point_force
-from fecheck.statics.wrapping import WrapObject, WrapObjects, length_derivatives
+from fecheck.statics.wrapping import WrapObject, WrapObjects, length_derivatives, paths
 
 
 def _direction(femur_point: np.ndarray, x: np.ndarray) -> tuple[np.ndarray, float]:
@@ -140,8 +140,13 @@ class Wrapped:
         origin = np.where(on_b, tb, ta)
         free = np.where(on_b, xa, xb)
         local = np.einsum("nji,nj->ni", rot, free - origin)
-        length, g, hess = length_derivatives(self.objects, local,
-                                             np.where(on_b, points_b, points_a))
+        ends = np.where(on_b, points_b, points_a)
+        length = paths(self.objects, local, ends).length_mm
+        g, hess = np.zeros((len(length), 3)), np.zeros((len(length), 3, 3))
+        taut = length > slack_mm            # a slack bundle's force and tangent are 0
+        if taut.any():
+            _, g[taut], hess[taut] = length_derivatives(self.objects.take(taut), local[taut],
+                                                        ends[taut])
         f, df = blankevoort_tension(length / slack_mm - 1.0, stiffness_N, transition_strain)
         force = -f[:, None] * g
         jac = (-(df / slack_mm)[:, None, None] * g[:, :, None] * g[:, None, :]

@@ -48,9 +48,10 @@ arcs at rest to 1e-13 mm."""
 STEP_MM = 0.01
 """Central-difference step (mm) of the ellipsoid path's gradient and Hessian in P:
 rounding ~1e-16·L/h² ≈ 1e-10 /mm, truncation ~h²/s³ ≈ 1e-8 /mm for segments s ≥ 20 mm."""
-PLANE_ITERATIONS = 8
-"""At most this many Newton steps on the ellipsoid path's plane (each at most 0.2 rad;
-they stop when all are below 1e-8 rad): the MCL paths at rest converge in 5."""
+PLANE_ITERATIONS = 12
+"""At most this many Newton steps on the ellipsoid path's plane (each at most 0.2 rad,
+0.2 rad downhill where the length is not convex in the turn; they stop when all are below
+1e-8 rad): the MCL paths at rest converge in 5."""
 PLANE_STEP = 1e-3
 """The turn (rad) of the central differences of those steps."""
 _NODES, _WEIGHTS = np.polynomial.legendre.leggauss(GAUSS_POINTS)
@@ -287,7 +288,7 @@ def _ellipsoid(obj: WrapObjects, p: np.ndarray, q: np.ndarray,
             lo, mid, hi = _ellipsoid_plane(three, *args, np.tile(psi, 3) + shift).reshape(3, -1)
             curv = lo - 2 * mid + hi
             step = np.where(curv > 0, -0.5 * PLANE_STEP * (hi - lo)
-                            / np.maximum(curv, 1e-300), 0.0)
+                            / np.maximum(curv, 1e-300), -0.2 * np.sign(hi - lo))
             psi = psi + np.clip(step, -0.2, 0.2)
             if np.abs(step).max() < 1e-8:
                 break
@@ -305,15 +306,30 @@ _OFFSETS = np.concatenate([np.zeros((1, 3)), np.eye(3), -np.eye(3),
 
 
 def _ellipsoid_derivatives(obj: WrapObjects, p: np.ndarray, q: np.ndarray):
-    """L (n,), ∇_P L (n, 3) and ∇²_P L (n, 3, 3) of the ellipsoid paths, central
-    differences of step `STEP_MM` (one vectorised evaluation of the 19 points, their
-    planes searched from the centre's)."""
-    n, h = len(p), STEP_MM
-    pts = (p[None] + h * _OFFSETS[:, None, :]).reshape(-1, 3)
+    """L (n,), ∇_P L (n, 3) and ∇²_P L (n, 3, 3) of the ellipsoid paths. With ℓ(P, ψ) the
+    planar path's length in the plane turned by ψ and ψ* its minimum: ∇L = ∂ℓ/∂P (the
+    envelope theorem) and ∇²L = ℓ_PP − ℓ_Pψ·ℓ_Pψᵀ / ℓ_ψψ (ψ*'s own change with P), the
+    partial derivatives by central differences (steps `STEP_MM`, `PLANE_STEP`) at ψ*,
+    all 33 points in one vectorised evaluation."""
+    n, h, d = len(p), STEP_MM, PLANE_STEP
     psi = _ellipsoid(obj, p, q)[1]
-    lengths = _ellipsoid(obj.tiled(19), pts, np.tile(q, (19, 1)),
-                         np.tile(psi, 19))[0].length_mm.reshape(19, n)
-    return lengths[0], *_differences(lengths, h)
+    shifts = np.concatenate([_OFFSETS, np.zeros((2, 3)), *(np.array(
+        [s * np.eye(3)[i] for s in (1, 1, -1, -1)]) for i in range(3))])        # (33, 3)
+    turns = np.concatenate([np.zeros(19), [d, -d], np.tile([d, -d, d, -d], 3)])
+    pts = (p[None] + h * shifts[:, None, :]).reshape(-1, 3)
+    big, qs = obj.tiled(33), np.tile(q, (33, 1))
+    yp, yq, meets = _unit_ball(big, pts, qs)
+    lengths = np.where(meets, _ellipsoid_plane(big, pts, qs, yp, yq,
+                                               (psi[None] + turns[:, None]).reshape(-1)),
+                       np.linalg.norm(pts - qs, axis=1)).reshape(33, n)
+    grad, hess = _differences(lengths[:19], h)
+    l_psi_psi = (lengths[19] - 2 * lengths[0] + lengths[20]) / (d * d)
+    mixed = lengths[21:].reshape(3, 4, n)
+    l_p_psi = ((mixed[:, 0] - mixed[:, 1] - mixed[:, 2] + mixed[:, 3]) / (4 * h * d)).T
+    bent = l_psi_psi > 0                    # ψ* a minimum (else a grazing path: ψ-free)
+    hess[bent] -= (l_p_psi[bent, :, None] * l_p_psi[bent, None, :]
+                   / l_psi_psi[bent, None, None])
+    return lengths[0], grad, hess
 
 
 def _differences(lengths: np.ndarray, h: float) -> tuple[np.ndarray, np.ndarray]:
