@@ -46,7 +46,7 @@ GAUSS_POINTS = 8
 """Gauss-Legendre points on the ellipsoid's arc: they give the 64-point value of the MCL
 arcs at rest to 1e-13 mm."""
 STEP_MM = 0.01
-"""Central-difference step (mm) of the ellipsoid path's gradient and Hessian in P:
+"""Central-difference step (mm) of the ellipsoid path's partial derivatives in P:
 rounding ~1e-16·L/h² ≈ 1e-10 /mm, truncation ~h²/s³ ≈ 1e-8 /mm for segments s ≥ 20 mm."""
 PLANE_ITERATIONS = 12
 """At most this many Newton steps on the ellipsoid path's plane (each at most 0.2 rad,
@@ -368,7 +368,9 @@ def length_derivatives(obj: WrapObjects, p: np.ndarray, q: np.ndarray
                        ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Path lengths L (n,) mm and their gradient ∇_P L (n, 3) and Hessian ∇²_P L
     (n, 3, 3, 1/mm) in the free ends P (n, 3), the objects' body frame: closed form on
-    a cylinder, central differences (`STEP_MM`) of the mapped length on an ellipsoid."""
+    a cylinder; on an ellipsoid the envelope theorem over the plane's turn with central
+    differences (`_ellipsoid_derivatives`), the straight line's where no point of their
+    stencil meets it."""
     p, q = np.atleast_2d(np.asarray(p, float)), np.atleast_2d(np.asarray(q, float))
     n = len(p)
     length, grad, hess = np.empty(n), np.empty((n, 3)), np.empty((n, 3, 3))
