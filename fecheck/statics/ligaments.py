@@ -141,12 +141,13 @@ class Wrapped:
         free = np.where(on_b, xa, xb)
         local = np.einsum("nji,nj->ni", rot, free - origin)
         ends = np.where(on_b, points_b, points_a)
-        length = paths(self.objects, local, ends).length_mm
+        found = paths(self.objects, local, ends)
+        length = found.length_mm
         g, hess = np.zeros((len(length), 3)), np.zeros((len(length), 3, 3))
         taut = length > slack_mm            # a slack bundle's force and tangent are 0
         if taut.any():
             _, g[taut], hess[taut] = length_derivatives(self.objects.take(taut), local[taut],
-                                                        ends[taut])
+                                                        ends[taut], found.turn[taut])
         f, df = blankevoort_tension(length / slack_mm - 1.0, stiffness_N, transition_strain)
         force = -f[:, None] * g
         jac = (-(df / slack_mm)[:, None, None] * g[:, :, None] * g[:, None, :]

@@ -118,12 +118,25 @@ class WrapObjects:
 @dataclass(frozen=True, eq=False)
 class Paths:
     """Shortest paths from P to Q (n each): length (n,) mm, whether each wraps (n,) and
-    its tangent points (n, 3) each (P and Q where it does not wrap), the object's frame."""
+    its tangent points (n, 3) each (P and Q where it does not wrap), the object's frame;
+    `turn` (n,) rad: an ellipsoid path's plane (`length_derivatives` starts there)."""
 
     length_mm: np.ndarray
     wraps: np.ndarray
     first: np.ndarray
     second: np.ndarray
+    turn: np.ndarray | None = None
+
+
+def _norm(a: np.ndarray) -> np.ndarray:
+    """Row norms of an (n, 3) array."""
+    return np.sqrt(np.einsum("ij,ij->i", a, a))
+
+
+def _cross(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """Row-wise a × b of (n, 3) arrays (np.cross costs several times more)."""
+    return np.stack([a[:, 1] * b[:, 2] - a[:, 2] * b[:, 1], a[:, 2] * b[:, 0] - a[:, 0] * b[:, 2],
+                     a[:, 0] * b[:, 1] - a[:, 1] * b[:, 0]], axis=1)
 
 
 def _circle(rp: np.ndarray, rq: np.ndarray, angle: np.ndarray, r: np.ndarray):
@@ -143,16 +156,16 @@ def _circle(rp: np.ndarray, rq: np.ndarray, angle: np.ndarray, r: np.ndarray):
 def _plane(a: np.ndarray, b: np.ndarray, normal: np.ndarray | None = None):
     """Orthonormal e₁ along a and e₂ toward b (n, k), the angle between a and b, |a|, |b|
     (a perpendicular e₂ of `normal` × e₁, or any, when b is along a)."""
-    ra, rb = np.linalg.norm(a, axis=1), np.linalg.norm(b, axis=1)
+    ra, rb = _norm(a), _norm(b)
     e1 = a / ra[:, None]
     across = b - np.sum(b * e1, axis=1)[:, None] * e1
-    n = np.linalg.norm(across, axis=1)
+    n = _norm(across)
     if normal is None:
         other = np.where(np.abs(e1[:, :1]) < 0.9, np.eye(3)[0], np.eye(3)[1])
-        fallback = np.cross(other, e1)
+        fallback = _cross(np.broadcast_to(other, e1.shape), e1)
     else:
-        fallback = np.cross(normal, e1)
-    fallback /= np.linalg.norm(fallback, axis=1)[:, None]
+        fallback = _cross(normal, e1)
+    fallback /= _norm(fallback)[:, None]
     e2 = np.where((n > 1e-12 * rb)[:, None], across / np.maximum(n, 1e-300)[:, None],
                   fallback)
     angle = np.arctan2(n, np.sum(b * e1, axis=1))
@@ -175,7 +188,7 @@ def _cylinder(obj: WrapObjects, p: np.ndarray, q: np.ndarray, hessian: bool):
     hs = np.where(wraps, h, 1.0)
     t1[:, 2] = lp[:, 2] + dz * s1 / hs
     t2[:, 2] = lp[:, 2] + dz * (s1 + r * phi) / hs
-    straight = np.linalg.norm(p - q, axis=1)
+    straight = _norm(p - q)
     length = np.where(wraps, np.sqrt(h * h + dz * dz), straight)
     first = np.where(wraps[:, None], _body(obj, t1), q)
     second = np.where(wraps[:, None], _body(obj, t2), p)
@@ -212,15 +225,9 @@ def _body(obj: WrapObjects, local: np.ndarray) -> np.ndarray:
 
 def _straight_derivatives(p: np.ndarray, q: np.ndarray):
     d = p - q
-    length = np.linalg.norm(d, axis=1)
+    length = _norm(d)
     u = d / length[:, None]
     return u, (np.eye(3) - u[:, :, None] * u[:, None, :]) / length[:, None, None]
-
-
-def _cross(a: np.ndarray, b: np.ndarray) -> np.ndarray:
-    """Row-wise a × b of (n, 3) arrays (np.cross costs several times more)."""
-    return np.stack([a[:, 1] * b[:, 2] - a[:, 2] * b[:, 1], a[:, 2] * b[:, 0] - a[:, 0] * b[:, 2],
-                     a[:, 0] * b[:, 1] - a[:, 1] * b[:, 0]], axis=1)
 
 
 def _unit_ball(obj: WrapObjects, p: np.ndarray, q: np.ndarray):
@@ -245,12 +252,12 @@ def _ellipsoid_plane(obj: WrapObjects, p: np.ndarray, q: np.ndarray, yp: np.ndar
     also its tangent points (n, 3) each."""
     scale = obj.radii
     w = yq - yp
-    w /= np.linalg.norm(w, axis=1)[:, None]
+    w /= _norm(w)[:, None]
     m0 = _cross(yp, yq)
-    size = np.linalg.norm(m0, axis=1)
+    size = _norm(m0)
     other = np.where(np.abs(w[:, :1]) < 0.9, np.eye(3)[0], np.eye(3)[1])
     m0 = np.where((size > 1e-12)[:, None], m0, _cross(w, other))
-    m0 /= np.linalg.norm(m0, axis=1)[:, None]
+    m0 /= _norm(m0)[:, None]
     m = np.cos(psi)[:, None] * m0 + np.sin(psi)[:, None] * _cross(w, m0)
     d = np.sum(m * yp, axis=1)
     o = d[:, None] * m                                  # the section circle's centre
@@ -266,7 +273,7 @@ def _ellipsoid_plane(obj: WrapObjects, p: np.ndarray, q: np.ndarray, yp: np.ndar
     tangent = (-np.sin(beta)[:, :, None] * e1[:, None, :]
                + np.cos(beta)[:, :, None] * e2[:, None, :]) * scale[:, None, :]
     arc = 0.5 * phi * rho * (np.sqrt(np.sum(tangent * tangent, axis=2)) @ _WEIGHTS)
-    length = np.linalg.norm(p - t1, axis=1) + arc + np.linalg.norm(q - t2, axis=1)
+    length = _norm(p - t1) + arc + _norm(q - t2)
     return (length, t1, t2) if points else length
 
 
@@ -276,7 +283,7 @@ def _ellipsoid(obj: WrapObjects, p: np.ndarray, q: np.ndarray,
     segment meets the ellipsoid, else the segment; and the planes' turns ψ (n,) rad,
     searched from `start` (None: 0)."""
     yp, yq, wraps = _unit_ball(obj, p, q)
-    length = np.linalg.norm(p - q, axis=1)
+    length = _norm(p - q)
     first, second, turn = q.copy(), p.copy(), np.zeros(len(p))
     if wraps.any():
         o, pw, qw, ypw, yqw = obj.take(wraps), p[wraps], q[wraps], yp[wraps], yq[wraps]
@@ -305,14 +312,15 @@ _OFFSETS = np.concatenate([np.zeros((1, 3)), np.eye(3), -np.eye(3),
 """The 19 points of the central differences (`_ellipsoid_derivatives`), in steps."""
 
 
-def _ellipsoid_derivatives(obj: WrapObjects, p: np.ndarray, q: np.ndarray):
+def _ellipsoid_derivatives(obj: WrapObjects, p: np.ndarray, q: np.ndarray,
+                           start: np.ndarray | None = None):
     """L (n,), ∇_P L (n, 3) and ∇²_P L (n, 3, 3) of the ellipsoid paths. With ℓ(P, ψ) the
     planar path's length in the plane turned by ψ and ψ* its minimum: ∇L = ∂ℓ/∂P (the
     envelope theorem) and ∇²L = ℓ_PP − ℓ_Pψ·ℓ_Pψᵀ / ℓ_ψψ (ψ*'s own change with P), the
     partial derivatives by central differences (steps `STEP_MM`, `PLANE_STEP`) at ψ*,
     all 33 points in one vectorised evaluation."""
     n, h, d = len(p), STEP_MM, PLANE_STEP
-    psi = _ellipsoid(obj, p, q)[1]
+    psi = _ellipsoid(obj, p, q, start)[1]
     shifts = np.concatenate([_OFFSETS, np.zeros((2, 3)), *(np.array(
         [s * np.eye(3)[i] for s in (1, 1, -1, -1)]) for i in range(3))])        # (33, 3)
     turns = np.concatenate([np.zeros(19), [d, -d], np.tile([d, -d, d, -d], 3)])
@@ -321,7 +329,7 @@ def _ellipsoid_derivatives(obj: WrapObjects, p: np.ndarray, q: np.ndarray):
     yp, yq, meets = _unit_ball(big, pts, qs)
     lengths = np.where(meets, _ellipsoid_plane(big, pts, qs, yp, yq,
                                                (psi[None] + turns[:, None]).reshape(-1)),
-                       np.linalg.norm(pts - qs, axis=1)).reshape(33, n)
+                       _norm(pts - qs)).reshape(33, n)
     grad, hess = _differences(lengths[:19], h)
     l_psi_psi = (lengths[19] - 2 * lengths[0] + lengths[20]) / (d * d)
     mixed = lengths[21:].reshape(3, 4, n)
@@ -354,23 +362,28 @@ def paths(obj: WrapObjects, p: np.ndarray, q: np.ndarray) -> Paths:
     (mm)."""
     p, q = np.atleast_2d(np.asarray(p, float)), np.atleast_2d(np.asarray(q, float))
     length, wraps = np.empty(len(p)), np.zeros(len(p), dtype=bool)
-    first, second = q.copy(), p.copy()
-    for mask, fn in ((obj.cylinder, _cylinder_paths),
-                     (~obj.cylinder, lambda o, a, b: _ellipsoid(o, a, b)[0])):
-        if mask.any():
-            part = fn(obj.take(mask), p[mask], q[mask])
-            length[mask], wraps[mask] = part.length_mm, part.wraps
-            first[mask], second[mask] = part.first, part.second
-    return Paths(length, wraps, first, second)
+    first, second, turn = q.copy(), p.copy(), np.zeros(len(p))
+    cyl = obj.cylinder
+    if cyl.any():
+        part = _cylinder_paths(obj.take(cyl), p[cyl], q[cyl])
+        length[cyl], wraps[cyl], first[cyl], second[cyl] = (
+            part.length_mm, part.wraps, part.first, part.second)
+    if (~cyl).any():
+        part, turn[~cyl] = _ellipsoid(obj.take(~cyl), p[~cyl], q[~cyl])
+        length[~cyl], wraps[~cyl], first[~cyl], second[~cyl] = (
+            part.length_mm, part.wraps, part.first, part.second)
+    return Paths(length, wraps, first, second, turn)
 
 
-def length_derivatives(obj: WrapObjects, p: np.ndarray, q: np.ndarray
+def length_derivatives(obj: WrapObjects, p: np.ndarray, q: np.ndarray,
+                       turn: np.ndarray | None = None
                        ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Path lengths L (n,) mm and their gradient ∇_P L (n, 3) and Hessian ∇²_P L
     (n, 3, 3, 1/mm) in the free ends P (n, 3), the objects' body frame: closed form on
     a cylinder; on an ellipsoid the envelope theorem over the plane's turn with central
-    differences (`_ellipsoid_derivatives`), the straight line's where no point of their
-    stencil meets it."""
+    differences (`_ellipsoid_derivatives`; its plane searched from `turn`, `Paths.turn` of
+    the same ends, else from the plane through the centre), the straight line's where no
+    point of their stencil meets it."""
     p, q = np.atleast_2d(np.asarray(p, float)), np.atleast_2d(np.asarray(q, float))
     n = len(p)
     length, grad, hess = np.empty(n), np.empty((n, 3)), np.empty((n, 3, 3))
@@ -384,9 +397,9 @@ def length_derivatives(obj: WrapObjects, p: np.ndarray, q: np.ndarray
         pts = (pe[None] + STEP_MM * _OFFSETS[:, None, :]).reshape(-1, 3)
         near = _unit_ball(o.tiled(19), pts,
                           np.tile(qe, (19, 1)))[2].reshape(19, -1).any(axis=0)
-        lengths, g, h = np.linalg.norm(pe - qe, axis=1), *_straight_derivatives(pe, qe)
+        lengths, g, h = _norm(pe - qe), *_straight_derivatives(pe, qe)
         if near.any():
             lengths[near], g[near], h[near] = _ellipsoid_derivatives(
-                o.take(near), pe[near], qe[near])
+                o.take(near), pe[near], qe[near], None if turn is None else turn[ell][near])
         length[ell], grad[ell], hess[ell] = lengths, g, h
     return length, grad, hess
