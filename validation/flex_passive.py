@@ -122,9 +122,14 @@ to -0.032, to the model's +0.03 to +0.04), and in flexion it tightens them furth
   the tendon's straight line is not what raises the internal rotation with the patella.
   This run stops at 84° (no stiffness of the patella at an iterate, also with 2° steps),
   where the straight one solves every angle to 120°.
-* About the fitted axis (--quick, every 10°): 30 N along the tibia -0.6° at 0°, +4.5,
-  +6.1, +6.3° at 10-30°, -7.6° at 90°, -15.4° at 120°; the scene's 800 N in space -9.3°
-  at 0° (straight: -10.8°) and -18.1° at 120°.
+* About the fitted axis (every 5°): 30 N along the tibia -0.6° at 0°, +4.5, +6.1, +6.3°
+  at 10-30°, +2.3° at 60°, -7.6° at 90°, -15.4° at 120° (straight bundles: +4.1, +5.0,
+  +3.5, -0.4, -7.7, -15.4°); the scene's 800 N in space -9.3° at 0° (straight: -10.8°)
+  and -18.1° at 120°. The knock-outs now point at the superficial MCL, wrapped over its
+  tibial ellipsoid: without MCLs +3.6, +3.1, -0.8, -4.5° at 10, 20, 30, 60°; without
+  MCLp the same as with it over 20-60° (+6.3° at 30°), -5.9 and -8.0° at 90 and 120°.
+  About the source axis, no gravity: +4.81 to +10.26° at 10-60°, further out; no MCLp:
+  +4.63, +5.84, +6.46, +5.42, +3.43° at 10-60°, out.
 
 Against the source model's own passive flexion (`validation.passive_reference`: two published
 OpenSim-JAM runs; band = their span ±2°, changes from 0°), the source set-up: its
