@@ -68,9 +68,9 @@ this list; every variant solves every 5°; 121 angles at 1° take 6-10 s after t
   it from 60° (-3.7° at 90°). Without the MCLp bundles it is inside from 10 to 75° (+3.4,
   +3.6, +2.5, +1.1, -0.7, -3.4°) and 0.8° below at 90°; gravity off or slack lengths
   re-derived from the wrapped strains take it further out (up to +9.5° at 45°). The
-  posteromedial bundles are the measured excess (wrapped, as the source model has them,
-  they still are: below); the patella and quadriceps of the source model are not in this
-  knee without patella.dir (below).
+  posteromedial bundles are the measured excess on straight lines (with the bundles
+  wrapped it is the superficial MCL: below); the patella and quadriceps of the source
+  model are not in this knee without patella.dir (below).
 * No setting tried gives both over the range, so the scene and `fecheck flex` keep their
   defaults.
 * With the patella (`PATELLA_SETTINGS`: its 20 bundles, the quadriceps at 2 % of their
@@ -118,8 +118,8 @@ to -0.032, to the model's +0.03 to +0.04), and in flexion it tightens them furth
   at 10-75° (straight +4.66, +6.36, +7.60, +8.35, +5.26, -1.75°); adduction +0.52 to
   +4.34°, inside; the six pf_r coordinates within 0.15° and 0.05 mm of the straight
   run's, inside their bands. The patellar tendon's path meets its ellipsoid PatTen_r by
-  at most 0.002 mm over 0-83° (PT3 at 18-30°): at these poses its wrap does not act, so
-  the tendon's straight line is not what raises the internal rotation with the patella.
+  at most 0.002 mm over 0-83° (PT3 at 18-30°): at these poses its wrap does not act and
+  does not change the tendon's pull that adds to the internal rotation.
   This run stops at 84° (no stiffness of the patella at an iterate, also with 2° steps),
   where the straight one solves every angle to 120°.
 * About the fitted axis (every 5°): 30 N along the tibia -0.6° at 0°, +4.5, +6.1, +6.3°
