@@ -120,8 +120,12 @@ to -0.032, to the model's +0.03 to +0.04), and in flexion it tightens them furth
   run's, inside their bands. The patellar tendon's path meets its ellipsoid PatTen_r by
   at most 0.002 mm over 0-83° (PT3 at 18-30°): at these poses its wrap does not act and
   does not change the tendon's pull that adds to the internal rotation.
-  This run stops at 84° (no stiffness of the patella at an iterate, also with 2° steps),
-  where the straight one solves every angle to 120°.
+  This run stops at 84° (also with 2° or 0.25° steps), where the straight one solves
+  every angle to 120°: its Newton solve converges there, and the scaled tangent's
+  smallest singular value, a patella mode, is 0.200 of 2182 (9.2e-5), under the solver's
+  1e-4 no-stiffness threshold; the straight run's iterates at 84° sit at 0.20-0.22 of
+  2182-2185, at the threshold too. With the tibiofemoral bundles straight and the tendon
+  wrapped every angle to 99° solves.
 * About the fitted axis (every 5°): 30 N along the tibia -0.6° at 0°, +4.5, +6.1, +6.3°
   at 10-30°, +2.3° at 60°, -7.6° at 90°, -15.4° at 120° (straight bundles: +4.1, +5.0,
   +3.5, -0.4, -7.7, -15.4°); the scene's 800 N in space -9.3° at 0° (straight: -10.8°)
