@@ -62,7 +62,13 @@ from fecheck.model.results import CompartmentResult
 from fecheck.scene import Scene, surfaces
 from fecheck.scene.packaged import PACKAGE_PREFIX, data_dir
 from fecheck.statics.frames import rot_x, rot_y, rot_z, skew
-from fecheck.statics.ligaments import SpringSet, blankevoort_tension, point_forces
+from fecheck.statics.ligaments import (
+    SpringSet,
+    Wrapped,
+    blankevoort_tension,
+    free_and_object,
+    point_forces,
+)
 from fecheck.statics.newton import (
     TIBIA_COORDINATES,
     Body,
@@ -73,6 +79,7 @@ from fecheck.statics.newton import (
     solve,
     tibia_body,
 )
+from fecheck.statics.wrapping import WrapObject
 from geometry.cache import cached_arrays
 from geometry.mesh import TriMesh
 
@@ -165,7 +172,8 @@ def pf_coordinates(rot: np.ndarray, t: np.ndarray) -> dict[str, float]:
 @dataclass(frozen=True, eq=False)
 class TwoBodySprings:
     """Blankevoort springs between points of two bodies (`a`, `b`: body indices, points
-    in their body frames (n, 3) mm), evaluated at once: the `Part` of their pulls."""
+    in their body frames (n, 3) mm), evaluated at once: the `Part` of their pulls; those
+    in `wrapped` along their paths over their wrap objects (`Wrapped`, b the patella)."""
 
     a: int
     points_a: np.ndarray
@@ -174,26 +182,44 @@ class TwoBodySprings:
     slack_mm: np.ndarray
     stiffness_N: np.ndarray
     transition_strain: np.ndarray
+    wrapped: Wrapped | None = None
 
     def ends(self, poses: Sequence[BodyPose]) -> tuple[np.ndarray, np.ndarray]:
         """World attachments (n, 3) on body a and on body b, mm."""
         (ra, ta), (rb, tb) = poses[self.a], poses[self.b]
         return self.points_a @ ra.T + ta, self.points_b @ rb.T + tb
 
+    def _wrapped(self, poses: Sequence[BodyPose]):
+        i = self.wrapped.index
+        return self.wrapped.forces(self.points_a[i], poses[self.a], self.points_b[i],
+                                   poses[self.b], self.slack_mm[i], self.stiffness_N[i],
+                                   self.transition_strain[i])
+
+    def lengths(self, poses: Sequence[BodyPose]) -> np.ndarray:
+        """(n,) path lengths, mm."""
+        xa, xb = self.ends(poses)
+        out = np.linalg.norm(xa - xb, axis=1)
+        if self.wrapped is not None:
+            out[self.wrapped.index] = self._wrapped(poses)[0]
+        return out
+
     def tensions(self, poses: Sequence[BodyPose]) -> np.ndarray:
         """(n,) spring forces, N (+ tension)."""
-        xa, xb = self.ends(poses)
-        strain = np.linalg.norm(xa - xb, axis=1) / self.slack_mm - 1.0
+        strain = self.lengths(poses) / self.slack_mm - 1.0
         return blankevoort_tension(strain, self.stiffness_N, self.transition_strain)[0]
 
     def __call__(self, poses: Sequence[BodyPose]) -> Part:
+        straight = np.ones(len(self.slack_mm), dtype=bool)
+        if self.wrapped is not None:
+            straight[self.wrapped.index] = False
         xa, xb = self.ends(poses)
+        xa, xb = xa[straight], xb[straight]
         d = xa - xb
         length = np.linalg.norm(d, axis=1)
         u = d / length[:, None]
-        l0 = self.slack_mm
-        f, df = blankevoort_tension(length / l0 - 1.0, self.stiffness_N,
-                                    self.transition_strain)
+        l0 = self.slack_mm[straight]
+        f, df = blankevoort_tension(length / l0 - 1.0, self.stiffness_N[straight],
+                                    self.transition_strain[straight])
         force = f[:, None] * u                      # on b, toward a
         uu = u[:, :, None] * u[:, None, :]
         jac = -(df / l0)[:, None, None] * uu - (f / length)[:, None, None] * (np.eye(3) - uu)
@@ -212,6 +238,19 @@ class TwoBodySprings:
         total = force.sum(0)
         w = np.concatenate([-total, -np.cross(xa, force).sum(0), total,
                             np.cross(xb, force).sum(0)])
+        if self.wrapped is not None:
+            _, free, pull, pull_jac = self._wrapped(poses)
+            for on_b, (fr, ob) in ((self.wrapped.on_b, (slice(0, 6), slice(6, 12))),
+                                   (~self.wrapped.on_b, (slice(6, 12), slice(0, 6)))):
+                if on_b.any():
+                    wf, d_free, d_object = free_and_object(free[on_b], pull[on_b],
+                                                           pull_jac[on_b])
+                    w[fr] += wf
+                    w[ob] -= wf
+                    dw[fr, fr] += d_free
+                    dw[fr, ob] += d_object
+                    dw[ob, fr] -= d_free
+                    dw[ob, ob] -= d_object
         return (self.a, self.b), w, dw
 
 
@@ -336,10 +375,12 @@ def build_patella(scene: Scene) -> PatellaModel:
         points = dict(zip(b["points_bone"], np.asarray(b["points_mm"], dtype=float),
                           strict=True))
         strain = b["parameters"]["transition_strain"]["value"]
+        wrap = (WrapObject.of(b["wrap"][0]) if scene["ligaments.wrap"] and b["wrap"]
+                else None)
         row = (b["name"], points.get("tibia", points.get("femur")), points["patella"],
                scene["scanned.ligament_slack_scale"] * b["derived"]["slack_length_mm"],
                scene["scanned.ligament_stiffness_scale"] * b["parameters"]["linear_stiffness"][
-                   "value"], strain)
+                   "value"], strain, wrap)
         (tendon if "tibia" in points else femoral).append(row)
 
     def col(rows, i):
@@ -348,10 +389,11 @@ def build_patella(scene: Scene) -> PatellaModel:
     return PatellaModel(
         comp,
         SpringSet(col(femoral, 1), col(femoral, 2), col(femoral, 3), col(femoral, 4),
-                  col(femoral, 5)),
+                  col(femoral, 5), Wrapped.of([r[6] for r in femoral], "patella")),
         tuple(r[0] for r in femoral),
         TwoBodySprings(TIBIA, col(tendon, 1), PATELLA, col(tendon, 2), col(tendon, 3),
-                       col(tendon, 4), col(tendon, 5)),
+                       col(tendon, 4), col(tendon, 5),
+                       Wrapped.of([r[6] for r in tendon], "patella")),
         tuple(r[0] for r in tendon), _quadriceps(scene, doc["quadriceps"]), bone)
 
 

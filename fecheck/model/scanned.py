@@ -53,6 +53,7 @@ from fecheck.scene import Scene, surfaces
 from fecheck.scene.bundles import Bundle, read_bundles
 from fecheck.scene.constants import COMPARTMENTS
 from fecheck.statics.ligaments import SpringLigament, SpringSet, transition_strain_check
+from fecheck.statics.wrapping import WrapObject
 from geometry.cache import cached_arrays
 from geometry.cap import spherical_cap
 
@@ -198,8 +199,11 @@ def bundle_springs(scene: Scene) -> tuple[tuple[str, ...], list[SpringLigament]]
     out = _bundles(scene)
     stiffness, slack = (scene["scanned.ligament_stiffness_scale"],
                         scene["scanned.ligament_slack_scale"])
+    wrap = scene["ligaments.wrap"]
     springs = [SpringLigament(b.femur_point, b.tibia_point, slack * b.slack_length_mm,
-                              stiffness * b.stiffness_N, b.transition_strain) for b in out]
+                              stiffness * b.stiffness_N, b.transition_strain,
+                              WrapObject.of(b.wrap) if wrap and b.wrap else None)
+               for b in out]
     return tuple(b.name for b in out), springs
 
 

@@ -4,7 +4,9 @@ The file (scene key ``geometry.ligaments``) is a JSON list in the layout of Open
 ``Blankevoort1991Ligament`` as the lenhart2015 data set exports it: per bundle its name,
 group, the two attachment points (mm, femur frame / tibia frame, which coincide at the
 reference pose), the bone of each, the linear-region stiffness (N per unit strain), the
-slack length (m) and the transition strain.
+slack length (m) and the transition strain; optionally the wrap object of its path
+(``wrap.geometry``: OpenSim's `WrapCylinder` or `WrapEllipsoid`, centre, local axes and
+radii in the same frame, and the body it is fixed to).
 """
 
 from __future__ import annotations
@@ -28,6 +30,7 @@ class Bundle:
         with the tibia
     stiffness_N : linear-region stiffness k, N per unit strain
     slack_length_mm : l0, mm;  transition_strain : ε_t (end of the toe region)
+    wrap : the wrap object's geometry, as the data gives it (None: none)
     """
 
     name: str
@@ -37,6 +40,9 @@ class Bundle:
     stiffness_N: float
     slack_length_mm: float
     transition_strain: float
+    wrap: dict | None = None
+    """The data's ``wrap.geometry`` of the object its path wraps over (None: a straight
+    path); `fecheck.statics.wrapping.WrapObject.of` reads it."""
 
     @property
     def rest_length_mm(self) -> float:
@@ -62,7 +68,8 @@ def read_bundles(path: str | os.PathLike) -> tuple[Bundle, ...]:
             out.append(Bundle(item["name"], item["group"], femur, tibia,
                               float(p["linear_stiffness"]["value"]),
                               1000.0 * float(p["slack_length"]["value"]),
-                              float(p["transition_strain"]["value"])))
+                              float(p["transition_strain"]["value"]),
+                              (item.get("wrap") or {}).get("geometry")))
     except (KeyError, TypeError, ValueError, IndexError) as err:
         raise FecheckError(f"{path}: not a ligament bundle list ({type(err).__name__}: "
                            f"{err}); see the scene key geometry.ligaments for the layout") from None

@@ -268,6 +268,13 @@ def _one_layer(scene: SceneValues) -> str | None:
             f"(only the {titles} law and the two-layer FE read the femoral one apart)")
 
 
+def _no_wrapped_bundles(scene: SceneValues) -> str | None:
+    if scene["scanned.ligaments"] != "bundles" and not scene["patella.dir"]:
+        return ("scanned.ligaments = 'none' and patella.dir = '': no ligament bundle has a "
+                "wrap object")
+    return None
+
+
 def _no_patella(scene: SceneValues) -> str | None:
     if not scene["patella.dir"]:
         return "patella.dir = '': no patella"
@@ -338,6 +345,7 @@ RULES: tuple[tuple[tuple[str, ...], Reason], ...] = (
     (("fe.axisym_size_mm",), _no_axisymmetric),
     (("fe.size_mm", "fe.smooth_mm", "fe.terraces"), _no_prepare),
     (("patella.quadriceps_N",), _no_patella),
+    (("ligaments.wrap",), _no_wrapped_bundles),
     (_MENISCI_KEYS + ("fe.start_youngs_MPa", "fe.start_poisson"), _no_menisci),
     (_LAYER_KEYS, _one_layer),
 )

@@ -331,6 +331,19 @@ SCHEMA: dict[str, Key] = {
         "Spring ligaments: the strain 2ε_l (ε_l = 0.03) that ends the quadratic toe region, "
         "dimensionless; the spring is linear beyond it.", low=0.0, low_open=True, high=1.0,
         unit=DIMENSIONLESS),
+    "ligaments.wrap": Key(
+        "bool", False,
+        "Ligament bundles whose data has a wrap object (the lenhart2015 knee: MCLs1-6, "
+        "MCLd1-5 and MCLp1-5 over two ellipsoids fixed to the tibia, pCAP1-8 over a "
+        "cylinder fixed to the femur; with patella.dir the patellar tendon PT1-6 over an "
+        "ellipsoid fixed to the patella) take the shortest path over it, as the source "
+        "model does, when the straight line would pass through it: its length strains "
+        "the spring, and the force acts along the segment from the free end to its "
+        "tangent point. false (the default) = straight lines from origin to insertion "
+        "(scanned.ligaments = 'bundles' and patella.dir): wrapped, this knee's passive "
+        "flexion turns the tibia up to 3.4° further from its source model's at 10-60°, "
+        "the flex with the patella takes twice as long and stops at 84° "
+        "(validation/flex_passive.py)."),
     **_lig("ACL", 9840.0, -0.0708, "12 × 820 N"),
     **_lig("PCL", 6000.0, -0.057, "5 × 900 N + 5 × 300 N"),
     **_lig("MCL", 8000.0, 0.0289, "16 × 500 N"),
@@ -504,8 +517,9 @@ SCHEMA: dict[str, Key] = {
         "patella is a rigid body with six free DOFs, in contact with the femoral articular "
         "surface (its cartilage sheet, the scene's law and scanned.thickness, as the "
         "tibia's), held by its 20 bundles (the patellar tendon to the tibia, the lateral "
-        "and medial patellofemoral bundles to the femur, straight lines, "
-        "scanned.ligament_*_scale applied) and pulled by the quadriceps "
+        "and medial patellofemoral bundles to the femur; the tendon over its wrap "
+        "ellipsoid with ligaments.wrap, the others straight; scanned.ligament_*_scale "
+        "applied) and pulled by the quadriceps "
         "(patella.quadriceps_N), solved with the tibia at each angle. Read by `fecheck "
         "flex` only; `fecheck run` and `fecheck fe` leave it out.",
         example="fecheck:knee/lenhart2015_patella"),

@@ -12,6 +12,9 @@ or between points of any two bodies of a `fecheck.statics.newton.Problem` (`Body
   k·ε²/(4ε_l) for 0 ≤ ε ≤ 2ε_l, k·(ε − ε_l) beyond.
   Default k and ε_ref come from Lenhart et al. 2015 (J. Biomech. Eng. 137(8):081006) as
   shipped in ``shared/data/knee/lenhart2015/ligaments.json`` (see `fecheck.scene.schema`).
+* Wrapping (`Wrapped`): a spring whose bundle has a wrap object takes the length of the
+  shortest path over it (`fecheck.statics.wrapping`); the body the object is fixed to
+  takes the equal and opposite force on the line of action at the free end.
 """
 
 from __future__ import annotations
@@ -24,6 +27,7 @@ import numpy as np
 from fecheck.errors import FecheckError
 from fecheck.statics.frames import skew
 from fecheck.statics.newton import BodyPose, ConstraintFn, Part, point_force, two_point_force
+from fecheck.statics.wrapping import WrapObject, WrapObjects, length_derivatives, paths
 
 
 def _direction(femur_point: np.ndarray, x: np.ndarray) -> tuple[np.ndarray, float]:
@@ -81,6 +85,9 @@ class SpringLigament:
     slack_length_mm: float
     stiffness_N: float
     transition_strain: float
+    wrap: WrapObject | None = None
+    """The wrap object of its path, None: straight (`tension` takes the length it is
+    given)."""
 
     def tension(self, length_mm: float) -> float:
         """Spring force at a length, N (+ tension)."""
@@ -89,8 +96,84 @@ class SpringLigament:
         return float(f)
 
     def __call__(self, rot: np.ndarray, t: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        if self.wrap is not None:
+            return SpringSet.of([self])(rot, t)
         x = rot @ self.tibia_point + t
         return point_force(x, *_pull(self, self.femur_point, x))
+
+
+@dataclass(frozen=True, eq=False)
+class Wrapped:
+    """The bundles of a set whose paths wrap: their indices in the set (m,), their
+    objects (`WrapObjects`, each in the frame of its body at rest, which is the data's
+    frame) and whether each object is fixed to the set's second body b (m,) (else to
+    its first body a)."""
+
+    index: np.ndarray
+    objects: WrapObjects
+    on_b: np.ndarray
+
+    @classmethod
+    def of(cls, objects: Sequence[WrapObject | None], body_b: str) -> Wrapped | None:
+        """The wrapping bundles among `objects` (None: a straight bundle), b the bone
+        named `body_b`; None when no bundle wraps."""
+        index = np.array([i for i, o in enumerate(objects) if o is not None], dtype=int)
+        if not len(index):
+            return None
+        chosen = [objects[i] for i in index]
+        return cls(index, WrapObjects.of(chosen), np.array([o.body == body_b for o in chosen]))
+
+    def forces(self, points_a: np.ndarray, pose_a: BodyPose, points_b: np.ndarray,
+               pose_b: BodyPose, slack_mm: np.ndarray, stiffness_N: np.ndarray,
+               transition_strain: np.ndarray
+               ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+        """At the bodies' poses, for the wrapping bundles (their attachments `points_a`,
+        `points_b` (m, 3) in their bodies' frames and spring constants (m,)): the path
+        lengths (m,) mm, the free ends (m, 3) (world, mm), the pulls F (m, 3) N on them
+        (the object's body takes −F on the same line, `free_and_object`) and dF/dx
+        (m, 3, 3) N/mm as the free end moves relative to the object's body, world axes.
+        """
+        (ra, ta), (rb, tb) = pose_a, pose_b
+        xa, xb = points_a @ ra.T + ta, points_b @ rb.T + tb
+        on_b = self.on_b[:, None]
+        rot = np.where(on_b[:, :, None], rb, ra)               # the object body's (m, 3, 3)
+        origin = np.where(on_b, tb, ta)
+        free = np.where(on_b, xa, xb)
+        local = np.einsum("nji,nj->ni", rot, free - origin)
+        ends = np.where(on_b, points_b, points_a)
+        found = paths(self.objects, local, ends)
+        length = found.length_mm
+        g, hess = np.zeros((len(length), 3)), np.zeros((len(length), 3, 3))
+        taut = length > slack_mm            # a slack bundle's force and tangent are 0
+        if taut.any():
+            _, g[taut], hess[taut] = length_derivatives(self.objects.take(taut), local[taut],
+                                                        ends[taut], found.turn[taut])
+        f, df = blankevoort_tension(length / slack_mm - 1.0, stiffness_N, transition_strain)
+        force = -f[:, None] * g
+        jac = (-(df / slack_mm)[:, None, None] * g[:, :, None] * g[:, None, :]
+               - f[:, None, None] * hess)
+        rot_t = np.transpose(rot, (0, 2, 1))
+        return (length, free, np.einsum("nij,nj->ni", rot, force), rot @ jac @ rot_t)
+
+
+def free_and_object(x: np.ndarray, force: np.ndarray, jac: np.ndarray
+                    ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Forces F (n, 3) N at free ends x (n, 3) mm (world) of paths wrapped on objects fixed
+    to another body, F changing by `jac` (n, 3, 3) as x moves relative to that body: the
+    summed wrench (6,) on the free ends' body and its tangent for that body's twist (6, 6)
+    and for the object body's (6, 6). The object's body takes −F on the same line of
+    action (at x, or at the tangent point), so minus these: a common motion of both bodies
+    only turns F with them (δF = ω × F), hence dF/dξ_object = −J·[I, −[x]×] + [0, −[F]×].
+    """
+    xs, fs = skew(x), skew(force)
+    da = np.concatenate([np.broadcast_to(np.eye(3), jac.shape), -xs], axis=2)
+    dfa = jac @ da                                  # δF = dfa ξ_free
+    dfo = -dfa
+    dfo[:, :, 3:] -= fs                             # δF = dfo ξ_object
+    w = np.concatenate([force.sum(0), np.cross(x, force).sum(0)])
+    d_free = np.vstack([dfa.sum(0), (xs @ dfa - fs @ da).sum(0)])
+    d_object = np.vstack([dfo.sum(0), (xs @ dfo).sum(0)])
+    return w, d_free, d_object
 
 
 @dataclass(frozen=True, eq=False)
@@ -101,6 +184,7 @@ class SpringSet:
 
     femur_points, tibia_points : (n, 3) mm (world; tibia frame)
     slack_mm, stiffness_N, transition_strain : (n,)
+    wrapped : the bundles whose paths wrap (`Wrapped`, b the tibia; None: all straight)
     """
 
     femur_points: np.ndarray
@@ -108,19 +192,30 @@ class SpringSet:
     slack_mm: np.ndarray
     stiffness_N: np.ndarray
     transition_strain: np.ndarray
+    wrapped: Wrapped | None = None
 
     @classmethod
     def of(cls, springs: Sequence[SpringLigament]) -> SpringSet:
-        """The set of `springs` (at least one)."""
+        """The set of `springs` (at least one), wrapping those with a `wrap` object."""
         def col(name):
             return np.array([getattr(s, name) for s in springs], dtype=float)
 
         return cls(col("femur_point"), col("tibia_point"), col("slack_length_mm"),
-                   col("stiffness_N"), col("transition_strain"))
+                   col("stiffness_N"), col("transition_strain"),
+                   Wrapped.of([s.wrap for s in springs], "tibia"))
+
+    def _wrapped(self, rot: np.ndarray, t: np.ndarray):
+        i = self.wrapped.index
+        return self.wrapped.forces(self.femur_points[i], (np.eye(3), np.zeros(3)),
+                                   self.tibia_points[i], (rot, t), self.slack_mm[i],
+                                   self.stiffness_N[i], self.transition_strain[i])
 
     def lengths(self, rot: np.ndarray, t: np.ndarray) -> np.ndarray:
-        """(n,) lengths at the tibia pose (R, t), mm."""
-        return np.linalg.norm(self.femur_points - (self.tibia_points @ rot.T + t), axis=1)
+        """(n,) path lengths at the tibia pose (R, t), mm."""
+        out = np.linalg.norm(self.femur_points - (self.tibia_points @ rot.T + t), axis=1)
+        if self.wrapped is not None:
+            out[self.wrapped.index] = self._wrapped(rot, t)[0]
+        return out
 
     def tensions(self, rot: np.ndarray, t: np.ndarray) -> np.ndarray:
         """(n,) spring forces at the tibia pose (R, t), N (+ tension)."""
@@ -128,22 +223,37 @@ class SpringSet:
         return blankevoort_tension(strain, self.stiffness_N, self.transition_strain)[0]
 
     def __call__(self, rot: np.ndarray, t: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        x = self.tibia_points @ rot.T + t
-        d = self.femur_points - x
+        straight = np.ones(len(self.slack_mm), dtype=bool)
+        if self.wrapped is not None:
+            straight[self.wrapped.index] = False
+        x = self.tibia_points[straight] @ rot.T + t
+        d = self.femur_points[straight] - x
         length = np.linalg.norm(d, axis=1)
         if np.any(length < 1e-9):
             raise FecheckError("a ligament's attachments coincide (zero length); check the "
                                "knee landmarks")
         u = d / length[:, None]
-        l0 = self.slack_mm
-        f, df = blankevoort_tension((length - l0) / l0, self.stiffness_N,
-                                    self.transition_strain)
+        l0 = self.slack_mm[straight]
+        f, df = blankevoort_tension((length - l0) / l0, self.stiffness_N[straight],
+                                    self.transition_strain[straight])
         force = f[:, None] * u
         # the pull's Jacobian with x: -f'/l0·uuᵀ - f/l·(I - uuᵀ), per spring (n, 3, 3)
         uu = u[:, :, None] * u[:, None, :]
         jac = -(df / l0)[:, None, None] * uu - (f / length)[:, None, None] * (np.eye(3) - uu)
-        return point_forces(x, force, jac)
-
+        w, dw = point_forces(x, force, jac)
+        if self.wrapped is None:
+            return w, dw
+        _, free, pull, pull_jac = self._wrapped(rot, t)
+        on_tibia = self.wrapped.on_b
+        if on_tibia.any():          # the femoral end is free: the tibia takes -F
+            wo, _, d_object = free_and_object(free[on_tibia], pull[on_tibia],
+                                              pull_jac[on_tibia])
+            w, dw = w - wo, dw - d_object
+        if (~on_tibia).any():       # the object is on the femur: the tibial end is free
+            wf, d_free, _ = free_and_object(free[~on_tibia], pull[~on_tibia],
+                                            pull_jac[~on_tibia])
+            w, dw = w + wf, dw + d_free
+        return w, dw
 
 
 def _pull(spring, a: np.ndarray, x: np.ndarray) -> tuple[np.ndarray, np.ndarray]:

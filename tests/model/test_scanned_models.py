@@ -125,8 +125,14 @@ def _contact_force(scene, rot: np.ndarray, t: np.ndarray) -> np.ndarray:
     return total
 
 
+STRAIGHT = "ligaments.wrap=false"
+"""The bundles as straight lines, as `_hand_balance` computes them (the wrapped paths'
+statics: tests/statics/test_wrapping.py)."""
+
+
 def _hand_balance(scene, result) -> np.ndarray:
-    """Σ forces on the tibia at the solved pose (N), each term computed independently."""
+    """Σ forces on the tibia at the solved pose (N), each term computed independently
+    (the bundles straight: scenes with ligaments.wrap = false)."""
     rot, t = pose(np.asarray(result.pose.q), 0.0)
     total = _contact_force(scene, rot, t)
     d = np.asarray(scene["load.direction"])
@@ -144,7 +150,8 @@ def _hand_balance(scene, result) -> np.ndarray:
 @pytest.mark.parametrize("ligaments", ["", "_ligaments"])
 def test_scanned_scene_converges_and_balances_the_load(name, ligaments):
     require_knee_data()
-    scene = load_scene(SCENES / f"{name}{ligaments}.toml", [DECIMATED])
+    scene = load_scene(SCENES / f"{name}{ligaments}.toml",
+                       [DECIMATED] + [STRAIGHT] * bool(ligaments))
     result = run_scene(scene)
     assert result.converged
     total = _hand_balance(scene, result)
@@ -234,7 +241,8 @@ def test_polynomial_plateaus_with_bundles_converge_quickly_to_the_stable_pose(ga
     # Newton stalled (35 iterations at 14 mm; at 18 mm a "no stiffness ... add ligaments"
     # error); the energy-descent step reaches the pose the bundles hold (~10° internal).
     require_knee_data()
-    scene = load_scene(SCENES / "polynomial_ligaments.toml", [f"solver.start_gap_mm={gap}"])
+    scene = load_scene(SCENES / "polynomial_ligaments.toml", [f"solver.start_gap_mm={gap}",
+                                                              STRAIGHT])
     result = run_scene(scene)
     assert result.converged and result.iterations <= 15
     assert np.linalg.norm(_hand_balance(scene, result)) < _balance_tolerance_N(scene)
