@@ -180,3 +180,33 @@ def test_a_sample_not_solved_from_the_baseline_pose_is_reached_by_a_continuation
     cut = load_scene("baseline", ["solver.max_iterations=2"])
     result, steps = solve_sample(cut, parse_varied(keys, cut), np.array([0.0, 0.0]), start, {})
     assert not result.converged and steps == 0
+
+
+def test_a_sample_started_from_its_predicted_equilibrium_reaches_the_same_one_sooner():
+    """The baseline's equilibrium linearised in the load point and modulus
+    (`predict_starts`) predicts each sample's pose: solved from there, a sample at the
+    ends of the ranges reaches the equilibrium it reaches from the baseline pose (to the
+    solver's tolerance), and the predicted pose is far closer to it than the baseline's."""
+    from fecheck.scene import load_scene
+    from fecheck.studies.population import baseline_pose, predict_starts, solve_sample
+    from fecheck.studies.population_inputs import parse_varied
+
+    scene = load_scene("baseline", [])
+    varied = parse_varied(["load.point_mm[0]=uniform:3:12",
+                           "contact.youngs_MPa=uniform:10:30"], scene)
+    start = baseline_pose(scene)
+    starts = predict_starts(scene, varied, start)
+    nominal = [(v.nominal - v.dist.a) / (v.dist.b - v.dist.a) for v in varied]
+    np.testing.assert_allclose(starts.at(varied, np.array(nominal)), start, rtol=0,
+                               atol=1e-12)
+    for u in ([1.0, 1.0], [0.0, 0.0], [1.0, 0.0]):
+        ref, steps = solve_sample(scene, varied, np.array(u), start, {})
+        assert ref.converged and steps == 0
+        result, steps = solve_sample(scene, varied, np.array(u), starts, {})
+        assert result.converged and steps == 0
+        assert result.iterations <= ref.iterations
+        miss = np.linalg.norm(starts.at(varied, np.array(u)) - ref.pose.q)
+        assert miss < 0.2 * np.linalg.norm(start - ref.pose.q)
+        np.testing.assert_allclose(result.pose.q, ref.pose.q, rtol=0, atol=1e-9)
+        assert result.compartments["medial"].force_N == pytest.approx(
+            ref.compartments["medial"].force_N, rel=1e-9)
