@@ -6,10 +6,12 @@ Sobol indices, or plain points) mapped to key values by each key's distribution
 through the sweep's machinery (`fecheck.studies.sweep`): serially in this process or
 on a local process pool or a Dask cluster in batches of samples (`run_batch`), each
 worker reusing the model parts a sample's values do not change (`fecheck.model.reuse`).
-Every sample starts from the scene's own equilibrium (the baseline pose) with fresh
-contact state, so that its numbers depend on its values alone, not on the worker or the
-samples before it: a study on a cluster equals the serial one. A sample not solved from
-the baseline pose is reached by a continuation from the scene's values (`solve_sample`).
+Every sample starts from the equilibrium predicted for it by the linearised response of
+the scene's own (the baseline pose; `predict_starts`) with fresh contact state, so that
+its numbers depend on its values alone, not on the worker or the samples before it: a
+study on a cluster equals the serial one. A sample not solved from there is solved from
+the baseline pose, and one not solved from that either is reached by a continuation
+from the scene's values (`solve_sample`); a stalled solve stops early (`STALL_STEPS`).
 Only a flat row of numbers comes back from a sample (`slim_row`), so that 10,000 samples
 of the scanned knee fit in memory.
 
