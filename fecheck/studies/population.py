@@ -195,6 +195,14 @@ def _run_at(scene: Scene, overrides: Sequence[str], start: np.ndarray | None,
 PREDICTOR_FRACTION = 0.25
 """`predict_starts` moves each varied key this fraction of the way from the scene's value
 to each end of its range to measure the equilibrium's response."""
+NEAR_BASELINE_MM = 1.0
+"""A predicted start closer than this to the baseline pose (translations mm, rotations
+rad x `ROTATION_LENGTH_MM`) is not used: the sample starts from the baseline pose, whose
+broad-phase set every worker keeps (a new pose rebuilds it, which costs more than the
+Newton steps saved over so short a move; the broad phase reuses a set over 1 mm)."""
+ROTATION_LENGTH_MM = 50.0
+"""Length that turns a rotation (rad) into a move (mm) in `NEAR_BASELINE_MM` (the
+solver's scale of moments and rotations)."""
 
 
 @dataclass(frozen=True)
@@ -211,6 +219,14 @@ class Starts:
         """The predicted equilibrium q (5,) of the sample at unit coordinates `u` (d,)."""
         x = np.array([float(v.drawn(np.asarray([u[j]]))[0]) for j, v in enumerate(varied)])
         return self.q0 + (x - self.x0) @ self.slopes
+
+    def start(self, varied: Sequence[Varied], u: np.ndarray) -> np.ndarray | None:
+        """The predicted equilibrium (`at`) if it lies `NEAR_BASELINE_MM` or more from the
+        baseline pose, else None (the sample then starts from the baseline pose)."""
+        q = self.at(varied, u)
+        move = (q - self.q0) * np.array([1.0, 1.0, 1.0, ROTATION_LENGTH_MM,
+                                         ROTATION_LENGTH_MM])
+        return q if float(np.linalg.norm(move)) >= NEAR_BASELINE_MM else None
 
 
 def _scene_value(v: Varied) -> float:
@@ -253,21 +269,24 @@ def solve_sample(scene: Scene, varied: Sequence[Varied], u: np.ndarray,
     (0: solved directly).
 
     `start`: the baseline equilibrium (5,), or `Starts`: the sample is first solved from
-    the equilibrium predicted for it, then, if that fails or stalls, from the baseline.
+    the equilibrium predicted for it (unless that is near the baseline pose,
+    `Starts.start`), then, if that fails or stalls, from the baseline.
     Where the direct solve fails or stalls (a slack length far from the scene's leaves the
     baseline pose without the bundles that hold it), the sample's values are reached from
     the scene's in `CONTINUATION_STEPS` steps, each solved from the last one's pose, a
     failing step halved (`CONTINUATION_HALVINGS`). If that fails too, the direct solve's
     error is raised (or its unconverged result returned)."""
     if isinstance(start, Starts):
+        q = start.start(varied, u)
+        start = start.q0
         try:
-            predicted = _run_at(scene, overrides_for(varied, scene, np.asarray(u)[None, :])[0],
-                                start.at(varied, u), memo)
-            if predicted.converged:
+            predicted = (None if q is None else
+                         _run_at(scene, overrides_for(varied, scene, np.asarray(u)[None, :])[0],
+                                 q, memo))
+            if predicted is not None and predicted.converged:
                 return predicted, 0
         except Exception:           # any solver failure: solved from the baseline then
             pass
-        start = start.q0
     u = np.asarray(u, dtype=float)[None, :]
     try:
         direct = _run_at(scene, overrides_for(varied, scene, u)[0], start, memo)

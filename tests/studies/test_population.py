@@ -194,12 +194,16 @@ def test_a_sample_not_solved_from_the_baseline_pose_is_reached_by_a_continuation
     assert not result.converged and steps == 0
 
 
-def test_a_sample_started_from_its_predicted_equilibrium_reaches_the_same_one_sooner():
+def test_a_sample_started_from_its_predicted_equilibrium_reaches_the_same_one(
+        monkeypatch):
     """The baseline's equilibrium linearised in the load point and modulus
     (`predict_starts`) predicts each sample's pose: solved from there, a sample at the
     ends of the ranges reaches the equilibrium it reaches from the baseline pose (to the
-    solver's tolerance), and the predicted pose is closer to it than the baseline's."""
+    solver's tolerance), and the predicted pose is closer to it than the baseline's.
+    The moves here are under a millimetre: by default such a sample starts from the
+    baseline pose (`NEAR_BASELINE_MM`), here lowered to 0 to start from the prediction."""
     from fecheck.scene import load_scene
+    from fecheck.studies import population
     from fecheck.studies.population import baseline_pose, predict_starts, solve_sample
     from fecheck.studies.population_inputs import parse_varied
 
@@ -211,9 +215,13 @@ def test_a_sample_started_from_its_predicted_equilibrium_reaches_the_same_one_so
     nominal = [(v.nominal - v.dist.a) / (v.dist.b - v.dist.a) for v in varied]
     np.testing.assert_allclose(starts.at(varied, np.array(nominal)), start, rtol=0,
                                atol=1e-12)
+    assert starts.start(varied, np.array([1.0, 1.0])) is None
+    monkeypatch.setattr(population, "NEAR_BASELINE_MM", 0.0)
     for u in ([1.0, 1.0], [0.0, 0.0], [1.0, 0.0]):
         ref, steps = solve_sample(scene, varied, np.array(u), start, {})
         assert ref.converged and steps == 0
+        np.testing.assert_array_equal(starts.start(varied, np.array(u)),
+                                      starts.at(varied, np.array(u)))
         result, steps = solve_sample(scene, varied, np.array(u), starts, {})
         assert result.converged and steps == 0
         assert result.iterations <= ref.iterations
