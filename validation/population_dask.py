@@ -6,8 +6,9 @@ population of ``validation/population_study.py`` (the same keys and ranges) once
 cluster (``--scheduler ADDRESS``) and once serially in this process, and compares the two
 CSVs: every drawn value and every output of every sample must be equal to the last digit
 (the CSV holds each number's repr), the timing columns (``build_s``, ``solve_s``) aside.
-Each sample starts from the baseline pose with fresh contact state, so its numbers do
-not depend on the worker or on the samples that ran before it there.
+Each sample starts from the pose predicted for it from the baseline's linearised
+response, with fresh contact state, so its numbers do not depend on the worker or on the
+samples that ran before it there.
 
 The full run is 112 samples of the full-resolution knee in Saltelli's design (the Sobol
 indices are compared too); --quick is 16 plain samples of the knee decimated to 1,500

@@ -7,8 +7,9 @@ Runs ``fecheck population`` on the packaged scanned knee with its 55 ligament bu
   ±2.3° of varus/valgus over the 381 mm shank),
 * the bundles' stiffness and slack length (±20 % each, one factor on every bundle: a
   slack factor of 1.18 or more lets the tibia slide about 18 mm back, where the bundles
-  catch it again; a sample whose equilibrium is not found from the baseline pose is
-  reached by a continuation from the scene's values),
+  catch it again; a sample whose equilibrium is found neither from the pose the
+  baseline's linearised response predicts nor from the baseline pose is reached by a
+  continuation from the scene's values),
 * the cartilage modulus and thickness (±20 % each),
 
 each uniform, in Saltelli's design (scrambled Sobol base points), and reports the

@@ -29,7 +29,9 @@ The tibia under a fixed femur is the one body of the knee models: its q = (x, y,
 
 from __future__ import annotations
 
-from collections.abc import Callable, Sequence
+import threading
+from collections.abc import Callable, Iterator, Sequence
+from contextlib import contextmanager
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -457,6 +459,29 @@ def _null_space(jac: np.ndarray, rtol: float = 1e-4) -> np.ndarray:
 
 STEP_TOL_MM = 1e-5
 """A converged solve's last step is below this (scaled: rotations · length scale), mm."""
+STALL_EVALUATIONS = 9
+"""A step whose line search took this many evaluations or more (the Newton step halved 8
+times) made no headway; `stopping_stalls` counts such steps. Measured on 220 solves of the
+scanned knee's population (196 samples): no step of a converged solve took more than 8,
+a stalled one 9 to 40 from its 8th-12th step on."""
+
+_stalls = threading.local()
+"""The running `stopping_stalls` block's step count (``steps``), per thread."""
+
+
+@contextmanager
+def stopping_stalls(steps: int) -> Iterator[None]:
+    """Within the block, a `solve` in this thread stops, not converged, after `steps`
+    consecutive steps of `STALL_EVALUATIONS` evaluations or more, instead of spending
+    the iteration limit on a residual it no longer lowers (a population's sample then
+    goes on with its continuation). A solve that converges never takes such a run of
+    steps on the scanned knee, so its numbers are those it has outside the block."""
+    outer = getattr(_stalls, "steps", 0)
+    _stalls.steps = int(steps)
+    try:
+        yield
+    finally:
+        _stalls.steps = outer
 
 
 def solve(p: Problem) -> Solution:
@@ -488,12 +513,18 @@ def solve(p: Problem) -> Solution:
     converged = False
     step = np.inf
     it = 0
+    stall_limit, stalled = getattr(_stalls, "steps", 0), 0
     for it in range(1, p.max_iterations + 1):
         if _converged(res, nf, f_tol, p) and step <= STEP_TOL_MM:
             converged = True
             it -= 1
             break
+        if stall_limit and stalled >= stall_limit:
+            it -= 1
+            break
+        before = sysm.evaluations
         z_new, res, jac, phi = _step(sysm, z, res, jac, phi, merit)
+        stalled = stalled + 1 if sysm.evaluations - before >= STALL_EVALUATIONS else 0
         step = float(np.linalg.norm((z_new - z)[:nf]))
         z = z_new
         history.append(phi)

@@ -127,7 +127,10 @@ def sobol_indices(y: np.ndarray, names: Sequence[str], *, resamples: int = 200,
     from SALib.analyze import sobol as salib_sobol
 
     problem = {"num_vars": d, "names": list(names), "bounds": [[0.0, 1.0]] * d}
+    # SALib draws its bootstrap from the global generator for a seed of 0 (falsy): shift
+    # the seed so that every seed, 0 (a study's default) included, fixes the intervals
     res = salib_sobol.analyze(problem, y, calc_second_order=False, num_resamples=resamples,
-                              conf_level=conf_level, print_to_console=False, seed=seed)
+                              conf_level=conf_level, print_to_console=False,
+                              seed=None if seed is None else seed + 1)
     return Indices(tuple(names), np.asarray(res["S1"]), np.asarray(res["S1_conf"]),
                    np.asarray(res["ST"]), np.asarray(res["ST_conf"]), int(keep.sum()))
