@@ -62,6 +62,7 @@ from fecheck.errors import FecheckError
 from fecheck.fe.anisotropy import MENISCUS, TransIso
 from fecheck.fe.contact.candidates import Outcome, Round, widened
 from fecheck.fe.contact.gap import nodal_displacements, surface_give
+from fecheck.fe.femoral import FemoralSheet, femoral_layer, femoral_sheet, refuse_two_layer
 from fecheck.fe.indenter import MeshIndenter
 from fecheck.fe.joint import FemoralLayer
 from fecheck.fe.meniscus_solid import (
@@ -74,6 +75,7 @@ from fecheck.fe.meniscus_solid import (
 from fecheck.fe.multibody import Body, Condensed, MultibodySolution, Pair, ray_pairs
 from fecheck.fe.pose import FramePose
 from fecheck.fe.press import FELayer, build_layers
+from fecheck.fe.settings import FESettings
 from fecheck.scene import Scene
 from fecheck.statics.root_spring import root_matrix
 from geometry.mesh import TriMesh
@@ -406,6 +408,20 @@ def _blocks(n: int, rows: np.ndarray, cols: np.ndarray, values: np.ndarray):
     return sp.csr_matrix((values, (rows, cols)), shape=(n, n))
 
 
+@dataclass(frozen=True, eq=False)
+class FemoralCrop:
+    """What a compartment's femoral layer is built over (`fecheck.fe.femoral.femoral_layer`):
+    the femoral sheet (tibia frame at the EF pose) and its `MeshIndenter`, the FE settings,
+    and the points (k, 3) mm where the femur pairs' rays meet the sheet, with the faces
+    (k,) they meet."""
+
+    sheet: FemoralSheet
+    indenter: MeshIndenter
+    settings: FESettings
+    points: np.ndarray
+    faces: np.ndarray
+
+
 @dataclass(eq=False)
 class _Side:
     """One compartment in the tibia frame: its layer and `Body`, the femoral surface
@@ -414,9 +430,10 @@ class _Side:
     paired with the meniscus rather than the femur; `lift` (mm) taken off every
     femur-meniscus gap; with two deformable layers the femoral layer (tibia frame,
     `fecheck.fe.joint.FemoralLayer`), its `Body` (carried by the femur), its surface as a
-    `fecheck.fe.indenter.MeshIndenter` (what the rays hit) and `hits`: per
+    `fecheck.fe.indenter.MeshIndenter` (what the rays hit), `hits`: per
     femur pair (its `PairKind`) the femoral layer's MeshIndenter hits (face (k,),
-    weights (k, 3)) of every vertex it may pair, at the pairing in use."""
+    weights (k, 3)) of every vertex it may pair, at the pairing in use, and the
+    `FemoralCrop` the layer was built over."""
 
     name: str
     layer: FELayer
@@ -432,6 +449,7 @@ class _Side:
     femoral_body: Body | None = None
     femoral_surface: MeshIndenter | None = None
     hits: dict[PairKind, tuple[np.ndarray, np.ndarray]] = field(default_factory=dict)
+    femoral_crop: FemoralCrop | None = None
 
 
 def _disp(body: Body, u: np.ndarray, nodes: np.ndarray) -> np.ndarray:
@@ -500,9 +518,7 @@ def knee_menisci_fe(scene: Scene, *, meniscus_size_mm: float = DEFAULT_SIZE_MM,
     `KneeMenisciFE.without_menisci`. `FecheckError` on a scene without ``menisci.dir``,
     a two-layer cartilage on remeshed sheets, a load that does not press the joint, or a
     contact that leaves a penetration over `PENETRATION_TOL_MM`."""
-    from fecheck.fe.femoral import refuse_two_layer
     from fecheck.fe.meniscus_solid import meniscus_solid
-    from fecheck.fe.settings import FESettings
     from fecheck.model.assembly import applied_load
     from fecheck.model.menisci import menisci_dir, run_menisci
     from fecheck.scene import with_values
@@ -580,9 +596,7 @@ def _with_femoral_layers(scene: Scene, sides: list[_Side], rot: np.ndarray, t: n
     """`sides` each with the femoral cartilage as a layer of its own (tibia frame, bonded
     to the femur and carried by it: `fecheck.fe.femoral.femoral_layer`) over the points
     where the normals of its femur pairs' vertices within `REACH_MM` of the candidate gap
-    (the meniscus's less its lift) meet the femoral sheet."""
-    from fecheck.fe.femoral import femoral_layer, femoral_sheet
-
+    (the meniscus's less its lift) meet the femoral sheet (`FemoralCrop`)."""
     world = sides[0].indenter.mesh
     sheet = femoral_sheet(scene, world)
     sheet = replace(sheet, mesh=TriMesh((world.points - t) @ rot, world.faces))
@@ -599,14 +613,49 @@ def _with_femoral_layers(scene: Scene, sides: list[_Side], rot: np.ndarray, t: n
                 near &= ~s.under
             points.append(pts[near] + gap.gap_mm[near, None] * nrm[near])
             faces.append(face[near])
-        layer = femoral_layer(sheet, s.name, np.concatenate(points), np.concatenate(faces),
-                              settings, say)
-        side = replace(s, femoral=layer, femoral_body=Body(
-            f"{s.name} femoral", layer.solid.K, layer.solid.vertex_dofs, carried=True),
-            femoral_surface=MeshIndenter(layer.solid.surface))
+        crop = FemoralCrop(sheet, indenter, settings, np.concatenate(points),
+                           np.concatenate(faces))
+        side = _with_femoral(s, crop, say)
         side.hits = _femoral_hits(side, rot, 0.0, None)
         out.append(side)
     return out
+
+
+def _with_femoral(s: _Side, crop: FemoralCrop, say: Callable[[str], None]) -> _Side:
+    """`s` with its femoral layer built over `crop` (its hits left to the caller)."""
+    layer = femoral_layer(crop.sheet, s.name, crop.points, crop.faces, crop.settings, say)
+    return replace(s, femoral=layer, femoral_body=Body(
+        f"{s.name} femoral", layer.solid.K, layer.solid.vertex_dofs, carried=True),
+        femoral_surface=MeshIndenter(layer.solid.surface), femoral_crop=crop, hits={})
+
+
+def _grown_femoral(s: _Side, cands: dict[PairKey, np.ndarray], rot: np.ndarray,
+                   travel: float, turn: np.ndarray | None, say: Callable[[str], None]
+                   ) -> _Side | None:
+    """`s` with its femoral layer rebuilt over its `FemoralCrop`'s points and the points
+    where the normals of the candidates `cands` whose rays miss the layer but meet the
+    femoral sheet (`_Side.hits`, the femur at `travel` turned by `turn`) meet the sheet,
+    and its hits there; None where there is no such candidate."""
+    if s.femoral is None:
+        return None
+    crop = s.femoral_crop
+    points, faces = [crop.points], [crop.faces]
+    for kind in _femur_kinds(s):
+        rows = cands[s.name, kind]
+        miss = rows[s.hits[kind][0][rows] == -1]
+        pts, nrm = _in_femur(*(a[miss] for a in _pair_points(s, kind)), rot, travel, turn)
+        gap, face, _ = crop.indenter.hits(pts, nrm)
+        points.append(pts + gap.gap_mm[:, None] * nrm)
+        faces.append(face)
+    added = sum(len(f) for f in faces[1:])
+    if not added:
+        return None
+    say(f"{s.name} femoral layer: the normals of {added} contact candidates miss it: "
+        "grown over the sheet they meet")
+    side = _with_femoral(s, replace(crop, points=np.concatenate(points),
+                                    faces=np.concatenate(faces)), say)
+    side.hits = _femoral_hits(side, rot, travel, turn)
+    return side
 
 
 TURN_DOFS = {"flexion": 0, "abduction": 1, "internal": 2}
@@ -736,25 +785,42 @@ def _femur_kinds(s: _Side) -> tuple[PairKind, ...]:
     return FEMUR_PAIRS if s.meniscus is not None else FEMUR_PAIRS[:1]
 
 
+OFF_SHEET = -2
+"""The face `_femoral_hits` gives a vertex whose normal ray meets neither the femoral layer
+nor the femoral sheet: no femoral cartilage lies along it (its gap is infinite, as with
+the rigid femur), so it is left out of the femur pairs while that holds."""
+
+
 def _femoral_hits(s: _Side, rot: np.ndarray, travel: float, turn: np.ndarray | None
                   ) -> dict[PairKind, tuple[np.ndarray, np.ndarray]]:
-    """Per femur pair of `s` the femoral layer's face (-1: a miss) and barycentric
-    weights where each of its vertices' normal rays meets it (either way along the ray),
-    the femur at `travel` turned by `turn`."""
+    """Per femur pair of `s` the femoral layer's face (-1: a miss that meets the femoral
+    sheet, `OFF_SHEET`: one that does not) and barycentric weights where each of its
+    vertices' normal rays meets it (either way along the ray), the femur at `travel`
+    turned by `turn`."""
     out = {}
     for kind in _femur_kinds(s):
-        _, face, weights = s.femoral_surface.hits(*_in_femur(*_pair_points(s, kind), rot,
-                                                              travel, turn))
+        pts, nrm = _in_femur(*_pair_points(s, kind), rot, travel, turn)
+        _, face, weights = s.femoral_surface.hits(pts, nrm)
+        miss = np.flatnonzero(face < 0)
+        off = s.femoral_crop.indenter.hits(pts[miss], nrm[miss])[1] < 0
+        face[miss[off]] = OFF_SHEET
         out[kind] = (face, weights)
     return out
 
 
+def _reachable(s: _Side, kind: PairKind, rows: np.ndarray) -> np.ndarray:
+    """The candidates `rows` of femur pair `kind` that femoral cartilage lies along: all
+    with a rigid femur, those not `OFF_SHEET` with a femoral layer."""
+    return rows if s.femoral is None else rows[s.hits[kind][0][rows] != OFF_SHEET]
+
+
 def _pairs(sides: list[_Side], cands: dict[PairKey, np.ndarray]) -> list[Pair]:
-    """The contact pairs on the candidate vertices `cands` (pair → indices)."""
+    """The contact pairs on the candidate vertices `cands` (pair → indices; those of a
+    femur pair that no femoral cartilage lies along left out, `_reachable`)."""
     out = []
     for s in sides:
         key = (s.name, PairKind.FEMUR_TIBIA)
-        ft = cands[key]
+        ft = _reachable(s, PairKind.FEMUR_TIBIA, cands[key])
         out.append(Pair(pair_name(key), s.body.name, ft, s.layer.solid.normals[ft],
                         np.zeros(len(ft)), points=s.layer.surface.points[ft], key=key,
                         **_femoral_master(s, PairKind.FEMUR_TIBIA, ft)))
@@ -762,7 +828,7 @@ def _pairs(sides: list[_Side], cands: dict[PairKey, np.ndarray]) -> list[Pair]:
             continue
         m = s.meniscus
         key = (s.name, PairKind.FEMUR_MENISCUS)
-        fm = cands[key]
+        fm = _reachable(s, PairKind.FEMUR_MENISCUS, cands[key])
         out.append(Pair(pair_name(key), m.body.name, m.superior[fm],
                         m.superior_normals[fm], np.zeros(len(fm)),
                         points=m.points[m.superior[fm]], key=key,
@@ -777,7 +843,8 @@ def _pairs(sides: list[_Side], cands: dict[PairKey, np.ndarray]) -> list[Pair]:
 
 def _femoral_master(s: _Side, kind: PairKind, rows: np.ndarray) -> dict:
     """The master of femur pair `kind` on its vertices `rows`: none (the rigid femur), or
-    the femoral layer's faces and weights its rays hit (`_Side.hits`)."""
+    the femoral layer's faces and weights its rays hit (`_Side.hits`; `FecheckError` on a
+    ray that meets the femoral sheet but misses the layer even after `_grown_femoral`)."""
     if s.femoral is None:
         return {}
     face, weights = s.hits[kind]
@@ -785,9 +852,10 @@ def _femoral_master(s: _Side, kind: PairKind, rows: np.ndarray) -> dict:
         k = rows[np.argmax(face[rows] < 0)]
         x = _pair_points(s, kind)[0][k]
         raise FecheckError(f"the normal of a {s.name} {kind.value} contact candidate at "
-                           f"({', '.join(f'{v:.1f}' for v in x)}) mm (tibia frame) misses "
-                           "the femoral layer built over the first candidates: lower "
-                           "fe.candidate_gap_mm, or use fe.cartilage = 'series'")
+                           f"({', '.join(f'{v:.1f}' for v in x)}) mm (tibia frame) meets "
+                           "the femoral sheet where the femoral layer, grown over it, does "
+                           "not reach (its extrusion stops short): use fe.cartilage = "
+                           "'series'")
     return {"master": s.femoral_body.name,
             "master_nodes": s.femoral.solid.surface.faces[face[rows]],
             "weights": weights[rows]}
@@ -873,17 +941,23 @@ def _solve(sides: list[_Side], rot: np.ndarray, t: np.ndarray, load: float,
            turns: tuple[np.ndarray, np.ndarray] = (np.zeros((0, 3)), np.zeros(0))
            ) -> KneeMenisciFE:
     """Condense on the candidates (gaps under `margin` mm), move the femur until it stops,
-    widen the candidates while a vertex outside them penetrates; the answer. `turns`:
-    (unit axes (r, 3) in the tibia frame about the tibia's origin, the moment (r,) N·mm
-    on the femur about each) along which the femur turns free under that moment."""
+    widen the candidates while a vertex outside them penetrates; the answer. A femoral
+    layer that a candidate's ray misses is grown over it first (`_grown_femoral`).
+    `turns`: (unit axes (r, 3) in the tibia frame about the tibia's origin, the moment
+    (r,) N·mm on the femur about each) along which the femur turns free under that
+    moment."""
     axis = -rot.T @ np.array([0.0, 0.0, 1.0])
     turn_axes, moments = turns
-    bodies = ([s.body for s in sides] + [s.meniscus.body for s in sides if s.meniscus]
-              + [s.femoral_body for s in sides if s.femoral_body is not None])
+    sides = list(sides)
     gaps = _all_gaps(sides, rot, t, 0.0, None)
     state = _Femur(travel=0.0, angles=np.zeros(len(turn_axes)))
 
     def solve(cands: dict[PairKey, np.ndarray]) -> Round[_Settled]:
+        t0 = time.perf_counter()
+        for i, s in enumerate(sides):
+            grown = _grown_femoral(s, cands, rot, state.travel, state.angles @ turn_axes, say)
+            sides[i] = s if grown is None else grown
+        seconds["build"] += time.perf_counter() - t0
         pairs = [p for p in _pairs(sides, cands) if len(p.nodes)]
         count = sum(len(p.nodes) for p in pairs)
         if count > MAX_CANDIDATES:
@@ -892,7 +966,7 @@ def _solve(sides: list[_Side], rot: np.ndarray, t: np.ndarray, load: float,
                                "lower fe.candidate_gap_mm or coarsen the sheets (fe.prepare "
                                "= 'on', fe.size_mm)")
         t0 = time.perf_counter()
-        state.condensed = Condensed(bodies, pairs, axis,
+        state.condensed = Condensed(_bodies(sides), pairs, axis,
                                     turns=[(a, np.zeros(3)) for a in turn_axes],
                                     reuse=state.condensed)
         state.condense_s += time.perf_counter() - t0
@@ -962,8 +1036,8 @@ def _solve(sides: list[_Side], rot: np.ndarray, t: np.ndarray, load: float,
                                        records[pair_name((s.name, PairKind.FEMUR_MENISCUS))])
                for s in sides if s.meniscus}
     return KneeMenisciFE(load, fe, ef, travel, axis, balance, worst,
-                         sum(b.K.shape[0] for b in bodies), outer, seconds, records, springs,
-                         reports, pressure,
+                         sum(b.K.shape[0] for b in _bodies(sides)), outer, seconds, records,
+                         springs, reports, pressure,
                          {s.name: outline(s.meniscus.points, s.meniscus.inferior_faces)
                           for s in sides if s.meniscus}, region,
                          np.degrees(angles), turn_axes @ on_femur + moments,
@@ -971,6 +1045,12 @@ def _solve(sides: list[_Side], rot: np.ndarray, t: np.ndarray, load: float,
                          {}, {s.name: s.layer.surface for s in sides},
                          {s.name: superior_pressure(s.meniscus, records.get(
                              f"{s.name} femur-meniscus")) for s in sides if s.meniscus})
+
+
+def _bodies(sides: list[_Side]) -> list[Body]:
+    """Every body of the knee: the tibial layers, the menisci and the femoral layers."""
+    return ([s.body for s in sides] + [s.meniscus.body for s in sides if s.meniscus]
+            + [s.femoral_body for s in sides if s.femoral_body is not None])
 
 
 def superior_pressure(m: MeniscusBody, record: PairRecord | None
