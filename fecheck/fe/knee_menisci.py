@@ -14,6 +14,11 @@ From the EF equilibrium of a ``menisci.dir`` scene (`fecheck.model.menisci`, e.g
   material), carried by the femur (`fecheck.fe.multibody.Body.carried`): the master of
   the femur-tibia and femur-meniscus pairs, hit where each slave's ray meets it, paired
   afresh where those rays have moved while a vertex still penetrates (`REPAIR_WEIGHT`).
+  Where a later candidate's ray meets the femoral sheet outside the layer, the layer is
+  rebuilt over those points too before the next condensation (`_grown_femoral`): the
+  femur's contact is deformable wherever it reaches. A candidate whose ray meets no
+  femoral cartilage at all (`OFF_SHEET`) has an infinite gap, as with the rigid femur,
+  and is left out of the femur pairs while that holds.
 * **Menisci**: each a deformable solid (`fecheck.fe.meniscus_solid`, P2 tetrahedra,
   `fecheck.fe.anisotropy.MENISCUS`, fibres along the arc) at its EF pose, raised along
   the tibial axis until it just touches the tibial layer (the EF's meniscus layer is
@@ -578,7 +583,8 @@ def knee_menisci_fe(scene: Scene, *, meniscus_size_mm: float = DEFAULT_SIZE_MM,
     if not without:
         return result
     say("the same knee without its menisci")
-    bare = with_values(scene, menisci__sides=[], menisci__remove=[])
+    bare = with_values(scene, menisci__sides=[], menisci__remove=[],
+                       menisci__calibration="")
     alone = knee_menisci_fe(bare, layers=layers, log=log, hold_rotation=hold_rotation)
     return replace(result, without_menisci=alone.fe)
 
@@ -958,6 +964,11 @@ def _solve(sides: list[_Side], rot: np.ndarray, t: np.ndarray, load: float,
             grown = _grown_femoral(s, cands, rot, state.travel, state.angles @ turn_axes, say)
             sides[i] = s if grown is None else grown
         seconds["build"] += time.perf_counter() - t0
+        off = sum(len(cands[s.name, k]) - len(_reachable(s, k, cands[s.name, k]))
+                  for s in sides for k in _femur_kinds(s))
+        if off:
+            say(f"{off} contact candidates meet no femoral cartilage along their normals: "
+                "left out of the femur pairs")
         pairs = [p for p in _pairs(sides, cands) if len(p.nodes)]
         count = sum(len(p.nodes) for p in pairs)
         if count > MAX_CANDIDATES:
