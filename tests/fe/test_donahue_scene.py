@@ -21,8 +21,9 @@ from fecheck.scene import load_scene, with_values
 
 # The values as the sources state them, written here from the papers (not from the code):
 # Donahue et al. 2002 (J Biomech Eng 124:273): 800 N at full extension, varus-valgus free,
-# both cartilages deformable, cartilage E 15 MPa, nu 0.475; the meniscus E_theta 140 MPa,
-# E_r = E_z 20 MPa, nu 0.3 / 0.2 and 2000 N/mm a horn (Haut Donahue et al. 2003, as cited).
+# both cartilages deformable, cartilage E 15 MPa, nu 0.475 (attributed to it, no source found
+# that states them); the meniscus E_theta 140 MPa, E_r = E_z 20 MPa, nu 0.3 / 0.2 and
+# 2000 N/mm a horn (Haut Donahue et al. 2003, as cited).
 CITED = {"load.force_N": 800.0, "dofs.flexion_deg": 0.0, "fe.cartilage": "two-layer",
          "contact.youngs_MPa": 15.0, "contact.poisson": 0.475, "menisci.roots": "springs",
          "menisci.root_N_per_mm": 2000.0}
