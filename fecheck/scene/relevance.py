@@ -338,7 +338,7 @@ RULES: tuple[tuple[tuple[str, ...], Reason], ...] = (
     (("fe.axisym_size_mm",), _no_axisymmetric),
     (("fe.size_mm", "fe.smooth_mm", "fe.terraces"), _no_prepare),
     (("patella.quadriceps_N",), _no_patella),
-    (_MENISCI_KEYS + ("fe.start_youngs_MPa", "fe.start_poisson"), _no_menisci),
+    (_MENISCI_KEYS, _no_menisci),
     (_LAYER_KEYS, _one_layer),
 )
 """(keys, reason): the keys have no effect in a scene where ``reason(scene)`` is not None.
