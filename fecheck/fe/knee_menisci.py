@@ -94,10 +94,11 @@ MOVE_TOL_MM = 1e-10
 REACH_MM = 0.5
 """The femoral layer covers the sheet where the rays of the femur pairs' vertices within
 this distance beyond the candidate gap meet it (and `fecheck.fe.femoral.CROP_MM` around):
-room for the candidates the femur's travel adds, mm."""
+room for the candidates the femur's travel adds, mm (beyond it the layer grows,
+`_grown_femoral`)."""
 MAX_CONDENSATIONS = 6
 """Most condensations (each widening the candidates or re-pairing them on the femoral
-layer) before a penetration is reported."""
+layer, which grows before one where needed) before a penetration is reported."""
 REPAIR_WEIGHT = 1e-9
 """While a vertex penetrates, a candidate is paired afresh with the femoral layer when a
 barycentric weight of the point its ray hits has moved by more than this since the
