@@ -41,7 +41,6 @@ from pathlib import Path
 if __name__ == "__main__" and not __package__:  # python validation/x.py: as python -m
     sys.path[0] = str(Path(__file__).resolve().parents[1])
 
-from fecheck.cli.fe import start_ef
 from fecheck.errors import FecheckError
 from fecheck.fe.knee_menisci import knee_menisci_fe
 from fecheck.fe.meniscus_solid import DEFAULT_SIZE_MM
@@ -90,7 +89,7 @@ def run_row(name: str, kind: str, sets: list[str], quick: bool, say) -> dict:
     size = COARSE_MENISCUS_MM if coarse else DEFAULT_SIZE_MM
     say(f"{name}: {' '.join(sets) or 'no change'}")
     t0 = time.perf_counter()
-    r = knee_menisci_fe(scene, meniscus_size_mm=size, ef=start_ef(scene), log=say)
+    r = knee_menisci_fe(scene, meniscus_size_mm=size, log=say)
     row = {"factor": name, "kind": kind, "sets": sets, "load_N": r.load_N,
            "dofs": r.n_dofs, "wall_s": time.perf_counter() - t0}
     for c in SIDES:

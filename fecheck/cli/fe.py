@@ -361,18 +361,6 @@ def refuse_unsupported(args: argparse.Namespace) -> None:
             raise FecheckError(f"fecheck fe on a scene with menisci does not take {what}")
 
 
-def start_ef(scene):
-    """The EF equilibrium the FE with menisci starts from where the scene names its
-    cartilage (``fe.start_youngs_MPa``, ``fe.start_poisson``): the scene's EF with that
-    cartilage; None where it names none (the FE then runs the scene's own EF)."""
-    from fecheck.model.menisci import run_menisci
-    from fecheck.scene import with_values
-
-    start = {f"contact__{k}": scene[f"fe.start_{k}"] for k in ("youngs_MPa", "poisson")
-             if scene[f"fe.start_{k}"] is not None}
-    return run_menisci(with_values(scene, **start)) if start else None
-
-
 def run_menisci_fe(args: argparse.Namespace, scene, out) -> int:
     """Run the FE with menisci of `scene`, print the report to `out`, write --json."""
     import json
@@ -398,7 +386,7 @@ def run_menisci_fe(args: argparse.Namespace, scene, out) -> int:
     t0 = time.perf_counter()
     with policy("fecheck fe", force=args.force, force_hint="--force"):
         result = knee_menisci.knee_menisci_fe(scene, meniscus_size_mm=size, log=stderr_log,
-                                              ef=start_ef(scene), without=True)
+                                              without=True)
     wall = time.perf_counter() - t0
     print(f"{name}: FE with menisci at the EF pose, load on the tibia {result.load_N:.2f} N, "
           f"meniscus tetrahedra {size:g} mm", file=out)

@@ -14,6 +14,11 @@ From the EF equilibrium of a ``menisci.dir`` scene (`fecheck.model.menisci`, e.g
   material), carried by the femur (`fecheck.fe.multibody.Body.carried`): the master of
   the femur-tibia and femur-meniscus pairs, hit where each slave's ray meets it, paired
   afresh where those rays have moved while a vertex still penetrates (`REPAIR_WEIGHT`).
+  Where a later candidate's ray meets the femoral sheet outside the layer, the layer is
+  rebuilt over those points too before the next condensation (`_grown_femoral`): the
+  femur's contact is deformable wherever it reaches. A candidate whose ray meets no
+  femoral cartilage at all (`OFF_SHEET`) has an infinite gap, as with the rigid femur,
+  and is left out of the femur pairs while that holds.
 * **Menisci**: each a deformable solid (`fecheck.fe.meniscus_solid`, P2 tetrahedra,
   `fecheck.fe.anisotropy.MENISCUS`, fibres along the arc) at its EF pose, raised along
   the tibial axis until it just touches the tibial layer (the EF's meniscus layer is
@@ -62,6 +67,7 @@ from fecheck.errors import FecheckError
 from fecheck.fe.anisotropy import MENISCUS, TransIso
 from fecheck.fe.contact.candidates import Outcome, Round, widened
 from fecheck.fe.contact.gap import nodal_displacements, surface_give
+from fecheck.fe.femoral import FemoralSheet, femoral_layer, femoral_sheet, refuse_two_layer
 from fecheck.fe.indenter import MeshIndenter
 from fecheck.fe.joint import FemoralLayer
 from fecheck.fe.meniscus_solid import (
@@ -74,6 +80,7 @@ from fecheck.fe.meniscus_solid import (
 from fecheck.fe.multibody import Body, Condensed, MultibodySolution, Pair, ray_pairs
 from fecheck.fe.pose import FramePose
 from fecheck.fe.press import FELayer, build_layers
+from fecheck.fe.settings import FESettings
 from fecheck.scene import Scene
 from fecheck.statics.root_spring import root_matrix
 from geometry.mesh import TriMesh
@@ -87,10 +94,11 @@ MOVE_TOL_MM = 1e-10
 REACH_MM = 0.5
 """The femoral layer covers the sheet where the rays of the femur pairs' vertices within
 this distance beyond the candidate gap meet it (and `fecheck.fe.femoral.CROP_MM` around):
-room for the candidates the femur's travel adds, mm."""
+room for the candidates the femur's travel adds, mm (beyond it the layer grows,
+`_grown_femoral`)."""
 MAX_CONDENSATIONS = 6
 """Most condensations (each widening the candidates or re-pairing them on the femoral
-layer) before a penetration is reported."""
+layer, which grows before one where needed) before a penetration is reported."""
 REPAIR_WEIGHT = 1e-9
 """While a vertex penetrates, a candidate is paired afresh with the femoral layer when a
 barycentric weight of the point its ray hits has moved by more than this since the
@@ -105,6 +113,13 @@ sideways or down, whose ray meets the femoral surface far behind it (measured: 3
 at the lateral anterior tip)."""
 _REACH_MM = 5.0
 """Rays toward a meniscus's inferior face start this far below the tibial vertex, mm."""
+RIM_GAP_MM = 0.05
+"""Where a tibial vertex's ray grazes the rim of a meniscus's inferior surface, lowering
+the meniscus onto the layer makes that ray meet it, overlapping, and raising it makes the
+ray miss, so the placement flips between the two (measured on 2 mm tibial sheets: the
+medial meniscus of donahue2002 with its root bundles, ±0.010 mm): the meniscus then rests
+where nothing overlaps, if its least gap there is under this, mm (the FE's contact closes
+it)."""
 
 
 @dataclass(frozen=True, eq=False)
@@ -406,6 +421,20 @@ def _blocks(n: int, rows: np.ndarray, cols: np.ndarray, values: np.ndarray):
     return sp.csr_matrix((values, (rows, cols)), shape=(n, n))
 
 
+@dataclass(frozen=True, eq=False)
+class FemoralCrop:
+    """What a compartment's femoral layer is built over (`fecheck.fe.femoral.femoral_layer`):
+    the femoral sheet (tibia frame at the EF pose) and its `MeshIndenter`, the FE settings,
+    and the points (k, 3) mm where the femur pairs' rays meet the sheet, with the faces
+    (k,) they meet."""
+
+    sheet: FemoralSheet
+    indenter: MeshIndenter
+    settings: FESettings
+    points: np.ndarray
+    faces: np.ndarray
+
+
 @dataclass(eq=False)
 class _Side:
     """One compartment in the tibia frame: its layer and `Body`, the femoral surface
@@ -414,9 +443,10 @@ class _Side:
     paired with the meniscus rather than the femur; `lift` (mm) taken off every
     femur-meniscus gap; with two deformable layers the femoral layer (tibia frame,
     `fecheck.fe.joint.FemoralLayer`), its `Body` (carried by the femur), its surface as a
-    `fecheck.fe.indenter.MeshIndenter` (what the rays hit) and `hits`: per
+    `fecheck.fe.indenter.MeshIndenter` (what the rays hit), `hits`: per
     femur pair (its `PairKind`) the femoral layer's MeshIndenter hits (face (k,),
-    weights (k, 3)) of every vertex it may pair, at the pairing in use."""
+    weights (k, 3)) of every vertex it may pair, at the pairing in use, and the
+    `FemoralCrop` the layer was built over."""
 
     name: str
     layer: FELayer
@@ -432,6 +462,7 @@ class _Side:
     femoral_body: Body | None = None
     femoral_surface: MeshIndenter | None = None
     hits: dict[PairKind, tuple[np.ndarray, np.ndarray]] = field(default_factory=dict)
+    femoral_crop: FemoralCrop | None = None
 
 
 def _disp(body: Body, u: np.ndarray, nodes: np.ndarray) -> np.ndarray:
@@ -454,7 +485,9 @@ def place_meniscus(solid: MeniscusSolid, q_meniscus: np.ndarray, q_tibia: np.nda
     """(points (n, 3), fibres (nel, 3), rise mm): the meniscus at its EF body coordinates
     `q_meniscus`, in the frame of the tibia at `q_tibia`, moved along the tibial z axis
     until the least gap from the tibial layer vertices (along their normals) to its
-    inferior faces is zero (to 1e-9 mm)."""
+    inferior faces is zero (to 1e-9 mm); where a ray grazing the inferior surface's rim
+    keeps that from settling, the placement where nothing overlaps and the least gap is
+    smallest, if under `RIM_GAP_MM`."""
     from fecheck.statics.newton import body_pose
 
     rot_m, t_m = body_pose(np.asarray(q_meniscus, dtype=float))
@@ -463,6 +496,7 @@ def place_meniscus(solid: MeniscusSolid, q_meniscus: np.ndarray, q_tibia: np.nda
     fibre = solid.fibre @ (rot_t.T @ rot_m).T
     inferior = solid.faces(INFERIOR)
     rise = 0.0
+    clear = (np.inf, points, rise)      # the placement with the least gap where none overlaps
     for _ in range(30):                 # the least gap falls about tenfold per rise
         face, _, gap = _inferior_rays(points, inferior, layer_points, layer_normals)
         if not (face >= 0).any():
@@ -471,8 +505,12 @@ def place_meniscus(solid: MeniscusSolid, q_meniscus: np.ndarray, q_tibia: np.nda
         low = float(gap.min())
         if abs(low) <= 1e-9:
             return points, fibre, rise
+        if 0.0 < low < clear[0]:
+            clear = (low, points, rise)
         points = points - [0.0, 0.0, low]
         rise -= low
+    if clear[0] <= RIM_GAP_MM:
+        return clear[1], fibre, clear[2]
     raise FecheckError(f"the {solid.side} meniscus does not settle on the tibial layer "
                        f"(gap {low:.2e} mm after a rise of {rise:.3f} mm)")
 
@@ -500,9 +538,7 @@ def knee_menisci_fe(scene: Scene, *, meniscus_size_mm: float = DEFAULT_SIZE_MM,
     `KneeMenisciFE.without_menisci`. `FecheckError` on a scene without ``menisci.dir``,
     a two-layer cartilage on remeshed sheets, a load that does not press the joint, or a
     contact that leaves a penetration over `PENETRATION_TOL_MM`."""
-    from fecheck.fe.femoral import refuse_two_layer
     from fecheck.fe.meniscus_solid import meniscus_solid
-    from fecheck.fe.settings import FESettings
     from fecheck.model.assembly import applied_load
     from fecheck.model.menisci import menisci_dir, run_menisci
     from fecheck.scene import with_values
@@ -562,7 +598,8 @@ def knee_menisci_fe(scene: Scene, *, meniscus_size_mm: float = DEFAULT_SIZE_MM,
     if not without:
         return result
     say("the same knee without its menisci")
-    bare = with_values(scene, menisci__sides=[], menisci__remove=[])
+    bare = with_values(scene, menisci__sides=[], menisci__remove=[],
+                       menisci__calibration="")
     alone = knee_menisci_fe(bare, layers=layers, log=log, hold_rotation=hold_rotation)
     return replace(result, without_menisci=alone.fe)
 
@@ -580,9 +617,7 @@ def _with_femoral_layers(scene: Scene, sides: list[_Side], rot: np.ndarray, t: n
     """`sides` each with the femoral cartilage as a layer of its own (tibia frame, bonded
     to the femur and carried by it: `fecheck.fe.femoral.femoral_layer`) over the points
     where the normals of its femur pairs' vertices within `REACH_MM` of the candidate gap
-    (the meniscus's less its lift) meet the femoral sheet."""
-    from fecheck.fe.femoral import femoral_layer, femoral_sheet
-
+    (the meniscus's less its lift) meet the femoral sheet (`FemoralCrop`)."""
     world = sides[0].indenter.mesh
     sheet = femoral_sheet(scene, world)
     sheet = replace(sheet, mesh=TriMesh((world.points - t) @ rot, world.faces))
@@ -599,14 +634,49 @@ def _with_femoral_layers(scene: Scene, sides: list[_Side], rot: np.ndarray, t: n
                 near &= ~s.under
             points.append(pts[near] + gap.gap_mm[near, None] * nrm[near])
             faces.append(face[near])
-        layer = femoral_layer(sheet, s.name, np.concatenate(points), np.concatenate(faces),
-                              settings, say)
-        side = replace(s, femoral=layer, femoral_body=Body(
-            f"{s.name} femoral", layer.solid.K, layer.solid.vertex_dofs, carried=True),
-            femoral_surface=MeshIndenter(layer.solid.surface))
+        crop = FemoralCrop(sheet, indenter, settings, np.concatenate(points),
+                           np.concatenate(faces))
+        side = _with_femoral(s, crop, say)
         side.hits = _femoral_hits(side, rot, 0.0, None)
         out.append(side)
     return out
+
+
+def _with_femoral(s: _Side, crop: FemoralCrop, say: Callable[[str], None]) -> _Side:
+    """`s` with its femoral layer built over `crop` (its hits left to the caller)."""
+    layer = femoral_layer(crop.sheet, s.name, crop.points, crop.faces, crop.settings, say)
+    return replace(s, femoral=layer, femoral_body=Body(
+        f"{s.name} femoral", layer.solid.K, layer.solid.vertex_dofs, carried=True),
+        femoral_surface=MeshIndenter(layer.solid.surface), femoral_crop=crop, hits={})
+
+
+def _grown_femoral(s: _Side, cands: dict[PairKey, np.ndarray], rot: np.ndarray,
+                   travel: float, turn: np.ndarray | None, say: Callable[[str], None]
+                   ) -> _Side | None:
+    """`s` with its femoral layer rebuilt over its `FemoralCrop`'s points and the points
+    where the normals of the candidates `cands` whose rays miss the layer but meet the
+    femoral sheet (`_Side.hits`, the femur at `travel` turned by `turn`) meet the sheet,
+    and its hits there; None where there is no such candidate."""
+    if s.femoral is None:
+        return None
+    crop = s.femoral_crop
+    points, faces = [crop.points], [crop.faces]
+    for kind in _femur_kinds(s):
+        rows = cands[s.name, kind]
+        miss = rows[s.hits[kind][0][rows] == -1]
+        pts, nrm = _in_femur(*(a[miss] for a in _pair_points(s, kind)), rot, travel, turn)
+        gap, face, _ = crop.indenter.hits(pts, nrm)
+        points.append(pts + gap.gap_mm[:, None] * nrm)
+        faces.append(face)
+    added = sum(len(f) for f in faces[1:])
+    if not added:
+        return None
+    say(f"{s.name} femoral layer: the normals of {added} contact candidates miss it: "
+        "grown over the sheet they meet")
+    side = _with_femoral(s, replace(crop, points=np.concatenate(points),
+                                    faces=np.concatenate(faces)), say)
+    side.hits = _femoral_hits(side, rot, travel, turn)
+    return side
 
 
 TURN_DOFS = {"flexion": 0, "abduction": 1, "internal": 2}
@@ -736,25 +806,42 @@ def _femur_kinds(s: _Side) -> tuple[PairKind, ...]:
     return FEMUR_PAIRS if s.meniscus is not None else FEMUR_PAIRS[:1]
 
 
+OFF_SHEET = -2
+"""The face `_femoral_hits` gives a vertex whose normal ray meets neither the femoral layer
+nor the femoral sheet: no femoral cartilage lies along it (its gap is infinite, as with
+the rigid femur), so it is left out of the femur pairs while that holds."""
+
+
 def _femoral_hits(s: _Side, rot: np.ndarray, travel: float, turn: np.ndarray | None
                   ) -> dict[PairKind, tuple[np.ndarray, np.ndarray]]:
-    """Per femur pair of `s` the femoral layer's face (-1: a miss) and barycentric
-    weights where each of its vertices' normal rays meets it (either way along the ray),
-    the femur at `travel` turned by `turn`."""
+    """Per femur pair of `s` the femoral layer's face (-1: a miss that meets the femoral
+    sheet, `OFF_SHEET`: one that does not) and barycentric weights where each of its
+    vertices' normal rays meets it (either way along the ray), the femur at `travel`
+    turned by `turn`."""
     out = {}
     for kind in _femur_kinds(s):
-        _, face, weights = s.femoral_surface.hits(*_in_femur(*_pair_points(s, kind), rot,
-                                                              travel, turn))
+        pts, nrm = _in_femur(*_pair_points(s, kind), rot, travel, turn)
+        _, face, weights = s.femoral_surface.hits(pts, nrm)
+        miss = np.flatnonzero(face < 0)
+        off = s.femoral_crop.indenter.hits(pts[miss], nrm[miss])[1] < 0
+        face[miss[off]] = OFF_SHEET
         out[kind] = (face, weights)
     return out
 
 
+def _reachable(s: _Side, kind: PairKind, rows: np.ndarray) -> np.ndarray:
+    """The candidates `rows` of femur pair `kind` that femoral cartilage lies along: all
+    with a rigid femur, those not `OFF_SHEET` with a femoral layer."""
+    return rows if s.femoral is None else rows[s.hits[kind][0][rows] != OFF_SHEET]
+
+
 def _pairs(sides: list[_Side], cands: dict[PairKey, np.ndarray]) -> list[Pair]:
-    """The contact pairs on the candidate vertices `cands` (pair → indices)."""
+    """The contact pairs on the candidate vertices `cands` (pair → indices; those of a
+    femur pair that no femoral cartilage lies along left out, `_reachable`)."""
     out = []
     for s in sides:
         key = (s.name, PairKind.FEMUR_TIBIA)
-        ft = cands[key]
+        ft = _reachable(s, PairKind.FEMUR_TIBIA, cands[key])
         out.append(Pair(pair_name(key), s.body.name, ft, s.layer.solid.normals[ft],
                         np.zeros(len(ft)), points=s.layer.surface.points[ft], key=key,
                         **_femoral_master(s, PairKind.FEMUR_TIBIA, ft)))
@@ -762,7 +849,7 @@ def _pairs(sides: list[_Side], cands: dict[PairKey, np.ndarray]) -> list[Pair]:
             continue
         m = s.meniscus
         key = (s.name, PairKind.FEMUR_MENISCUS)
-        fm = cands[key]
+        fm = _reachable(s, PairKind.FEMUR_MENISCUS, cands[key])
         out.append(Pair(pair_name(key), m.body.name, m.superior[fm],
                         m.superior_normals[fm], np.zeros(len(fm)),
                         points=m.points[m.superior[fm]], key=key,
@@ -777,7 +864,8 @@ def _pairs(sides: list[_Side], cands: dict[PairKey, np.ndarray]) -> list[Pair]:
 
 def _femoral_master(s: _Side, kind: PairKind, rows: np.ndarray) -> dict:
     """The master of femur pair `kind` on its vertices `rows`: none (the rigid femur), or
-    the femoral layer's faces and weights its rays hit (`_Side.hits`)."""
+    the femoral layer's faces and weights its rays hit (`_Side.hits`; `FecheckError` on a
+    ray that meets the femoral sheet but misses the layer even after `_grown_femoral`)."""
     if s.femoral is None:
         return {}
     face, weights = s.hits[kind]
@@ -785,9 +873,10 @@ def _femoral_master(s: _Side, kind: PairKind, rows: np.ndarray) -> dict:
         k = rows[np.argmax(face[rows] < 0)]
         x = _pair_points(s, kind)[0][k]
         raise FecheckError(f"the normal of a {s.name} {kind.value} contact candidate at "
-                           f"({', '.join(f'{v:.1f}' for v in x)}) mm (tibia frame) misses "
-                           "the femoral layer built over the first candidates: lower "
-                           "fe.candidate_gap_mm, or use fe.cartilage = 'series'")
+                           f"({', '.join(f'{v:.1f}' for v in x)}) mm (tibia frame) meets "
+                           "the femoral sheet where the femoral layer, grown over it, does "
+                           "not reach (its extrusion stops short): use fe.cartilage = "
+                           "'series'")
     return {"master": s.femoral_body.name,
             "master_nodes": s.femoral.solid.surface.faces[face[rows]],
             "weights": weights[rows]}
@@ -873,17 +962,28 @@ def _solve(sides: list[_Side], rot: np.ndarray, t: np.ndarray, load: float,
            turns: tuple[np.ndarray, np.ndarray] = (np.zeros((0, 3)), np.zeros(0))
            ) -> KneeMenisciFE:
     """Condense on the candidates (gaps under `margin` mm), move the femur until it stops,
-    widen the candidates while a vertex outside them penetrates; the answer. `turns`:
-    (unit axes (r, 3) in the tibia frame about the tibia's origin, the moment (r,) N·mm
-    on the femur about each) along which the femur turns free under that moment."""
+    widen the candidates while a vertex outside them penetrates; the answer. A femoral
+    layer that a candidate's ray misses is grown over it first (`_grown_femoral`).
+    `turns`: (unit axes (r, 3) in the tibia frame about the tibia's origin, the moment
+    (r,) N·mm on the femur about each) along which the femur turns free under that
+    moment."""
     axis = -rot.T @ np.array([0.0, 0.0, 1.0])
     turn_axes, moments = turns
-    bodies = ([s.body for s in sides] + [s.meniscus.body for s in sides if s.meniscus]
-              + [s.femoral_body for s in sides if s.femoral_body is not None])
+    sides = list(sides)
     gaps = _all_gaps(sides, rot, t, 0.0, None)
     state = _Femur(travel=0.0, angles=np.zeros(len(turn_axes)))
 
     def solve(cands: dict[PairKey, np.ndarray]) -> Round[_Settled]:
+        t0 = time.perf_counter()
+        for i, s in enumerate(sides):
+            grown = _grown_femoral(s, cands, rot, state.travel, state.angles @ turn_axes, say)
+            sides[i] = s if grown is None else grown
+        seconds["build"] += time.perf_counter() - t0
+        off = sum(len(cands[s.name, k]) - len(_reachable(s, k, cands[s.name, k]))
+                  for s in sides for k in _femur_kinds(s))
+        if off:
+            say(f"{off} contact candidates meet no femoral cartilage along their normals: "
+                "left out of the femur pairs")
         pairs = [p for p in _pairs(sides, cands) if len(p.nodes)]
         count = sum(len(p.nodes) for p in pairs)
         if count > MAX_CANDIDATES:
@@ -892,7 +992,7 @@ def _solve(sides: list[_Side], rot: np.ndarray, t: np.ndarray, load: float,
                                "lower fe.candidate_gap_mm or coarsen the sheets (fe.prepare "
                                "= 'on', fe.size_mm)")
         t0 = time.perf_counter()
-        state.condensed = Condensed(bodies, pairs, axis,
+        state.condensed = Condensed(_bodies(sides), pairs, axis,
                                     turns=[(a, np.zeros(3)) for a in turn_axes],
                                     reuse=state.condensed)
         state.condense_s += time.perf_counter() - t0
@@ -962,8 +1062,8 @@ def _solve(sides: list[_Side], rot: np.ndarray, t: np.ndarray, load: float,
                                        records[pair_name((s.name, PairKind.FEMUR_MENISCUS))])
                for s in sides if s.meniscus}
     return KneeMenisciFE(load, fe, ef, travel, axis, balance, worst,
-                         sum(b.K.shape[0] for b in bodies), outer, seconds, records, springs,
-                         reports, pressure,
+                         sum(b.K.shape[0] for b in _bodies(sides)), outer, seconds, records,
+                         springs, reports, pressure,
                          {s.name: outline(s.meniscus.points, s.meniscus.inferior_faces)
                           for s in sides if s.meniscus}, region,
                          np.degrees(angles), turn_axes @ on_femur + moments,
@@ -971,6 +1071,12 @@ def _solve(sides: list[_Side], rot: np.ndarray, t: np.ndarray, load: float,
                          {}, {s.name: s.layer.surface for s in sides},
                          {s.name: superior_pressure(s.meniscus, records.get(
                              f"{s.name} femur-meniscus")) for s in sides if s.meniscus})
+
+
+def _bodies(sides: list[_Side]) -> list[Body]:
+    """Every body of the knee: the tibial layers, the menisci and the femoral layers."""
+    return ([s.body for s in sides] + [s.meniscus.body for s in sides if s.meniscus]
+            + [s.femoral_body for s in sides if s.femoral_body is not None])
 
 
 def superior_pressure(m: MeniscusBody, record: PairRecord | None

@@ -162,12 +162,6 @@ def choice_lines(scene) -> list[str]:
         mark = "same as" if r["same"] else "differs from"
         out.append(f"  {r['what']}: {r['key']} = {r['scene']}, {mark} Donahue's "
                    f"{r['donahue_2002']} [{r['source']}]")
-    start = [f"{name} {scene[f'fe.start_{k}']:g}" for k, name in
-             (("youngs_MPa", "E MPa"), ("poisson", "nu")) if scene[f"fe.start_{k}"] is not None]
-    if start:
-        out.append(f"  the FE's start pose: the EF equilibrium with its cartilage at "
-                   f"{', '.join(start)} (fe.start_*), not the FE's material; the EF rows above "
-                   "are that EF's")
     return out
 
 

@@ -102,12 +102,14 @@ class Indenter:
 class Compliance:
     """A body's condensed compliance, kept for `Condensed(reuse=...)`: its dofs (the node
     dof triplets along `directions` (m, 3), or with `directions` None the sorted dofs
-    (k,) of (K⁻¹) on them), the block (mm/N) and the solver of its K."""
+    (k,) of (K⁻¹) on them), the block (mm/N), the solver of its K and that K (a body of
+    the same name with another K, a layer rebuilt larger, is condensed afresh)."""
 
     dofs: np.ndarray
     block: np.ndarray
     solve: object
     directions: np.ndarray | None = None
+    K: sp.spmatrix | None = None
 
 
 @dataclass(frozen=True, eq=False)
@@ -177,11 +179,12 @@ class Condensed:
     changes by θ a·((x − c) × n) at its slave point x (`Pair.points`, required), and its
     forces' moment about the axis, Σ λ a·((x − c) × n), balances the given one.
 
-    `reuse`: an earlier condensation of the same bodies (their stiffness unchanged): a
-    body whose gaps read the same node directions, or node dofs among those it condensed
-    (a master's weights moved: re-pairing), takes its compliance from there instead of a
-    new factorization; a master whose dofs are not among them is condensed on the union
-    of both, so that the next re-pairing is likely to find them."""
+    `reuse`: an earlier condensation of the same bodies: a body with the same stiffness
+    (the same K object) whose gaps read the same node directions, or node dofs among those
+    it condensed (a master's weights moved: re-pairing), takes its compliance from there
+    instead of a new factorization; a master whose dofs are not among them is condensed on
+    the union of both, so that the next re-pairing is likely to find them; a body whose K
+    is another object (rebuilt) is condensed afresh."""
 
     def __init__(self, bodies: Sequence[Body], pairs: Sequence[Pair], axis: np.ndarray, *,
                  solver: str = "cholmod", block: int = 512,
@@ -216,6 +219,8 @@ class Condensed:
             self.D[b.name] = D = sp.csr_matrix((v, (r, c)), shape=(m, b.K.shape[0]))
             normal = self._normal_gaps(b) if solver == "cholmod" else None
             old = before.get(b.name)
+            if old is not None and old.K is not b.K:     # rebuilt: nothing to reuse
+                old = None
             if normal is not None:        # one direction per node: the normal compliance
                 rows, dofs, directions = normal
                 if (old is not None and old.directions is not None
@@ -224,7 +229,8 @@ class Condensed:
                     along, self.solves[b.name] = old.block, old.solve
                 else:
                     along, self.solves[b.name] = condensed_compliance(b.K, dofs, directions)
-                self.kept[b.name] = Compliance(dofs, along, self.solves[b.name], directions)
+                self.kept[b.name] = Compliance(dofs, along, self.solves[b.name], directions,
+                                                b.K)
                 C[np.ix_(rows, rows)] += along
                 continue
             if solver == "cholmod":       # (K⁻¹) on the dofs the gaps read, one factorization
@@ -235,7 +241,7 @@ class Condensed:
                 else:
                     held = np.union1d(old.dofs, cols) if nodal else cols
                     whole, self.solves[b.name] = nodal_compliance(b.K, held)
-                self.kept[b.name] = Compliance(held, whole, self.solves[b.name])
+                self.kept[b.name] = Compliance(held, whole, self.solves[b.name], K=b.K)
                 at = np.searchsorted(held, cols)
                 inverse = whole[np.ix_(at, at)]
                 Dc = D[:, cols]

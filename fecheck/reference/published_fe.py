@@ -8,9 +8,11 @@ deformable and bonded to their bones, the menisci transversely isotropic linear 
 the stiff direction along the arc, each horn tied to the tibia by a linear spring. Its
 material constants and the spring stiffness are written as the studies that cite the Haut
 Donahue models quote them (the paper's text was not opened here; `MENISCUS_SOURCE`,
-`ROOT_SOURCE`). Devaraj, Acharya & Adhikari 2020 (Open Biomed Eng J 14:74-83, doi
-10.2174/1874120702014010074): MRI knees of healthy subjects, 1150 N axial at full extension,
-the largest compressive stress and the contact area on each tibial cartilage (mean ± SD).
+`ROOT_SOURCE`); the cartilage's E 15 MPa and ν 0.475 are attributed to it without a
+source found that states them (`CARTILAGE_SOURCE`). Devaraj, Acharya & Adhikari 2020 (Open
+Biomed Eng J 14:74-83, doi 10.2174/1874120702014010074): MRI knees of healthy subjects,
+1150 N axial at full extension, the largest compressive stress and the contact area on each
+tibial cartilage (mean ± SD).
 Units: mm, N, MPa.
 
 >>> SUBJECT_FE_2020["medial"].area_mm2, SUBJECT_FE_2020["lateral"].p_max_MPa
@@ -23,9 +25,9 @@ from dataclasses import dataclass
 
 DONAHUE_SOURCE = "Donahue et al. 2002, J Biomech Eng 124:273"
 """Where the loading, the free rotations, the layers and the cartilage come from."""
-CARTILAGE_SOURCE = (f"{DONAHUE_SOURCE} (cartilage linear elastic isotropic, as quoted for "
-                    "that model)")
-"""The cartilage's E and ν."""
+CARTILAGE_SOURCE = (f"{DONAHUE_SOURCE}, attributed to it, not verified: neither the paper's "
+                    "text nor a study quoting these values for it was found")
+"""The cartilage's E and ν (linear elastic isotropic)."""
 MENISCUS_SOURCE = ("Haut Donahue lab models after Donahue 2002, as a citing study quotes "
                    "them: 'Sensitivity of the tibio-femoral response ...' (excerpt on "
                    "scite.ai)")

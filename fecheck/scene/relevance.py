@@ -346,7 +346,7 @@ RULES: tuple[tuple[tuple[str, ...], Reason], ...] = (
     (("fe.size_mm", "fe.smooth_mm", "fe.terraces"), _no_prepare),
     (("patella.quadriceps_N",), _no_patella),
     (("ligaments.wrap",), _no_wrapped_bundles),
-    (_MENISCI_KEYS + ("fe.start_youngs_MPa", "fe.start_poisson"), _no_menisci),
+    (_MENISCI_KEYS, _no_menisci),
     (_LAYER_KEYS, _one_layer),
 )
 """(keys, reason): the keys have no effect in a scene where ``reason(scene)`` is not None.

@@ -710,18 +710,6 @@ SCHEMA: dict[str, Key] = {
                         "frictionless contact between the two layers, both of the contact "
                         "material (model.kind = 'femur-tibia' sheets that extrude as read).",
                         choices=("series", "two-layer")),
-    "fe.start_youngs_MPa": Key(
-        "float", None, _FE + "on a scene with menisci (menisci.dir), the cartilage's Young's "
-        "modulus in the EF equilibrium that gives the FE its start pose (the femur's place "
-        "and the menisci's), MPa; not set = contact.youngs_MPa. The FE's layers keep "
-        "contact.youngs_MPa. For cartilage near ν 0.5, whose EF column stiffness diverges "
-        "(1 - 2ν in its denominator), a start from a compressible EF.", low=0.0,
-        low_open=True, example=20.0),
-    "fe.start_poisson": Key(
-        "float", None, _FE + "on a scene with menisci, the cartilage's Poisson's ratio in the "
-        "EF equilibrium that gives the FE its start pose, below 0.5; not set = "
-        "contact.poisson. Read as fe.start_youngs_MPa is.", low=0.0, high=0.5,
-        high_open=True, unit=DIMENSIONLESS, example=0.3),
     "fe.solid_base_deg": Key("float", 45.0, _FE + "the fixed base of geometry.tibia_solid: "
                              "the boundary faces whose outward normal is within this angle of "
                              "-z (pointing away from the femur), all their nodes fixed; every "

@@ -11,18 +11,17 @@ from types import SimpleNamespace
 import pytest
 
 from fecheck.cli import main
-from fecheck.cli.fe import start_ef
 from fecheck.fe import knee_menisci, knee_menisci_report
 from fecheck.fe.anisotropy import MENISCUS
 from fecheck.fe.knee_menisci_report import choice_lines, choice_rows, published_lines
-from fecheck.model import menisci
 from fecheck.reference.published_fe import DONAHUE_2002_CHOICES
-from fecheck.scene import load_scene, with_values
+from fecheck.scene import load_scene
 
 # The values as the sources state them, written here from the papers (not from the code):
 # Donahue et al. 2002 (J Biomech Eng 124:273): 800 N at full extension, varus-valgus free,
-# both cartilages deformable, cartilage E 15 MPa, nu 0.475; the meniscus E_theta 140 MPa,
-# E_r = E_z 20 MPa, nu 0.3 / 0.2 and 2000 N/mm a horn (Haut Donahue et al. 2003, as cited).
+# both cartilages deformable, cartilage E 15 MPa, nu 0.475 (attributed to it, no source found
+# that states them); the meniscus E_theta 140 MPa, E_r = E_z 20 MPa, nu 0.3 / 0.2 and
+# 2000 N/mm a horn (Haut Donahue et al. 2003, as cited).
 CITED = {"load.force_N": 800.0, "dofs.flexion_deg": 0.0, "fe.cartilage": "two-layer",
          "contact.youngs_MPa": 15.0, "contact.poisson": 0.475, "menisci.roots": "springs",
          "menisci.root_N_per_mm": 2000.0}
@@ -84,25 +83,12 @@ def _no_nan(text):
     raise AssertionError(f"{text} in the JSON")
 
 
-def _cartilage(scene):
-    return scene["contact.youngs_MPa"], scene["contact.poisson"]
-
-
-def test_the_fe_starts_from_the_ef_of_the_start_material(scene, monkeypatch):
-    monkeypatch.setattr(menisci, "run_menisci", _cartilage)
-    assert start_ef(scene) == (20.0, 0.3)                   # the scene's fe.start_*
-    plain = with_values(scene, fe__start_youngs_MPa=None, fe__start_poisson=None)
-    assert start_ef(plain) is None                          # unset: the FE runs the scene's EF
-    half = with_values(plain, fe__start_poisson=0.3)
-    assert start_ef(half) == (15.0, 0.3)                    # the other from contact.*
-
-
 def test_fecheck_fe_prints_the_choices_and_the_published_numbers(monkeypatch, capsys,
                                                                  tmp_path):
+    # The FE starts from the EF of the scene's own cartilage (no other EF handed to it).
     starts = []
-    monkeypatch.setattr(menisci, "run_menisci", _cartilage)
-    monkeypatch.setattr(knee_menisci, "knee_menisci_fe",
-                        lambda *a, ef=None, **k: starts.append(ef) or _stand_in())
+    monkeypatch.setattr(knee_menisci, "knee_menisci_fe", lambda scene, ef=None, **k: starts.append(
+        (ef, scene["contact.youngs_MPa"], scene["contact.poisson"])) or _stand_in())
     monkeypatch.setattr(knee_menisci_report, "report_lines", lambda result, wall: [])
     monkeypatch.setattr(knee_menisci_report, "as_dict", lambda result, name: {})
     path = tmp_path / "fe.json"
@@ -112,10 +98,9 @@ def test_fecheck_fe_prints_the_choices_and_the_published_numbers(monkeypatch, ca
     assert "Haut Donahue et al. 2003, J Biomech 36:19" in out
     for number in PUBLISHED:
         assert number in out, number
-    assert starts == [(20.0, 0.3)]
+    assert starts == [(None, 15.0, 0.475)]
     data = json.loads(path.read_text(encoding="utf-8"), parse_constant=_no_nan)
     donahue = {r["compartment"]: (r["area_mm2"], r["p_max_MPa"]) for r in data["published"]
                if r["model"] == "Donahue 2002"}
     assert donahue == {"medial": (490.0, 2.55), "lateral": (415.0, 2.36)}
     assert all(r["same"] for r in data["choices"])
-    assert "the FE's start pose: the EF equilibrium with its cartilage at E MPa 20, nu 0.3" in out

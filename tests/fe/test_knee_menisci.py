@@ -463,3 +463,27 @@ def test_cli_fe_runs_a_menisci_scene_and_writes_its_json(intact, monkeypatch, tm
     assert sizes == [2.5]
     err = capsys.readouterr().err.strip()
     assert "--mode compartment" in err and "\n" not in err
+
+
+def test_a_ray_grazing_the_meniscus_rim_still_places_it():
+    # One inferior triangle (x, y >= 0, x + y <= 1) over two tibial vertices: one straight
+    # under it, one 0.02 mm higher with its normal tilted 45 deg toward the rim. With the
+    # first touching, the tilted ray meets the triangle at x + y = 0.985 overlapping by
+    # 0.02·√2 mm; raised that much the ray meets x + y = 1.013, off the rim: the placement
+    # flips between the two. It rests at the raised one, where nothing overlaps and the
+    # least gap is the straight vertex's 0.02·√2 mm (by hand), 1 - 0.02·√2 mm lower.
+    from types import SimpleNamespace
+
+    tri = np.array([[0.0, 0.0, 1.0], [1.0, 0.0, 1.0], [0.0, 1.0, 1.0]])
+    solid = SimpleNamespace(side="medial", mesh=SimpleNamespace(points=tri),
+                            fibre=np.array([[1.0, 0.0, 0.0]]),
+                            faces=lambda label: np.array([[0, 1, 2]]))
+    layer = np.array([[0.2, 0.2, 0.0], [0.955, 0.05, 0.02]])
+    normals = np.array([[0.0, 0.0, 1.0], [np.sqrt(0.5), 0.0, np.sqrt(0.5)]])
+    points, _, rise = knee_menisci.place_meniscus(solid, np.zeros(6), np.zeros(6), layer,
+                                                  normals)
+    overlap = 0.02 * np.sqrt(2.0)
+    assert points[0, 2] == pytest.approx(overlap, abs=1e-12)
+    assert rise == pytest.approx(overlap - 1.0, abs=1e-12)
+    face, _, gap = knee_menisci._inferior_rays(points, np.array([[0, 1, 2]]), layer, normals)
+    assert face[1] < 0 and gap[0] == pytest.approx(overlap, abs=1e-12)

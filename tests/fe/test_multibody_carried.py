@@ -94,3 +94,25 @@ def test_a_condensation_reused_after_re_pairing_is_a_fresh_one():
         np.put_along_axis(w, np.asarray(nodes), np.asarray(weights), axis=1)
         by_hand = w @ np.diag(1.0 / np.asarray(K_PAD)) @ w.T + np.diag(1.0 / np.asarray(K_BED))
         np.testing.assert_allclose(fresh.C, by_hand, rtol=1e-12)
+
+
+def test_a_body_rebuilt_under_its_name_is_condensed_afresh():
+    # A layer rebuilt larger keeps its name but not its stiffness: the condensation reused
+    # from before it was rebuilt must not lend it the old compliance. By hand: the pad's
+    # tips in series with the bed's, C_ii = 1 / k_pad,i + 1 / k_bed,i, with the new pad's k.
+    bed = _springs("bed", K_BED, False)
+    points = np.array([[-L_MM, 0.0, 0.0], [L_MM, 0.0, 0.0]])
+    up = np.tile([0.0, 0.0, 1.0], (2, 1))
+    axis = np.array([0.0, 0.0, -1.0])
+
+    def pairs():
+        return [Pair("pad-bed", "bed", np.array([0, 1]), up, np.zeros(2), "pad",
+                     np.array([[0], [1]]), np.ones((2, 1)), points=points)]
+
+    first = Condensed([bed, _springs("pad", K_PAD, True)], pairs(), axis)
+    stiffer = (4.0 * K_PAD[0], 4.0 * K_PAD[1])
+    again = Condensed([bed, _springs("pad", stiffer, True)], pairs(), axis, reuse=first)
+    assert again.kept["pad"].solve is not first.kept["pad"].solve
+    assert again.kept["bed"].solve is first.kept["bed"].solve       # the bed is the same
+    np.testing.assert_allclose(np.diag(again.C), 1.0 / np.asarray(stiffer)
+                               + 1.0 / np.asarray(K_BED), rtol=1e-12)

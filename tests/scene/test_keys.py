@@ -129,7 +129,6 @@ INERT = {
     "contact.indenter_poisson=0.1": "only the Hertz law",
     "knee.side=left": "knee.preset = 'baseline-right'",
     "menisci.root_N_per_mm=10": "no menisci",
-    "fe.start_youngs_MPa=5": "no menisci",
 }
 """Keys with no effect on the packaged baseline scene → a word of the reason."""
 
@@ -181,12 +180,9 @@ def test_keys_declared_inert_leave_the_baseline_answer_unchanged():
     (["fe.prepare=off"], "fe.smooth_mm", True),
     ([], "dofs.x_mm", False),
     ([], "menisci.calibration", True),
-    ([], "fe.start_poisson", True),
     ([], "patella.quadriceps_N", True),
     (["model.kind='femur-tibia'", "menisci.dir='fecheck:knee/smith2019_menisci'"],
      "menisci.calibration", False),
-    (["model.kind='femur-tibia'", "menisci.dir='fecheck:knee/smith2019_menisci'"],
-     "fe.start_poisson", False),
 ])
 def test_inert_key_rules(overrides, key, inert):
     scene = apply_overrides(load_scene(), overrides)
