@@ -103,8 +103,8 @@ def _rows(check) -> list[tuple[str, dict, str]]:
             ("FE axisymmetric (FE load)", refs("axisym"), f"the axisymmetric FE runs {flat}"),
             ("EF closed form (FE load)", refs("ef_closed_form"), f"closed form {flat}"),
             ("Hertz (FE load)", refs("hertz"), f"closed form {flat}"),
-            ("Donahue 2002 (1 mm)*", {c: DONAHUE_2002[c][1.0] for c in comps},
-             "Donahue 2002 reports the compartment force, pressures and area only")]
+            ("Donahue 2002 (1 mm)*", {c: DONAHUE_2002.get(c, {}).get(1.0) for c in comps},
+             "Donahue 2002 reports the tibial compartments' force, pressures and area only")]
 
 
 def _value(metrics, attr: str) -> float | None:
@@ -209,7 +209,7 @@ def geometry_line(g: dict) -> str:
 def summary_lines(check) -> list[str]:
     """Split, centres of pressure, pose, geometry, timing and notes below the table."""
     fe_split, ef_split = check.split("fe"), check.split("ef_model")
-    names = list(check.compartments)
+    names = list(fe_split)
     out = ["medial/lateral split: FE " + " / ".join(f"{100 * fe_split[c]:.1f}%" for c in names)
            + ", EF " + " / ".join(f"{100 * ef_split[c]:.1f}%" for c in names)]
     cop = []
@@ -220,6 +220,10 @@ def summary_lines(check) -> list[str]:
     fe, ef = check.pose["fe"], check.pose["ef"]
     out.append(f"pose FE - EF ({check.settings.mode} mode): "
                + ", ".join(f"{k} {fe[k] - ef[k]:+.4f}" for k in fe))
+    if check.patella is not None:
+        pf = check.as_dict()["patella_pose"]
+        out.append("patella FE - EF: " + ", ".join(f"{k} {pf['fe'][k] - pf['ef'][k]:+.4f}"
+                                                   for k in pf["fe"]))
     out.append(geometry_line(check.geometry))
     for name, chk in check.compartments.items():
         dev = chk.deviation()
