@@ -50,6 +50,7 @@ from fecheck.model.patella import (
     solve_knee,
 )
 from fecheck.model.results import RunResult
+from fecheck.model.scanned import build_compartments, bundle_parts, bundle_springs, scanned_result
 from fecheck.scene import Scene, surfaces
 from fecheck.statics.newton import (
     TIBIA_COORDINATES,
@@ -160,13 +161,6 @@ def ef_knee(scene: Scene, flexion: tuple[float, np.ndarray | None] | None = None
     the scene's start and the data's pose; `built` = (compartments, bundle names, bundle
     springs) as `fecheck.model.scanned.run_scanned` takes them. Returns the tibia's
     `RunResult`, the patella and the wall time (s)."""
-    from fecheck.model.scanned import (
-        build_compartments,
-        bundle_parts,
-        bundle_springs,
-        scanned_result,
-    )
-
     t0 = time.perf_counter()
     comps, names, springs = built or (build_compartments(scene), *bundle_springs(scene))
     model = model or build_patella(scene)
