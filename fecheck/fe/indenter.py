@@ -13,6 +13,7 @@ Units: mm; everything in one frame (the femur's, i.e. the world).
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 
 import numpy as np
@@ -74,10 +75,14 @@ class MeshIndenter:
 
     Only faces that face the vertex count (m·n < 0): a vertex is outside where such a face
     is hit ahead (along n), inside where one is hit behind (along −n, the vertex went
-    through it); where both, the nearer one decides. Open sheets work.
+    through it); where both, the nearer one decides. Open sheets work. A face hit
+    behind farther than `max_depth_mm` does not count (the ray crossed the layer's own
+    body and met the far side of a curved surface, as a patellar vertex's can the
+    trochlea's).
     """
 
     mesh: TriMesh
+    max_depth_mm: float = math.inf
 
     def describe(self) -> str:
         return f"rigid mesh ({self.mesh.n_faces} faces)"
@@ -93,7 +98,8 @@ class MeshIndenter:
         fn = self.mesh.face_normals
         ahead, face_a = ray_hits(points, normals, self.mesh, facing=-normals)
         behind, face_b = ray_hits(points, -normals, self.mesh, facing=-normals)
-        use_behind = (face_b >= 0) & ((face_a < 0) | (behind < ahead))
+        use_behind = ((face_b >= 0) & (behind <= self.max_depth_mm)
+                      & ((face_a < 0) | (behind < ahead)))
         s = np.where(use_behind, -behind, np.where(face_a >= 0, ahead, FAR_MM))
         face = np.where(use_behind, face_b, face_a)
         hit = face >= 0

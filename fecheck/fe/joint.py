@@ -278,7 +278,7 @@ class JointContact:
             g0, J, G, hits = _linearised_gaps(self.layers, pose, basis, q)
             C, _, _ = self._paired(hits)
             if active is None:
-                active = g0 <= np.sort(g0)[min(len(g0) - 1, 3)]
+                active = self._first_set(g0)
             dQ = np.zeros((len(q), len(q))) if stiffness is None else stiffness(q)
             if lam is not None:
                 dQ = dQ + _force_stiffness(self.layers, pose, basis, q, lam)
@@ -328,6 +328,18 @@ class JointContact:
         timing = {"condense": self.seconds, "contact": time.perf_counter() - t0}
         return JointSolution(q, out, outer, inner, timing)
 
+
+    def _first_set(self, g0: np.ndarray) -> np.ndarray:
+        """The first active set: the four smallest gaps, and each rigid body none of
+        whose candidates is among them its own four smallest (a body with no contact has
+        only its load and springs to balance it, a step that can run far off)."""
+        active = g0 <= np.sort(g0)[min(len(g0) - 1, 3)]
+        owner = np.repeat([lay.body for lay in self.layers], np.diff(self.offsets))
+        for body in dict.fromkeys(owner):
+            mine = owner == body
+            if not active[mine].any():
+                active |= mine & (g0 <= np.sort(g0[mine])[min(int(mine.sum()) - 1, 3)])
+        return active
 
     def _paired(self, hits: list) -> tuple[np.ndarray, list[sp.csr_matrix], np.ndarray]:
         """The compliance at the candidates with the femoral layers' give at the faces the

@@ -63,6 +63,11 @@ from fecheck.statics.newton import (
     tibia_coordinates,
 )
 
+BEHIND_MM = 10.0
+"""A patellar vertex whose ray back through the patella meets a femoral face farther than
+this is not inside the femur (`MeshIndenter.max_depth_mm`), mm: in flexion the rays of the
+sheet's rim cross the patella and meet the far side of the trochlea (measured at 30°: 16
+vertices at 47-50 mm, where the EF's deepest patellar penetration is below 1 mm)."""
 FRAME = "P"
 """The patella's frame name (`fecheck.fe.pose.FramePose.body`, `FEBody.carrier`)."""
 
@@ -99,7 +104,7 @@ def patella_body(scene: Scene, model: PatellaModel) -> FEBody:
     else:
         h = vertex_values(slave, series_thickness(scene, slave, model.bone))
     femur = surfaces.file_path(scene, "femur").name
-    return FEBody(COMPARTMENT, slave, h, MeshIndenter(femoral_master(scene)),
+    return FEBody(COMPARTMENT, slave, h, MeshIndenter(femoral_master(scene), BEHIND_MM),
                   f"mesh:{CARTILAGE}", f"mesh:{femur}", scene["scanned.thickness"],
                   carrier=FRAME)
 
