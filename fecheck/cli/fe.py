@@ -21,6 +21,7 @@ note saying why.
 from __future__ import annotations
 
 import argparse
+import dataclasses
 import math
 import sys
 from pathlib import Path
@@ -188,7 +189,8 @@ def peak_lines(check) -> list[str]:
     shared = len({id(chk.femoral_roughness) for chk in comps.values()}) == 1
     for i, (c, chk) in enumerate(comps.items()):
         if chk.roughness is not None:
-            out.append(chk.roughness.summary(f"{c} tibial sheet"))
+            kind = "tibial" if c in check.split("fe") else "patellar"
+            out.append(chk.roughness.summary(f"{c} {kind} sheet"))
         femur = chk.femoral_roughness
         if femur is not None and not (shared and i):         # a shared sheet: once
             out.append(femur.summary("femoral sheet" if shared else f"{c} femoral sheet"))
@@ -314,7 +316,12 @@ def write_outputs(args: argparse.Namespace, check, scene, out, est=None) -> None
     if args.plot:
         from fecheck.io.fe_plots import write_fe_plots
 
-        for path in write_fe_plots(check, args.plot, scene.label):
+        tibial = {c: chk for c, chk in check.compartments.items() if c in check.split("fe")}
+        if len(tibial) < len(check.compartments):
+            print("the pressure map shows the tibial compartments, seen from above; the "
+                  "patellofemoral contact is in --json and --vtk", file=out)
+        for path in write_fe_plots(dataclasses.replace(check, compartments=tibial), args.plot,
+                                   scene.label):
             print(f"wrote {path}", file=out)
 
 
