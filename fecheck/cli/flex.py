@@ -101,6 +101,9 @@ def _fe_table(rows: list[dict], out) -> None:
           "of pressure x, y mm tibia frame; with the patella, PF: its contact force N and "
           "centre of pressure x, y, z mm patella frame):", file=out)
     for r in rows:
+        if "fe_error" in r:
+            print(f"  {r['flexion_deg']:5g}° FE failed: {r['fe_error']}", file=out)
+            continue
         for c in ("medial", "lateral"):
             print(f"  {r['flexion_deg']:5g}° {c:8s} p_max {r[f'{c}_fe_p_max_MPa']:6.3f} vs "
                   f"{r[f'{c}_ef_p_max_MPa']:6.3f}  area {r[f'{c}_fe_area_mm2']:6.1f} vs "
@@ -175,6 +178,11 @@ def run(args: argparse.Namespace) -> int:
           file=err)
     _fe_table(result.fe, err)
     _write_outputs(args, scene, result, err)
+    failed = [f"{r['flexion_deg']:g}°" for r in result.fe if "fe_error" in r]
+    if result.stopped is None and failed:
+        print(f"fecheck: error: the FE failed at {', '.join(failed)} (the reason in the table "
+              "above); the other angles were written", file=err)
+        return 1
     if result.stopped is None:
         return 0
     if result.stopped.startswith("interrupted"):

@@ -371,7 +371,8 @@ def run_flex(scene: Scene, angles: Sequence[float], axis: FlexionAxis,
              ) -> FlexRun:
     """Solve the scene at every flexion angle (deg) in turn, each from the last, then
     the FE cross-check at the solved angles of `fe_at` (`fe_row`; `fe_log` gets its
-    progress).
+    progress; an angle whose FE fails gets a row of its flexion and the one-line reason,
+    ``fe_error``, and the others go on).
 
     A failure at an angle (no equilibrium, no convergence, contact lost in a compartment:
     the femoral cartilage ran out) stops the run with `stopped` naming the angle; Ctrl-C
@@ -400,7 +401,10 @@ def run_flex(scene: Scene, angles: Sequence[float], axis: FlexionAxis,
         run.sweep_seconds = time.perf_counter() - t_built
     for p in run.points:
         if any(math.isclose(p.flexion_deg, a, abs_tol=1e-9) for a in fe_at):
-            run.fe.append(fe_row(scene, p, axis, (comps, names, springs), fe_log, patella))
+            try:
+                run.fe.append(fe_row(scene, p, axis, (comps, names, springs), fe_log, patella))
+            except FecheckError as err:
+                run.fe.append({"flexion_deg": p.flexion_deg, "fe_error": str(err)})
     return run
 
 
