@@ -8,7 +8,10 @@ tibia's.
   (`fecheck.model.patella.series_thickness`, averaged onto the vertices), else
   ``contact.thickness_mm``. It is built by `fecheck.fe.press.build_layers` as a tibial
   sheet is, and carried by the body ``"P"`` (`fecheck.fe.bodies.FEBody.carrier`).
-- Indenter: the femoral articular surface the EF patella presses (rigid, world frame).
+- Indenter: the femoral articular surface the EF patella presses (rigid, world frame),
+  its contact faded within the EF's `fecheck.model.patella.RIM_MM` of the sheet's open
+  rim as the EF's (the EF pair's rim table and width, `MeshIndenter`'s rim): a
+  penetration there counts as the EF's faded depth.
 - Unknowns (`knee_drive`): the tibia's free DOFs (scene order) then the patella's six
   body coordinates (`fecheck.statics.newton.Body`, the data's pose at 0). The load on them
   is the EF's: the scene's load, gravity and tibial bundles on the tibia; the quadriceps,
@@ -104,7 +107,8 @@ def patella_body(scene: Scene, model: PatellaModel) -> FEBody:
     else:
         h = vertex_values(slave, series_thickness(scene, slave, model.bone))
     femur = surfaces.file_path(scene, "femur").name
-    return FEBody(COMPARTMENT, slave, h, MeshIndenter(femoral_master(scene), BEHIND_MM),
+    indenter = MeshIndenter(femoral_master(scene), BEHIND_MM, model.compartment.pair.rim)
+    return FEBody(COMPARTMENT, slave, h, indenter,
                   f"mesh:{CARTILAGE}", f"mesh:{femur}", scene["scanned.thickness"],
                   carrier=FRAME)
 
