@@ -1,7 +1,8 @@
 """The patella in the FE cross-check (`fecheck.fe.patella_layer`): each rigid body of the
 FE joint balances by hand statics, the FE patellofemoral force meets the EF's, the
-generalised solver with independent bodies gives each body's one-body answer, and what the
-FE does not model with the patella is refused on one line.
+generalised solver with independent bodies gives each body's one-body answer, what the
+FE does not model with the patella is refused on one line, and the patella's femoral
+indenter fades contact at the femoral sheet's rim as the EF does.
 
 The knee is coarse (tibial sheets decimated to 1,500 faces, one element level through the
 thickness) so the module runs in seconds; the patellar sheet is the EF's own."""
@@ -13,14 +14,17 @@ import math
 import numpy as np
 import pytest
 from conftest import require_knee_data
+from scipy.spatial.transform import Rotation
 
 from fecheck.errors import FecheckError
 from fecheck.fe.crosscheck import cross_check
 from fecheck.fe.indenter import SphereIndenter
 from fecheck.fe.joint import ContactLayer, JointContact
+from fecheck.fe.patella_layer import patella_body
 from fecheck.fe.pose import FramePose
 from fecheck.fe.solid import layer_solid
 from fecheck.model.assembly import applied_load, free_indices
+from fecheck.model.patella import RIM_MM
 from fecheck.model.run import ligament_springs
 from fecheck.scene import load_scene
 from fecheck.statics.newton import body_pose, pose, twist_basis
@@ -172,3 +176,61 @@ def test_what_the_fe_does_not_model_with_the_patella_is_refused(override, messag
     with pytest.raises(FecheckError, match=message) as err:
         cross_check(_scene(override), log=None)
     assert "\n" not in str(err.value)
+
+
+def _rim_distance(mesh, points: np.ndarray) -> np.ndarray:
+    """Exact distance (mm) of points (n, 3) to the mesh's boundary edges (an edge of one
+    face), point to segment."""
+    e = np.sort(mesh.faces[:, [0, 1, 1, 2, 2, 0]].reshape(-1, 2), axis=1)
+    edges, counts = np.unique(e, axis=0, return_counts=True)
+    a, b = mesh.points[edges[counts == 1, 0]], mesh.points[edges[counts == 1, 1]]
+    ab = b - a
+    t = np.einsum("nej,ej->ne", points[:, None] - a, ab) / np.einsum("ej,ej->e", ab, ab)
+    foot = a + np.clip(t, 0.0, 1.0)[..., None] * ab
+    return np.linalg.norm(points[:, None] - foot, axis=2).min(axis=1)
+
+
+def _smoothstep(phi: np.ndarray) -> np.ndarray:
+    x = np.clip(phi / RIM_MM, 0.0, 1.0)
+    return 3.0 * x**2 - 2.0 * x**3
+
+
+RIM_W_TOL = 0.12
+"""|w(φ) - w(exact distance)| allowed: the FE's φ is the EF's, interpolated over the face
+from its corners' distances to rim samples 1/8 of an edge apart (measured on the femoral
+sheet, 1.9 mm edges, at the centroids of its 669 faces 0.1-1.9 mm from the rim: φ within
+0.14 mm, w within 0.097); without the fade w would read 1 (up to 0.99 off)."""
+
+
+def test_the_patellar_femoral_indenter_fades_at_the_rim_as_the_ef(knee):
+    # a patellar vertex 0.3 mm inside the femoral sheet at a face's centroid, its ray along
+    # the face normal: away from the rim its gap is -0.3 mm; within RIM_MM of the open rim
+    # the EF's faded depth, w(φ)·(-0.3) with w = 3x² - 2x³, x = φ/RIM_MM (0 at the rim);
+    # an open gap is kept; the twist row is the faded gap's derivative (central differences)
+    scene, check = knee
+    indenter = patella_body(scene, check.patella.model).indenter
+    mesh = indenter.mesh
+    y = mesh.points[mesh.faces].mean(axis=1)
+    phi = _rim_distance(mesh, y)
+    band = np.flatnonzero((phi > 0.1) & (phi < RIM_MM - 0.1))
+    inner = np.flatnonzero(phi > RIM_MM + 0.5)
+    m = mesh.face_normals
+    depth = 0.3
+    for faces, w in ((band, _smoothstep(phi[band])), (inner, np.ones(len(inner)))):
+        pts, nrm = y[faces] - depth * m[faces], -m[faces]
+        gap = indenter.gap(pts, nrm)
+        assert np.abs(gap.gap_mm / -depth - w).max() < RIM_W_TOL
+        assert np.all(indenter.gap(y[faces] + depth * m[faces], nrm).gap_mm
+                      == pytest.approx(depth, abs=1e-9))
+    assert np.abs(gap.gap_mm + depth).max() < 1e-9                 # the inner faces: no fade
+    # the twist rows of the band's faded gaps
+    pts, nrm = y[band] - depth * m[band], -m[band]
+    rows = indenter.gap(pts, nrm).twist
+    h = 1e-5
+    for k, xi in enumerate(np.eye(6)):
+        def moved(step, xi=xi):
+            # the body turned by the rotation vector step·ω and shifted by step·v
+            rot = Rotation.from_rotvec(step * xi[3:]).as_matrix()
+            return indenter.gap(pts @ rot.T + step * xi[:3], nrm @ rot.T).gap_mm
+        fd = (moved(h) - moved(-h)) / (2 * h)
+        assert np.abs(fd - rows[:, k]).max() < 1e-5 * max(1.0, np.abs(rows[:, k]).max())
