@@ -20,8 +20,10 @@ tibia's.
 - EF (`ef_knee`): the tibia and the patella solved together
   (`fecheck.model.patella.solve_knee`), as `fecheck flex` solves each angle.
 
-Two deformable layers (``fe.cartilage = "two-layer"``) and ``fe.mode = "compartment"``
-are refused with the patella (`refuse_patella`). Units: mm, N, MPa.
+Two deformable layers (``fe.cartilage = "two-layer"``), ``fe.mode = "compartment"`` and
+``fe.prepare = "on"`` are refused with the patella (`refuse_patella`); ``fe.prepare =
+"auto"`` leaves the patellar sheet as it is (`fecheck.fe.budget.prepared_for_size`).
+Units: mm, N, MPa.
 """
 
 from __future__ import annotations
@@ -94,6 +96,10 @@ def refuse_patella(scene: Scene, settings: FESettings) -> None:
     if settings.cartilage == "two-layer":
         raise FecheckError("the FE with the patella (patella.dir) models one deformable layer "
                            "per contact: use fe.cartilage = 'series', or patella.dir = ''")
+    if settings.prepare == "on":
+        raise FecheckError("the FE with the patella (patella.dir) meshes the EF's sheets: use "
+                           "fe.prepare = 'auto' or 'off' (a prepared sheet and its femoral "
+                           "surface are cut for a tibial sheet)")
     if scene["model.kind"] != "femur-tibia":
         raise FecheckError("patella.dir in the FE needs model.kind = 'femur-tibia' (the "
                            "patella presses the femoral articular surface)")

@@ -196,6 +196,10 @@ def _sheet(body: FEBody, settings: FESettings, levels: int, log: Callable[[str],
                 raise _extrusion_failure(body, err, settings) from None
     if directions is not None:
         return body, None, directions, rounds
+    if body.carrier != "T":
+        raise FecheckError(f"the {body.name} sheet cannot be extruded into a cartilage layer "
+                           "for the FE, and only tibial sheets are prepared (fe.prepare): try "
+                           "fewer fe.layers or a thinner layer")
     sheet, prepared = prepared_body(body, settings.size_mm, settings.smooth_mm,
                                     settings.terraces == "on")
     stair = prepared.staircase

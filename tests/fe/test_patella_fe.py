@@ -17,11 +17,14 @@ from conftest import require_knee_data
 from scipy.spatial.transform import Rotation
 
 from fecheck.errors import FecheckError
+from fecheck.fe.bodies import scene_bodies
+from fecheck.fe.budget import MAX_DOFS, layer_dofs, prepared_for_size, sheet_dofs
 from fecheck.fe.crosscheck import cross_check
 from fecheck.fe.indenter import SphereIndenter
 from fecheck.fe.joint import ContactLayer, JointContact
 from fecheck.fe.patella_layer import patella_body
 from fecheck.fe.pose import FramePose
+from fecheck.fe.settings import FESettings
 from fecheck.fe.solid import layer_solid
 from fecheck.model.assembly import applied_load, free_indices
 from fecheck.model.patella import RIM_MM
@@ -170,6 +173,7 @@ def test_independent_bodies_each_get_the_one_body_answer():
 @pytest.mark.parametrize("override, message", [
     ("fe.cartilage='two-layer'", "fe.cartilage = 'series'"),
     ("fe.mode='compartment'", "fe.mode = 'joint'"),
+    ("fe.prepare='on'", "fe.prepare = 'auto' or 'off'"),
 ])
 def test_what_the_fe_does_not_model_with_the_patella_is_refused(override, message):
     require_knee_data()
@@ -234,3 +238,17 @@ def test_the_patellar_femoral_indenter_fades_at_the_rim_as_the_ef(knee):
             return indenter.gap(pts @ rot.T + step * xi[:3], nrm @ rot.T).gap_mm
         fd = (moved(h) - moved(-h)) / (2 * h)
         assert np.abs(fd - rows[:, k]).max() < 1e-5 * max(1.0, np.abs(rows[:, k]).max())
+
+
+def test_fe_prepare_auto_leaves_the_patellar_sheet_as_it_is(knee):
+    # refined twice the coarse knee's layers pass MAX_DOFS, where 'auto' prepares a mesh
+    # sheet that gets smaller prepared, as the patellar one would; it is kept (a prepared
+    # sheet and its femoral surface are cut for a tibial sheet)
+    scene, check = knee
+    bodies = [*scene_bodies(scene), patella_body(scene, check.patella.model)]
+    settings = FESettings.from_scene(scene, refine=2)
+    levels = settings.levels(scene["contact.poisson"])
+    assert sum(layer_dofs(b.surface, 2, levels) for b in bodies) > MAX_DOFS
+    assert sheet_dofs(bodies[-1].surface, settings, levels, True) < layer_dofs(
+        bodies[-1].surface, 2, levels)                 # preparing would make it smaller
+    assert prepared_for_size(bodies, settings, levels)[-1] is False
