@@ -21,6 +21,7 @@ note saying why.
 from __future__ import annotations
 
 import argparse
+import dataclasses
 import math
 import sys
 from pathlib import Path
@@ -103,8 +104,8 @@ def _rows(check) -> list[tuple[str, dict, str]]:
             ("FE axisymmetric (FE load)", refs("axisym"), f"the axisymmetric FE runs {flat}"),
             ("EF closed form (FE load)", refs("ef_closed_form"), f"closed form {flat}"),
             ("Hertz (FE load)", refs("hertz"), f"closed form {flat}"),
-            ("Donahue 2002 (1 mm)*", {c: DONAHUE_2002[c][1.0] for c in comps},
-             "Donahue 2002 reports the compartment force, pressures and area only")]
+            ("Donahue 2002 (1 mm)*", {c: DONAHUE_2002.get(c, {}).get(1.0) for c in comps},
+             "Donahue 2002 reports the tibial compartments' force, pressures and area only")]
 
 
 def _value(metrics, attr: str) -> float | None:
@@ -188,7 +189,8 @@ def peak_lines(check) -> list[str]:
     shared = len({id(chk.femoral_roughness) for chk in comps.values()}) == 1
     for i, (c, chk) in enumerate(comps.items()):
         if chk.roughness is not None:
-            out.append(chk.roughness.summary(f"{c} tibial sheet"))
+            kind = "tibial" if c in check.split("fe") else "patellar"
+            out.append(chk.roughness.summary(f"{c} {kind} sheet"))
         femur = chk.femoral_roughness
         if femur is not None and not (shared and i):         # a shared sheet: once
             out.append(femur.summary("femoral sheet" if shared else f"{c} femoral sheet"))
@@ -209,7 +211,7 @@ def geometry_line(g: dict) -> str:
 def summary_lines(check) -> list[str]:
     """Split, centres of pressure, pose, geometry, timing and notes below the table."""
     fe_split, ef_split = check.split("fe"), check.split("ef_model")
-    names = list(check.compartments)
+    names = list(fe_split)
     out = ["medial/lateral split: FE " + " / ".join(f"{100 * fe_split[c]:.1f}%" for c in names)
            + ", EF " + " / ".join(f"{100 * ef_split[c]:.1f}%" for c in names)]
     cop = []
@@ -220,6 +222,10 @@ def summary_lines(check) -> list[str]:
     fe, ef = check.pose["fe"], check.pose["ef"]
     out.append(f"pose FE - EF ({check.settings.mode} mode): "
                + ", ".join(f"{k} {fe[k] - ef[k]:+.4f}" for k in fe))
+    if check.patella is not None:
+        pf = check.as_dict()["patella_pose"]
+        out.append("patella FE - EF: " + ", ".join(f"{k} {pf['fe'][k] - pf['ef'][k]:+.4f}"
+                                                   for k in pf["fe"]))
     out.append(geometry_line(check.geometry))
     for name, chk in check.compartments.items():
         dev = chk.deviation()
@@ -310,7 +316,12 @@ def write_outputs(args: argparse.Namespace, check, scene, out, est=None) -> None
     if args.plot:
         from fecheck.io.fe_plots import write_fe_plots
 
-        for path in write_fe_plots(check, args.plot, scene.label):
+        tibial = {c: chk for c, chk in check.compartments.items() if c in check.split("fe")}
+        if len(tibial) < len(check.compartments):
+            print("the pressure map shows the tibial compartments, seen from above; the "
+                  "patellofemoral contact is in --json and --vtk", file=out)
+        for path in write_fe_plots(dataclasses.replace(check, compartments=tibial), args.plot,
+                                   scene.label):
             print(f"wrote {path}", file=out)
 
 

@@ -38,8 +38,9 @@ def add_parser(subparsers) -> None:
                    help="the flexion axis direction (with --axis-point)")
     p.add_argument("--fe-at", metavar="A,B,...",
                    help="run the FE cross-check at these angles of --angles, deg, from the EF "
-                        "poses (the flexion held, the other DOFs free): a table on standard "
-                        "error and the JSON's 'fe'")
+                        "poses (the flexion held, the other DOFs free; with patella.dir the "
+                        "patellar cartilage a layer too, the patella's six DOFs free): a table "
+                        "on standard error and the JSON's 'fe'")
     p.add_argument("--csv", metavar="PATH", help="one row per angle ('-': stdout)")
     p.add_argument("--json", metavar="PATH", help="axis and every angle ('-': stdout)")
     p.add_argument("--plot", type=Path, metavar="DIR",
@@ -97,8 +98,12 @@ def _fe_table(rows: list[dict], out) -> None:
     if not rows:
         return
     print("FE vs EF at the --fe-at angles (p_max face-averaged MPa, area mm², split, centre "
-          "of pressure x, y mm tibia frame):", file=out)
+          "of pressure x, y mm tibia frame; with the patella, PF: its contact force N and "
+          "centre of pressure x, y, z mm patella frame):", file=out)
     for r in rows:
+        if "fe_error" in r:
+            print(f"  {r['flexion_deg']:5g}° FE failed: {r['fe_error']}", file=out)
+            continue
         for c in ("medial", "lateral"):
             print(f"  {r['flexion_deg']:5g}° {c:8s} p_max {r[f'{c}_fe_p_max_MPa']:6.3f} vs "
                   f"{r[f'{c}_ef_p_max_MPa']:6.3f}  area {r[f'{c}_fe_area_mm2']:6.1f} vs "
@@ -106,6 +111,14 @@ def _fe_table(rows: list[dict], out) -> None:
                   f"{r[f'{c}_ef_split']:.3f}  CoP ({r[f'{c}_fe_cop_x_mm']:.1f}, "
                   f"{r[f'{c}_fe_cop_y_mm']:.1f}) vs ({r[f'{c}_ef_cop_x_mm']:.1f}, "
                   f"{r[f'{c}_ef_cop_y_mm']:.1f})", file=out)
+        if "PF_fe_force_N" in r:
+            print(f"  {r['flexion_deg']:5g}° {'PF':8s} force {r['PF_fe_force_N']:6.1f} vs "
+                  f"{r['PF_ef_force_N']:6.1f} N  p_max {r['PF_fe_p_max_MPa']:6.3f} vs "
+                  f"{r['PF_ef_p_max_MPa']:6.3f}  area {r['PF_fe_area_mm2']:6.1f} vs "
+                  f"{r['PF_ef_area_mm2']:6.1f}  CoP ({r['PF_fe_cop_x_mm']:.1f}, "
+                  f"{r['PF_fe_cop_y_mm']:.1f}, {r['PF_fe_cop_z_mm']:.1f}) vs "
+                  f"({r['PF_ef_cop_x_mm']:.1f}, {r['PF_ef_cop_y_mm']:.1f}, "
+                  f"{r['PF_ef_cop_z_mm']:.1f}) patella frame", file=out)
         print(f"  {r['flexion_deg']:5g}° balanced to {r['balance']:.1e} of the load, FE "
               f"{r['fe_seconds']:.1f} s", file=out)
 
@@ -165,6 +178,11 @@ def run(args: argparse.Namespace) -> int:
           file=err)
     _fe_table(result.fe, err)
     _write_outputs(args, scene, result, err)
+    failed = [f"{r['flexion_deg']:g}°" for r in result.fe if "fe_error" in r]
+    if result.stopped is None and failed:
+        print(f"fecheck: error: the FE failed at {', '.join(failed)} (the reason in the table "
+              "above); the other angles were written", file=err)
+        return 1
     if result.stopped is None:
         return 0
     if result.stopped.startswith("interrupted"):

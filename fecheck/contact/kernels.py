@@ -390,11 +390,32 @@ def _signed(o0: float, o1: float, o2: float, sq: float, out: bool, n0: float, n1
 
 
 @njit(cache=True, fastmath=False, inline="always")
+def rim_weight(phi: float, rim_mm: float) -> tuple[float, float]:
+    """The rim fade w = 3x² - 2x³, x = min(1, max(0, φ/rim_mm)), of a master point at
+    distance φ (mm) from the rim, and dw/dφ (1/mm): 0 on the rim, 1 from `rim_mm` in."""
+    x = phi / rim_mm
+    if x >= 1.0:
+        return 1.0, 0.0
+    if x <= 0.0:
+        return 0.0, 0.0
+    return x * x * (3.0 - 2.0 * x), 6.0 * x * (1.0 - x) / rim_mm
+
+
+@njit(cache=True, fastmath=False)
+def rim_weights(phi: np.ndarray, rim_mm: float) -> tuple[np.ndarray, np.ndarray]:
+    """`rim_weight` over distances phi (n,) mm: w (n,) and dw/dφ (n,) 1/mm."""
+    w, dw = np.empty(phi.shape[0]), np.empty(phi.shape[0])
+    for i in range(phi.shape[0]):
+        w[i], dw[i] = rim_weight(phi[i], rim_mm)
+    return w, dw
+
+
+@njit(cache=True, fastmath=False, inline="always")
 def _rim_faded(d: float, g0: float, g1: float, g2: float, qx: float, qy: float, qz: float,
                f: int, E: np.ndarray, rim: np.ndarray, rim_mm: float
                ) -> tuple[float, float, float, float]:
     """Depth d and gradient g of a point whose closest master point q lies on face f,
-    faded near the master's rim: w·d with w = 3x² - 2x³, x = min(1, φ(q)/rim_mm), φ the
+    faded near the master's rim: w·d with w the `rim_weight` of φ(q), φ the
     distance to the rim interpolated over the face from its corners (rim (n_faces, 3),
     mm; E the master's `edge_frames`). The gradient adds d·w'(φ)·∇φ, ∇φ the in-plane
     gradient of φ over the face (exact while q is inside the face; at a rim edge or
@@ -411,13 +432,12 @@ def _rim_faded(d: float, g0: float, g1: float, g2: float, qx: float, qy: float, 
     s = (g22 * r1 - g12 * r2) / det
     t = (g11 * r2 - g12 * r1) / det
     p1, p2 = rim[f, 1] - rim[f, 0], rim[f, 2] - rim[f, 0]
-    x = (rim[f, 0] + s * p1 + t * p2) / rim_mm
-    if x >= 1.0:
+    w, dw = rim_weight(rim[f, 0] + s * p1 + t * p2, rim_mm)
+    if w == 1.0:
         return d, g0, g1, g2
-    if x <= 0.0:
+    if w == 0.0:
         return 0.0, 0.0, 0.0, 0.0
-    w = x * x * (3.0 - 2.0 * x)
-    k = d * 6.0 * x * (1.0 - x) / rim_mm
+    k = d * dw
     alpha = k * (g22 * p1 - g12 * p2) / det
     beta = k * (g11 * p2 - g12 * p1) / det
     return (w * d, w * g0 + alpha * abx + beta * acx, w * g1 + alpha * aby + beta * acy,

@@ -1,29 +1,60 @@
-"""How well an FE answer balances the scene's load on the tibia's free DOFs."""
+"""How well an FE answer balances the scene's load on each rigid body's free DOFs."""
 
 from __future__ import annotations
 
 import numpy as np
 
-from fecheck.fe.crosscheck import CrossCheck
+from fecheck.fe.crosscheck import CompartmentCheck, CrossCheck
+from fecheck.fe.patella_layer import FRAME
 from fecheck.model.assembly import applied_load, free_indices
 from fecheck.model.run import ligament_springs
 from fecheck.scene import Scene
-from fecheck.statics.newton import pose, twist_basis
+from fecheck.statics.newton import body_pose, pose, twist_basis
 
 
 def free_dof_balance(scene: Scene, check: CrossCheck, flexion: tuple = (0.0,)) -> float:
-    """The largest generalised force on the free DOFs at the FE pose of `check` (load,
-    gravity, ligaments and the FE contact forces on the tibia) over the load: forces /
-    load.force_N, moments / (100 mm · load.force_N); zero at equilibrium. `flexion`: the
-    tibia's (θx rad, base rotation or None) as `fecheck.statics.newton.pose` takes them."""
+    """The largest of `body_balance`: zero at equilibrium."""
+    return max(body_balance(scene, check, flexion).values())
+
+
+def _contact_wrench(checks: list[CompartmentCheck], rot: np.ndarray, t: np.ndarray
+                    ) -> np.ndarray:
+    """The FE contact forces of `checks` on the body at (R, t) they are carried by: force
+    and moment about the world origin (6,), N and N·mm."""
+    total = np.zeros(6)
+    for chk in checks:
+        x = chk.layer.surface.points @ rot.T + t
+        f = -chk.fe_force_N[:, None] * (chk.layer.solid.normals @ rot.T)
+        total += np.concatenate([f.sum(axis=0), np.cross(x, f).sum(axis=0)])
+    return total
+
+
+def body_balance(scene: Scene, check: CrossCheck, flexion: tuple = (0.0,)) -> dict[str, float]:
+    """{body: the largest generalised force on its free DOFs at the FE pose of `check`
+    over its load}: the tibia's (load, gravity, ligaments, the patellar tendon and the FE
+    contact forces on the tibia) over load.force_N, moments over 100 mm · load.force_N;
+    with the patella, the patella's six (quadriceps, patellofemoral bundles, tendon and
+    its FE contact) over the quadriceps' total, moments over 100 mm times it. `flexion`:
+    the tibia's (θx rad, base rotation or None) as `fecheck.statics.newton.pose` takes
+    them."""
     q = np.asarray(check.pose["fe"].q, dtype=float)
     rot, t = pose(q, *flexion)
     total = sum(part(rot, t)[0] for part in [applied_load(scene), *ligament_springs(scene)])
-    for chk in check.compartments.values():
-        x = chk.layer.surface.points @ rot.T + t
-        f = -chk.fe_force_N[:, None] * (chk.layer.solid.normals @ rot.T)
-        total = total + np.concatenate([f.sum(axis=0), np.cross(x, f).sum(axis=0)])
+    tibial = [c for c in check.compartments.values() if c.layer.body.carrier != FRAME]
+    total = total + _contact_wrench(tibial, rot, t)
+    out = {}
+    if check.patella is not None:
+        model = check.patella.model
+        prot, pt = body_pose(check.patella.q_fe)
+        tendon = model.tendon(((rot, t), (prot, pt)))[1]
+        total = total + tendon[:6]
+        on_patella = (model.femoral(prot, pt)[0] + model.quadriceps(prot, pt)[0]
+                      + tendon[6:] + _contact_wrench(
+                          [c for c in check.compartments.values()
+                           if c.layer.body.carrier == FRAME], prot, pt))
+        quads = float(model.quadriceps.tension_N.sum())
+        out["patella"] = float(np.abs(on_patella / np.repeat([quads, 100.0 * quads], 3)).max())
     free = list(free_indices(scene))
     residual = (twist_basis(q, *flexion).T @ total)[free]
     scale = np.where(np.array(free) < 3, 1.0, 100.0) * scene["load.force_N"]
-    return float(np.abs(residual / scale).max())
+    return {"tibia": float(np.abs(residual / scale).max())} | out

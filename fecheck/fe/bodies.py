@@ -58,6 +58,8 @@ class FEBody:
         "solid-distance" (a layer with the solid's thickness map)
     solid : the closed tibial solid the FE meshes instead of extruding `surface` (shared
         by the compartments of a one-piece solid), or None
+    carrier : the frame name of the rigid body the layer is bonded to ("T" the tibia, "P"
+        the patella: `fecheck.fe.patella_layer`); `surface` is in that body's frame
     """
 
     name: str
@@ -68,6 +70,7 @@ class FEBody:
     femoral_surface: str
     thickness_source: str
     solid: TibiaSolid | None = None
+    carrier: str = "T"
 
 
 def vertex_values(surface: TriMesh, face_values: np.ndarray) -> np.ndarray:

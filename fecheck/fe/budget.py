@@ -98,9 +98,10 @@ def prepared_for_size(bodies: Sequence[FEBody], settings: FESettings, levels: in
     """Per body, whether ``fe.prepare = 'auto'`` prepares its mesh sheet for size alone: the
     layers of all the sheets as they are would make more than `MAX_DOFS` dofs, and this
     sheet prepared at ``fe.size_mm`` makes fewer than as it is (known from the counts, so
-    decided before the EF run)."""
+    decided before the EF run); never a sheet on another body than the tibia (the
+    patella's: a prepared sheet and its femoral surface are cut for a tibial one)."""
     mesh = [settings.prepare == "auto" and b.tibial_surface.startswith("mesh:")
-            for b in bodies]
+            and b.carrier == "T" for b in bodies]
     raw = [layer_dofs(b.surface, settings.refine, levels) for b in bodies]
     if not any(mesh) or sum(raw) <= MAX_DOFS:
         return [False] * len(bodies)
@@ -115,7 +116,8 @@ def _prepared_flags(bodies: Sequence[FEBody], settings: FESettings, levels: int
     not known before trying); generated plateaus always extrude."""
     if settings.prepare in ("on", "off"):
         return [settings.prepare == "on"] * len(bodies)
-    return [True if big else (None if b.tibial_surface.startswith("mesh:") else False)
+    return [True if big else (None if b.tibial_surface.startswith("mesh:")
+                              and b.carrier == "T" else False)
             for b, big in zip(bodies, prepared_for_size(bodies, settings, levels), strict=True)]
 
 

@@ -16,6 +16,12 @@ materials and load, compared on the same tibial faces.
    layer the axisymmetric FE, the EF closed form and Hertz at the FE's compartment force
    are added (the axisymmetric answer is then the 3D discretisation reference).
 
+With the patella (``patella.dir``): the patellar cartilage is a layer of its own on the
+patella, a second rigid body whose six DOFs join the tibia's under the EF's quadriceps,
+patellar tendon and patellofemoral bundles, the EF the tibia and the patella solved
+together (`fecheck.fe.patella_layer`); the patellofemoral contact is compared as a
+compartment (centre of pressure in the patella frame) and left out of the split.
+
 ``fe.cartilage = "series"`` (default): the FE models one deformable layer (the tibial
 side) under a rigid femoral surface; with ``scanned.thickness = "bone-distance"`` that
 layer has the EF's series thickness (tibial + femoral cartilage). ``"two-layer"``: each
@@ -39,10 +45,20 @@ from scipy.spatial import cKDTree
 
 from fecheck.errors import FecheckError
 from fecheck.fe.bodies import FEBody, refuse_unmodelled, scene_bodies
+from fecheck.fe.joint import rigid_bodies
+from fecheck.fe.patella_layer import (
+    FRAME,
+    PatellaEF,
+    ef_knee,
+    knee_drive,
+    patella_body,
+    refuse_patella,
+)
 from fecheck.fe.pose import FramePose
 from fecheck.fe.press import (
     FELayer,
     build_layers,
+    carried_by,
     guard_bodies,
     joint_drive,
     push_drive,
@@ -55,6 +71,7 @@ from fecheck.fe.settings import FESettings
 from fecheck.model.condyles import scene_knee
 from fecheck.model.equilibrium import axial_force
 from fecheck.model.notes import smoothing_notes
+from fecheck.model.patella import COMPARTMENT, PatellaModel, build_patella, pf_coordinates
 from fecheck.model.results import CompartmentResult, Pose, RunResult
 from fecheck.reference.closed_forms import (
     DONAHUE_2002,
@@ -63,7 +80,7 @@ from fecheck.reference.closed_forms import (
     hertz_sphere_on_plane,
 )
 from fecheck.scene import Scene
-from fecheck.statics.newton import pose
+from fecheck.statics.newton import body_pose, pose
 from geometry.roughness import Roughness, default_radius, roughness
 
 ROUGH_FEATURE_SHARE = 0.1
@@ -88,6 +105,11 @@ SERIES_VS_TWO_LAYER = ("on the scanned knee (validation/fe_two_layer.py, full re
                        "points on the medial/lateral split and 0.1 mm on the centres of "
                        "pressure, but its contact areas were 9-10 % smaller: good enough for "
                        "forces, split and where the load sits, not for the contact area")
+PATELLA_NOTE = ("the patella (patella.dir): its cartilage one more layer, bonded to the "
+                "patella (a rigid body, six free DOFs solved with the tibia's under the "
+                "quadriceps, the patellar tendon and the patellofemoral bundles of the EF) and "
+                "pressed by the rigid femoral surface; its centre of pressure in the patella "
+                "frame, its force left out of the medial/lateral split")
 DONAHUE_NOTE = ("* Donahue 2002 is another knee under another load (800 N, whole joint with "
                 "menisci): a scale for the numbers, not a reference for this scene")
 
@@ -166,7 +188,7 @@ class CompartmentCheck:
                 "fe_peaks": metrics(self.peaks), "tibial_roughness": metrics(self.roughness),
                 "femoral_roughness": metrics(self.femoral_roughness),
                 "donahue_2002": {f"{s:g}mm": m.as_dict()
-                                 for s, m in DONAHUE_2002[self.name].items()}}
+                                 for s, m in DONAHUE_2002.get(self.name, {}).items()}}
 
 
 @dataclass(frozen=True, eq=False)
@@ -183,22 +205,37 @@ class CrossCheck:
     notes: tuple[str, ...] = field(default=())
     ef_run: RunResult | None = None
     """The EF run compared (the error estimate's FE levels start from its pose)."""
+    patella: PatellaEF | None = None
+    """With patella.dir: the EF patella and the FE's patella coordinates."""
 
     def split(self, side: str) -> dict[str, float]:
-        """{compartment: share of the summed compartment force magnitudes} of `side`
-        ("fe" or "ef_model")."""
-        forces = {c: getattr(chk, side).force_N for c, chk in self.compartments.items()}
+        """{tibial compartment: share of the summed tibial compartment force magnitudes}
+        of `side` ("fe" or "ef_model")."""
+        forces = {c: getattr(chk, side).force_N for c, chk in self.compartments.items()
+                  if chk.layer.body.carrier != FRAME}
         total = sum(forces.values())
         return {c: f / total if total > 0 else math.nan for c, f in forces.items()}
 
     def as_dict(self) -> dict[str, Any]:
-        return {"mode": self.settings.mode,
-                "compartments": {c: chk.as_dict() for c, chk in self.compartments.items()},
-                "split": {"fe": self.split("fe"), "ef_model": self.split("ef_model")},
-                "fe_geometry": self.geometry,
-                "pose": {k: dict(v) for k, v in self.pose.items()},
-                "settings": dict(self.settings.__dict__), "material": self.material,
-                "timing_s": self.timing_s, "notes": list(self.notes)}
+        out = {"mode": self.settings.mode,
+               "compartments": {c: chk.as_dict() for c, chk in self.compartments.items()},
+               "split": {"fe": self.split("fe"), "ef_model": self.split("ef_model")},
+               "fe_geometry": self.geometry,
+               "pose": {k: dict(v) for k, v in self.pose.items()},
+               "settings": dict(self.settings.__dict__), "material": self.material,
+               "timing_s": self.timing_s, "notes": list(self.notes)}
+        if self.patella is not None:
+            state = self.patella.state
+            out["patella_pose"] = {"fe": pf_coordinates(*_patella_pose(self.patella.q_fe)),
+                                   "ef": state.coordinates(),
+                                   "fe_q": [float(v) for v in self.patella.q_fe],
+                                   "ef_q": [float(v) for v in state.q]}
+        return out
+
+
+def _patella_pose(q: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """The patella's (R, t) at its body coordinates q (6,)."""
+    return body_pose(np.asarray(q, dtype=float))
 
 
 def _num(value: float) -> float | None:
@@ -338,13 +375,53 @@ def _refuse_constraints(scene: Scene, settings: FESettings) -> None:
                            "fe.mode = 'compartment'")
 
 
-def _ef_run(scene: Scene, log: Callable[[str], None]) -> tuple[RunResult, float]:
+def _patella_model(scene: Scene, settings: FESettings, patella: PatellaEF | None
+                   ) -> PatellaModel | None:
+    """The patella's model with patella.dir (that of `patella` when given), else None;
+    refuses what the FE does not model with it (`refuse_patella`)."""
+    if not scene["patella.dir"]:
+        return None
+    refuse_patella(scene, settings)
+    return build_patella(scene) if patella is None else patella.model
+
+
+def _ef(scene: Scene, log: Callable[[str], None], ef: tuple[RunResult, float] | None,
+        patella: PatellaEF | None, model: PatellaModel | None,
+        flexion: tuple[float, np.ndarray] | None
+        ) -> tuple[RunResult, float, PatellaEF | None]:
+    """The EF run compared, its time (s) and its patella: `ef` and `patella` as given, or
+    solved here (`_ef_run`)."""
+    if ef is None:
+        return _ef_run(scene, log, model, flexion)
+    _loaded(ef[0], patella)
+    return ef[0], ef[1], patella
+
+
+def _ef_run(scene: Scene, log: Callable[[str], None], model: PatellaModel | None = None,
+            flexion: tuple[float, np.ndarray] | None = None
+            ) -> tuple[RunResult, float, PatellaEF | None]:
+    """The scene's EF run, its time (s) and, with the patella's `model` (patella.dir), the
+    tibia and the patella solved together (`fecheck.fe.patella_layer.ef_knee`)."""
     from fecheck.model.run import run_scene
 
-    log("solving the EF equilibrium")
+    log("solving the EF equilibrium" + ("" if model is None else " with the patella"))
     t0 = time.perf_counter()
-    run = run_scene(scene)
+    patella = None
+    if model is None:
+        run = run_scene(scene)
+    else:
+        run, patella, _ = ef_knee(scene, flexion, model=model)
     seconds = time.perf_counter() - t0
+    _loaded(run, patella)
+    return run, seconds, patella
+
+
+def _loaded(run: RunResult, patella: PatellaEF | None) -> None:
+    """`FecheckError` unless the EF `run` converged with every compartment (and the
+    patella's contact) loaded."""
+    if patella is not None and not patella.state.contact.force_N > 0:
+        raise FecheckError("the patella carries no load at the EF equilibrium: the FE "
+                           "cross-check compares loaded contacts; raise patella.quadriceps_N")
     if not run.converged:
         raise FecheckError("the EF equilibrium of this scene did not converge; fix the scene "
                            "(see `fecheck run`) before the FE cross-check")
@@ -353,10 +430,9 @@ def _ef_run(scene: Scene, log: Callable[[str], None]) -> tuple[RunResult, float]
             raise FecheckError(f"the {c} compartment carries no load at the EF equilibrium "
                                f"({res.force_N:g} N): the FE cross-check compares loaded "
                                "compartments; raise load.force_N or move load.point_mm")
-    return run, seconds
 
 
-def _expected_depth(scene: Scene, run: RunResult) -> float:
+def _expected_depth(scene: Scene, run: RunResult, patella: PatellaEF | None = None) -> float:
     """The deepest FE indentation to expect, mm: per compartment the EF run's depth, but
     no more than the linear EF of the scene's own layer would give at that force (a law
     with another stiffness, e.g. 'volumetric', can sink the EF far deeper than the layer
@@ -372,6 +448,8 @@ def _expected_depth(scene: Scene, run: RunResult) -> float:
         layer = ef_sphere_on_plane(res.force_N, knee.radius_mm(c), E, nu, h).depth_mm
         ef = res.max_depth_mm if math.isfinite(res.max_depth_mm) else layer
         deepest = max(deepest, min(ef, layer))
+    if patella is not None:
+        deepest = max(deepest, patella.state.contact.max_depth_mm)
     return deepest
 
 
@@ -391,24 +469,33 @@ def _femoral(scene: Scene, layers: Sequence[FELayer], settings: FESettings,
 
 
 def _solve(scene: Scene, layers: Sequence[FELayer], run: RunResult, settings: FESettings,
-           log: Callable[[str], None], flexion: tuple[float, np.ndarray] | None = None
-           ) -> tuple[dict, np.ndarray, float, float]:
-    """FE solve(s) of the mode: {compartment: (layer, contact, worst penetration, X_WT
-    the tibia's pose of that compartment's solution)}, the FE pose q (5,) (the EF pose in
-    compartment mode), the condensation time and the femoral layers' build time (s; 0
-    for the series model); `flexion` as in `cross_check`."""
+           log: Callable[[str], None], flexion: tuple[float, np.ndarray] | None = None,
+           patella: PatellaEF | None = None) -> tuple[dict, np.ndarray, float, float]:
+    """FE solve(s) of the mode: {compartment: (layer, contact, worst penetration, X_WB
+    the pose of the body that carries it at that compartment's solution)}, the FE
+    unknowns (the tibia's q (5,), then with `patella` the patella's six coordinates; the EF
+    pose in compartment mode), the condensation time and the femoral layers' build time
+    (s; 0 for the series model); `flexion` as in `cross_check`."""
     from fecheck.model.run import ligament_springs
 
     q_ef = np.asarray(run.pose.q, dtype=float)
-    margin = settings.candidate_gap_mm + _expected_depth(scene, run)
+    margin = settings.candidate_gap_mm + _expected_depth(scene, run, patella)
     femoral = _femoral(scene, layers, settings, log)
     if settings.mode == "joint":
-        drive = joint_drive(scene, q_ef, ligament_springs(scene), flexion)
+        if patella is None:
+            drive = joint_drive(scene, q_ef, ligament_springs(scene), flexion)
+        else:
+            drive = knee_drive(scene, q_ef, ligament_springs(scene),
+                               flexion or (math.radians(scene["dofs.flexion_deg"]), None),
+                               patella.model, patella.state.q)
         sol, condense, _, worst = solve_pressed(layers, drive, margin, settings, log, femoral)
-        at = drive.pose(sol.q)
-        out = {lay.body.name: (lay, lc, worst, at) for lay, lc in zip(layers, sol.layers,
-                                                                        strict=True)}
-        return out, drive.full(sol.q), condense, getattr(femoral, "seconds", 0.0)
+        at = rigid_bodies(drive.pose, drive.basis, sol.q)
+        out = {lay.body.name: (lay, lc, worst, carried_by(lay, at))
+               for lay, lc in zip(layers, sol.layers, strict=True)}
+        q = drive.full(sol.q)
+        if patella is not None:
+            q = np.concatenate([q, sol.q[-6:]])
+        return out, q, condense, getattr(femoral, "seconds", 0.0)
     X_WT = _ef_pose(scene, q_ef, flexion)
     out, condense = {}, 0.0
     for lay in layers:
@@ -418,6 +505,16 @@ def _solve(scene: Scene, layers: Sequence[FELayer], run: RunResult, settings: FE
         out[lay.body.name] = (lay, sol.layers[0], worst, drive.pose(sol.q))
         condense += seconds
     return out, q_ef, condense, getattr(femoral, "seconds", 0.0)
+
+
+def _ef_side(name: str, run: RunResult, patella: PatellaEF | None,
+             tibia: tuple[np.ndarray, np.ndarray]
+             ) -> tuple[CompartmentResult, tuple[np.ndarray, np.ndarray]]:
+    """The EF result of compartment `name` and the pose (R, t) of the body that carries
+    it: the patella's for the patellofemoral contact, else the tibia's (`tibia`)."""
+    if name == COMPARTMENT:
+        return patella.state.contact, (patella.state.rot, patella.state.t)
+    return run.compartments[name], tibia
 
 
 def _ef_pose(scene: Scene, q: np.ndarray, flexion: tuple[float, np.ndarray] | None
@@ -430,12 +527,14 @@ def _ef_pose(scene: Scene, q: np.ndarray, flexion: tuple[float, np.ndarray] | No
 def cross_check(scene: Scene, *, mode: str | None = None, refine: int | None = None,
                 log: Callable[[str], None] | None = stderr_log,
                 ef: tuple[RunResult, float] | None = None,
-                flexion: tuple[float, np.ndarray] | None = None) -> CrossCheck:
+                flexion: tuple[float, np.ndarray] | None = None,
+                patella: PatellaEF | None = None) -> CrossCheck:
     """The FE cross-check of `scene` (module docstring); `mode` and `refine` override
     ``fe.mode`` and ``fe.refine``; `log` gets progress lines (None: silent); `ef` the
     scene's EF run and its time (s) when the caller has them (None: solved here);
     `flexion` = (θx rad, Q (3, 3)): the EF run's flexion, held about Q's first column
-    (`fecheck flex`; None: dofs.flexion_deg about x).
+    (`fecheck flex`; None: dofs.flexion_deg about x); `patella`: with patella.dir, the EF
+    patella solved with `ef` (`fecheck.fe.patella_layer.ef_knee`; None: solved here).
 
     Raises
     ------
@@ -453,19 +552,26 @@ def cross_check(scene: Scene, *, mode: str | None = None, refine: int | None = N
     E, nu = scene["contact.youngs_MPa"], scene["contact.poisson"]
     t0 = time.perf_counter()
     bodies = scene_bodies(scene)
+    model = _patella_model(scene, settings, patella)
+    if model is not None:
+        bodies.append(patella_body(scene, model))
     meshed = guard_bodies(bodies, settings, nu)         # before the EF run, not after it
-    run, ef_seconds = ef if ef is not None else _ef_run(scene, say)
+    run, ef_seconds, patella = _ef(scene, say, ef, patella, model, flexion)
     t1 = time.perf_counter()
     layers = build_layers(bodies, E, nu, settings, say, meshed)
     t2 = time.perf_counter()
-    solved, q_fe, condense, femoral_s = _solve(scene, layers, run, settings, say, flexion)
+    solved, q_fe, condense, femoral_s = _solve(scene, layers, run, settings, say, flexion,
+                                               patella)
     t3 = time.perf_counter()
-    rot_ef, t_ef = _ef_pose(scene, run.pose.q, flexion).pair()
+    if patella is not None:
+        patella = dataclasses.replace(patella, q_fe=q_fe[5:])
+        q_fe = q_fe[:5]
+    tibia_ef = _ef_pose(scene, run.pose.q, flexion).pair()
     checks, alerts, femoral = {}, [], {}
     for name, (lay, lc, worst, X_WT) in solved.items():
         fe, pressure = _fe_metrics(lay, lc.force_N, lc.active, rigid_gaps(lay, X_WT),
                                    X_WT.rotation)
-        res = run.compartments[name]
+        res, (rot_ef, t_ef) = _ef_side(name, run, patella, tibia_ef)
         refs = _flat_references(scene, lay, float(lc.force_N.sum()), settings)
         on_faces = _on_ef_faces(lay, pressure)
         peaks, rough, said = assess_peaks(name, lay, pressure, on_faces, fe.depth_mm, E)
@@ -501,6 +607,8 @@ def cross_check(scene: Scene, *, mode: str | None = None, refine: int | None = N
                         f"fe.smooth_mm {settings.smooth_mm:g} mm, with the femoral surface "
                         "above), its pressures interpolated onto the EF faces")
     notes[:0] = smoothing_notes(scene)
+    if patella is not None:
+        notes.insert(0, PATELLA_NOTE)
     if geometry["thickness_source"] in ("solid", "solid-distance"):
         notes[:0] = [SOLID_NOTE, LAYER_NOTE] if geometry["thickness_source"] == "solid" \
             else [LAYER_NOTE]
@@ -520,18 +628,20 @@ def cross_check(scene: Scene, *, mode: str | None = None, refine: int | None = N
                       {"E_MPa": E, "nu": nu, "thickness_mm": scene["contact.thickness_mm"],
                        "ef_k_N_per_mm3": column_stiffness(E, nu, scene["contact.thickness_mm"])},
                       {"fe": Pose.of(q_fe, side=run.pose.side), "ef": run.pose}, geometry,
-                      timing, tuple(notes), run)
+                      timing, tuple(notes), run, patella)
 
 
 def fe_level(scene: Scene, bodies: Sequence[FEBody], run: RunResult, settings: FESettings,
-             log: Callable[[str], None]) -> tuple[dict[str, tuple], int, float]:
-    """The FE of `bodies` at `settings` from the EF `run`'s pose under the load control of
-    ``settings.mode`` (another discretization level of a cross-check):
-    {compartment: (layer, FE metrics, vertex pressures MPa)}, the FE dofs and time, s."""
+             log: Callable[[str], None], patella: PatellaEF | None = None
+             ) -> tuple[dict[str, tuple], int, float]:
+    """The FE of `bodies` at `settings` from the EF `run`'s pose (and the EF `patella`'s,
+    with patella.dir) under the load control of ``settings.mode`` (another discretization
+    level of a cross-check): {compartment: (layer, FE metrics, vertex pressures MPa)}, the
+    FE dofs and time, s."""
     E, nu = scene["contact.youngs_MPa"], scene["contact.poisson"]
     t0 = time.perf_counter()
     layers = build_layers(bodies, E, nu, settings, log)
-    solved, _, _, _ = _solve(scene, layers, run, settings, log)
+    solved, _, _, _ = _solve(scene, layers, run, settings, log, patella=patella)
     out = {}
     for name, (lay, lc, _, X_WT) in solved.items():
         out[name] = (lay, *_fe_metrics(lay, lc.force_N, lc.active, rigid_gaps(lay, X_WT),

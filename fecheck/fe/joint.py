@@ -1,8 +1,12 @@
 """Load-controlled frictionless contact of rigid indenters on elastic layers, with the
-tibia's rigid-body DOFs as unknowns of the same problem.
+rigid bodies' DOFs as unknowns of the same problem.
 
-Each layer (one per compartment) is bonded to the tibia and pressed by its fixed rigid
-indenter (the femoral surface). At a tibia pose q the gap of layer vertex i along its
+Each layer (one per compartment) is bonded to a rigid body (the tibia, the patella: any
+number, each named by its frame, `ContactLayer.body`) and pressed by its fixed rigid
+indenter (the femoral surface). The unknowns q span the free DOFs of all the bodies: at q
+each body has its pose X_WB and its twist basis B_B (6, k) (zero columns for the other
+bodies' unknowns), and a layer's gaps and forces reach q through its own body's. At a pose q
+the gap of layer vertex i along its
 normal is g_i = g0_i(q) + J_i·δq + (C λ)_i, where C = N K⁻¹ Nᵀ is the layer's normal
 compliance at the candidate vertices (one sparse factorization and one block solve per
 layer, reused for every pose and load) and J_i = ∂g0_i/∂q. The contact forces λ ≥ 0 (N,
@@ -12,10 +16,10 @@ problem
     g0 + J δq + C λ ≥ 0,   λ ≥ 0,   λ·(g0 + J δq + C λ) = 0,   Gᵀ λ + Q(q) = 0,
 
 where G maps each contact force (along minus the vertex's surface normal, at the
-vertex: the force the layer carries to the tibia) to the unknowns — J differs from G
+vertex: the force the layer carries to its body) to the unknowns — J differs from G
 where the femoral surface is not parallel to the layer — and the last row is the
-equilibrium of the tibia's free DOFs under the external load, gravity and ligaments Q
-(generalised forces, N and N·mm; Q's own change with the pose, ∂Q/∂q, joins that row
+equilibrium of the bodies' free DOFs under the external load, gravity, ligaments and
+muscles Q (generalised forces, N and N·mm; Q's own change with the pose, ∂Q/∂q, joins that row
 as + ∂Q/∂q·δq when given). For an active set A the equalities are one dense solve;
 vertices that pull are released and those that penetrate are added until A stops
 changing (Hintermüller-Ito-Kunisch). The outer loop re-linearises g0, J and G at the
@@ -23,7 +27,7 @@ new pose (rotations are finite) until the pose stops moving: the
 equilibrium is exact, with no penalty and no tolerance on penetration beyond round-off.
 The equilibrium row's tangent carries, besides ∂Q/∂q, the change of the contact forces'
 generalised force with the pose at the last forces, ∂(G(q)ᵀλ)/∂q (the forces turn and
-move with the tibia; central differences of G, which needs no contact query): without it
+move with the bodies; central differences of G, which needs no contact query): without it
 the outer loop is a fixed-point iteration whose rate is the ratio of that term to the
 joint's stiffness, slow (halving the step each update) or divergent where a free
 rotation is soft, as the flexed knee's internal rotation is under a large axial load.
@@ -91,15 +95,18 @@ class FemoralLayer:
 
 @dataclass(frozen=True, eq=False)
 class ContactLayer:
-    """One layer (in the tibia's frame) with its indenter (in the world) and the surface
-    vertices that may touch (indices into the layer's surface); with `femur` the
-    indenter is that deformable layer's surface (a `MeshIndenter` of it)."""
+    """One layer (in its rigid body's frame) with its indenter (in the world) and the
+    surface vertices that may touch (indices into the layer's surface); with `femur` the
+    indenter is that deformable layer's surface (a `MeshIndenter` of it); `body`: the
+    frame name of the rigid body that carries it (`FramePose.body`: "T" the tibia, "P"
+    the patella)."""
 
     name: str
     solid: LayerSolid
     indenter: object
     candidates: np.ndarray
     femur: FemoralLayer | None = None
+    body: str = "T"
 
 
 @dataclass(frozen=True, eq=False)
@@ -124,7 +131,7 @@ class LayerContact:
 
 @dataclass(frozen=True, eq=False)
 class JointSolution:
-    """FramePose q (5,), per-layer contact, iterations (outer, active-set) and timing (s)."""
+    """The unknowns q (k,), per-layer contact, iterations (outer, active-set) and timing (s)."""
 
     q: np.ndarray
     layers: list[LayerContact]
@@ -251,12 +258,14 @@ class JointContact:
 
         Parameters
         ----------
-        pose : q → X_WT, the tibia's pose in the world (the femur's frame) at the
-            unknowns q (`fecheck.fe.pose.FramePose`)
-        basis : q → B (6, k), the tibia's twist (v, ω about the world origin) per unit
-            step of each unknown (mm, rad)
+        pose : q → X_WB, the pose in the world (the femur's frame) of the rigid body
+            that carries the layers at the unknowns q (`fecheck.fe.pose.FramePose`), or
+            a tuple of them, one per body (each layer takes the pose whose `body` frame
+            is its `ContactLayer.body`)
+        basis : q → B (6, k), the body's twist (v, ω about the world origin) per unit
+            step of each unknown (mm, rad), or (n, 6, k), one per body of `pose`
         load : q → Q (k,), generalised external force on the unknowns (N, N·mm): load,
-            gravity; positive along the unknowns
+            gravity, ligaments, muscles; positive along the unknowns
         q0 : (k,) start, e.g. the EF equilibrium
         stiffness : q → ∂Q/∂q (k, k) (ligament springs, a load that turns with the
             tibia); None: the load does not change with the pose
@@ -269,7 +278,7 @@ class JointContact:
             g0, J, G, hits = _linearised_gaps(self.layers, pose, basis, q)
             C, _, _ = self._paired(hits)
             if active is None:
-                active = g0 <= np.sort(g0)[min(len(g0) - 1, 3)]
+                active = self._first_set(g0)
             dQ = np.zeros((len(q), len(q))) if stiffness is None else stiffness(q)
             if lam is not None:
                 dQ = dQ + _force_stiffness(self.layers, pose, basis, q, lam)
@@ -277,7 +286,8 @@ class JointContact:
                                          "refine the layer under the contact or check the "
                                          "load")
             inner += it
-            scale = np.where(np.abs(basis(q)[3:]).sum(axis=0) > 0, 100.0, 1.0)   # rad → mm
+            turns = np.abs(np.asarray(basis(q))[..., 3:, :]).reshape(-1, len(q)).sum(axis=0)
+            scale = np.where(turns > 0, 100.0, 1.0)                            # rad → mm
             size = float(np.max(np.abs(dq) * scale))
             if size > MAX_POSE_STEP:
                 dq = dq * (MAX_POSE_STEP / size)
@@ -319,6 +329,18 @@ class JointContact:
         return JointSolution(q, out, outer, inner, timing)
 
 
+    def _first_set(self, g0: np.ndarray) -> np.ndarray:
+        """The first active set: the four smallest gaps, and each rigid body none of
+        whose candidates is among them its own four smallest (a body with no contact has
+        only its load and springs to balance it, a step that can run far off)."""
+        active = g0 <= np.sort(g0)[min(len(g0) - 1, 3)]
+        owner = np.repeat([lay.body for lay in self.layers], np.diff(self.offsets))
+        for body in dict.fromkeys(owner):
+            mine = owner == body
+            if not active[mine].any():
+                active |= mine & (g0 <= np.sort(g0[mine])[min(int(mine.sum()) - 1, 3)])
+        return active
+
     def _paired(self, hits: list) -> tuple[np.ndarray, list[sp.csr_matrix], np.ndarray]:
         """The compliance at the candidates with the femoral layers' give at the faces the
         candidates' rays hit now (`hits`: per layer None or (face, weights, normals)): C +
@@ -355,14 +377,32 @@ def _pair_load(fc: _FemoralCompliance, P: sp.csr_matrix, lam: np.ndarray) -> np.
     return f
 
 
+def rigid_bodies(pose, basis, q: np.ndarray) -> dict[str, tuple[FramePose, np.ndarray]]:
+    """{body frame name: (X_WB, B (6, k))} at the unknowns q, from `JointContact.solve`'s
+    `pose` and `basis` (one body, or one per body)."""
+    poses, bases = pose(q), np.asarray(basis(q), dtype=float)
+    if isinstance(poses, FramePose):
+        return {poses.body: (poses, bases)}
+    return {X.body: (X, b) for X, b in zip(poses, bases, strict=True)}
+
+
+def _carrier(bodies: dict[str, tuple[FramePose, np.ndarray]], layer: ContactLayer
+             ) -> tuple[FramePose, np.ndarray]:
+    """The pose and twist basis of the body that carries `layer` (a lone body carries
+    every layer)."""
+    if len(bodies) == 1:
+        return next(iter(bodies.values()))
+    return bodies[layer.body]
+
+
 def _contact_forces(layers: Sequence[ContactLayer], pose, basis, q: np.ndarray) -> np.ndarray:
     """G (m, k) of `_linearised_gaps` alone (no contact query)."""
-    X_WT = pose(q)
-    b = basis(q)
+    bodies = rigid_bodies(pose, basis, q)
     out = []
     for layer in layers:
-        pts = X_WT.points(layer.solid.surface.points[layer.candidates])
-        nrm = X_WT.vectors(layer.solid.normals[layer.candidates])
+        X_WB, b = _carrier(bodies, layer)
+        pts = X_WB.points(layer.solid.surface.points[layer.candidates])
+        nrm = X_WB.vectors(layer.solid.normals[layer.candidates])
         out.append(-np.hstack([nrm, np.cross(pts, nrm)]) @ b)
     return np.concatenate(out)
 
@@ -389,15 +429,15 @@ def _linearised_gaps(layers: Sequence[ContactLayer], pose, basis, q: np.ndarray
                      ) -> tuple[np.ndarray, np.ndarray, np.ndarray, list]:
     """At pose q, for the candidates of all layers: gaps g0 (m,), J (m, k) = ∂g0/∂q,
     G (m, k), the generalised force on the unknowns of a unit contact force at each
-    candidate (acting on the tibia along minus its surface normal, at the vertex), and
-    per layer None or, for a layer pressed by a deformable femoral layer, the faces its
+    candidate (acting on the layer's body along minus its surface normal, at the vertex),
+    and per layer None or, for a layer pressed by a deformable femoral layer, the faces its
     candidates' rays hit, the barycentric weights and the world normals."""
-    X_WT = pose(q)
-    b = basis(q)
+    bodies = rigid_bodies(pose, basis, q)
     gaps, rows, hits = [], [], []
     for layer in layers:
-        pts = X_WT.points(layer.solid.surface.points[layer.candidates])
-        nrm = X_WT.vectors(layer.solid.normals[layer.candidates])
+        X_WB, b = _carrier(bodies, layer)
+        pts = X_WB.points(layer.solid.surface.points[layer.candidates])
+        nrm = X_WB.vectors(layer.solid.normals[layer.candidates])
         if layer.femur is None:
             g = layer.indenter.gap(pts, nrm)
             hits.append(None)

@@ -28,7 +28,13 @@ from fecheck.fe.bodies import FEBody
 from fecheck.fe.budget import MAX_DOFS, guard_layers, prepared_for_size
 from fecheck.fe.contact.candidates import Outcome, Round, widened
 from fecheck.fe.indenter import MeshIndenter, barycentric
-from fecheck.fe.joint import ContactLayer, JointContact, JointSolution, femoral_shift
+from fecheck.fe.joint import (
+    ContactLayer,
+    JointContact,
+    JointSolution,
+    femoral_shift,
+    rigid_bodies,
+)
 from fecheck.fe.pose import FramePose
 from fecheck.fe.settings import FESettings
 from fecheck.fe.solid import LayerSolid, layer_solid, release_freed_heap
@@ -190,6 +196,10 @@ def _sheet(body: FEBody, settings: FESettings, levels: int, log: Callable[[str],
                 raise _extrusion_failure(body, err, settings) from None
     if directions is not None:
         return body, None, directions, rounds
+    if body.carrier != "T":
+        raise FecheckError(f"the {body.name} sheet cannot be extruded into a cartilage layer "
+                           "for the FE, and only tibial sheets are prepared (fe.prepare): try "
+                           "fewer fe.layers or a thinner layer")
     sheet, prepared = prepared_body(body, settings.size_mm, settings.smooth_mm,
                                     settings.terraces == "on")
     stair = prepared.staircase
@@ -351,6 +361,15 @@ def push_drive(X_WT: FramePose, force_on_tibia: np.ndarray) -> Drive:
                   lambda x: np.asarray(x, dtype=float))
 
 
+def carried_by(layer: FELayer, bodies: dict[str, tuple[FramePose, np.ndarray]]
+               ) -> FramePose:
+    """The pose of the rigid body that carries `layer`, of `bodies`
+    (`fecheck.fe.joint.rigid_bodies`; a lone body carries every layer)."""
+    if len(bodies) == 1:
+        return next(iter(bodies.values()))[0]
+    return bodies[layer.body.carrier][0]
+
+
 def rigid_gaps(layer: FELayer, X_WT: FramePose, idx: np.ndarray | None = None) -> np.ndarray:
     """Rigid gaps (mm) along the normals of the layer's surface vertices (all, or `idx`)
     with the tibia at X_WT."""
@@ -383,8 +402,8 @@ def solve_pressed(layers: Sequence[FELayer], drive: Drive, margin_mm: float,
 
     Returns the solution, the condensation time (s), every layer's final gaps at all its
     surface vertices (mm) and the worst penetration found (mm, ≥ 0)."""
-    placed = drive.pose(drive.x0)
-    start = {i: np.flatnonzero(rigid_gaps(lay, placed) < margin_mm)
+    placed = rigid_bodies(drive.pose, drive.basis, drive.x0)
+    start = {i: np.flatnonzero(rigid_gaps(lay, carried_by(lay, placed)) < margin_mm)
              for i, lay in enumerate(layers)}
     condense = 0.0
 
@@ -404,19 +423,21 @@ def solve_pressed(layers: Sequence[FELayer], drive: Drive, margin_mm: float,
                                "lower fe.candidate_gap_mm")
         listed = [cands[i] for i in range(len(layers))]
         femurs = ([None] * len(layers) if femoral is None
-                  else femoral(layers, listed, placed))
-        joint = JointContact([ContactLayer(lay.body.name, lay.solid, lay.indenter, c)
+                  else femoral(layers, listed, carried_by(layers[0], placed)))
+        joint = JointContact([ContactLayer(lay.body.name, lay.solid, lay.indenter, c,
+                                           body=lay.body.carrier)
                               if f is None else
                               ContactLayer(lay.body.name, lay.solid,
-                                           MeshIndenter(f.solid.surface), c, f)
+                                           MeshIndenter(f.solid.surface), c, f,
+                                           body=lay.body.carrier)
                               for lay, c, f in zip(layers, listed, femurs, strict=True)],
                              solver=settings.solver, log=log)
         condense += joint.seconds
         sol = joint.solve(drive.pose, drive.basis, drive.load, drive.x0,
                           stiffness=drive.stiffness)
-        placed = drive.pose(sol.q)
-        gaps = {i: rigid_gaps(lay, placed) - lay.solid.normal_rows @ lc.u
-                + femoral_give(lay, lc, placed)
+        placed = rigid_bodies(drive.pose, drive.basis, sol.q)
+        gaps = {i: rigid_gaps(lay, carried_by(lay, placed)) - lay.solid.normal_rows @ lc.u
+                + femoral_give(lay, lc, carried_by(lay, placed))
                 for i, (lay, lc) in enumerate(zip(layers, sol.layers, strict=True))}
         return Round(sol, gaps, max(float(max(0.0, -g.min())) for g in gaps.values()))
 

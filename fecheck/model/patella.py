@@ -301,7 +301,7 @@ class PatellaModel:
         return out
 
 
-def _series_thickness(scene: Scene, slave: TriMesh, bone: TriMesh) -> np.ndarray:
+def series_thickness(scene: Scene, slave: TriMesh, bone: TriMesh) -> np.ndarray:
     """Per-face foundation thickness (mm) of the patellar sheet in the scene's cartilage
     material: patellar and femoral cartilage, each from the distance to its bone
     (`fecheck.laws.layer`), in series, or with a femoral material of its own the equivalent
@@ -329,7 +329,7 @@ def _law(scene: Scene, slave: TriMesh, bone: TriMesh):
         raise FecheckError("scanned.thickness = 'bone-distance' with the patella sets a linear "
                            "EF stiffness per face: use contact.law = 'ef' (or "
                            "scanned.thickness = 'uniform')")
-    return spec.per_face(law_inputs(scene), lambda: _series_thickness(scene, slave, bone),
+    return spec.per_face(law_inputs(scene), lambda: series_thickness(scene, slave, bone),
                          math.nan, COMPARTMENT)
 
 

@@ -27,6 +27,7 @@ from __future__ import annotations
 
 import math
 import time
+from collections.abc import Sequence
 
 import numpy as np
 
@@ -245,6 +246,17 @@ def run_scanned(scene: Scene, warm_start: np.ndarray | None = None,
     t_built = time.perf_counter()
     bundles = bundle_parts(springs)
     eq = solve_equilibrium(scene, comps, bundles, (), warm_start, flexion, check=False)
+    return scanned_result(scene, eq, comps, names, bundles, flexion,
+                          (t_built - t_start, time.perf_counter() - t_start))
+
+
+def scanned_result(scene: Scene, eq, comps, names: Sequence[str], bundles: Sequence,
+                   flexion: tuple[float, np.ndarray] | None, seconds: tuple[float, float]
+                   ) -> RunResult:
+    """The `RunResult` of a scanned knee's tibial equilibrium `eq`
+    (`fecheck.model.equilibrium.Equilibrium`) of compartments `comps`, bundles `names` and
+    their wrench parts `bundles` (`bundle_parts`), at `flexion` as in `run_scanned`;
+    `seconds`: (build, total) wall time, s."""
     sol, rot, t = eq.solution, eq.rot, eq.t
     compartments = compartment_results(comps, eq)
     ligaments = {}
@@ -268,7 +280,7 @@ def run_scanned(scene: Scene, warm_start: np.ndarray | None = None,
                          {c.name: c.pair.describe() for c in comps}, tuple(sol.history),
                          wrench_N={"contact": contact_wrench, "ligaments": lig_wrench,
                                    "load_and_gravity": applied_load(scene)(rot, t)[0]})
-    timing = {"total": time.perf_counter() - t_start, "build": t_built - t_start,
+    timing = {"total": seconds[1], "build": seconds[0],
               "solve": eq.seconds, "contact": contact.contact_seconds,
               "per_evaluation_us": 1e6 * contact.contact_seconds / max(contact.evaluations, 1),
               "per_evaluation_s": contact.contact_seconds / max(contact.evaluations, 1)}

@@ -521,7 +521,9 @@ SCHEMA: dict[str, Key] = {
         "ellipsoid with ligaments.wrap, the others straight; scanned.ligament_*_scale "
         "applied) and pulled by the quadriceps "
         "(patella.quadriceps_N), solved with the tibia at each angle. Read by `fecheck "
-        "flex` only; `fecheck run` and `fecheck fe` leave it out.",
+        "flex` (with --fe-at, its FE too: the patellar cartilage a layer on the patella) "
+        "and `fecheck fe` (the tibia and the patella at the scene's pose); `fecheck run` "
+        "leaves it out.",
         example="fecheck:knee/lenhart2015_patella"),
     "patella.quadriceps_N": Key(
         "float", 111.442,

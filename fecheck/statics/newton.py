@@ -32,7 +32,7 @@ from __future__ import annotations
 import threading
 from collections.abc import Callable, Iterator, Sequence
 from contextlib import contextmanager
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 
@@ -448,6 +448,16 @@ class _System:
             k = (self._tangent(bases, dw) + self._geometric(frames, w)) / self.sq2
             total += abs(float(v @ k @ v))
         return total
+
+
+def generalised_force(p: Problem, qs: Sequence[np.ndarray]) -> tuple[np.ndarray, np.ndarray]:
+    """The generalised force Q (n_free,) of `p`'s wrench on its bodies' free coordinates at
+    the body coordinates `qs` (N, and N·mm per rad), and its tangent ∂Q/∂q (n_free,
+    n_free) with the twist bases' own change (what `solve` balances, unscaled; `p`'s
+    constraints left out)."""
+    sysm = _System(replace(p, constraints=()))
+    res, jac = sysm(sysm.z_of(qs))
+    return res * sysm.sq, jac * sysm.sq2
 
 
 def _null_space(jac: np.ndarray, rtol: float = 1e-4) -> np.ndarray:

@@ -171,7 +171,7 @@ def _on_default_faces(default: FELayer, layer: FELayer, pressure: np.ndarray) ->
 def _values(metrics: dict, defaults: dict[str, FELayer], layers: dict[str, FELayer],
             pressures: dict[str, np.ndarray]) -> dict[str, dict[str, float]]:
     """{compartment: {quantity: value}} of one level from its SideMetrics."""
-    total = sum(m.force_N for m in metrics.values())
+    total = sum(m.force_N for c, m in metrics.items() if layers[c].body.carrier == "T")
     out = {}
     for c, m in metrics.items():
         cop = (m.center_of_pressure_mm if m.center_of_pressure_mm is not None
@@ -180,7 +180,8 @@ def _values(metrics: dict, defaults: dict[str, FELayer], layers: dict[str, FELay
         out[c] = {"p_max_vertex_MPa": m.max_pressure_MPa,
                   "p_max_face_MPa": float(np.nanmax(faces)),
                   "area_mm2": m.area_mm2,
-                  "split": m.force_N / total if total > 0 else math.nan,
+                  "split": (m.force_N / total if total > 0 and layers[c].body.carrier == "T"
+                            else math.nan),
                   "cop_x_mm": float(cop[0]), "cop_y_mm": float(cop[1])}
     return out
 
@@ -219,7 +220,7 @@ def solve_level(scene: Scene, check, run: RunResult, label: str, settings: FESet
     load control, as a `Level` (its face-averaged p_max on the default run's EF faces)."""
     from fecheck.fe.crosscheck import fe_level
 
-    solved, dofs, seconds = fe_level(scene, bodies, run, settings, log)
+    solved, dofs, seconds = fe_level(scene, bodies, run, settings, log, check.patella)
     metrics = {name: m for name, (_, m, _) in solved.items()}
     pressures = {name: p for name, (_, _, p) in solved.items()}
     by_name = {name: lay for name, (lay, _, _) in solved.items()}

@@ -32,7 +32,8 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from fecheck.errors import FecheckError
-from fecheck.fe.balance import free_dof_balance
+from fecheck.fe.balance import body_balance
+from fecheck.fe.patella_layer import ef_knee
 from fecheck.laws.coldstart import announce_cold_kernels
 from fecheck.model.knee_surfaces import femoral_master
 from fecheck.model.patella import PatellaModel, PatellaState, build_patella, solve_knee
@@ -370,7 +371,8 @@ def run_flex(scene: Scene, angles: Sequence[float], axis: FlexionAxis,
              ) -> FlexRun:
     """Solve the scene at every flexion angle (deg) in turn, each from the last, then
     the FE cross-check at the solved angles of `fe_at` (`fe_row`; `fe_log` gets its
-    progress).
+    progress; an angle whose FE fails gets a row of its flexion and the one-line reason,
+    ``fe_error``, and the others go on).
 
     A failure at an angle (no equilibrium, no convergence, contact lost in a compartment:
     the femoral cartilage ran out) stops the run with `stopped` naming the angle; Ctrl-C
@@ -379,9 +381,6 @@ def run_flex(scene: Scene, angles: Sequence[float], axis: FlexionAxis,
     from fecheck.model.scanned import build_compartments, bundle_springs
 
     check_kind(scene)
-    if fe_at and scene["patella.dir"]:
-        raise FecheckError("--fe-at with patella.dir: the FE cross-check has no patella yet; "
-                           "run the FE without it (--set patella.dir='') or leave out --fe-at")
     announce_cold_kernels()
     t0 = time.perf_counter()
     comps = build_compartments(scene)
@@ -402,7 +401,10 @@ def run_flex(scene: Scene, angles: Sequence[float], axis: FlexionAxis,
         run.sweep_seconds = time.perf_counter() - t_built
     for p in run.points:
         if any(math.isclose(p.flexion_deg, a, abs_tol=1e-9) for a in fe_at):
-            run.fe.append(fe_row(scene, p, axis, (comps, names, springs), fe_log))
+            try:
+                run.fe.append(fe_row(scene, p, axis, (comps, names, springs), fe_log, patella))
+            except FecheckError as err:
+                run.fe.append({"flexion_deg": p.flexion_deg, "fe_error": str(err)})
     return run
 
 
@@ -416,17 +418,22 @@ def femur_bone(scene: Scene) -> TriMesh | None:
 
 
 def fe_row(scene: Scene, point: FlexPoint, axis: FlexionAxis, built: tuple,
-           log: Callable[[str], None] | None = None) -> dict:
+           log: Callable[[str], None] | None = None, patella: PatellaModel | None = None
+           ) -> dict:
     """The FE cross-check (`fecheck.fe.crosscheck.cross_check`, joint mode by default) of
     one solved angle: the EF run at the angle's pose (`run_scanned` from its q, the
-    flexion held about the axis), the FE from there with the same flexion held and the
-    other DOFs free under the same load, gravity and ligaments.
+    flexion held about the axis; with the `patella`, the tibia and the patella solved
+    together from their poses, `fecheck.fe.patella_layer.ef_knee`), the FE from there with
+    the same flexion held and the other DOFs free under the same load, gravity, ligaments
+    (and muscles).
 
-    Returns {flexion_deg, balance (the largest free-DOF imbalance at the FE pose over
-    the load: forces / load.force_N, moments / (100 mm · load.force_N)), fe_seconds,
-    ef_seconds, and per compartment FE and EF p_max (face-averaged, MPa), area (mm²),
-    split (share of the summed force magnitudes), centre of pressure x, y (mm, tibia
-    frame) and their distance (mm)}, `check`: the `CrossCheck`.
+    Returns {flexion_deg, balance (the largest free-DOF imbalance of any body at the FE
+    pose over its load, `fecheck.fe.balance.body_balance`: for the tibia forces /
+    load.force_N, moments / (100 mm · load.force_N)), fe_seconds, ef_seconds, and per
+    tibial compartment FE and EF p_max (face-averaged, MPa), area (mm²), split (share of
+    the summed force magnitudes), centre of pressure x, y (mm, tibia frame) and their
+    distance (mm); with the patella `patella_row_fe`'s PF columns}, `check`: the
+    `CrossCheck`.
     """
     from fecheck.fe.crosscheck import cross_check
     from fecheck.model.scanned import run_scanned
@@ -435,13 +442,21 @@ def fe_row(scene: Scene, point: FlexPoint, axis: FlexionAxis, built: tuple,
     if log is not None:
         log(f"the FE cross-check at flexion {point.flexion_deg:g}°")
     t0 = time.perf_counter()
-    ef = run_scanned(scene, point.q, flexion, built)
+    pf = None
+    if patella is None:
+        ef = run_scanned(scene, point.q, flexion, built)
+    else:
+        ef, pf, _ = ef_knee(scene, flexion, (point.q, point.patella.q), built, patella)
     ef_seconds = time.perf_counter() - t0
-    check = cross_check(scene, log=log, ef=(ef, ef_seconds), flexion=flexion)
-    row = {"flexion_deg": point.flexion_deg, "balance": free_dof_balance(scene, check, flexion),
+    check = cross_check(scene, log=log, ef=(ef, ef_seconds), flexion=flexion, patella=pf)
+    balance = body_balance(scene, check, flexion)
+    row = {"flexion_deg": point.flexion_deg, "balance": max(balance.values()),
            "fe_seconds": check.timing_s["fe"], "ef_seconds": ef_seconds}
     splits = {side: check.split(side) for side in ("fe", "ef_model")}
     for name, chk in check.compartments.items():
+        if name not in splits["fe"]:
+            row |= patella_row_fe(chk) | {"patella_balance": balance["patella"]}
+            continue
         fe_cop, ef_cop = (np.full(3, math.nan) if c is None else np.asarray(c, dtype=float)
                           for c in (chk.fe.center_of_pressure_mm,
                                     chk.ef_model.center_of_pressure_mm))
@@ -455,6 +470,22 @@ def fe_row(scene: Scene, point: FlexPoint, axis: FlexionAxis, built: tuple,
                     f"{name}_ef_cop_x_mm": ef_cop[0], f"{name}_ef_cop_y_mm": ef_cop[1],
                     f"{name}_cop_distance_mm": chk.cop_distance_mm})
     return row | {"check": check}
+
+
+def patella_row_fe(chk) -> dict:
+    """The PF columns of an FE row from the patellofemoral `CompartmentCheck`: FE and EF
+    force (N), p_max (FE face-averaged, MPa), area (mm²), centre of pressure x, y, z (mm,
+    patella frame) and their distance (mm)."""
+    fe_cop, ef_cop = (np.full(3, math.nan) if c is None else np.asarray(c, dtype=float)
+                      for c in (chk.fe.center_of_pressure_mm, chk.ef_model.center_of_pressure_mm))
+    out = {"PF_fe_force_N": chk.fe.force_N, "PF_ef_force_N": chk.ef_model.force_N,
+           "PF_fe_p_max_MPa": float(np.nanmax(chk.fe_face_pressure_MPa)),
+           "PF_ef_p_max_MPa": chk.ef_model.max_pressure_MPa,
+           "PF_fe_area_mm2": chk.fe.area_mm2, "PF_ef_area_mm2": chk.ef_model.area_mm2,
+           "PF_cop_distance_mm": chk.cop_distance_mm}
+    for i, axis in enumerate("xyz"):
+        out[f"PF_fe_cop_{axis}_mm"], out[f"PF_ef_cop_{axis}_mm"] = fe_cop[i], ef_cop[i]
+    return out
 
 
 def _sweep(scene: Scene, angles: Sequence[float], axis: FlexionAxis, run: FlexRun, comps,

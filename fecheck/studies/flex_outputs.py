@@ -51,7 +51,9 @@ def csv_text(run: FlexRun) -> str:
     return buf.getvalue()
 
 
-def _num(v: float) -> float | None:
+def _num(v: float | str) -> float | str | None:
+    if isinstance(v, str):
+        return v
     return None if not math.isfinite(v) else float(v)
 
 

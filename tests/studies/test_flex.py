@@ -466,3 +466,37 @@ def test_the_one_at_a_time_active_set_solves_the_block_updates_complementarity()
         assert np.array_equal(set_o, set_b)
         assert np.allclose(lam_o, lam_b, rtol=0, atol=1e-9) and dq_o == pytest.approx(dq_b)
         assert lam_o.sum() == pytest.approx(100.0, rel=1e-12)
+
+
+def test_an_angle_whose_fe_fails_gets_its_reason_and_the_others_go_on(tmp_path, monkeypatch,
+                                                                       capsys):
+    # the FE at 0° fails (made to raise as a pose update loop that does not settle does);
+    # 1° still gets its full FE row, the table and JSON carry 0°'s one-line reason, the
+    # sweep's angles are all written, and the exit code is 1 naming the failed angle
+    import json
+
+    from fecheck.errors import FecheckError
+
+    real = flex.fe_row
+    reason = "the FE joint equilibrium did not settle in 30 pose updates"
+
+    def failing_at_0(scene, point, *args, **kwargs):
+        if point.flexion_deg == 0.0:
+            raise FecheckError(reason)
+        return real(scene, point, *args, **kwargs)
+
+    monkeypatch.setattr(flex, "fe_row", failing_at_0)
+    path = tmp_path / "f.json"
+    code = _main(["--set=scanned.decimate_faces=1500", "--set=fe.layers=1", "--angles",
+                  "0:1:1", "--fe-at", "0,1", "--json", str(path)])
+    err = capsys.readouterr().err.strip().splitlines()
+    assert code == 1
+    assert f"0° FE failed: {reason}" in [line.strip() for line in err]
+    assert "the FE failed at 0°" in err[-1] and "1°" not in err[-1].split("(")[0]
+    doc = json.loads(path.read_text())
+    assert [a["flexion_deg"] for a in doc["angles"]] == [0.0, 1.0]
+    failed, good = doc["fe"]
+    assert failed == {"flexion_deg": 0.0, "fe_error": reason}
+    assert good["flexion_deg"] == 1.0 and "fe_error" not in good
+    assert good["balance"] < 1e-8
+    assert all(good[f"{c}_fe_area_mm2"] > 0 for c in ("medial", "lateral"))

@@ -68,11 +68,22 @@ def test_cli_reports_the_patella_per_angle_and_writes_it_to_vtk(tmp_path, capsys
     assert np.all(face[parts[3].cell_data["part"] == 1] == 0.0)
 
 
-def test_fe_at_with_the_patella_is_refused_on_one_line(capsys):
-    code = _main([PATELLA, "--angles", "0:2:1", "--fe-at", "0"])
+def test_fe_at_with_the_patella_reports_the_patellofemoral_contact(tmp_path, capsys):
+    # one element level through the thickness keeps it quick; the PF force is the
+    # patella's statics, so FE and EF meet closely (tests/fe/test_patella_fe.py)
+    path = tmp_path / "flex.json"
+    code = _main([PATELLA, "--set=fe.layers=1", "--angles", "0:30:30", "--fe-at", "30",
+                  "--json", str(path)])
     _, err = capsys.readouterr()
-    assert code == 2
-    assert "--fe-at with patella.dir" in err and "Traceback" not in err
+    assert code == 0, err
+    assert re.search(r"30° PF +force", err)
+    row, = json.loads(path.read_text())["fe"]
+    assert row["flexion_deg"] == 30.0
+    assert row["balance"] < 1e-8 and row["patella_balance"] < 1e-8
+    assert row["PF_fe_force_N"] == pytest.approx(row["PF_ef_force_N"], rel=0.01)
+    assert row["PF_fe_area_mm2"] > 0 and row["PF_fe_p_max_MPa"] > 0
+    assert {"medial_fe_split", "lateral_fe_split"} <= set(row)
+    assert "patellofemoral_fe_split" not in row
 
 
 def test_no_quadriceps_force_is_refused_on_one_line(capsys):
