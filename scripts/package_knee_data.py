@@ -67,7 +67,7 @@ MENISCI_FILES = (
 closed volumes (their contact surfaces), the meniscal ligaments and contact parameters,
 menisci.json (the femur's smith2019 pose, the files' sha256), README, licence and NOTICE;
 and the four articular surfaces and their twelve regions (``regions/``), which label the
-meniscus solids of the FE (`fecheck.fe.meniscus_solid`). Not packaged: preview.png."""
+meniscus solids of the FE (`fecheck.fe.bodies.meniscus_solid`). Not packaged: preview.png."""
 PATELLA = "lenhart2015_patella"
 PATELLA_FILES = (
     "lenhart2015_R_patella_cartilage.stl",

@@ -7,6 +7,10 @@ scene → reference → contact → laws → statics → model → fe → io →
 of `fecheck`. The `validation` package (the scripts) sits above the pipeline: it imports
 `fecheck`, `geometry` and its own modules by their package name, and nothing imports it.
 
+Inside `fecheck.fe` the subpackages have an order of their own (`FE_ORDER`: material →
+contact → pressure → bodies → solve → reference → knee) and imports flow one way along it,
+imports inside functions included.
+
 Every import statement counts, at module level or inside a function: an import inside a
 function neither closes a cycle nor climbs back up the pipeline. Imports inside functions
 are kept for the heavy or optional libraries (`LAZY_LIBRARIES`) and for the CLI's verb
@@ -27,6 +31,10 @@ ORDER = ("scene", "reference", "contact", "laws", "statics", "model", "fe", "io"
          "cli")
 RANK = {name: i for i, name in enumerate(ORDER)}
 BASE = ("fecheck.errors", "fecheck.__main__", "fecheck")
+FE_ORDER = ("material", "contact", "pressure", "bodies", "solve", "reference", "knee")
+"""The subpackages of `fecheck.fe` in the order imports flow: each imports only itself and
+those before it."""
+FE_RANK = {name: i for i, name in enumerate(FE_ORDER)}
 
 
 def _modules(package: str) -> dict[str, Path]:
@@ -315,3 +323,42 @@ def test_tests_import_library_code_from_packages_not_from_validation():
            for t, _, _, line in _imports(p, "tests." + p.stem)
            if t.split(".")[0] == "validation" and t not in TOOLS]
     assert not bad, bad
+
+
+def _fe_stage(module: str) -> str | None:
+    """The subpackage of `fecheck.fe` that `module` belongs to (None outside `fecheck.fe`
+    and for `fecheck.fe` itself)."""
+    parts = module.split(".")
+    return parts[2] if parts[:2] == ["fecheck", "fe"] and len(parts) > 2 else None
+
+
+def _fe_backward(module: str, path: Path) -> list[str]:
+    """The imports of `path` (module `module` of `fecheck.fe`) of a later FE subpackage."""
+    stage = _fe_stage(module)
+    return [f"{module}:{line} {stage} → {_fe_stage(t)} ({t})"
+            for target, names, _, line in _imports(path, module)
+            for t in _resolve(target, names)
+            if _fe_stage(t) is not None and FE_RANK.get(_fe_stage(t), -1) > FE_RANK[stage]]
+
+
+def test_every_fe_module_belongs_to_an_fe_subpackage():
+    stray = [m for m in _modules("fecheck") if m.startswith("fecheck.fe.")
+             and _fe_stage(m) not in FE_RANK]
+    assert not stray, f"modules of fecheck.fe outside its subpackages {FE_ORDER}: {stray}"
+
+
+@pytest.mark.parametrize("module", sorted(m for m in _modules("fecheck")
+                                    if _fe_stage(m) in FE_RANK))
+def test_fe_imports_flow_one_way(module):
+    bad = _fe_backward(module, MODULES[module])
+    assert not bad, f"{module} imports a later FE subpackage: {bad}"
+
+
+def test_the_checker_sees_a_backward_import_inside_fe(tmp_path):
+    # a bodies module importing the knee's cross-check inside a function is reported, an
+    # import of the contact core (before bodies) is not
+    fake = tmp_path / "fake.py"
+    fake.write_text("from fecheck.fe.contact.gap import kept_dofs\n\n\n"
+                    "def f():\n    from fecheck.fe.knee.crosscheck import cross_check\n")
+    assert _fe_backward("fecheck.fe.bodies.fake", fake) == [
+        "fecheck.fe.bodies.fake:5 bodies → knee (fecheck.fe.knee.crosscheck)"]

@@ -6,7 +6,7 @@ subject-specific FE at 1150 N, then each difference that remains changed one at 
 cartilage layers deformable, cartilage E 15 MPa and ν 0.475, transversely isotropic menisci,
 2000 N/mm horn springs; `fecheck.reference.published_fe`). What it cannot make is Donahue's
 cadaver knee: the geometry stays this one's. So the factors, geometry first, each changed
-alone from the packaged scene (`fecheck.fe.knee_menisci.knee_menisci_fe`, without the
+alone from the packaged scene (`fecheck.fe.knee.knee_menisci.knee_menisci_fe`, without the
 no-menisci run):
 
 * geometry: the menisci as shipped instead of fitted to the joint (``menisci.fit``); the
@@ -42,8 +42,8 @@ if __name__ == "__main__" and not __package__:  # python validation/x.py: as pyt
     sys.path[0] = str(Path(__file__).resolve().parents[1])
 
 from fecheck.errors import FecheckError
-from fecheck.fe.knee_menisci import knee_menisci_fe
-from fecheck.fe.meniscus_solid import DEFAULT_SIZE_MM
+from fecheck.fe.bodies.meniscus_solid import DEFAULT_SIZE_MM
+from fecheck.fe.knee.knee_menisci import knee_menisci_fe
 from fecheck.reference.closed_forms import DONAHUE_2002
 from fecheck.reference.published_fe import SUBJECT_FE_2020
 from fecheck.scene import load_scene

@@ -38,7 +38,7 @@ from pathlib import Path
 import numpy as np
 
 from fecheck.errors import FecheckError
-from fecheck.fe.crosscheck import cross_check, ef_metrics
+from fecheck.fe.knee.crosscheck import cross_check, ef_metrics
 from fecheck.model.run import run_scene
 from fecheck.scene import load_scene, with_values
 from fecheck.statics.newton import pose

@@ -1,7 +1,7 @@
 """Calibration table of a local power-law foundation against the axisymmetric FE.
 
 A rigid sphere (radius R) on a bonded layer (h, E, ν) is solved by the axisymmetric FE
-(`fecheck.fe.axisym.axisym_sphere_on_layer`) at E = 1 MPa and loads F/E = `FORCE_OVER_E`
+(`fecheck.fe.reference.axisym.axisym_sphere_on_layer`) at E = 1 MPa and loads F/E = `FORCE_OVER_E`
 (2-100 mm², log-spaced: 2, 5.3, 14.1, 37.6, 100; 50-1500 N at E 5-50 MPa), over a grid
 of ν, h and R. Linear elasticity: the FE answer at E is the one at E = 1 with F/E,
 areas and p/E equal. Per (ν, h, R) the FE's force-area curve is fitted by least squares
@@ -85,7 +85,7 @@ TABLE = Path(__file__).resolve().parents[1] / "fecheck" / "laws" / "ef_calibrati
 
 def solve_load(load: float, nu: float, h: float, radius: float) -> dict:
     """Axisymmetric FE at E = 1 MPa, element size from the contact radius; its metrics."""
-    from fecheck.fe.axisym import axisym_sphere_on_layer
+    from fecheck.fe.reference.axisym import axisym_sphere_on_layer
     from fecheck.reference.closed_forms import hertz_sphere_on_plane
 
     a_hertz = float(np.sqrt(hertz_sphere_on_plane(load, radius, 1.0, nu).area_mm2 / np.pi))

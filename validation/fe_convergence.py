@@ -3,7 +3,7 @@
 
 Both compartments of the baseline knee (rigid Table 5.1 loads: medial 323.71 N on R 25.5
 mm, lateral 456.67 N on R 31.8 mm; E 20 MPa, ν 0.3, h 6 mm) are solved by the general
-path of `fecheck fe` on the flat layer (`fecheck.fe.sphere_layer.sphere_on_flat_layer`:
+path of `fecheck fe` on the flat layer (`fecheck.fe.reference.sphere_layer.sphere_on_flat_layer`:
 extruded P2 layer, 2 graded levels, exact contact) at a ladder of element sizes under
 the contact, and by the axisymmetric model from 0.4 mm down. The finest axisymmetric
 solution is the reference: each run's error on p_max, area and depth, the observed
@@ -35,7 +35,7 @@ from pathlib import Path
 
 import numpy as np
 
-from fecheck.fe.axisym import axisym_sphere_on_layer
+from fecheck.fe.reference.axisym import axisym_sphere_on_layer
 
 if __name__ == "__main__" and not __package__:  # python validation/x.py: as python -m
     sys.path[0] = str(Path(__file__).resolve().parents[1])
@@ -52,7 +52,7 @@ TARGETS = {"exponent": 1.3, "seconds": 60.0, "gigabytes": 2.0}
 def solve_3d(load: float, radius: float, size: float) -> tuple[dict, float, float, float]:
     """`sphere_on_flat_layer` at `size` mm: its metrics and counts, wall and CPU time (s),
     and this process's peak resident memory (bytes, ru_maxrss)."""
-    from fecheck.fe.sphere_layer import sphere_on_flat_layer
+    from fecheck.fe.reference.sphere_layer import sphere_on_flat_layer
 
     t, c = time.perf_counter(), time.process_time()
     res = sphere_on_flat_layer(load, radius, E_MPA, NU, H_MM, refine_size_mm=size)

@@ -3,7 +3,7 @@
 Scene `validation/scenes/fe_hertz_block.toml`: the medial condyle sphere pressed with
 load.force_N on a layer of thickness contact.thickness_mm (60 mm: contact radius / h ≈
 0.04) over a disc of mesh.plateau_radius_mm, bonded at its base. The axisymmetric FE and
-the general 3D path of `fecheck fe` (`fecheck.fe.sphere_layer.sphere_on_flat_layer`:
+the general 3D path of `fecheck fe` (`fecheck.fe.reference.sphere_layer.sphere_on_flat_layer`:
 mesh.plateau_refine_mm under the contact, mesh.plateau_size_mm away from it, fe.layers
 levels graded by fe.grading) are compared with Hertz (rigid sphere on an elastic
 half-space). The depth is reported but not judged: a finite block's displacement under
@@ -25,9 +25,9 @@ from pathlib import Path
 
 import numpy as np
 
-from fecheck.fe.axisym import axisym_sphere_on_layer
-from fecheck.fe.settings import FESettings
-from fecheck.fe.sphere_layer import sphere_on_flat_layer
+from fecheck.fe.bodies.settings import FESettings
+from fecheck.fe.reference.axisym import axisym_sphere_on_layer
+from fecheck.fe.reference.sphere_layer import sphere_on_flat_layer
 from fecheck.reference.closed_forms import hertz_sphere_on_plane
 from fecheck.scene import load_scene
 

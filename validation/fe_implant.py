@@ -3,8 +3,8 @@ Hertz, and a generated total knee replacement.
 
 1. Cylinder (radius 15 mm, height 15 mm, base fixed, wall free) under a rigid sphere
    (R 25.5 mm, E 20 MPa, ν 0.3, 18 N: Hertz contact radius 2.50 mm, a/h 0.17): the
-   closed solid (`fecheck.fe.volume`, Gmsh tetrahedra), the layer extruded from the
-   same top disc by the same 15 mm (`fecheck.fe.solid`), the axisymmetric FE of the same
+   closed solid (`fecheck.fe.bodies.volume`, Gmsh tetrahedra), the layer extruded from the
+   same top disc by the same 15 mm (`fecheck.fe.bodies.solid`), the axisymmetric FE of the same
    finite cylinder and Hertz.
 2. The implant pair of `geometry.synthetic.implant` (toroidal condyles on a dished
    UHMWPE insert, E 463 MPa, ν 0.45, 2,000 N, z free), the condyles 0.5 and 1.5 mm
@@ -32,14 +32,14 @@ from pathlib import Path
 
 import numpy as np
 
-from fecheck.fe.axisym import axisym_sphere_on_layer
-from fecheck.fe.crosscheck import cross_check
-from fecheck.fe.indenter import SphereIndenter
-from fecheck.fe.joint import ContactLayer, JointContact
-from fecheck.fe.pose import FramePose
-from fecheck.fe.recovery import zero_contour_area
-from fecheck.fe.solid import layer_solid
-from fecheck.fe.volume import TibiaSolid, solid_layers
+from fecheck.fe.bodies.indenter import SphereIndenter
+from fecheck.fe.bodies.pose import FramePose
+from fecheck.fe.bodies.solid import layer_solid
+from fecheck.fe.bodies.volume import TibiaSolid, solid_layers
+from fecheck.fe.knee.crosscheck import cross_check
+from fecheck.fe.pressure.recovery import zero_contour_area
+from fecheck.fe.reference.axisym import axisym_sphere_on_layer
+from fecheck.fe.solve.joint import ContactLayer, JointContact
 from fecheck.reference.closed_forms import hertz_sphere_on_plane
 from fecheck.scene import load_scene
 from fecheck.scene.tibia_solid import up_facing

@@ -1,7 +1,7 @@
 """FE accuracy near incompressibility: the mixed (P2 / element-constant pressure) form
 against the pure-displacement P2, on the baseline scene.
 
-1. The reference: the axisymmetric solve (`fecheck.fe.axisym`, mixed form) of the baseline
+1. The reference: the axisymmetric solve (`fecheck.fe.reference.axisym`, mixed form) of the baseline
    medial compartment (323.71 N, R 25.5 mm, E 20 MPa, h 6 mm) at two fine sizes under the
    contact, for ν 0.3, 0.45, 0.49, 0.4999 (its convergence: the two sizes' change), with
    the displacement form beside it (equal at ν 0.3, locking at ν 0.4999).
@@ -28,7 +28,7 @@ from pathlib import Path
 import numpy as np
 
 from fecheck.errors import FecheckError
-from fecheck.fe.axisym import axisym_sphere_on_layer
+from fecheck.fe.reference.axisym import axisym_sphere_on_layer
 from fecheck.reference.closed_forms import hertz_sphere_on_plane
 
 E_MPA, H_MM = 20.0, 6.0
@@ -90,7 +90,7 @@ def hertz_rows(size_mm: float) -> list[dict]:
 
 def scene_rows(reference_size: float) -> list[dict]:
     """Section 3: `fecheck fe` (compartment mode) on the baseline per ν and form."""
-    import fecheck.fe.crosscheck as cc
+    import fecheck.fe.knee.crosscheck as cc
     from fecheck.scene import load_scene
 
     rows = []

@@ -23,7 +23,7 @@ from pathlib import Path
 
 import numpy as np
 
-from fecheck.fe.axisym import axisym_sphere_on_layer
+from fecheck.fe.reference.axisym import axisym_sphere_on_layer
 from fecheck.reference.closed_forms import ef_sphere_on_plane, hertz_sphere_on_plane
 
 if __name__ == "__main__" and not __package__:  # python validation/x.py: as python -m

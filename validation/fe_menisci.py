@@ -1,7 +1,7 @@
 """The FE of the knee with menisci at the EF equilibrium of ``femur_tibia_menisci`` (800 N,
 full extension), beside the EF and Donahue et al. 2002.
 
-`fecheck.fe.knee_menisci`: each meniscus a deformable transversely isotropic solid (P2
+`fecheck.fe.knee.knee_menisci`: each meniscus a deformable transversely isotropic solid (P2
 tetrahedra, fibres along its arc) on horn springs to the tibia, each compartment's tibial
 cartilage a bonded layer as ``fecheck fe`` builds it and the femoral cartilage a layer of
 its own bonded to the femur (the scene's ``fe.cartilage = "two-layer"``; ``--cartilage
@@ -64,10 +64,10 @@ if __name__ == "__main__" and not __package__:  # python validation/x.py: as pyt
 import numpy as np
 
 from fecheck.errors import FecheckError
-from fecheck.fe.knee_menisci import NEAR_MM, ROOTS, knee_menisci_fe
-from fecheck.fe.knee_menisci_report import donahue_note, region_rows, report_lines, rows
-from fecheck.fe.meniscus_solid import DEFAULT_SIZE_MM
-from fecheck.fe.settings import CARTILAGE
+from fecheck.fe.bodies.meniscus_solid import DEFAULT_SIZE_MM
+from fecheck.fe.bodies.settings import CARTILAGE
+from fecheck.fe.knee.knee_menisci import NEAR_MM, ROOTS, knee_menisci_fe
+from fecheck.fe.knee.knee_menisci_report import donahue_note, region_rows, report_lines, rows
 from fecheck.model.results import write_rows
 from fecheck.scene import load_scene
 
@@ -96,11 +96,11 @@ def quick_scene(quick: bool, cartilage: str | None = None, extra: tuple[str, ...
 
 
 def build(scene, modulus: float = 1.0):
-    """The scene's tibial layers (`fecheck.fe.press.build_layers`), the contact modulus
+    """The scene's tibial layers (`fecheck.fe.solve.press.build_layers`), the contact modulus
     times `modulus`."""
-    from fecheck.fe.bodies import scene_bodies
-    from fecheck.fe.press import build_layers
-    from fecheck.fe.settings import FESettings
+    from fecheck.fe.bodies.scene_bodies import scene_bodies
+    from fecheck.fe.bodies.settings import FESettings
+    from fecheck.fe.solve.press import build_layers
     from fecheck.scene import with_values
 
     plain = with_values(scene, menisci__dir="")

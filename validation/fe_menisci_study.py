@@ -1,7 +1,7 @@
 """FE studies of the knee with menisci: meniscal share against load and against the
 meniscal circumferential modulus, and a medial meniscectomy.
 
-`fecheck.fe.knee_menisci` on the packaged ``femur_tibia_menisci`` (full extension; both
+`fecheck.fe.knee.knee_menisci` on the packaged ``femur_tibia_menisci`` (full extension; both
 cartilages deformable layers, its ``fe.cartilage = "two-layer"``), the tibial layers built
 once (they do not depend on the load or the meniscus; each run builds its femoral layers
 over its own contact):
@@ -9,7 +9,7 @@ over its own contact):
 * **load**: 200, 800 and 2000 N, the EF equilibrium re-solved at each load (the FE runs at
   the EF pose of its own load);
 * **modulus**: 800 N with the circumferential (fibre) modulus E_t of the meniscus
-  (`fecheck.fe.anisotropy.MENISCUS`, 140 MPa) times 0.5, 1 and 2, the rest of the
+  (`fecheck.fe.material.anisotropy.MENISCUS`, 140 MPa) times 0.5, 1 and 2, the rest of the
   material kept; the EF pose is that of 800 N (the EF's meniscus layer has no
   circumferential modulus);
 * **meniscectomy**: 800 N without the medial meniscus (``menisci.sides = ['lateral']``). The
@@ -44,10 +44,10 @@ if __name__ == "__main__" and not __package__:  # python validation/x.py: as pyt
     sys.path[0] = str(Path(__file__).resolve().parents[1])
 
 from fecheck.errors import FecheckError
-from fecheck.fe.anisotropy import MENISCUS
-from fecheck.fe.knee_menisci import knee_menisci_fe
-from fecheck.fe.knee_menisci_report import PUBLISHED_SHARE
-from fecheck.fe.meniscus_solid import DEFAULT_SIZE_MM
+from fecheck.fe.bodies.meniscus_solid import DEFAULT_SIZE_MM
+from fecheck.fe.knee.knee_menisci import knee_menisci_fe
+from fecheck.fe.knee.knee_menisci_report import PUBLISHED_SHARE
+from fecheck.fe.material.anisotropy import MENISCUS
 from fecheck.model.results import write_rows
 from validation.fe_menisci import QUICK_MENISCUS_MM, SCENE, build, quick_scene
 

@@ -42,7 +42,7 @@ QUICK = (("0.3 default", 0.3, "auto", QUICK_MESH), ("0.3 mixed", 0.3, "mixed", Q
 def run_once(nu: float, formulation: str, keys: tuple[str, ...] = ()) -> dict:
     """One `fecheck fe` solve (joint mode, no error estimate) of the baseline scene with
     the scene `keys` set."""
-    import fecheck.fe.crosscheck as cc
+    import fecheck.fe.knee.crosscheck as cc
     from fecheck.scene import load_scene
 
     scene = load_scene(None, [f"contact.poisson={nu}", f"fe.formulation={formulation}",

@@ -9,7 +9,7 @@ faces and contact area per compartment, the FE dofs, time and peak memory per le
    surface triangles and keeps the surface exactly: element size ratio 2). The surface
    is small (``REFINE_FACES``) because the layer's extrusion directions are smoothed over
    the 1-ring of the refined surface, and on a finer scanned surface refined once or
-   twice some prisms stay inverted after the 64 smoothing rounds `fecheck.fe.press`
+   twice some prisms stay inverted after the 64 smoothing rounds `fecheck.fe.solve.press`
    allows (the run says which levels failed).
 2. ``decimate`` (full mode): the scanned surface decimated to about 250 and 1,500
    tibial faces and at full resolution (8,602), element size ratio about 2.4 twice.
@@ -58,7 +58,7 @@ from pathlib import Path
 import numpy as np
 
 from fecheck.errors import FecheckError
-from fecheck.fe.crosscheck import cross_check
+from fecheck.fe.knee.crosscheck import cross_check
 from fecheck.scene import load_scene
 
 if __name__ == "__main__" and not __package__:  # python validation/x.py: as python -m

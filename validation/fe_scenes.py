@@ -1,6 +1,6 @@
 """EF against the FE of the same scene, on every kind of scene (`fecheck fe`).
 
-`fecheck.fe.crosscheck.cross_check` solves the scene's EF equilibrium, then the FE of the
+`fecheck.fe.knee.crosscheck.cross_check` solves the scene's EF equilibrium, then the FE of the
 same geometry, materials and load (the EF run's tibial surfaces extruded into bonded P2
 layers under the rigid femoral surfaces, whole-joint load control: the FE finds its own
 medial/lateral split). This study runs it on
@@ -49,7 +49,7 @@ from pathlib import Path
 import numpy as np
 
 from fecheck.errors import FecheckError
-from fecheck.fe.crosscheck import cross_check
+from fecheck.fe.knee.crosscheck import cross_check
 from fecheck.model.run import run_scene
 from fecheck.scene import load_scene
 

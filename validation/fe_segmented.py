@@ -43,7 +43,7 @@ from pathlib import Path
 import numpy as np
 
 from fecheck.cli import main as cli
-from fecheck.fe.crosscheck import cross_check
+from fecheck.fe.knee.crosscheck import cross_check
 from fecheck.scene import load_scene
 
 if __name__ == "__main__" and not __package__:  # python validation/x.py: as python -m

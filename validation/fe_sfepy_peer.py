@@ -7,14 +7,14 @@ without it this script says so and exits. The file is both the SfePy problem des
 ``dw_contact_sphere`` (penalty k, gap along the sphere normal in the deformed
 configuration), Newton with a direct solver. The rigid sphere (R 25.5 mm) presses a 6 mm
 layer (E 20 MPa, ν 0.3) bonded at its base, on the same mesh as fecheck's general FE path
-(the extruded layer of `fecheck.fe.sphere_layer.sphere_on_flat_layer`), with quadratic
+(the extruded layer of `fecheck.fe.reference.sphere_layer.sphere_on_flat_layer`), with quadratic
 elements like fecheck. SfePy is displacement controlled: a secant on the sphere position
 finds the load (323.71 N, the rigid Table 5.1 medial force), one Newton solve per step.
 
     python validation/fe_sfepy_peer.py [--quick] [MESH [D0 D1]]
 
 MESH is a layer mesh (VTU, top at z = 0, base at z = -6); without MESH the script writes
-the general path's layer itself (`fecheck.fe.sphere_layer.flat_layer`, 0.8 mm under the
+the general path's layer itself (`fecheck.fe.reference.sphere_layer.flat_layer`, 0.8 mm under the
 contact). D0 and D1 (mm) start the secant. --quick refines to 2 mm under the contact
 instead of 0.8 mm and stops after 4 Newton solves instead of 8. Prints δ, the contact
 force of each step and the CPU time of the Newton solves; compare with the CPU time of
@@ -67,7 +67,7 @@ def define() -> dict:
 
 def layer_mesh(refine_size_mm: float, folder: Path) -> Path:
     """The general path's medial layer (`flat_layer`, linear tetrahedra) in `folder`."""
-    from fecheck.fe.sphere_layer import flat_layer
+    from fecheck.fe.reference.sphere_layer import flat_layer
     from geometry.io import save_mesh
 
     layer, _ = flat_layer(LOAD_N, RADIUS_MM, 20.0, 0.3, 6.0, refine_size_mm=refine_size_mm)

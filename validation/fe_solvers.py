@@ -1,8 +1,8 @@
 """Sparse solvers for the FE contact condensation, measured (picked by numbers).
 
 The contact solve needs the layer's normal compliance at the m contact candidates,
-C = R K⁻¹ Rᵀ (`fecheck.fe.joint`). On the baseline medial layer of the general path
-(`fecheck.fe.sphere_layer.flat_layer`, 323.71 N on R 25.5 mm, E 20 MPa, ν 0.3, h 6 mm;
+C = R K⁻¹ Rᵀ (`fecheck.fe.solve.joint`). On the baseline medial layer of the general path
+(`fecheck.fe.reference.sphere_layer.flat_layer`, 323.71 N on R 25.5 mm, E 20 MPa, ν 0.3, h 6 mm;
 0.8 mm under the contact, or --size) this times CHOLMOD with the candidates ordered last
 (`fecheck.fe.contact.compliance.condensed_compliance`, what `fecheck fe` runs), CHOLMOD and SuperLU
 (scipy) factorizations followed by m solves, and pyamg smoothed-aggregation
@@ -26,10 +26,10 @@ from pathlib import Path
 import numpy as np
 import scipy.sparse as sp
 
+from fecheck.fe.bodies.pose import FramePose
 from fecheck.fe.contact.compliance import condensed_compliance
-from fecheck.fe.pose import FramePose
-from fecheck.fe.press import rigid_gaps
-from fecheck.fe.sphere_layer import candidate_margin, flat_layer
+from fecheck.fe.reference.sphere_layer import candidate_margin, flat_layer
+from fecheck.fe.solve.press import rigid_gaps
 
 if __name__ == "__main__" and not __package__:  # python validation/x.py: as python -m
     sys.path[0] = str(Path(__file__).resolve().parents[1])

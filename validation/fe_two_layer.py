@@ -7,7 +7,7 @@ own assumption) and ``"two-layer"`` (each cartilage extruded toward its own bone
 own thickness, frictionless contact between them), from the same EF equilibrium. Per
 compartment: force, vertex p_max, p_max averaged on the EF faces, contact area, centre of
 pressure (tibia frame) and its shift between the models; the medial/lateral split; the
-largest penetration and the balance of the free DOFs (`fecheck.fe.balance`); the FE
+largest penetration and the balance of the free DOFs (`fecheck.fe.knee.balance`); the FE
 time (build, condense, contact) and the process's peak memory. Times are wall clock on
 a shared machine.
 
@@ -33,8 +33,8 @@ from pathlib import Path
 
 import numpy as np
 
-from fecheck.fe.balance import free_dof_balance
-from fecheck.fe.crosscheck import cross_check
+from fecheck.fe.knee.balance import free_dof_balance
+from fecheck.fe.knee.crosscheck import cross_check
 from fecheck.model.run import run_scene
 from fecheck.scene import load_scene
 

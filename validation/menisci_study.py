@@ -10,7 +10,7 @@ menisci as free rigid bodies, EF contact, full extension) is solved
   (smith2019's cartilage), 20 MPa (the radial and axial modulus E_r = E_z quoted for the
   meniscus of Donahue et al. 2002, J. Biomech. Eng. 124:273-280, the one an EF column
   compresses) and 120 MPa (of the order of the circumferential modulus E_θ quoted for that
-  meniscus, 140 MPa in `fecheck.fe.anisotropy`, an upper bound: the hoop stiffness is no
+  meniscus, 140 MPa in `fecheck.fe.material.anisotropy`, an upper bound: the hoop stiffness is no
   compressive modulus); the values are quoted from citing studies, not read in the paper;
 * at 800 N with the two layers in series instead of lumped (the model before the lumped
   convention); with each meniscus held in the plateau's plane (menisci.free = z, flexion,

@@ -8,7 +8,7 @@ its own split), or per compartment under the EF forces (``--mode compartment``).
 the standard library is imported here.
 
 On a scene with menisci (``menisci.dir`` set) it runs the FE of the knee with menisci at
-its EF equilibrium (`fecheck.fe.knee_menisci`) instead: the tibial sheets follow
+its EF equilibrium (`fecheck.fe.knee.knee_menisci`) instead: the tibial sheets follow
 ``fe.prepare`` and ``fe.size_mm``, the meniscus tetrahedra are `MENISCUS_PER_SHEET` times
 ``fe.size_mm``; the flags without a meaning there are refused in one line before any work.
 
@@ -377,9 +377,9 @@ def run_menisci_fe(args: argparse.Namespace, scene, out) -> int:
     import json
     import time
 
-    from fecheck.fe import knee_menisci
-    from fecheck.fe.crosscheck import stderr_log
-    from fecheck.fe.knee_menisci_report import (
+    from fecheck.fe.knee import knee_menisci
+    from fecheck.fe.knee.crosscheck import stderr_log
+    from fecheck.fe.knee.knee_menisci_report import (
         as_dict,
         choice_lines,
         comparison_dict,
@@ -420,7 +420,7 @@ def run_menisci_fe(args: argparse.Namespace, scene, out) -> int:
 
 
 def run(args: argparse.Namespace) -> int:
-    from fecheck.fe.crosscheck import cross_check, stderr_log
+    from fecheck.fe.knee.crosscheck import cross_check, stderr_log
     from fecheck.scene import load_scene
     from fecheck.studies.estimate import estimate
     from geometry.budget import policy

@@ -185,7 +185,7 @@ def _indices(plan, samples, outputs) -> dict:
 def _spot_checks(args, scene, plan, samples, outputs, stream) -> list[dict]:
     """`fecheck fe` at the most extreme samples of the first output."""
     from fecheck.errors import FecheckError
-    from fecheck.fe.crosscheck import cross_check
+    from fecheck.fe.knee.crosscheck import cross_check
     from fecheck.scene import apply_overrides
     from fecheck.studies.population import extreme_samples
 

@@ -19,7 +19,7 @@ One evaluation of a contact pair is a few hundred faces of arithmetic; in NumPy 
 * `sphere_ray_depth` (one point) and `sphere_depths` (arrays) — the sphere master's ray
   depth and gradients, also behind `fecheck.contact.analytic.Sphere.depth_values`;
   `sphere_ray_roots` — the nearer line-sphere intersection (the FE's rigid sphere,
-  `fecheck.fe.indenter.SphereIndenter`); one line-sphere formula behind both.
+  `fecheck.fe.bodies.indenter.SphereIndenter`); one line-sphere formula behind both.
 
 Conventions (mm, world frame): a vertex twist row is ``(∂d/∂v, ∂d/∂ω)``; poses are
 ``y = R p + t`` (slave → master frame) and ``x = Rm y + tm`` (master → world).

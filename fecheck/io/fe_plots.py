@@ -26,7 +26,7 @@ import numpy as np
 from fecheck.io.plots import INK, LIFT_MM, ColourScale, Figure, Panel, Patch, draw_maps
 
 if TYPE_CHECKING:
-    from fecheck.fe.crosscheck import CompartmentCheck, CrossCheck
+    from fecheck.fe.knee.crosscheck import CompartmentCheck, CrossCheck
 
 MAP_FILE = "fe_pressure_map.png"
 """The pressure-map file `write_fe_plots` writes into its folder."""

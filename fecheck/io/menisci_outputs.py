@@ -1,5 +1,5 @@
 """``fecheck fe --plot`` and ``--vtk`` on a scene with menisci
-(`fecheck.fe.knee_menisci.KneeMenisciFE`): the tibial pressure with each meniscus's
+(`fecheck.fe.knee.knee_menisci.KneeMenisciFE`): the tibial pressure with each meniscus's
 footprint, and the femur's pressure on each meniscus's superior surface. Units: mm, MPa;
 the tibia frame.
 """

@@ -36,7 +36,7 @@ from fecheck.io.outputs import write_output
 from fecheck.model.results import CompartmentResult, RunResult
 
 if TYPE_CHECKING:
-    from fecheck.fe.crosscheck import CompartmentCheck, CrossCheck
+    from fecheck.fe.knee.crosscheck import CompartmentCheck, CrossCheck
 
 AREA_ESTIMATE_NOTE = ("contact_area_mm2 is the whole area of each face under pressure (this "
                       "result carries no per-face in-contact area), so Σ p·A overestimates "

@@ -4,7 +4,7 @@ A scene may name, besides (or instead of) the tibial articular sheet ``geometry.
 the closed triangle surface of the whole tibial cartilage volume or implant insert (the
 same file formats, units and rigid transform as the other ``[geometry]`` files). It is
 one closed piece for both compartments (a one-piece insert) or two closed pieces (one
-per compartment). The FE meshes its volume (`fecheck.fe.volume`); the EF keeps using an
+per compartment). The FE meshes its volume (`fecheck.fe.bodies.volume`); the EF keeps using an
 articular sheet:
 
 - Articular face (the contact surface): the boundary faces of the solid that lie on the

@@ -1,7 +1,7 @@
 """Where the EF can be trusted: an error model of the EF against the FE over some keys.
 
 The EF runs at many samples of the varied keys (a population, `fecheck.studies.
-population`); the FE (`fecheck.fe.crosscheck.cross_check`, the scene's own `fecheck fe`)
+population`); the FE (`fecheck.fe.knee.crosscheck.cross_check`, the scene's own `fecheck fe`)
 runs at a few design points: first a space-filling set (a scrambled Sobol sequence of
 its own), then, one batch at a time, the EF samples where the error model is least sure
 (largest predictive standard deviation). The error model is one Gaussian process per
@@ -47,7 +47,7 @@ def fe_errors(scene: Scene, overrides: Sequence[str]) -> dict[str, float]:
     """The EF's errors against the FE at one point (module docstring), the FE's time."""
     import time
 
-    from fecheck.fe.crosscheck import cross_check
+    from fecheck.fe.knee.crosscheck import cross_check
 
     start = time.perf_counter()
     check = cross_check(apply_overrides(scene, list(overrides)), log=None)

@@ -17,7 +17,7 @@ p_max and the contact area. Methods and their references:
 * ``hertz-mesh``: Hertz law from the icosphere's maximum depth; against Hertz's formula.
   ``hertz-formula``: the formula itself (its own reference: error 0).
 * ``fe-3d`` (element sizes 5 … 0.5 mm under the contact: the general path of `fecheck
-  fe` on the flat layer, `fecheck.fe.sphere_layer`) and ``fe-axisym``: the scikit-fem
+  fe` on the flat layer, `fecheck.fe.reference.sphere_layer`) and ``fe-axisym``: the scikit-fem
   layer solves of `fecheck.fe`; against the axisymmetric FE at a finer size than any row
   (the converged FE).
 * ``scene-ef-clipped``, ``scene-thesis-fcl``: the whole baseline scene (both
@@ -249,8 +249,8 @@ def hertz_formula(radius_mm: float, force_N: float) -> Callable[[], Outcome]:
 
 
 def fe_3d(radius_mm: float, force_N: float, size_mm: float) -> Callable[[], Outcome]:
-    """The general FE path (`fecheck.fe.sphere_layer`), `size_mm` under the contact."""
-    from fecheck.fe.sphere_layer import sphere_on_flat_layer
+    """The general FE path (`fecheck.fe.reference.sphere_layer`), `size_mm` under the contact."""
+    from fecheck.fe.reference.sphere_layer import sphere_on_flat_layer
 
     def run() -> Outcome:
         r = sphere_on_flat_layer(force_N, radius_mm, E_MPA, NU, H_MM, refine_size_mm=size_mm)
@@ -260,7 +260,7 @@ def fe_3d(radius_mm: float, force_N: float, size_mm: float) -> Callable[[], Outc
 
 
 def fe_axisym(radius_mm: float, force_N: float, size_mm: float) -> Callable[[], Outcome]:
-    from fecheck.fe.axisym import axisym_sphere_on_layer
+    from fecheck.fe.reference.axisym import axisym_sphere_on_layer
 
     def run() -> Outcome:
         r = axisym_sphere_on_layer(force_N, radius_mm, E_MPA, NU, H_MM, size_mm=size_mm)

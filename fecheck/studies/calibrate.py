@@ -1,6 +1,6 @@
 """Calibrate the EF on a scene's own FE (`fecheck calibrate`).
 
-The FE cross-check (`fecheck.fe.crosscheck.cross_check`, the scene's mode) is solved at a
+The FE cross-check (`fecheck.fe.knee.crosscheck.cross_check`, the scene's mode) is solved at a
 few loads; then the calibrated law's C and n of each compartment
 (`fecheck.laws.calibrated`) are fitted, by least squares on the logs, so that the EF
 equilibrium of the scene with that law reproduces the FE's contact area and peak
@@ -92,7 +92,7 @@ def _ef_answer(result) -> Answer:
 def fe_answers(scene: Scene, loads_N: Sequence[float],
                log: Callable[[str], None]) -> list[Answer]:
     """The FE cross-check's answer at each load (the scene's FE mode and mesh)."""
-    from fecheck.fe.crosscheck import cross_check
+    from fecheck.fe.knee.crosscheck import cross_check
 
     out = []
     for load in loads_N:

@@ -34,9 +34,9 @@ from typing import Any
 import numpy as np
 
 from fecheck.errors import FecheckError
-from fecheck.fe.bodies import FEBody
-from fecheck.fe.press import FELayer
-from fecheck.fe.settings import FESettings
+from fecheck.fe.bodies.scene_bodies import FEBody
+from fecheck.fe.bodies.settings import FESettings
+from fecheck.fe.solve.press import FELayer
 from fecheck.model.results import RunResult
 from fecheck.scene import Scene
 from fecheck.studies.gci import gci
@@ -157,7 +157,7 @@ def _on_default_faces(default: FELayer, layer: FELayer, pressure: np.ndarray) ->
     """`layer`'s vertex `pressure` interpolated onto the `default` layer's FE vertices
     (both projected on the plane normal to the default surface), then averaged onto the
     default run's EF faces."""
-    from fecheck.fe.crosscheck import on_ef_faces
+    from fecheck.fe.knee.crosscheck import on_ef_faces
     from geometry.planar import plane_interpolation
 
     if layer is default:
@@ -218,7 +218,7 @@ def solve_level(scene: Scene, check, run: RunResult, label: str, settings: FESet
                 bodies: Sequence[FEBody], log: Callable[[str], None]) -> Level:
     """The FE of `bodies` at `settings` from the EF `run`'s pose under the default run's
     load control, as a `Level` (its face-averaged p_max on the default run's EF faces)."""
-    from fecheck.fe.crosscheck import fe_level
+    from fecheck.fe.knee.crosscheck import fe_level
 
     solved, dofs, seconds = fe_level(scene, bodies, run, settings, log, check.patella)
     metrics = {name: m for name, (_, m, _) in solved.items()}

@@ -32,8 +32,8 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from fecheck.errors import FecheckError
-from fecheck.fe.balance import body_balance
-from fecheck.fe.patella_layer import ef_knee
+from fecheck.fe.knee.balance import body_balance
+from fecheck.fe.knee.patella_layer import ef_knee
 from fecheck.laws.coldstart import announce_cold_kernels
 from fecheck.model.knee_surfaces import femoral_master
 from fecheck.model.patella import PatellaModel, PatellaState, build_patella, solve_knee
@@ -420,22 +420,22 @@ def femur_bone(scene: Scene) -> TriMesh | None:
 def fe_row(scene: Scene, point: FlexPoint, axis: FlexionAxis, built: tuple,
            log: Callable[[str], None] | None = None, patella: PatellaModel | None = None
            ) -> dict:
-    """The FE cross-check (`fecheck.fe.crosscheck.cross_check`, joint mode by default) of
+    """The FE cross-check (`fecheck.fe.knee.crosscheck.cross_check`, joint mode by default) of
     one solved angle: the EF run at the angle's pose (`run_scanned` from its q, the
     flexion held about the axis; with the `patella`, the tibia and the patella solved
-    together from their poses, `fecheck.fe.patella_layer.ef_knee`), the FE from there with
+    together from their poses, `fecheck.fe.knee.patella_layer.ef_knee`), the FE from there with
     the same flexion held and the other DOFs free under the same load, gravity, ligaments
     (and muscles).
 
     Returns {flexion_deg, balance (the largest free-DOF imbalance of any body at the FE
-    pose over its load, `fecheck.fe.balance.body_balance`: for the tibia forces /
+    pose over its load, `fecheck.fe.knee.balance.body_balance`: for the tibia forces /
     load.force_N, moments / (100 mm · load.force_N)), fe_seconds, ef_seconds, and per
     tibial compartment FE and EF p_max (face-averaged, MPa), area (mm²), split (share of
     the summed force magnitudes), centre of pressure x, y (mm, tibia frame) and their
     distance (mm); with the patella `patella_row_fe`'s PF columns}, `check`: the
     `CrossCheck`.
     """
-    from fecheck.fe.crosscheck import cross_check
+    from fecheck.fe.knee.crosscheck import cross_check
     from fecheck.model.scanned import run_scanned
 
     flexion = (-math.radians(point.flexion_deg), axis_rotation(axis.direction))

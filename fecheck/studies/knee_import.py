@@ -558,8 +558,8 @@ def fe_checks(out: Path, files: dict[str, Path]) -> None:
 
     import numpy as np
 
-    from fecheck.fe.bodies import scene_bodies
-    from fecheck.fe.settings import FESettings
+    from fecheck.fe.bodies.scene_bodies import scene_bodies
+    from fecheck.fe.bodies.settings import FESettings
     from fecheck.scene import load_scene
 
     scene = load_scene(out)
@@ -582,13 +582,13 @@ def fe_checks(out: Path, files: dict[str, Path]) -> None:
 def _inversion(body, levels: int, settings, scene) -> tuple[str, str]:
     """(warning, note) on the FE's extrusion of `body`'s layer (an `FEBody`): both "" when
     it extrudes as read; a note when it does not but the FE's prepared copy of the sheet
-    does (``fe.prepare`` 'auto' or 'on', `fecheck.fe.press.prepared_body`: what `fecheck
+    does (``fe.prepare`` 'auto' or 'on', `fecheck.fe.solve.press.prepared_body`: what `fecheck
     fe` and `fecheck calibrate` then mesh); else a warning naming the place and a thickness
     that extrudes."""
     import numpy as np
 
     from fecheck.errors import FecheckError
-    from fecheck.fe.press import prepared_body
+    from fecheck.fe.solve.press import prepared_body
     from fecheck.scene.surfaces import around
     from geometry.extrude import extrusion_directions, extrusion_offsets
 

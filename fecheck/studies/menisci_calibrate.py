@@ -7,7 +7,7 @@ a lumped layer (menisci.youngs_MPa, smith2019's 1 MPa convention), which does no
 a meniscus's hoop-stiff solid spreads load. The calibration fits, per meniscus, the
 calibrated law p = C·d·(d + d_s)^(n − 1) of `fecheck.laws.calibrated` (its C and n) on
 those two interfaces so that the EF equilibrium reproduces, at each calibration load, two
-outputs of the FE with menisci (`fecheck.fe.knee_menisci.knee_menisci_fe`, the scene's
+outputs of the FE with menisci (`fecheck.fe.knee.knee_menisci.knee_menisci_fe`, the scene's
 mesh and ``fe.*`` settings) in that compartment:
 
 * the meniscal share: the load into the tibia through the meniscus (its contact and its
@@ -37,7 +37,7 @@ from pathlib import Path
 import numpy as np
 
 from fecheck.errors import FecheckError
-from fecheck.fe.knee_menisci import knee_menisci_fe
+from fecheck.fe.knee.knee_menisci import knee_menisci_fe
 from fecheck.laws import calibrated
 from fecheck.laws.calibrated import MENISCI_INTERFACES, Calibration
 from fecheck.model import menisci
@@ -54,7 +54,7 @@ QUANTITIES = ("share", "cartilage_area_mm2", "meniscus_area_mm2", "cartilage_p_m
 FITTED = ("share", "meniscus_area_mm2")
 """The outputs the law is fitted to."""
 MENISCUS_REGIONS = ("anterior horn", "body", "posterior horn")
-"""The FE's tibial regions under the meniscus (`fecheck.fe.knee_menisci.REGION_NAMES`)."""
+"""The FE's tibial regions under the meniscus (`fecheck.fe.knee.knee_menisci.REGION_NAMES`)."""
 
 Answer = dict[str, dict[str, float]]
 """Per compartment the `QUANTITIES` (share 0-1, areas mm², pressures MPa)."""

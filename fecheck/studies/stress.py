@@ -415,11 +415,11 @@ def run_fe_case(params: dict) -> tuple[int, float, str]:
     load = params.get("load", 800.0)
     args = (load, 25.5, params.get("E", 20.0), params.get("nu", 0.3), params.get("h", 6.0))
     if params["model"] == "axisym":
-        from fecheck.fe.axisym import axisym_sphere_on_layer
+        from fecheck.fe.reference.axisym import axisym_sphere_on_layer
 
         res = axisym_sphere_on_layer(*args, size_mm=params.get("size", 0.2))
     else:
-        from fecheck.fe.sphere_layer import sphere_on_flat_layer
+        from fecheck.fe.reference.sphere_layer import sphere_on_flat_layer
 
         res = sphere_on_flat_layer(*args, refine_size_mm=params.get("size", 2.0))
     m = res.metrics

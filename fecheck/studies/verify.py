@@ -503,7 +503,7 @@ def scene_estimate(scene, refines: Sequence[int], label: str,
     `refines` (each halves the edges: ratio 2), and per compartment the GCI of its p_max
     and area (Roache's Fs 1.25 with three levels, 3 with two, the formal order 2 assumed
     then)."""
-    from fecheck.fe.crosscheck import cross_check
+    from fecheck.fe.knee.crosscheck import cross_check
 
     refines = check_levels(refines)
     checks = [cross_check(scene, refine=k, log=log) for k in refines]

@@ -11,7 +11,7 @@ from functools import lru_cache
 
 import numpy as np
 
-from fecheck.fe.pose import FramePose
+from fecheck.fe.bodies.pose import FramePose
 from fecheck.reference.closed_forms import (
     column_stiffness,
     ef_sphere_on_plane,
@@ -67,13 +67,13 @@ def _exact(x: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
 @lru_cache(maxsize=8)
 def manufactured_3d(n: int, nu: float) -> tuple[float, float]:
     """(relative L2 error, relative H1-seminorm error) of fecheck's P2 assembly
-    (`fecheck.fe.solid.p2_elasticity`) on the unit cube, n cells a side, for the body
+    (`fecheck.fe.bodies.solid.p2_elasticity`) on the unit cube, n cells a side, for the body
     force of the manufactured u (zero on the boundary):
     f = −μ Δu − (λ+μ) ∇(∇·u), Δu = −3π² u, ∇(∇·u) = H(φ)·DIRECTION."""
     import scipy.sparse.linalg as sla
     from skfem import Basis, ElementTetP2, ElementVector, Functional, LinearForm, asm
 
-    from fecheck.fe.solid import p2_elasticity
+    from fecheck.fe.bodies.solid import p2_elasticity
 
     lam, mu = _lame(nu)
     mesh, basis, K = p2_elasticity(_cube(n), E_MPA, nu)
@@ -113,7 +113,7 @@ def patch_p2(n: int, nu: float) -> float:
     import scipy.sparse.linalg as sla
     from skfem import Basis, ElementTetP2, ElementVector
 
-    from fecheck.fe.solid import p2_elasticity
+    from fecheck.fe.bodies.solid import p2_elasticity
 
     mesh, basis, K = p2_elasticity(_cube(n, jitter=0.3), E_MPA, nu)
     return _patch_error(Basis(mesh, ElementVector(ElementTetP2())), K.tocsr(), sla)
@@ -149,11 +149,11 @@ def _patch_error(basis, K, sla) -> float:
 # ---------------------------------------------------------------- load scaling
 def load_scaling(nu: float, factor: float = 3.7) -> float:
     """‖u(factor·f) − factor·u(f)‖ / ‖u(factor·f)‖ of fecheck's bonded layer
-    (`fecheck.fe.solid.layer_solid`, 4 mm on a 20 mm square, no contact) under a
+    (`fecheck.fe.bodies.solid.layer_solid`, 4 mm on a 20 mm square, no contact) under a
     non-uniform normal pressure: linear small strain makes it round-off."""
     import scipy.sparse.linalg as sla
 
-    from fecheck.fe.solid import layer_solid
+    from fecheck.fe.bodies.solid import layer_solid
     from geometry.mesh import TriMesh
 
     xs = np.linspace(-10.0, 10.0, 11)
@@ -271,7 +271,7 @@ def axisym_hertz(size_mm: float, quantity: str) -> Sample:
 
 @lru_cache(maxsize=4)
 def _hertz_block(size_mm: float):
-    from fecheck.fe.axisym import axisym_sphere_on_layer
+    from fecheck.fe.reference.axisym import axisym_sphere_on_layer
 
     return axisym_sphere_on_layer(20.0, R_MM, E_MPA, 0.3, 60.0, layer_radius_mm=80.0,
                                   size_mm=size_mm)
@@ -280,7 +280,7 @@ def _hertz_block(size_mm: float):
 def axisym_layer(size_mm: float, nu: float) -> Sample:
     """p_max of the axisymmetric FE of the baseline medial contact (323.71 N, R 25.5,
     6 mm layer, E 20) at Poisson's ratio `nu`: judged against its own refinement."""
-    from fecheck.fe.axisym import axisym_sphere_on_layer
+    from fecheck.fe.reference.axisym import axisym_sphere_on_layer
 
     res = axisym_sphere_on_layer(323.71, R_MM, E_MPA, nu, 6.0, size_mm=size_mm)
     return res.metrics.max_pressure_MPa, None
@@ -299,7 +299,7 @@ def thin_layer(h_over_a: float, quantity: str) -> Sample:
 @lru_cache(maxsize=4)
 def _thin_layer(h_over_a: float):
     """(FE result, EF closed form) of `thin_layer`."""
-    from fecheck.fe.axisym import axisym_sphere_on_layer
+    from fecheck.fe.reference.axisym import axisym_sphere_on_layer
 
     radius, a, nu = 100.0, 10.0, 0.3
     h = a * h_over_a
@@ -344,8 +344,8 @@ def patch_traction(n: int, nu: float, stress_MPa: float = 0.5) -> float:
 
 
 def p2_elasticity_cube(n: int, nu: float):
-    """fecheck's P2 assembly (`fecheck.fe.solid.p2_elasticity`) on the distorted cube."""
-    from fecheck.fe.solid import p2_elasticity
+    """fecheck's P2 assembly (`fecheck.fe.bodies.solid.p2_elasticity`) on the distorted cube."""
+    from fecheck.fe.bodies.solid import p2_elasticity
 
     return p2_elasticity(_cube(n, jitter=0.3), E_MPA, nu)
 
@@ -353,14 +353,14 @@ def p2_elasticity_cube(n: int, nu: float):
 @lru_cache(maxsize=4)
 def _baseline_axisym():
     """The fine axisymmetric reference of the baseline medial contact (0.05 mm)."""
-    from fecheck.fe.axisym import axisym_sphere_on_layer
+    from fecheck.fe.reference.axisym import axisym_sphere_on_layer
 
     return axisym_sphere_on_layer(323.71, R_MM, E_MPA, 0.3, 6.0, size_mm=0.05).metrics
 
 
 @lru_cache(maxsize=4)
 def _baseline_3d(size_mm: float):
-    from fecheck.fe.sphere_layer import sphere_on_flat_layer
+    from fecheck.fe.reference.sphere_layer import sphere_on_flat_layer
 
     return sphere_on_flat_layer(323.71, R_MM, E_MPA, 0.3, 6.0, refine_size_mm=size_mm,
                                 size_mm=max(2.0, size_mm), layers=3, grading=1.6).metrics
@@ -369,27 +369,27 @@ def _baseline_3d(size_mm: float):
 @lru_cache(maxsize=2)
 def _ring_axisym():
     """The axisymmetric ring-meniscus reference at 0.1 mm."""
-    from fecheck.fe.ring_meniscus import RingCase, axisym_ring
+    from fecheck.fe.reference.ring_meniscus import RingCase, axisym_ring
 
     return axisym_ring(RingCase(), 0.1)
 
 
 @lru_cache(maxsize=4)
 def _ring_3d(size_mm: float):
-    from fecheck.fe.ring_meniscus import RingCase, solid_ring
+    from fecheck.fe.reference.ring_meniscus import RingCase, solid_ring
 
     return solid_ring(RingCase(), size_mm)
 
 
 def ring_meniscus(size_mm: float, quantity: str) -> Sample:
-    """The ring meniscus (`fecheck.fe.ring_meniscus`: 300 N, R 25, ring 6-12 mm, hoop
+    """The ring meniscus (`fecheck.fe.reference.ring_meniscus`: 300 N, R 25, ring 6-12 mm, hoop
     fibres) by the 3-D quarter model at element `size_mm` against the axisymmetric FE at
     0.1 mm: `quantity` "share", "p_max_MPa" or "area_mm2" of the layer."""
     return getattr(_ring_3d(size_mm), quantity), getattr(_ring_axisym(), quantity)
 
 
 def fe3d_layer(size_mm: float, quantity: str) -> Sample:
-    """The general 3-D FE contact path (`fecheck.fe.sphere_layer`: extruded P2 layer, 3
+    """The general 3-D FE contact path (`fecheck.fe.reference.sphere_layer`: extruded P2 layer, 3
     levels through 6 mm, exact frictionless contact) of the baseline medial contact
     (323.71 N, R 25.5, E 20, ν 0.3) against the axisymmetric FE at 0.05 mm: the
     indentation depth or the contact area, element `size_mm` under the contact."""
@@ -403,10 +403,10 @@ def _pressed_layer(surface, up: np.ndarray, load_N: float, settings) -> np.ndarr
     """(p_max MPa, summed contact force N, approach mm, contact vertices) of the general
     FE path: `surface` extruded 6 mm (E 20, ν 0.3), pressed along -`up` by a rigid
     sphere (R 25.5) touching it at the origin."""
-    from fecheck.fe.bodies import FEBody
-    from fecheck.fe.indenter import SphereIndenter
-    from fecheck.fe.press import build_layers, push_drive, solve_pressed
-    from fecheck.fe.sphere_layer import candidate_margin
+    from fecheck.fe.bodies.indenter import SphereIndenter
+    from fecheck.fe.bodies.scene_bodies import FEBody
+    from fecheck.fe.reference.sphere_layer import candidate_margin
+    from fecheck.fe.solve.press import build_layers, push_drive, solve_pressed
 
     indenter = SphereIndenter(R_MM * up, R_MM)
     body = FEBody("layer", surface, np.full(surface.n_points, 6.0), indenter, "plane",
@@ -425,7 +425,7 @@ def fe3d_invariance(tilt_deg: float, spin_deg: float, load_N: float = 100.0) -> 
     number of contact vertices of the 3-D FE path when the whole problem (the layer's
     surface, the sphere, the load) is tilted by `tilt_deg` about x and turned by
     `spin_deg` about z: the same mesh, turned, so only round-off may differ."""
-    from fecheck.fe.sphere_layer import flat_layer
+    from fecheck.fe.reference.sphere_layer import flat_layer
     from fecheck.statics.frames import rotation
     from geometry.mesh import TriMesh
 
@@ -447,13 +447,13 @@ cases; the layer's thickness is a·(h/a)."""
 
 
 def thin_punch(h_over_a: float, nu: float, column: bool) -> Sample:
-    """Stiffness P/δ (N/mm) of the axisymmetric FE (`fecheck.fe.axisym.axisym_flat_punch`,
+    """Stiffness P/δ (N/mm) of the axisymmetric FE (`fecheck.fe.reference.axisym.axisym_flat_punch`,
     element h/8, formulation per ν) of a rigid flat punch (a 10 mm) on a bonded layer of
     thickness a·`h_over_a`, against the column law Mπa²/h (`column`: the leading term
     for a compressible layer, βa ≫ 1) or the thin-layer asymptote
     (`fecheck.reference.thin_layer.flat_punch_stiffness`: the leading term when βa is
     of order 1, ν near 1/2)."""
-    from fecheck.fe.axisym import axisym_flat_punch
+    from fecheck.fe.reference.axisym import axisym_flat_punch
     from fecheck.reference.thin_layer import flat_punch_stiffness
 
     h = THIN_A_MM * h_over_a
@@ -482,7 +482,7 @@ def thin_sphere(h_over_a: float, nu: float, quantity: str) -> Sample:
 @lru_cache(maxsize=8)
 def _thin_sphere(h_over_a: float, nu: float):
     """(FE result, thin-layer answer) of `thin_sphere`."""
-    from fecheck.fe.axisym import axisym_sphere_on_layer
+    from fecheck.fe.reference.axisym import axisym_sphere_on_layer
     from fecheck.reference.thin_layer import sphere_at_radius
 
     h = THIN_A_MM * h_over_a

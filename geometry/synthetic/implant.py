@@ -1,5 +1,5 @@
 """A total knee replacement and a test cylinder built from formulas, for the FE of closed
-tibial solids (`fecheck.fe.volume`): `validation/fe_implant.py` and the tests use them;
+tibial solids (`fecheck.fe.bodies.volume`): `validation/fe_implant.py` and the tests use them;
 ``python validation/implant_pair.py`` writes them with their scene.
 
 Units mm, N, MPa; frame x right, y anterior, z superior; a RIGHT knee (medial at -x).

@@ -133,7 +133,7 @@ def test_layer_stiffness_is_the_formula_of_the_thickness_help(capsys):
 
 
 def test_poisson_limit_and_the_nearly_incompressible_level_count(capsys):
-    from fecheck.fe.settings import NEARLY_INCOMPRESSIBLE
+    from fecheck.fe.bodies.settings import NEARLY_INCOMPRESSIBLE
 
     key = SCHEMA["contact.poisson"]
     (limit,) = _numbers(r"below " + NUMBER, key.doc)

@@ -134,7 +134,7 @@ def test_a_tibia_solid_without_a_sheet_meshes_its_up_facing_part(tmp_path):
     """The README's configuration: geometry.tibia_solid and no geometry.tibia. The FE's
     bodies are the solid's, and its articular faces are those the sheet of the same
     implant names (the sheet is the solid's top: `geometry.synthetic.implant`)."""
-    from fecheck.fe.bodies import scene_bodies
+    from fecheck.fe.bodies.scene_bodies import scene_bodies
     from fecheck.scene import load_scene
     from geometry.synthetic.implant import write_implant
 
@@ -295,13 +295,13 @@ def test_knee_import_counts_the_faces_of_a_format_without_a_header_count_once_re
 
 def test_fe_auto_prepares_sheets_too_large_as_read_before_the_ef(monkeypatch, capsys):
     """The full-size scanned sheets make 97k + 100k layer dofs as read and 48k + 46k
-    prepared at fe.size_mm 1 mm (exact counts, `fecheck.fe.budget`). Under a cap between
+    prepared at fe.size_mm 1 mm (exact counts, `fecheck.fe.bodies.budget`). Under a cap between
     the two totals, 'auto' prepares both (decided from the counts, so the EF run is not
     wasted on a refusal after it) and the estimate fits; 'off' is refused before the EF."""
-    import fecheck.fe.budget as budget
-    import fecheck.fe.crosscheck
-    from fecheck.fe.bodies import scene_bodies
-    from fecheck.fe.settings import FESettings
+    import fecheck.fe.bodies.budget as budget
+    import fecheck.fe.knee.crosscheck
+    from fecheck.fe.bodies.scene_bodies import scene_bodies
+    from fecheck.fe.bodies.settings import FESettings
     from fecheck.scene import load_scene
 
     def no_work(*args, **kwargs):
@@ -317,7 +317,7 @@ def test_fe_auto_prepares_sheets_too_large_as_read_before_the_ef(monkeypatch, ca
     assert sum(raw) > 150_000 > sum(ready)
     assert budget.prepared_for_size(bodies, settings, levels) == [True, True]
     assert budget.fe_estimate(bodies, settings.refine, levels, settings).count == sum(ready)
-    monkeypatch.setattr(fecheck.fe.crosscheck, "_ef_run", no_work)
+    monkeypatch.setattr(fecheck.fe.knee.crosscheck, "_ef_run", no_work)
     assert main(["fe", "scanned-knee", "--set", "fe.prepare='off'", "--no-estimate"]) == 2
     assert "FE dofs" in _error(capsys)
 

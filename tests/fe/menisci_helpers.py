@@ -1,4 +1,4 @@
-"""Checks shared by the tests of the FE with menisci (`fecheck.fe.knee_menisci`)."""
+"""Checks shared by the tests of the FE with menisci (`fecheck.fe.knee.knee_menisci`)."""
 
 from __future__ import annotations
 

@@ -10,7 +10,7 @@ import math
 import numpy as np
 import pytest
 
-from fecheck.fe.crosscheck import ef_metrics
+from fecheck.fe.knee.crosscheck import ef_metrics
 from fecheck.model.run import run_scene
 from fecheck.scene import load_scene
 from fecheck.statics.newton import pose

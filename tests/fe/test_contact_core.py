@@ -11,6 +11,7 @@ from scipy.linalg import cholesky, solve_triangular
 from scipy.optimize import nnls
 from scipy.spatial.transform import Rotation
 
+from fecheck.fe.bodies.pose import FramePose
 from fecheck.fe.contact.active_set import active_set, settled
 from fecheck.fe.contact.candidates import Outcome, Round, widened
 from fecheck.fe.contact.gap import (
@@ -19,7 +20,6 @@ from fecheck.fe.contact.gap import (
     surface_entries,
     surface_give,
 )
-from fecheck.fe.pose import FramePose
 
 
 def _compliance(m: int, seed: int) -> np.ndarray:

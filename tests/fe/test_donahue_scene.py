@@ -11,9 +11,9 @@ from types import SimpleNamespace
 import pytest
 
 from fecheck.cli import main
-from fecheck.fe import knee_menisci, knee_menisci_report
-from fecheck.fe.anisotropy import MENISCUS
-from fecheck.fe.knee_menisci_report import choice_lines, choice_rows, published_lines
+from fecheck.fe.knee import knee_menisci, knee_menisci_report
+from fecheck.fe.knee.knee_menisci_report import choice_lines, choice_rows, published_lines
+from fecheck.fe.material.anisotropy import MENISCUS
 from fecheck.reference.published_fe import DONAHUE_2002_CHOICES
 from fecheck.scene import load_scene
 

@@ -1,9 +1,9 @@
-"""Transversely isotropic elasticity (`fecheck.fe.anisotropy`) against closed forms.
+"""Transversely isotropic elasticity (`fecheck.fe.material.anisotropy`) against closed forms.
 
 References: homogeneous uniaxial stress (strain = S σ, exact for P2) on a rotated block,
 the off-axis modulus 1/E(φ) = cos⁴φ/E_t + sin⁴φ/E_p + (1/G_t − 2ν_tp/E_t) sin²φ cos²φ,
-the isotropic assemblies of `fecheck.fe.solid` and `fecheck.fe.axisym`, and Lekhnitskii's
-cylindrically orthotropic thick-walled ring under internal pressure in plane strain
+the isotropic assemblies of `fecheck.fe.bodies.solid` and `fecheck.fe.reference.axisym`, and
+Lekhnitskii's cylindrically orthotropic thick-walled ring under internal pressure in plane strain
 (Lekhnitskii, Theory of Elasticity of an Anisotropic Body, 1963/1981, §30):
 u = A r^k + B r^-k, k = sqrt(C_θθ / C_rr).
 """
@@ -16,7 +16,7 @@ import scipy.sparse as sp
 import scipy.sparse.linalg as sla
 
 from fecheck.errors import FecheckError
-from fecheck.fe.anisotropy import (
+from fecheck.fe.material.anisotropy import (
     MENISCUS,
     TransIso,
     axisym_hoop_stiffness,
@@ -98,8 +98,8 @@ def test_off_axis_modulus_involves_the_fibre_shear_modulus():
 def test_isotropic_limit_equals_the_isotropic_assemblies():
     from skfem import Basis, ElementTriP2, ElementVector, MeshTet, MeshTri
 
-    from fecheck.fe.axisym import axisym_stiffness
-    from fecheck.fe.solid import p2_elasticity
+    from fecheck.fe.bodies.solid import p2_elasticity
+    from fecheck.fe.reference.axisym import axisym_stiffness
     from geometry.mesh import TetMesh
 
     E, nu = 12.0, 0.35

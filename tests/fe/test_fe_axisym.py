@@ -1,11 +1,12 @@
-"""Axisymmetric FE reference (fecheck.fe.axisym): Hertz, convergence, equilibrium, ν → 0.5."""
+"""Axisymmetric FE reference (fecheck.fe.reference.axisym): Hertz, convergence, equilibrium, ν →
+0.5."""
 
 from __future__ import annotations
 
 import numpy as np
 import pytest
 
-from fecheck.fe.axisym import axisym_sphere_on_layer
+from fecheck.fe.reference.axisym import axisym_sphere_on_layer
 from fecheck.reference.closed_forms import hertz_sphere_on_plane
 
 

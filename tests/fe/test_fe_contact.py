@@ -81,8 +81,8 @@ def test_hertz_closed_form_is_self_consistent():
 def test_condensed_compliance_equals_the_solves_it_replaces():
     # a P2 layer's compliance along tilted unit directions at scattered surface nodes,
     # against K⁻¹ column by column; and its solver solves K
+    from fecheck.fe.bodies.solid import layer_solid
     from fecheck.fe.contact.compliance import condensed_compliance
-    from fecheck.fe.solid import layer_solid
     from geometry.plateau import plane_patch
 
     sheet = plane_patch((0.0, 0.0, 0.0), (0.0, 0.0, 1.0), radius=8.0, size=2.0, cache=False)

@@ -17,7 +17,7 @@ import pytest
 from conftest import require_knee_data
 
 from fecheck.errors import FecheckError
-from fecheck.fe.crosscheck import cross_check
+from fecheck.fe.knee.crosscheck import cross_check
 from fecheck.model.assembly import applied_load, free_indices
 from fecheck.scene import load_scene
 from fecheck.scene.knee import plane_normal
@@ -163,7 +163,7 @@ def test_scenes_the_fe_cannot_model_faithfully_are_refused(scene, overrides, mes
 
 
 def test_automatic_levels_thicken_for_a_nearly_incompressible_layer():
-    from fecheck.fe.settings import FESettings
+    from fecheck.fe.bodies.settings import FESettings
 
     assert FESettings().levels(0.3) == 2 and FESettings().levels(0.49) == 3
     assert FESettings(layers=4).levels(0.49) == 4

@@ -13,11 +13,11 @@ import numpy as np
 import pytest
 from conftest import require_knee_data
 
-import fecheck.fe.crosscheck
+import fecheck.fe.knee.crosscheck
 from fecheck.cli import main
 from fecheck.errors import FecheckError
-from fecheck.fe.bodies import scene_bodies
-from fecheck.fe.crosscheck import cross_check
+from fecheck.fe.bodies.scene_bodies import scene_bodies
+from fecheck.fe.knee.crosscheck import cross_check
 from fecheck.scene import load_scene
 from fecheck.studies import estimate as est_mod
 from fecheck.studies.estimate import QUANTITIES, Level, band, estimate
@@ -101,7 +101,7 @@ def test_fe_json_carries_the_bands_and_no_estimate_skips_the_solve(baseline, mon
                                                                    tmp_path, capsys, flags,
                                                                    solves):
     _, check, _ = baseline
-    monkeypatch.setattr(fecheck.fe.crosscheck, "cross_check", lambda *a, **k: check)
+    monkeypatch.setattr(fecheck.fe.knee.crosscheck, "cross_check", lambda *a, **k: check)
     calls = []
     real = est_mod.solve_level
 
@@ -131,7 +131,7 @@ def test_fe_json_carries_the_bands_and_no_estimate_skips_the_solve(baseline, mon
 def test_a_failed_coarse_level_warns_and_keeps_the_answer(baseline, monkeypatch, tmp_path,
                                                           capsys):
     _, check, _ = baseline
-    monkeypatch.setattr(fecheck.fe.crosscheck, "cross_check", lambda *a, **k: check)
+    monkeypatch.setattr(fecheck.fe.knee.crosscheck, "cross_check", lambda *a, **k: check)
 
     def fails(*args, **kwargs):
         raise FecheckError("the coarse sheet does not extrude")

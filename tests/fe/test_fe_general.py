@@ -1,6 +1,6 @@
 """FE on the scene's own geometry: the extruded layer, rigid indenters, the joint contact.
 
-References: the axisymmetric FE at 0.05 mm (converged; `fecheck.fe.axisym`), exact
+References: the axisymmetric FE at 0.05 mm (converged; `fecheck.fe.reference.axisym`), exact
 volumes, rigid-body invariance and the hand statics of a load-controlled contact.
 """
 
@@ -9,12 +9,12 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from fecheck.fe.axisym import axisym_sphere_on_layer
-from fecheck.fe.indenter import MeshIndenter, SphereIndenter
-from fecheck.fe.joint import ContactLayer, JointContact
-from fecheck.fe.pose import FramePose
-from fecheck.fe.recovery import zero_contour_area
-from fecheck.fe.solid import layer_solid
+from fecheck.fe.bodies.indenter import MeshIndenter, SphereIndenter
+from fecheck.fe.bodies.pose import FramePose
+from fecheck.fe.bodies.solid import layer_solid
+from fecheck.fe.pressure.recovery import zero_contour_area
+from fecheck.fe.reference.axisym import axisym_sphere_on_layer
+from fecheck.fe.solve.joint import ContactLayer, JointContact
 from fecheck.statics.frames import rotation
 from geometry.extrude import extrude_layer
 from geometry.icosphere import icosphere
@@ -153,7 +153,7 @@ def test_vectorised_p2_assembly_equals_scikit_fem_forms():
     from skfem import asm
     from skfem.models.elasticity import lame_parameters, linear_elasticity
 
-    from fecheck.fe.solid import p2_elasticity
+    from fecheck.fe.bodies.solid import p2_elasticity
 
     layer = extrude_layer(_patch(2.0), H, layers=2, ratio=1.6)
     _, basis, K = p2_elasticity(layer, E, 0.45, chunk=500)          # several chunks

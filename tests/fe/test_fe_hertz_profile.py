@@ -19,7 +19,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from fecheck.fe.axisym import axisym_sphere_on_layer
+from fecheck.fe.reference.axisym import axisym_sphere_on_layer
 
 LOAD, RADIUS, E, NU, THICK, DISC = 20.0, 25.5, 20.0, 0.3, 60.0, 80.0
 E_STAR = E / (1 - NU * NU)

@@ -16,12 +16,12 @@ import pytest
 from test_maps import lut_index
 
 from fecheck.cli import main
-from fecheck.fe.bodies import FEBody
-from fecheck.fe.crosscheck import CompartmentCheck, CrossCheck
-from fecheck.fe.indenter import SphereIndenter
-from fecheck.fe.press import FELayer
-from fecheck.fe.results import SideMetrics
-from fecheck.fe.settings import FESettings
+from fecheck.fe.bodies.indenter import SphereIndenter
+from fecheck.fe.bodies.scene_bodies import FEBody
+from fecheck.fe.bodies.settings import FESettings
+from fecheck.fe.knee.crosscheck import CompartmentCheck, CrossCheck
+from fecheck.fe.pressure.results import SideMetrics
+from fecheck.fe.solve.press import FELayer
 from fecheck.model.results import Pose
 from geometry.mesh import TriMesh
 
@@ -272,7 +272,7 @@ def synthetic_fe(monkeypatch):
     """`fecheck fe` answers with the synthetic check (lateral: no centre of pressure,
     mean pressure undefined) without solving."""
     check = synthetic_check(resolved=False)
-    monkeypatch.setattr("fecheck.fe.crosscheck.cross_check", lambda scene, **kw: check)
+    monkeypatch.setattr("fecheck.fe.knee.crosscheck.cross_check", lambda scene, **kw: check)
     return check
 
 

@@ -1,5 +1,5 @@
 """The mixed (P2 displacement / element-constant pressure, condensed) elasticity of
-`fecheck.fe.elasticity` in the 3D layer and the axisymmetric reference.
+`fecheck.fe.material.elasticity` in the 3D layer and the axisymmetric reference.
 
 References: exact integrals of affine fields (the patch test), Hertz on a thick block,
 and the converged axisymmetric solve of `validation/fe_incompressible.py` (constants
@@ -11,9 +11,9 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from fecheck.fe.axisym import axisym_divergence, axisym_sphere_on_layer, axisym_stiffness
-from fecheck.fe.elasticity import dilatation_matrix, resolve
-from fecheck.fe.solid import p2_elasticity
+from fecheck.fe.bodies.solid import p2_elasticity
+from fecheck.fe.material.elasticity import dilatation_matrix, resolve
+from fecheck.fe.reference.axisym import axisym_divergence, axisym_sphere_on_layer, axisym_stiffness
 from fecheck.reference.closed_forms import hertz_sphere_on_plane
 from geometry.extrude import extrude_layer
 from geometry.mesh import TriMesh
@@ -60,7 +60,7 @@ def test_mixed_element_condensation_equals_the_sparse_mean_dilatation_form():
     # p2_elasticity adds (λ/|T|) d dᵀ inside each element matrix; it must equal the μ part
     # (the displacement form at ν 0 with E/(1+ν): the same μ, λ 0) plus Dᵀ diag(λ/|T|) D
     # of scikit-fem's own basis (`dilatation_matrix`, the quadrature over div φ)
-    from fecheck.fe.elasticity import lame, mean_dilatation_stiffness
+    from fecheck.fe.material.elasticity import lame, mean_dilatation_stiffness
 
     nu = 0.49
     layer = extrude_layer(_sheet(), 2.0, layers=2, ratio=1.5)
@@ -165,7 +165,7 @@ def test_flat_layer_at_nu_049_is_accurate_with_two_levels():
     # through 6 mm: measured p_max +1.1 %, area +1.3 % against the reference; the
     # displacement form there: p_max +8.0 %, area -2.0 % (the level over-stiffens and
     # the vertex pressures zigzag). Allow 2 %.
-    from fecheck.fe.sphere_layer import sphere_on_flat_layer
+    from fecheck.fe.reference.sphere_layer import sphere_on_flat_layer
 
     m = sphere_on_flat_layer(*MEDIAL, E, 0.49, H, refine_size_mm=1.0, layers=2).metrics
     p_ref, a_ref = REFERENCE[0.49]
@@ -175,7 +175,7 @@ def test_flat_layer_at_nu_049_is_accurate_with_two_levels():
 
 def test_settings_check_the_formulation():
     from fecheck.errors import FecheckError
-    from fecheck.fe.settings import FESettings
+    from fecheck.fe.bodies.settings import FESettings
 
     assert FESettings().formulation_for(0.49) == "mixed"
     assert FESettings(formulation="displacement").formulation_for(0.49) == "displacement"
@@ -188,13 +188,13 @@ def test_nearly_incompressible_baseline_is_refused_with_the_reason_before_any_wo
     # At ν 0.4999 the EF's contact (radius ~1.2 mm at half the load: column stiffness
     # ∝ 1/(1 - 2ν)) refines the baseline plateaus to 0.1 mm: ~6e5 FE dofs. The refusal
     # comes before the EF run and names the cause and the remedy.
-    import fecheck.fe.crosscheck
+    import fecheck.fe.knee.crosscheck
     from fecheck.cli import main
 
     def no_work(*args, **kwargs):
         raise AssertionError("the EF run started")
 
-    monkeypatch.setattr(fecheck.fe.crosscheck, "_ef_run", no_work)
+    monkeypatch.setattr(fecheck.fe.knee.crosscheck, "_ef_run", no_work)
     code = main(["fe", "--set", "contact.poisson=0.4999"])
     err = capsys.readouterr().err.strip().splitlines()[-1]
     assert code == 2

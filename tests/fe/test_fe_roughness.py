@@ -1,5 +1,5 @@
-"""The FE peak at three scales and its flags (`fecheck.fe.recovery.pressure_peaks`,
-`fecheck.fe.crosscheck.assess_peaks`): a rigid sphere (R 25.5 mm, 100 N) on a 3 mm layer
+"""The FE peak at three scales and its flags (`fecheck.fe.pressure.recovery.pressure_peaks`,
+`fecheck.fe.knee.crosscheck.assess_peaks`): a rigid sphere (R 25.5 mm, 100 N) on a 3 mm layer
 (E 20 MPa, ν 0.3) over a 12 mm square sheet of 0.5 mm triangles, smooth, with a sliver,
 and terraced.
 
@@ -13,14 +13,14 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from fecheck.fe.bodies import FEBody
-from fecheck.fe.crosscheck import ROUGH_FEATURE_SHARE, assess_peaks
-from fecheck.fe.indenter import SphereIndenter
-from fecheck.fe.joint import ContactLayer, JointContact
-from fecheck.fe.pose import FramePose
-from fecheck.fe.press import FELayer
-from fecheck.fe.recovery import SPIKE_RATIO, pressure_peaks, smoothing_length
-from fecheck.fe.solid import layer_solid
+from fecheck.fe.bodies.indenter import SphereIndenter
+from fecheck.fe.bodies.pose import FramePose
+from fecheck.fe.bodies.scene_bodies import FEBody
+from fecheck.fe.bodies.solid import layer_solid
+from fecheck.fe.knee.crosscheck import ROUGH_FEATURE_SHARE, assess_peaks
+from fecheck.fe.pressure.recovery import SPIKE_RATIO, pressure_peaks, smoothing_length
+from fecheck.fe.solve.joint import ContactLayer, JointContact
+from fecheck.fe.solve.press import FELayer
 from geometry.mesh import TriMesh
 
 R, F, E, NU, H = 25.5, 100.0, 20.0, 0.3, 3.0
@@ -175,7 +175,7 @@ def spiked(monkeypatch):
 
     from test_fe_maps import synthetic_check
 
-    from fecheck.fe.results import PressurePeaks
+    from fecheck.fe.pressure.results import PressurePeaks
     from geometry.roughness import roughness
 
     check = synthetic_check()
@@ -192,7 +192,7 @@ def spiked(monkeypatch):
     lateral = check.compartments["lateral"]
     check.compartments["lateral"] = dataclasses.replace(
         lateral, peaks=dataclasses.replace(peak, spike=""), femoral_roughness=femur)
-    monkeypatch.setattr("fecheck.fe.crosscheck.cross_check", lambda scene, **kw: check)
+    monkeypatch.setattr("fecheck.fe.knee.crosscheck.cross_check", lambda scene, **kw: check)
     return check
 
 

@@ -13,11 +13,11 @@ import pytest
 
 from fecheck.cli import main as cli
 from fecheck.errors import FecheckError
-from fecheck.fe.bodies import FEBody
-from fecheck.fe.crosscheck import cross_check
-from fecheck.fe.indenter import MeshIndenter
-from fecheck.fe.press import build_layers, prepared_body
-from fecheck.fe.settings import FESettings
+from fecheck.fe.bodies.indenter import MeshIndenter
+from fecheck.fe.bodies.scene_bodies import FEBody
+from fecheck.fe.bodies.settings import FESettings
+from fecheck.fe.knee.crosscheck import cross_check
+from fecheck.fe.solve.press import build_layers, prepared_body
 from fecheck.scene import load_scene
 from geometry.mesh import TriMesh
 from geometry.synthetic.knee import (

@@ -1,5 +1,5 @@
 """The sphere on a flat bonded layer through the general FE path
-(`fecheck.fe.sphere_layer`: the reference problem of the bench, the stress matrix and
+(`fecheck.fe.reference.sphere_layer`: the reference problem of the bench, the stress matrix and
 validation/fe_convergence.py) against the converged axisymmetric FE."""
 
 from __future__ import annotations
@@ -7,8 +7,8 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from fecheck.fe.axisym import axisym_sphere_on_layer
-from fecheck.fe.sphere_layer import sphere_on_flat_layer
+from fecheck.fe.reference.axisym import axisym_sphere_on_layer
+from fecheck.fe.reference.sphere_layer import sphere_on_flat_layer
 
 MEDIAL = (323.71, 25.5)      # the thesis's rigid-model medial load (N) and condyle radius (mm)
 E, H = 20.0, 6.0             # MPa, mm

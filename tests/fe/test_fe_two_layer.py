@@ -16,13 +16,13 @@ import pytest
 from conftest import require_knee_data
 
 from fecheck.errors import FecheckError
-from fecheck.fe import crosscheck
-from fecheck.fe.crosscheck import cross_check
-from fecheck.fe.indenter import MeshIndenter
-from fecheck.fe.joint import ContactLayer, FemoralLayer, JointContact
-from fecheck.fe.pose import FramePose
-from fecheck.fe.recovery import zero_contour_area
-from fecheck.fe.solid import layer_solid
+from fecheck.fe.bodies.indenter import MeshIndenter
+from fecheck.fe.bodies.pose import FramePose
+from fecheck.fe.bodies.solid import layer_solid
+from fecheck.fe.knee import crosscheck
+from fecheck.fe.knee.crosscheck import cross_check
+from fecheck.fe.pressure.recovery import zero_contour_area
+from fecheck.fe.solve.joint import ContactLayer, FemoralLayer, JointContact
 from fecheck.model.assembly import applied_load, free_indices
 from fecheck.reference.closed_forms import (
     hertz_contact_radius,
@@ -216,7 +216,7 @@ def _pleated_sheet(pleat_x_mm: float):
     """A flat 24 x 24 mm femoral sheet (1 mm grid, 2 mm thick) with a pleat along y at
     x = `pleat_x_mm`: that row of vertices pushed 1.6 mm back under its neighbour, so the
     faces beside it invert when extruded."""
-    from fecheck.fe.femoral import FemoralSheet
+    from fecheck.fe.knee.femoral import FemoralSheet
 
     n = 25
     x, y = np.meshgrid(np.linspace(-12.0, 12.0, n), np.linspace(-12.0, 12.0, n))
@@ -234,8 +234,8 @@ def test_a_fold_of_the_femoral_sheet_away_from_the_contact_is_left_out():
     # from the contact for a pleat at x = 7 mm: the layer ends at 5.1 mm, the pleat out),
     # and refuses, naming the place, when that face lies nearer the contact than
     # MIN_CROP_MM + 0.5 mm (3.6 mm for a pleat at x = 5 mm).
-    from fecheck.fe.femoral import MIN_CROP_MM, TRIM_MM, femoral_layer
-    from fecheck.fe.settings import FESettings
+    from fecheck.fe.bodies.settings import FESettings
+    from fecheck.fe.knee.femoral import MIN_CROP_MM, TRIM_MM, femoral_layer
 
     settings = FESettings.from_scene(load_scene(SCENES / "femur_tibia.toml"))
     said = []

@@ -1,4 +1,4 @@
-"""The FE of a closed tibial solid (`fecheck.fe.volume`, ``geometry.tibia_solid``).
+"""The FE of a closed tibial solid (`fecheck.fe.bodies.volume`, ``geometry.tibia_solid``).
 
 References: Hertz (a rigid sphere on an elastic half-space) for a sphere pressed into a
 thick cylinder, base fixed, walls free (contact radius / thickness 0.17: the
@@ -17,12 +17,12 @@ import numpy as np
 import pytest
 
 from fecheck.cli import main
-from fecheck.fe import volume
-from fecheck.fe.indenter import SphereIndenter
-from fecheck.fe.joint import ContactLayer, JointContact
-from fecheck.fe.pose import FramePose
-from fecheck.fe.recovery import zero_contour_area
-from fecheck.fe.volume import TibiaSolid, solid_layers
+from fecheck.fe.bodies import volume
+from fecheck.fe.bodies.indenter import SphereIndenter
+from fecheck.fe.bodies.pose import FramePose
+from fecheck.fe.bodies.volume import TibiaSolid, solid_layers
+from fecheck.fe.pressure.recovery import zero_contour_area
+from fecheck.fe.solve.joint import ContactLayer, JointContact
 from fecheck.reference.closed_forms import hertz_sphere_on_plane
 from fecheck.scene import load_scene, surfaces
 from fecheck.scene.tibia_solid import up_facing

@@ -1,6 +1,6 @@
-"""The FE of the knee with menisci (`fecheck.fe.knee_menisci`) on coarse meshes: balance and
+"""The FE of the knee with menisci (`fecheck.fe.knee.knee_menisci`) on coarse meshes: balance and
 penetration summed here from the pairs' forces and gaps, the knee without menisci against
-the layers pressed by `fecheck.fe.press` (the joint contact solver, another code path), the
+the layers pressed by `fecheck.fe.solve.press` (the joint contact solver, another code path), the
 horn springs' stiffness against the ligaments file, and the refusals before any work."""
 
 from __future__ import annotations
@@ -12,8 +12,8 @@ import pytest
 from menisci_helpers import assert_balanced
 
 from fecheck.errors import FecheckError
-from fecheck.fe import knee_menisci
-from fecheck.fe.meniscus_solid import DONAHUE_HORN_N_PER_MM, meniscus_solid
+from fecheck.fe.bodies.meniscus_solid import DONAHUE_HORN_N_PER_MM, meniscus_solid
+from fecheck.fe.knee import knee_menisci
 from fecheck.scene import load_scene, with_values
 from fecheck.scene.packaged import data_dir
 
@@ -26,9 +26,9 @@ MENISCUS_MM = 2.5
 @pytest.fixture(scope="module")
 def coarse():
     """(scene, EF run, tibial layers) of the packaged knee with menisci, coarse."""
-    from fecheck.fe.bodies import scene_bodies
-    from fecheck.fe.press import build_layers
-    from fecheck.fe.settings import FESettings
+    from fecheck.fe.bodies.scene_bodies import scene_bodies
+    from fecheck.fe.bodies.settings import FESettings
+    from fecheck.fe.solve.press import build_layers
     from fecheck.model.menisci import run_menisci
 
     scene = load_scene("femur_tibia_menisci", COARSE)
@@ -99,11 +99,11 @@ def test_compartment_loads_are_the_pairs_forces(intact):
 def test_without_menisci_it_is_the_pressed_layers(coarse):
     # With both menisci removed (menisci.sides = []) and the femur's rotation held, the FE
     # is the tibial layers pressed by the rigid femur along the tibial z axis under the
-    # same load: `fecheck.fe.press`'s joint solver (re-linearised in the pose, its own
+    # same load: `fecheck.fe.solve.press`'s joint solver (re-linearised in the pose, its own
     # condensation) on the same layers gives the same force at every vertex.
-    from fecheck.fe.pose import FramePose
-    from fecheck.fe.press import push_drive, solve_pressed
-    from fecheck.fe.settings import FESettings
+    from fecheck.fe.bodies.pose import FramePose
+    from fecheck.fe.bodies.settings import FESettings
+    from fecheck.fe.solve.press import push_drive, solve_pressed
     from fecheck.model.menisci import run_menisci
     from fecheck.statics.newton import body_pose
 
@@ -126,14 +126,14 @@ def test_without_menisci_it_is_the_pressed_layers(coarse):
 
 
 def test_without_menisci_the_turning_femur_is_the_joint_solve(coarse):
-    # Free in abduction, the femur takes the pose `fecheck.fe.press`'s joint solver finds
+    # Free in abduction, the femur takes the pose `fecheck.fe.solve.press`'s joint solver finds
     # for the tibia free in z and abduction under the scene's load and weight (Newton on
     # the pose, the load re-evaluated there): the same force at every vertex to 1e-4 of
     # the peak (measured 3.4e-5: the joint solver moves the tibia's weight with its
     # 0.006 deg turn, about 0.4 N mm of the 8e3 N mm each condyle's force turns about;
     # the held femur is off by 4.8e-3) and the femur's turn is the tibia's, reversed.
-    from fecheck.fe.press import joint_drive, solve_pressed
-    from fecheck.fe.settings import FESettings
+    from fecheck.fe.bodies.settings import FESettings
+    from fecheck.fe.solve.press import joint_drive, solve_pressed
     from fecheck.model.menisci import run_menisci
     from fecheck.statics.newton import TIBIA_COORDINATES
 
@@ -204,7 +204,7 @@ def test_element_stress_of_uniaxial_fibre_stress_and_shear_is_the_closed_form():
     # σ = E_t ε0 d⊗d; the simple shear u = γ (d·x) e (e ⟂ d) is σ = G_t γ (d⊗e + e⊗d).
     from skfem import Basis, ElementTetP2, ElementVector, MeshTet
 
-    from fecheck.fe.anisotropy import MENISCUS as M
+    from fecheck.fe.material.anisotropy import MENISCUS as M
 
     mesh = MeshTet.init_tensor(*(np.linspace(0.0, 2.0, 4),) * 3)
     basis = Basis(mesh, ElementVector(ElementTetP2()), intorder=2)
@@ -325,7 +325,7 @@ def test_report_of_a_turned_torus_in_uniform_horizontal_strain(opening):
     from skfem import Basis, ElementTetP2, ElementVector, MeshTet
     from test_meniscus_solid import CENTRE, POLYGON_AREA, torus_solid
 
-    from fecheck.fe.anisotropy import MENISCUS as M
+    from fecheck.fe.material.anisotropy import MENISCUS as M
 
     solid = torus_solid(opening)
     a = np.radians(30.0)

@@ -1,4 +1,4 @@
-"""The femoral layer of the two-layer FE with menisci (`fecheck.fe.knee_menisci`) where the
+"""The femoral layer of the two-layer FE with menisci (`fecheck.fe.knee.knee_menisci`) where the
 femur's contact moves beyond the first candidates: a candidate whose normal meets the
 femoral sheet outside the layer grows the layer there (`_grown_femoral`), one whose normal
 meets no femoral cartilage is left out (`OFF_SHEET`). Coarse sheets, the EF's meniscus
@@ -12,7 +12,7 @@ import numpy as np
 import pytest
 from menisci_helpers import assert_balanced
 
-from fecheck.fe import knee_menisci
+from fecheck.fe.knee import knee_menisci
 from fecheck.scene import load_scene, with_values
 
 SETS = ["fe.cartilage=two-layer", "scanned.decimate_faces=1500", "menisci.youngs_MPa=1e6"]
@@ -24,9 +24,9 @@ LEFT_OUT = "left out of the femur pairs"
 @pytest.fixture(scope="module")
 def knee():
     """(scene, its EF run, its tibial layers): shared by the FE runs below."""
-    from fecheck.fe.bodies import scene_bodies
-    from fecheck.fe.press import build_layers
-    from fecheck.fe.settings import FESettings
+    from fecheck.fe.bodies.scene_bodies import scene_bodies
+    from fecheck.fe.bodies.settings import FESettings
+    from fecheck.fe.solve.press import build_layers
     from fecheck.model.menisci import run_menisci
 
     scene = load_scene("femur_tibia_menisci", SETS)
@@ -73,7 +73,7 @@ def test_a_grown_femoral_layer_answers_as_one_built_wide(knee, monkeypatch):
     # those within 3.5 mm at once, it never grows. Both balance, and each pair's nodal
     # contact forces agree to 1e-2 of its largest, its total to 2e-3: the two layers end
     # at other cut walls (6 mm beyond the points they were built over,
-    # `fecheck.fe.femoral.CROP_MM`), which moves the contact a little. Measured: grown
+    # `fecheck.fe.knee.femoral.CROP_MM`), which moves the contact a little. Measured: grown
     # against wide 5.7e-3 (nodal, medial femur-meniscus) and 6.4e-4 (total, medial
     # femur-tibia); two wide layers (3.5 and 5.5 mm) differ by 5.7e-3 and 1.5e-4.
     messages: list[str] = []

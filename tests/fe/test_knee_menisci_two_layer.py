@@ -1,6 +1,6 @@
 """The FE of the knee with menisci with both cartilage layers deformable
-(``fe.cartilage = "two-layer"``, `fecheck.fe.knee_menisci`): without menisci it is the
-joint solver of `fecheck.fe.press` pressing the same tibial layers onto its own femoral
+(``fe.cartilage = "two-layer"``, `fecheck.fe.knee.knee_menisci`): without menisci it is the
+joint solver of `fecheck.fe.solve.press` pressing the same tibial layers onto its own femoral
 layers (another code path: its own pairing and condensation); with them, femur, femoral
 layers and menisci balance and nothing penetrates. Coarse sheets (decimated: the
 two-layer FE meshes the sheets as read)."""
@@ -10,7 +10,7 @@ from __future__ import annotations
 import numpy as np
 from menisci_helpers import assert_balanced
 
-from fecheck.fe import knee_menisci
+from fecheck.fe.knee import knee_menisci
 from fecheck.scene import load_scene, with_values
 
 COARSE = ["fe.cartilage=two-layer", "scanned.decimate_faces=1500"]
@@ -18,9 +18,9 @@ MENISCUS_MM = 2.5
 
 
 def _layers(scene):
-    from fecheck.fe.bodies import scene_bodies
-    from fecheck.fe.press import build_layers
-    from fecheck.fe.settings import FESettings
+    from fecheck.fe.bodies.scene_bodies import scene_bodies
+    from fecheck.fe.bodies.settings import FESettings
+    from fecheck.fe.solve.press import build_layers
 
     plain = with_values(scene, menisci__dir="")
     return build_layers(scene_bodies(plain), scene["contact.youngs_MPa"],
@@ -29,15 +29,15 @@ def _layers(scene):
 
 def test_without_menisci_it_is_the_pressed_two_layer_joint():
     # With both menisci removed and the femur's rotation held, the femur presses the
-    # tibial layers through femoral layers of its own: `fecheck.fe.press`'s joint solver
+    # tibial layers through femoral layers of its own: `fecheck.fe.solve.press`'s joint solver
     # with its femoral layers (built over the same candidates, so the same crop: the
     # candidate gap plus the knee FE's REACH_MM) gives the same force at every tibial
     # vertex (measured to 3.6e-7 of the peak: both stop at their own tolerances on the
     # femur's step and the pairing).
-    from fecheck.fe.femoral import FemoralBuilder, femoral_sheet
-    from fecheck.fe.pose import FramePose
-    from fecheck.fe.press import push_drive, solve_pressed
-    from fecheck.fe.settings import FESettings
+    from fecheck.fe.bodies.pose import FramePose
+    from fecheck.fe.bodies.settings import FESettings
+    from fecheck.fe.knee.femoral import FemoralBuilder, femoral_sheet
+    from fecheck.fe.solve.press import push_drive, solve_pressed
     from fecheck.model.menisci import run_menisci
     from fecheck.statics.newton import body_pose
 

@@ -1,4 +1,4 @@
-"""The meniscus solids of the FE with menisci (fecheck.fe.meniscus_solid): tetrahedra of the
+"""The meniscus solids of the FE with menisci (fecheck.fe.bodies.meniscus_solid): tetrahedra of the
 packaged smith2019 menisci, their articular faces, horns and ligaments, and the fibre
 direction, arc coordinate and hoop force on a torus segment whose answers are closed
 forms."""
@@ -11,7 +11,7 @@ import math
 import numpy as np
 import pytest
 
-import fecheck.fe.meniscus_solid as ms
+import fecheck.fe.bodies.meniscus_solid as ms
 from fecheck.errors import FecheckError
 from fecheck.scene.packaged import data_dir
 from fecheck.scene.surfaces import read_surface

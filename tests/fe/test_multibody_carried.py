@@ -1,4 +1,4 @@
-"""A body carried by the indenter (`fecheck.fe.multibody.Body.carried`: a cartilage layer
+"""A body carried by the indenter (`fecheck.fe.solve.multibody.Body.carried`: a cartilage layer
 bonded to a rigid bone): it moves and turns with the indenter, its displacement is
 relative to it, and the contact forces on it load the indenter. Two springs on a bed under
 two springs hung from a platen: each contact sees the two in series."""
@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 import scipy.sparse as sp
 
-from fecheck.fe.multibody import Body, Condensed, Pair
+from fecheck.fe.solve.multibody import Body, Condensed, Pair
 
 K_BED = (1000.0, 3000.0)                # N/mm: bed springs at x = -L and x = +L
 K_PAD = (500.0, 1500.0)                 # N/mm: pad springs hung from the platen above them

@@ -1,4 +1,4 @@
-"""A rigid platen that turns as well as moves (`fecheck.fe.multibody.Condensed` turns):
+"""A rigid platen that turns as well as moves (`fecheck.fe.solve.multibody.Condensed` turns):
 an off-centre load on two unequal springs splits by its lever arms when the platen turns,
 by the springs' stiffness when it is held."""
 
@@ -9,7 +9,7 @@ import pytest
 import scipy.sparse as sp
 
 from fecheck.errors import FecheckError
-from fecheck.fe.multibody import Body, Condensed, Pair
+from fecheck.fe.solve.multibody import Body, Condensed, Pair
 
 K_MINUS, K_PLUS = 1000.0, 3000.0        # N/mm: springs at x = -L and x = +L
 L_MM, E_MM, F_N = 10.0, 2.0, 100.0      # half span, load offset along x, load

@@ -1,4 +1,4 @@
-"""The patella in the FE cross-check (`fecheck.fe.patella_layer`): each rigid body of the
+"""The patella in the FE cross-check (`fecheck.fe.knee.patella_layer`): each rigid body of the
 FE joint balances by hand statics, the FE patellofemoral force meets the EF's, the
 generalised solver with independent bodies gives each body's one-body answer, what the
 FE does not model with the patella is refused on one line, and the patella's femoral
@@ -17,15 +17,15 @@ from conftest import require_knee_data
 from scipy.spatial.transform import Rotation
 
 from fecheck.errors import FecheckError
-from fecheck.fe.bodies import scene_bodies
-from fecheck.fe.budget import MAX_DOFS, layer_dofs, prepared_for_size, sheet_dofs
-from fecheck.fe.crosscheck import cross_check
-from fecheck.fe.indenter import SphereIndenter
-from fecheck.fe.joint import ContactLayer, JointContact
-from fecheck.fe.patella_layer import patella_body
-from fecheck.fe.pose import FramePose
-from fecheck.fe.settings import FESettings
-from fecheck.fe.solid import layer_solid
+from fecheck.fe.bodies.budget import MAX_DOFS, layer_dofs, prepared_for_size, sheet_dofs
+from fecheck.fe.bodies.indenter import SphereIndenter
+from fecheck.fe.bodies.pose import FramePose
+from fecheck.fe.bodies.scene_bodies import scene_bodies
+from fecheck.fe.bodies.settings import FESettings
+from fecheck.fe.bodies.solid import layer_solid
+from fecheck.fe.knee.crosscheck import cross_check
+from fecheck.fe.knee.patella_layer import patella_body
+from fecheck.fe.solve.joint import ContactLayer, JointContact
 from fecheck.model.assembly import applied_load, free_indices
 from fecheck.model.patella import RIM_MM
 from fecheck.model.run import ligament_springs

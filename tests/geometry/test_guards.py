@@ -1,4 +1,4 @@
-"""Size guards (`geometry.budget`, `fecheck.fe.budget`) and Ctrl-C in native calls
+"""Size guards (`geometry.budget`, `fecheck.fe.bodies.budget`) and Ctrl-C in native calls
 (`geometry.native`).
 
 A refusal must come before any expensive work: the tests replace the Gmsh session, the
@@ -70,9 +70,9 @@ def test_a_scene_key_that_sets_a_mesh_size_is_refused_at_build_time_by_its_name(
 
 
 def test_an_fe_refinement_beyond_the_limits_is_refused_before_the_ef_run(monkeypatch, capsys):
-    import fecheck.fe.crosscheck
+    import fecheck.fe.knee.crosscheck
 
-    monkeypatch.setattr(fecheck.fe.crosscheck, "_ef_run", _no_work)
+    monkeypatch.setattr(fecheck.fe.knee.crosscheck, "_ef_run", _no_work)
     code = main(["fe", "--set", "fe.refine=4"])
     err = _error_line(capsys)
     assert code == 2
@@ -162,8 +162,8 @@ def test_the_icosphere_estimate_is_exact(level):
 
 @pytest.mark.parametrize(("refine", "levels"), [(0, 2), (1, 3)])
 def test_the_fe_dof_count_is_exact(refine, levels):
-    from fecheck.fe.budget import layer_dofs, surface_counts
-    from fecheck.fe.solid import layer_solid
+    from fecheck.fe.bodies.budget import layer_dofs, surface_counts
+    from fecheck.fe.bodies.solid import layer_solid
     from geometry.plateau import plane_patch
     from geometry.subdivide import subdivide
 
@@ -291,8 +291,8 @@ def test_a_prepared_sheet_is_counted_as_the_fe_meshes_it():
     against the real prepared lattice (within 10 %), far below the raw dense sheet's."""
     from types import SimpleNamespace
 
-    from fecheck.fe.budget import fe_estimate, layer_dofs
-    from fecheck.fe.settings import FESettings
+    from fecheck.fe.bodies.budget import fe_estimate, layer_dofs
+    from fecheck.fe.bodies.settings import FESettings
     from geometry.prepare import prepare_sheet
 
     sheet = _dense_tilted_disc(step_mm=0.25)
@@ -315,8 +315,8 @@ def test_a_dense_sheet_the_fe_prepares_is_not_refused_for_its_raw_size():
     same sheet meshed as it is (fe.prepare = 'off') is refused, naming fe.refine."""
     from types import SimpleNamespace
 
-    from fecheck.fe.budget import guard_layers
-    from fecheck.fe.settings import FESettings
+    from fecheck.fe.bodies.budget import guard_layers
+    from fecheck.fe.bodies.settings import FESettings
 
     bodies = [SimpleNamespace(surface=_dense_tilted_disc(step_mm=0.1),
                               tibial_surface="mesh:sheet.stl")]

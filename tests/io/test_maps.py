@@ -213,7 +213,7 @@ def no_solve(monkeypatch):
         raise AssertionError("the solve started before the output paths were checked")
 
     monkeypatch.setattr("fecheck.model.run.run_scene", boom)
-    monkeypatch.setattr("fecheck.fe.crosscheck.cross_check", boom)
+    monkeypatch.setattr("fecheck.fe.knee.crosscheck.cross_check", boom)
 
 
 @pytest.mark.parametrize("verb", ["run", "fe"])

@@ -145,7 +145,7 @@ def test_the_table_law_gives_the_axisymmetric_fe_area_on_the_baseline():
     """No fit to this scene: the table's law reproduces the FE's contact area (it is
     built to); its p_max runs high, as a local law matching the area must where the
     contact is as wide as the layer (measured +14 % / +12 %)."""
-    from fecheck.fe.axisym import axisym_sphere_on_layer
+    from fecheck.fe.reference.axisym import axisym_sphere_on_layer
 
     result = run_scene(with_values(load_scene(), contact__law="ef-calibrated"))
     for c, radius in (("medial", 25.5), ("lateral", 31.8)):

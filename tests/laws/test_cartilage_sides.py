@@ -19,13 +19,13 @@ import pytest
 from fecheck.contact.analytic import Plane
 from fecheck.contact.pair import ContactPair
 from fecheck.errors import FecheckError
-from fecheck.fe import crosscheck
-from fecheck.fe.bodies import _tibial_thickness
-from fecheck.fe.femoral import femoral_sheet
-from fecheck.fe.indenter import MeshIndenter
-from fecheck.fe.joint import ContactLayer, FemoralLayer, JointContact
-from fecheck.fe.pose import FramePose
-from fecheck.fe.solid import layer_solid
+from fecheck.fe.bodies.indenter import MeshIndenter
+from fecheck.fe.bodies.pose import FramePose
+from fecheck.fe.bodies.scene_bodies import _tibial_thickness
+from fecheck.fe.bodies.solid import layer_solid
+from fecheck.fe.knee import crosscheck
+from fecheck.fe.knee.femoral import femoral_sheet
+from fecheck.fe.solve.joint import ContactLayer, FemoralLayer, JointContact
 from fecheck.laws import layer
 from fecheck.laws.materials import ef_stiffness
 from fecheck.laws.registry import LawInputs, spec_of

@@ -279,7 +279,7 @@ def test_fe_and_flex_refuse_the_menisci_they_do_not_model(monkeypatch):
     """The FE cross-check (and calibrate, which runs it) and `fecheck flex` have no
     meniscus bodies: a scene with menisci is refused before any solve, never answered as
     the knee without them."""
-    from fecheck.fe import crosscheck
+    from fecheck.fe.knee import crosscheck
     from fecheck.studies import flex
 
     def no_ef_run(*args, **kwargs):

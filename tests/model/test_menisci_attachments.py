@@ -1,5 +1,5 @@
 """Meniscectomy, root tears and the horn attachments as scene keys
-(`fecheck.model.menisci`, `fecheck.statics.root_spring`, `fecheck.fe.knee_menisci`): the
+(`fecheck.model.menisci`, `fecheck.statics.root_spring`, `fecheck.fe.knee.knee_menisci`): the
 root spring against its closed form and finite differences, the roots' points and
 directions against the ligaments file read here, and a rigid shift of an FE meniscus
 against the roots' stiffness matrices."""
@@ -12,8 +12,8 @@ import warnings
 import numpy as np
 import pytest
 
-from fecheck.fe import knee_menisci
-from fecheck.fe.meniscus_solid import meniscus_solid
+from fecheck.fe.bodies.meniscus_solid import meniscus_solid
+from fecheck.fe.knee import knee_menisci
 from fecheck.model import menisci
 from fecheck.scene import load_scene
 from fecheck.scene.packaged import data_dir
@@ -130,7 +130,7 @@ def test_resected_tetrahedra_leave_a_closed_outward_boundary():
     # whose enclosed (signed) volume is the tets' volume.
     import trimesh
 
-    from fecheck.fe.meniscus_solid import resect
+    from fecheck.fe.bodies.meniscus_solid import resect
     from geometry.mesh import TetMesh, TriMesh
 
     cube = np.array([[0, 0, 0], [1, 0, 0], [1, 1, 0], [0, 1, 0],

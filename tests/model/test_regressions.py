@@ -21,9 +21,9 @@ import pytest
 from numpy.polynomial.legendre import leggauss
 
 from fecheck import laws
-from fecheck.fe.axisym import _line_p2_mass, axisym_sphere_on_layer
-from fecheck.fe.recovery import project_pressure, tributary_areas
-from fecheck.fe.sphere_layer import sphere_on_flat_layer
+from fecheck.fe.pressure.recovery import project_pressure, tributary_areas
+from fecheck.fe.reference.axisym import _line_p2_mass, axisym_sphere_on_layer
+from fecheck.fe.reference.sphere_layer import sphere_on_flat_layer
 from fecheck.statics.frames import rotation
 from fecheck.statics.ligaments import SpringLigament, blankevoort_tension, spring_wrench
 

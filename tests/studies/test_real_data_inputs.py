@@ -192,9 +192,9 @@ def test_the_import_says_what_the_fe_does_with_a_sheet_that_inverts(tmp_path, ca
     from test_knee_import import _curled
 
     from fecheck.errors import FecheckError
-    from fecheck.fe.bodies import scene_bodies
-    from fecheck.fe.press import _sheet
-    from fecheck.fe.settings import FESettings
+    from fecheck.fe.bodies.scene_bodies import scene_bodies
+    from fecheck.fe.bodies.settings import FESettings
+    from fecheck.fe.solve.press import _sheet
     from fecheck.studies.knee_import import _inversion
 
     data = tmp_path / "data"
@@ -238,8 +238,8 @@ def _implant_with_rim(folder: Path, overhang_mm: float) -> tuple[Path, np.ndarra
 
 
 def test_an_insert_rim_overhanging_its_solid_by_0_2_mm_is_tolerated(tmp_path):
-    from fecheck.fe.bodies import scene_bodies
-    from fecheck.fe.volume import RIM_OVERHANG_MM
+    from fecheck.fe.bodies.scene_bodies import scene_bodies
+    from fecheck.fe.bodies.volume import RIM_OVERHANG_MM
 
     clean = {b.name: b.thickness_mm for b in
              scene_bodies(load_scene(_implant_with_rim(tmp_path / "clean", 0.0)[0]))}
@@ -264,7 +264,7 @@ def test_an_insert_rim_overhanging_its_solid_by_0_2_mm_is_tolerated(tmp_path):
 
 def test_an_insert_rim_overhanging_its_solid_by_2_mm_is_refused_with_the_place(tmp_path):
     from fecheck.errors import FecheckError
-    from fecheck.fe.bodies import scene_bodies
+    from fecheck.fe.bodies.scene_bodies import scene_bodies
 
     scene, rim = _implant_with_rim(tmp_path, 2.0)
     with pytest.raises(FecheckError) as err:
@@ -287,8 +287,8 @@ def implant_scene(tmp_path_factory) -> Path:
 
 
 def test_the_solid_dof_count_is_the_assembled_one(implant_scene):
-    from fecheck.fe.bodies import scene_bodies
-    from fecheck.fe.volume import mesh_solid, solid_layers
+    from fecheck.fe.bodies.scene_bodies import scene_bodies
+    from fecheck.fe.bodies.volume import mesh_solid, solid_layers
 
     solid = scene_bodies(load_scene(implant_scene))[0].solid
     meshed = mesh_solid(solid)
@@ -299,9 +299,10 @@ def test_the_solid_dof_count_is_the_assembled_one(implant_scene):
 
 def test_the_dof_guard_refuses_a_large_solid_before_the_ef_run(implant_scene, monkeypatch):
     from fecheck.errors import FecheckError
-    from fecheck.fe import budget, crosscheck
-    from fecheck.fe.bodies import scene_bodies
-    from fecheck.fe.volume import mesh_solid
+    from fecheck.fe.bodies import budget
+    from fecheck.fe.bodies.scene_bodies import scene_bodies
+    from fecheck.fe.bodies.volume import mesh_solid
+    from fecheck.fe.knee import crosscheck
     from geometry.budget import policy
 
     def no_ef(*args, **kwargs):
@@ -328,7 +329,7 @@ def test_the_dof_guard_refuses_a_large_solid_before_the_ef_run(implant_scene, mo
 def test_ef_faces_without_an_fe_face_take_the_nearest_fe_pressure():
     from types import SimpleNamespace
 
-    from fecheck.fe.crosscheck import on_ef_faces
+    from fecheck.fe.knee.crosscheck import on_ef_faces
 
     # the EF sheet: 4 faces in a row along x; the FE surface covers the first two only
     strip = TriMesh(np.array([[x, y, 0.0] for x in range(5) for y in (0, 1)], dtype=float),

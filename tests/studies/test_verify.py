@@ -146,7 +146,7 @@ def test_scene_estimate_is_the_gci_of_the_fe_answers(monkeypatch):
     # three levels give order 1.5 and 4.0 extrapolated, GCI 1.25·|p1 − 4|/p1
     from types import SimpleNamespace
 
-    import fecheck.fe.crosscheck as crosscheck
+    import fecheck.fe.knee.crosscheck as crosscheck
 
     def fake(scene, refine, log):
         h = 0.5 ** refine

@@ -16,7 +16,7 @@ from pathlib import Path
 
 import numpy as np
 
-from fecheck.fe.sphere_layer import sphere_on_flat_layer
+from fecheck.fe.reference.sphere_layer import sphere_on_flat_layer
 from fecheck.reference import closed_forms as refs
 from fecheck.scene.knee import BASELINE_RIGHT as knee
 from fecheck.studies.thesis import thesis_values as tv

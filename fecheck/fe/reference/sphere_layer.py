@@ -17,13 +17,13 @@ from collections.abc import Callable
 
 import numpy as np
 
-from fecheck.fe.bodies import FEBody
-from fecheck.fe.indenter import SphereIndenter
-from fecheck.fe.pose import FramePose
-from fecheck.fe.press import FELayer, build_layers, push_drive, rigid_gaps, solve_pressed
-from fecheck.fe.recovery import contact_metrics, zero_contour_area
-from fecheck.fe.results import FEContactResult
-from fecheck.fe.settings import FESettings
+from fecheck.fe.bodies.indenter import SphereIndenter
+from fecheck.fe.bodies.pose import FramePose
+from fecheck.fe.bodies.scene_bodies import FEBody
+from fecheck.fe.bodies.settings import FESettings
+from fecheck.fe.pressure.recovery import contact_metrics, zero_contour_area
+from fecheck.fe.pressure.results import FEContactResult
+from fecheck.fe.solve.press import FELayer, build_layers, push_drive, rigid_gaps, solve_pressed
 from fecheck.reference.closed_forms import hertz_sphere_on_plane
 
 UP = np.array([0.0, 0.0, 1.0])

@@ -4,14 +4,14 @@ From the EF equilibrium of a ``menisci.dir`` scene (`fecheck.model.menisci`, e.g
 ``femur_tibia_menisci`` at 800 N), in the tibia frame of that equilibrium:
 
 * **Tibial cartilage**: each compartment's bonded layer as `fecheck fe` builds it
-  (`fecheck.fe.press.build_layers` on the scene's bodies, ``fe.*`` keys, the contact
+  (`fecheck.fe.solve.press.build_layers` on the scene's bodies, ``fe.*`` keys, the contact
   material): with ``fe.cartilage = "series"`` its thickness holds the femoral cartilage
   too, under the femoral condyle; over the menisci the femoral cartilage is then rigid.
   With ``"two-layer"`` it is the tibial cartilage alone, and the femoral cartilage is a
-  layer of its own (`fecheck.fe.femoral.femoral_layer`: the femoral sheet within
-  `fecheck.fe.femoral.CROP_MM` of the points where the femur pairs' candidate rays meet
+  layer of its own (`fecheck.fe.knee.femoral.femoral_layer`: the femoral sheet within
+  `fecheck.fe.knee.femoral.CROP_MM` of the points where the femur pairs' candidate rays meet
   it, extruded toward the femoral bone by its thickness and bonded there, the femoral
-  material), carried by the femur (`fecheck.fe.multibody.Body.carried`): the master of
+  material), carried by the femur (`fecheck.fe.solve.multibody.Body.carried`): the master of
   the femur-tibia and femur-meniscus pairs, hit where each slave's ray meets it, paired
   afresh where those rays have moved while a vertex still penetrates (`REPAIR_WEIGHT`).
   Where a later candidate's ray meets the femoral sheet outside the layer, the layer is
@@ -19,8 +19,8 @@ From the EF equilibrium of a ``menisci.dir`` scene (`fecheck.model.menisci`, e.g
   femur's contact is deformable wherever it reaches. A candidate whose ray meets no
   femoral cartilage at all (`OFF_SHEET`) has an infinite gap, as with the rigid femur,
   and is left out of the femur pairs while that holds.
-* **Menisci**: each a deformable solid (`fecheck.fe.meniscus_solid`, P2 tetrahedra,
-  `fecheck.fe.anisotropy.MENISCUS`, fibres along the arc) at its EF pose, raised along
+* **Menisci**: each a deformable solid (`fecheck.fe.bodies.meniscus_solid`, P2 tetrahedra,
+  `fecheck.fe.material.anisotropy.MENISCUS`, fibres along the arc) at its EF pose, raised along
   the tibial axis until it just touches the tibial layer (the EF's meniscus layer is
   soft, so the EF pose overlaps the tibial sheet; the rise is reported). Each horn's
   attachment nodes are on isotropic linear springs to the tibia, the horn's stiffness
@@ -40,7 +40,7 @@ From the EF equilibrium of a ``menisci.dir`` scene (`fecheck.model.menisci`, e.g
   EF's tibia does. ``hold_rotation=True`` keeps it at the EF's rotation (for comparison).
 
 Frictionless contact on three interfaces, node to surface with exact complementarity
-(`fecheck.fe.multibody`): femur (its surface, or its cartilage layer) ↔ tibial layer
+(`fecheck.fe.solve.multibody`): femur (its surface, or its cartilage layer) ↔ tibial layer
 vertices (along their normals), femur ↔ meniscus superior vertices, meniscus inferior
 faces ↔ tibial layer vertices (a tibial vertex under a meniscus meets its inferior face,
 the others the femur). Small displacements; the rigid gaps are re-evaluated at the femur's
@@ -51,7 +51,7 @@ springs) and through cartilage-cartilage contact, tibial contact area
 (`zero_contour_area`) and vertex p_max, beside the EF's and Donahue 2002's; per meniscus
 (`MeniscusReport`) where the femur touches it, how much of its superior surface lies near
 the femur, how far its body moves radially, and the hoop force along its arc
-(`element_stress`, `fecheck.fe.meniscus_solid.hoop_force`). Units: mm, N, MPa.
+(`element_stress`, `fecheck.fe.bodies.meniscus_solid.hoop_force`). Units: mm, N, MPa.
 """
 
 from __future__ import annotations
@@ -64,23 +64,23 @@ from enum import Enum
 import numpy as np
 
 from fecheck.errors import FecheckError
-from fecheck.fe.anisotropy import MENISCUS, TransIso
-from fecheck.fe.contact.candidates import Outcome, Round, widened
-from fecheck.fe.contact.gap import nodal_displacements, surface_give
-from fecheck.fe.femoral import FemoralSheet, femoral_layer, femoral_sheet, refuse_two_layer
-from fecheck.fe.indenter import MeshIndenter
-from fecheck.fe.joint import FemoralLayer
-from fecheck.fe.meniscus_solid import (
+from fecheck.fe.bodies.indenter import MeshIndenter
+from fecheck.fe.bodies.meniscus_solid import (
     DEFAULT_SIZE_MM,
     DONAHUE_HORN_N_PER_MM,
     INFERIOR,
     SUPERIOR,
     MeniscusSolid,
 )
-from fecheck.fe.multibody import Body, Condensed, MultibodySolution, Pair, ray_pairs
-from fecheck.fe.pose import FramePose
-from fecheck.fe.press import FELayer, build_layers
-from fecheck.fe.settings import FESettings
+from fecheck.fe.bodies.pose import FramePose
+from fecheck.fe.bodies.settings import FESettings
+from fecheck.fe.contact.candidates import Outcome, Round, widened
+from fecheck.fe.contact.gap import nodal_displacements, surface_give
+from fecheck.fe.knee.femoral import FemoralSheet, femoral_layer, femoral_sheet, refuse_two_layer
+from fecheck.fe.material.anisotropy import MENISCUS, TransIso
+from fecheck.fe.solve.joint import FemoralLayer
+from fecheck.fe.solve.multibody import Body, Condensed, MultibodySolution, Pair, ray_pairs
+from fecheck.fe.solve.press import FELayer, build_layers
 from fecheck.scene import Scene
 from fecheck.statics.root_spring import root_matrix
 from geometry.mesh import TriMesh
@@ -93,7 +93,7 @@ MOVE_TOL_MM = 1e-10
 """The outer loop stops when the femur's step is below this, mm."""
 REACH_MM = 0.5
 """The femoral layer covers the sheet where the rays of the femur pairs' vertices within
-this distance beyond the candidate gap meet it (and `fecheck.fe.femoral.CROP_MM` around):
+this distance beyond the candidate gap meet it (and `fecheck.fe.knee.femoral.CROP_MM` around):
 room for the candidates the femur's travel adds, mm (beyond it the layer grows,
 `_grown_femoral`)."""
 MAX_CONDENSATIONS = 6
@@ -194,7 +194,7 @@ class MeniscusReport:
     tributary areas) the femur presses and within 0.1 / 0.5 / 1 mm of the femur
     (`near_mm2`, keyed by the distance), the mean outward radial displacement of its body
     (arc 0.25-0.75, volume-weighted, mm; + extruded), the hoop stress and force along
-    its arc (`fecheck.fe.meniscus_solid.HoopResult`), and per horn its root's tension
+    its arc (`fecheck.fe.bodies.meniscus_solid.HoopResult`), and per horn its root's tension
     along the root's direction (N, + pulling the horn toward the tibia: the force on the
     tibia along the root)."""
 
@@ -294,7 +294,7 @@ def meniscus_body(solid: MeniscusSolid, points: np.ndarray, fibre: np.ndarray,
     z (and the springs `extra`: (nodes, N/mm)), and on the superior and inferior faces the
     midside normal displacement tied to its edge's ends (contact at vertices only); the
     full P2 displacement is T @ the body's kept-dof displacement."""
-    from fecheck.fe.solid import edge_lookup, tie_matrix
+    from fecheck.fe.bodies.solid import edge_lookup, tie_matrix
 
     basis, K = meniscus_stiffness(solid, points, fibre, horns, material, extra)
     mesh = basis.mesh
@@ -329,7 +329,7 @@ def meniscus_stiffness(solid: MeniscusSolid, points: np.ndarray, fibre: np.ndarr
     z) likewise."""
     from skfem import MeshTet
 
-    from fecheck.fe.anisotropy import p2_transiso
+    from fecheck.fe.material.anisotropy import p2_transiso
 
     mesh = MeshTet(np.ascontiguousarray(points.T), np.ascontiguousarray(solid.mesh.tets.T))
     basis, K = p2_transiso(mesh, material, fibre)
@@ -406,7 +406,7 @@ def element_stress(basis, u: np.ndarray, fibre: np.ndarray,
     """(nel, 3, 3) stress (MPa) per element of the P2 displacement `u` (mm, on the
     scikit-fem vector `basis`): the element's volume-mean strain times the transversely
     isotropic stiffness with its fibre `fibre` (nel, 3)."""
-    from fecheck.fe.anisotropy import stiffness_tensor
+    from fecheck.fe.material.anisotropy import stiffness_tensor
 
     grad = np.asarray(basis.interpolate(u).grad)                     # (3, 3, nel, nq)
     dx = np.asarray(basis.dx)
@@ -423,7 +423,7 @@ def _blocks(n: int, rows: np.ndarray, cols: np.ndarray, values: np.ndarray):
 
 @dataclass(frozen=True, eq=False)
 class FemoralCrop:
-    """What a compartment's femoral layer is built over (`fecheck.fe.femoral.femoral_layer`):
+    """What a compartment's femoral layer is built over (`fecheck.fe.knee.femoral.femoral_layer`):
     the femoral sheet (tibia frame at the EF pose) and its `MeshIndenter`, the FE settings,
     and the points (k, 3) mm where the femur pairs' rays meet the sheet, with the faces
     (k,) they meet."""
@@ -442,8 +442,8 @@ class _Side:
     ray meets (-1: none), the barycentric weights and the gap (mm); `under` the vertices
     paired with the meniscus rather than the femur; `lift` (mm) taken off every
     femur-meniscus gap; with two deformable layers the femoral layer (tibia frame,
-    `fecheck.fe.joint.FemoralLayer`), its `Body` (carried by the femur), its surface as a
-    `fecheck.fe.indenter.MeshIndenter` (what the rays hit), `hits`: per
+    `fecheck.fe.solve.joint.FemoralLayer`), its `Body` (carried by the femur), its surface as a
+    `fecheck.fe.bodies.indenter.MeshIndenter` (what the rays hit), `hits`: per
     femur pair (its `PairKind`) the femoral layer's MeshIndenter hits (face (k,),
     weights (k, 3)) of every vertex it may pair, at the pairing in use, and the
     `FemoralCrop` the layer was built over."""
@@ -524,8 +524,8 @@ def knee_menisci_fe(scene: Scene, *, meniscus_size_mm: float = DEFAULT_SIZE_MM,
     """The FE of `scene`'s knee with menisci at its EF equilibrium (module docstring).
 
     `ef`: the scene's EF run (`fecheck.model.menisci.run_menisci`; run here when None);
-    `layers`: its tibial layers (`fecheck.fe.press.FELayer`, built here when None);
-    `meniscus_size_mm`: the meniscus tetrahedra (`fecheck.fe.meniscus_solid`); `root`:
+    `layers`: its tibial layers (`fecheck.fe.solve.press.FELayer`, built here when None);
+    `meniscus_size_mm`: the meniscus tetrahedra (`fecheck.fe.bodies.meniscus_solid`); `root`:
     the horn roots (None: menisci.roots, "springs" along the root at
     menisci.root_N_per_mm or "bundles"; or one of `ROOTS`, the same in x, y and z; the
     horns of menisci.torn_roots left out); `lift_mm`: the superior surface raised along
@@ -538,7 +538,7 @@ def knee_menisci_fe(scene: Scene, *, meniscus_size_mm: float = DEFAULT_SIZE_MM,
     `KneeMenisciFE.without_menisci`. `FecheckError` on a scene without ``menisci.dir``,
     a two-layer cartilage on remeshed sheets, a load that does not press the joint, or a
     contact that leaves a penetration over `PENETRATION_TOL_MM`."""
-    from fecheck.fe.meniscus_solid import meniscus_solid
+    from fecheck.fe.bodies.meniscus_solid import meniscus_solid
     from fecheck.model.assembly import applied_load
     from fecheck.model.menisci import menisci_dir, run_menisci
     from fecheck.scene import with_values
@@ -569,7 +569,7 @@ def knee_menisci_fe(scene: Scene, *, meniscus_size_mm: float = DEFAULT_SIZE_MM,
     seconds["ef"] = time.perf_counter() - t0
     t0 = time.perf_counter()
     if layers is None:
-        from fecheck.fe.bodies import scene_bodies
+        from fecheck.fe.bodies.scene_bodies import scene_bodies
 
         layers = build_layers(scene_bodies(plain), scene["contact.youngs_MPa"],
                               scene["contact.poisson"], settings, say)
@@ -615,7 +615,7 @@ def ef_coordinates(run) -> dict[str, np.ndarray]:
 def _with_femoral_layers(scene: Scene, sides: list[_Side], rot: np.ndarray, t: np.ndarray,
                          settings, say: Callable[[str], None]) -> list[_Side]:
     """`sides` each with the femoral cartilage as a layer of its own (tibia frame, bonded
-    to the femur and carried by it: `fecheck.fe.femoral.femoral_layer`) over the points
+    to the femur and carried by it: `fecheck.fe.knee.femoral.femoral_layer`) over the points
     where the normals of its femur pairs' vertices within `REACH_MM` of the candidate gap
     (the meniscus's less its lift) meet the femoral sheet (`FemoralCrop`)."""
     world = sides[0].indenter.mesh
@@ -1131,7 +1131,7 @@ def meniscus_report(m: MeniscusBody, u: np.ndarray, gaps: np.ndarray,
     """The `MeniscusReport` of meniscus `m` at its kept-dof displacement `u` (mm), the
     gaps (mm) of its femur-facing superior vertices `m.superior` at the answer and the
     femur-meniscus pair's record."""
-    from fecheck.fe.meniscus_solid import hoop_force
+    from fecheck.fe.bodies.meniscus_solid import hoop_force
 
     faces = m.solid.faces(SUPERIOR)
     tri = m.points[faces]
@@ -1152,7 +1152,7 @@ def meniscus_report(m: MeniscusBody, u: np.ndarray, gaps: np.ndarray,
 def root_tensions(m: MeniscusBody, u: np.ndarray) -> dict[str, float]:
     """{horn: tension (N) along its root's direction} of meniscus `m` at its kept-dof
     displacement `u`: −(Σ over the horn's nodes of the springs' force on the meniscus)·e,
-    e the root's unit direction (`fecheck.fe.meniscus_solid.Horn.direction`)."""
+    e the root's unit direction (`fecheck.fe.bodies.meniscus_solid.Horn.direction`)."""
     out, start = {}, 0
     for horn in m.horn_N_per_mm:
         nodes = m.solid.horns[horn].nodes
@@ -1215,7 +1215,7 @@ def _report(sides: list[_Side], pairs: list[Pair], sol, axis: np.ndarray, load: 
     """Per compartment the loads, area and p_max (`CompartmentFE`), the femur's
     balance along its axis (N): Σ λ n·(−a) − F, the tibial vertex pressures (MPa) and
     regions (`REGION_NAMES` keys)."""
-    from fecheck.fe.recovery import zero_contour_area
+    from fecheck.fe.pressure.recovery import zero_contour_area
 
     by_key = {p.key: p for p in pairs}
     femur_total = 0.0
@@ -1276,7 +1276,7 @@ def _report(sides: list[_Side], pairs: list[Pair], sol, axis: np.ndarray, load: 
 def _region(surface, pressure: np.ndarray, load: float) -> RegionFE:
     """The `RegionFE` of the tibial vertex pressures `pressure` (MPa, zero off the
     region) on `surface`, its axial load `load` (N)."""
-    from fecheck.fe.recovery import zero_contour_area
+    from fecheck.fe.pressure.recovery import zero_contour_area
 
     active = pressure > 0
     area = zero_contour_area(surface.points, surface.faces, pressure, active) if active.any() \

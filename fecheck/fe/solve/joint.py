@@ -59,6 +59,8 @@ import numpy as np
 import scipy.sparse as sp
 
 from fecheck.errors import FecheckError
+from fecheck.fe.bodies.pose import FramePose
+from fecheck.fe.bodies.solid import LayerSolid
 from fecheck.fe.contact.active_set import settled
 from fecheck.fe.contact.compliance import (
     block_compliance,
@@ -67,8 +69,6 @@ from fecheck.fe.contact.compliance import (
     nodal_compliance,
 )
 from fecheck.fe.contact.gap import surface_entries, surface_give
-from fecheck.fe.pose import FramePose
-from fecheck.fe.solid import LayerSolid
 
 POSE_TOL = 1e-9
 """The outer loop stops when the pose step is below this (mm, and rad × 100 mm)."""
@@ -259,7 +259,7 @@ class JointContact:
         Parameters
         ----------
         pose : q → X_WB, the pose in the world (the femur's frame) of the rigid body
-            that carries the layers at the unknowns q (`fecheck.fe.pose.FramePose`), or
+            that carries the layers at the unknowns q (`fecheck.fe.bodies.pose.FramePose`), or
             a tuple of them, one per body (each layer takes the pose whose `body` frame
             is its `ContactLayer.body`)
         basis : q → B (6, k), the body's twist (v, ω about the world origin) per unit

@@ -4,7 +4,7 @@
 packaged ``fecheck:knee/smith2019_menisci``) into plain data for a deformable meniscus:
 
 * **Mesh.** Linear tetrahedra (P1; scikit-fem adds the P2 nodes) filling the closed volume
-  surface, whose triangles are kept as the boundary (`fecheck.fe.volume.tetrahedralize`),
+  surface, whose triangles are kept as the boundary (`fecheck.fe.bodies.volume.tetrahedralize`),
   so the tet mesh has the STL's volume exactly; ``size_mm`` bounds the interior edges
   (Gmsh ``Mesh.MeshSizeMax``) and, well below the surface's own median edge (0.95 / 0.90
   mm medial / lateral), splits the surface triangles in four as often as brings the
@@ -59,7 +59,7 @@ from pathlib import Path
 import numpy as np
 
 from fecheck.errors import FecheckError
-from fecheck.fe.volume import tetrahedralize
+from fecheck.fe.bodies.volume import tetrahedralize
 from fecheck.model.menisci import menisci_dir, read_volume
 from fecheck.scene import Scene
 from fecheck.scene.constants import COMPARTMENTS
@@ -84,7 +84,7 @@ HORNS = {"anterior": (1, "AHORN"), "posterior": (3, "PHORN")}
 DONAHUE_HORN_N_PER_MM = 2000.0
 """Stiffness of each meniscal root spring, N/mm, as quoted for Donahue et al. 2002 (J Biomech
 Eng 124:273) and the models after it by a citing study ("Sensitivity of the tibio-femoral
-response ...", excerpted by scite.ai, the source of `fecheck.fe.anisotropy.MENISCUS`): "the
+response ...", excerpted by scite.ai, the source of `fecheck.fe.material.anisotropy.MENISCUS`): "the
 anterior and posterior meniscal roots ... linear springs with spring constants of 2000
 N/mm". Not read in the paper, which could not be opened: how many springs share it is not
 checked."""

@@ -9,7 +9,7 @@ nodes exactly on the axis and on the top, and grades separably, which is all a d
 needs. The layer's top is z = 0, its bottom z = -h (fixed), its rim free; the sphere
 touches the top at the origin before loading. Contact: `fecheck.fe.contact.load_control`, node-wise
 (the quadratic line facets have positive consistent loads 1/6, 2/3, 1/6), pressure
-recovered by `fecheck.fe.recovery`.
+recovered by `fecheck.fe.pressure.recovery`.
 """
 
 from __future__ import annotations
@@ -20,15 +20,15 @@ import numpy as np
 
 from fecheck.errors import FecheckError
 from fecheck.fe.contact.load_control import solve_contact
-from fecheck.fe.elasticity import (
+from fecheck.fe.material.elasticity import (
     FORMULATIONS,
     dilatation_matrix,
     lame,
     mean_dilatation_stiffness,
     resolve,
 )
-from fecheck.fe.recovery import contact_metrics, project_pressure
-from fecheck.fe.results import FEContactResult
+from fecheck.fe.pressure.recovery import contact_metrics, project_pressure
+from fecheck.fe.pressure.results import FEContactResult
 from fecheck.reference.closed_forms import hertz_sphere_on_plane
 
 
@@ -65,7 +65,7 @@ def axisym_sphere_on_layer(load_N: float, radius_mm: float, E_MPa: float, nu: fl
         (vertical gap measured from the displaced node position)
     solver : sparse factorization, "cholmod" or "superlu"
     formulation : "displacement", "mixed" (an element-constant pressure condensed per
-        element, `fecheck.fe.elasticity`) or "auto" (mixed for nearly incompressible ν)
+        element, `fecheck.fe.material.elasticity`) or "auto" (mixed for nearly incompressible ν)
     reach_mm : radius of the fine mesh and the contact candidates, mm (default 1.3 × the
         Hertz contact radius, an upper bound on a bonded layer; a thin layer's contact is
         far smaller)
@@ -184,7 +184,7 @@ def axisym_stiffness(basis, E_MPa: float, nu: float, formulation: str = "displac
     """Stiffness (N/mm, per radian times 2π: the whole ring) of axisymmetric isotropic
     elasticity on a scikit-fem (r, z) vector basis: strains ∂u_r/∂r, ∂u_z/∂z, u_r/r and
     the shear, weighted by 2πr; `formulation` 'mixed' puts the λ term on the element
-    means of div u = ∂u_r/∂r + u_r/r + ∂u_z/∂z (`fecheck.fe.elasticity`)."""
+    means of div u = ∂u_r/∂r + u_r/r + ∂u_z/∂z (`fecheck.fe.material.elasticity`)."""
     from skfem import BilinearForm, asm
 
     lam, mu = lame(E_MPa, nu)

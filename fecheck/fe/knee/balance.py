@@ -4,8 +4,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from fecheck.fe.crosscheck import CompartmentCheck, CrossCheck
-from fecheck.fe.patella_layer import FRAME
+from fecheck.fe.knee.crosscheck import CompartmentCheck, CrossCheck
+from fecheck.fe.knee.patella_layer import FRAME
 from fecheck.model.assembly import applied_load, free_indices
 from fecheck.model.run import ligament_springs
 from fecheck.scene import Scene

@@ -1,4 +1,4 @@
-"""Reports of the FE of the knee with menisci (`fecheck.fe.knee_menisci.KneeMenisciFE`):
+"""Reports of the FE of the knee with menisci (`fecheck.fe.knee.knee_menisci.KneeMenisciFE`):
 the per-compartment table beside the EF and Donahue et al. 2002, the per-region table of
 the tibial contact, the summary lines and the JSON dictionary. Shared by ``fecheck fe`` on
 a menisci scene and ``validation/fe_menisci.py``. Units: mm, N, MPa.
@@ -13,7 +13,7 @@ from __future__ import annotations
 import math
 from dataclasses import asdict
 
-from fecheck.fe.anisotropy import MENISCUS
+from fecheck.fe.material.anisotropy import MENISCUS
 from fecheck.reference.closed_forms import DONAHUE_2002
 from fecheck.reference.published_fe import DONAHUE_2002_CHOICES, SUBJECT_FE_2020
 

@@ -7,14 +7,14 @@ meshed in tetrahedra (``geo.addSurfaceLoop`` + ``addVolume``): the boundary tria
 kept as given, so the articular face is the user's (or, with ``fe.refine``, theirs split
 in four per level), and the interior sizes are interpolated from the boundary's (a fine
 articular face over a coarse base grades the mesh by itself). Small-strain elasticity on
-quadratic tetrahedra with straight edges (`fecheck.fe.solid.p2_elasticity`); every node
+quadratic tetrahedra with straight edges (`fecheck.fe.bodies.solid.p2_elasticity`); every node
 of the base faces (outward normal within ``fe.solid_base_deg`` of -z, away from the
 femur) is fixed, the walls are free. On the articular face contact acts at the vertices
 along their normals, the midside normal displacements tied to their end vertices' as on
-the extruded layer (`fecheck.fe.solid`), so both paths press the same kind of surface.
+the extruded layer (`fecheck.fe.bodies.solid`), so both paths press the same kind of surface.
 
 One solid carries both compartments when it is one piece (their `LayerSolid` views share
-one stiffness matrix, which `fecheck.fe.joint` condenses once, coupled).
+one stiffness matrix, which `fecheck.fe.solve.joint` condenses once, coupled).
 
 Units: mm, N, MPa; the solid lives in the tibia frame.
 """
@@ -31,14 +31,14 @@ import scipy.sparse as sp
 from scipy.spatial import cKDTree
 
 from fecheck.errors import FecheckError
-from fecheck.fe.recovery import tributary_areas
-from fecheck.fe.solid import (
+from fecheck.fe.bodies.solid import (
     LayerSolid,
     check_material,
     edge_lookup,
     p2_elasticity,
     tie_matrix,
 )
+from fecheck.fe.pressure.recovery import tributary_areas
 from geometry.distance import closest_distance, ray_hits
 from geometry.mesh import TetMesh, TriMesh, components
 from geometry.subdivide import subdivide
@@ -167,7 +167,7 @@ def solid_layers(solid: TibiaSolid, youngs_MPa: float, poisson: float, *,
                  meshed: SolidMesh | None = None) -> dict[str, LayerSolid]:
     """{compartment: the assembled solid seen from that compartment's articular face}
     (module docstring); all views share one stiffness matrix; `formulation` as in
-    `fecheck.fe.solid.p2_elasticity`; `meshed`: `mesh_solid(solid, refine)` when already
+    `fecheck.fe.bodies.solid.p2_elasticity`; `meshed`: `mesh_solid(solid, refine)` when already
     made."""
     check_material(youngs_MPa, poisson)
     timing = {}

@@ -3,9 +3,9 @@ materials and load, compared on the same tibial faces.
 
 1. The scene's EF equilibrium (`fecheck.model.run.run_scene`).
 2. Per compartment the tibial surface the EF run used, extruded into a bonded cartilage
-   layer by its thickness (`fecheck.fe.bodies`, `fecheck.fe.solid`), pressed by the
-   rigid femoral surface (sphere or mesh) with exact frictionless contact along the
-   surface normals (`fecheck.fe.joint`).
+   layer by its thickness (`fecheck.fe.bodies.scene_bodies`, `fecheck.fe.bodies.solid`), pressed by
+   the rigid femoral surface (sphere or mesh) with exact frictionless contact along the
+   surface normals (`fecheck.fe.solve.joint`).
 3. ``fe.mode = "joint"`` (default): the tibia's free DOFs are unknowns of the FE
    problem, under the scene's load, gravity and ligament springs, so the FE finds its
    own medial/lateral split and pose. ``"compartment"``: each compartment is pushed
@@ -19,13 +19,13 @@ materials and load, compared on the same tibial faces.
 With the patella (``patella.dir``): the patellar cartilage is a layer of its own on the
 patella, a second rigid body whose six DOFs join the tibia's under the EF's quadriceps,
 patellar tendon and patellofemoral bundles, the EF the tibia and the patella solved
-together (`fecheck.fe.patella_layer`); the patellofemoral contact is compared as a
+together (`fecheck.fe.knee.patella_layer`); the patellofemoral contact is compared as a
 compartment (centre of pressure in the patella frame) and left out of the split.
 
 ``fe.cartilage = "series"`` (default): the FE models one deformable layer (the tibial
 side) under a rigid femoral surface; with ``scanned.thickness = "bone-distance"`` that
 layer has the EF's series thickness (tibial + femoral cartilage). ``"two-layer"``: each
-cartilage its own layer on its own bone, in frictionless contact (`fecheck.fe.femoral`).
+cartilage its own layer on its own bone, in frictionless contact (`fecheck.fe.knee.femoral`).
 Units: mm, N, MPa; tibia frame for centres of pressure.
 """
 
@@ -44,9 +44,10 @@ import numpy as np
 from scipy.spatial import cKDTree
 
 from fecheck.errors import FecheckError
-from fecheck.fe.bodies import FEBody, refuse_unmodelled, scene_bodies
-from fecheck.fe.joint import rigid_bodies
-from fecheck.fe.patella_layer import (
+from fecheck.fe.bodies.pose import FramePose
+from fecheck.fe.bodies.scene_bodies import FEBody, refuse_unmodelled, scene_bodies
+from fecheck.fe.bodies.settings import FESettings
+from fecheck.fe.knee.patella_layer import (
     FRAME,
     PatellaEF,
     ef_knee,
@@ -54,8 +55,10 @@ from fecheck.fe.patella_layer import (
     patella_body,
     refuse_patella,
 )
-from fecheck.fe.pose import FramePose
-from fecheck.fe.press import (
+from fecheck.fe.pressure.recovery import pressure_peaks, smoothing_length, zero_contour_area
+from fecheck.fe.pressure.results import ContactMetrics, FEContactResult, PressurePeaks, SideMetrics
+from fecheck.fe.solve.joint import rigid_bodies
+from fecheck.fe.solve.press import (
     FELayer,
     build_layers,
     carried_by,
@@ -65,9 +68,6 @@ from fecheck.fe.press import (
     rigid_gaps,
     solve_pressed,
 )
-from fecheck.fe.recovery import pressure_peaks, smoothing_length, zero_contour_area
-from fecheck.fe.results import ContactMetrics, FEContactResult, PressurePeaks, SideMetrics
-from fecheck.fe.settings import FESettings
 from fecheck.model.condyles import scene_knee
 from fecheck.model.equilibrium import axial_force
 from fecheck.model.notes import smoothing_notes
@@ -310,8 +310,8 @@ def _flat_references(scene: Scene, layer: FELayer, load_N: float, settings: FESe
                      ) -> dict[str, Any]:
     """Axisymmetric FE, EF closed form and Hertz at `load_N` for a transverse plateau with
     a uniform layer under a sphere ({} otherwise)."""
-    from fecheck.fe.axisym import axisym_sphere_on_layer
-    from fecheck.fe.indenter import SphereIndenter
+    from fecheck.fe.bodies.indenter import SphereIndenter
+    from fecheck.fe.reference.axisym import axisym_sphere_on_layer
 
     body = layer.body
     if (scene["plateau.kind"] != "transverse" or scene["model.kind"] != "sphere-plane"
@@ -401,7 +401,7 @@ def _ef_run(scene: Scene, log: Callable[[str], None], model: PatellaModel | None
             flexion: tuple[float, np.ndarray] | None = None
             ) -> tuple[RunResult, float, PatellaEF | None]:
     """The scene's EF run, its time (s) and, with the patella's `model` (patella.dir), the
-    tibia and the patella solved together (`fecheck.fe.patella_layer.ef_knee`)."""
+    tibia and the patella solved together (`fecheck.fe.knee.patella_layer.ef_knee`)."""
     from fecheck.model.run import run_scene
 
     log("solving the EF equilibrium" + ("" if model is None else " with the patella"))
@@ -456,7 +456,7 @@ def _expected_depth(scene: Scene, run: RunResult, patella: PatellaEF | None = No
 def _femoral(scene: Scene, layers: Sequence[FELayer], settings: FESettings,
              log: Callable[[str], None]) -> Callable | None:
     """The femoral layers' builder of ``fe.cartilage = "two-layer"`` (None: series)."""
-    from fecheck.fe.femoral import FemoralBuilder, femoral_sheet
+    from fecheck.fe.knee.femoral import FemoralBuilder, femoral_sheet
 
     if settings.cartilage != "two-layer":
         return None
@@ -534,7 +534,7 @@ def cross_check(scene: Scene, *, mode: str | None = None, refine: int | None = N
     scene's EF run and its time (s) when the caller has them (None: solved here);
     `flexion` = (θx rad, Q (3, 3)): the EF run's flexion, held about Q's first column
     (`fecheck flex`; None: dofs.flexion_deg about x); `patella`: with patella.dir, the EF
-    patella solved with `ef` (`fecheck.fe.patella_layer.ef_knee`; None: solved here).
+    patella solved with `ef` (`fecheck.fe.knee.patella_layer.ef_knee`; None: solved here).
 
     Raises
     ------
@@ -543,7 +543,7 @@ def cross_check(scene: Scene, *, mode: str | None = None, refine: int | None = N
         an unloaded compartment), or an FE answer that is not physical.
     """
     say = log or (lambda message: None)
-    from fecheck.fe.femoral import femoral_material, refuse_two_layer
+    from fecheck.fe.knee.femoral import femoral_material, refuse_two_layer
 
     settings = FESettings.from_scene(scene, mode=mode, refine=refine)
     refuse_unmodelled(scene)

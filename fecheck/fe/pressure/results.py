@@ -102,7 +102,7 @@ class FEContactResult:
 @dataclass(frozen=True, eq=False)
 class PressurePeaks:
     """One compartment's FE pressure peak at three scales, and whether the vertex peak is a
-    lone spike (`fecheck.fe.recovery.pressure_peaks`).
+    lone spike (`fecheck.fe.pressure.recovery.pressure_peaks`).
 
     vertex_MPa, vertex_at_mm : the largest vertex pressure (force / tributary area) and its
         place (tibia frame, mm); neighbour_MPa : the largest of its edge neighbours'
@@ -112,7 +112,7 @@ class PressurePeaks:
     spike : why the vertex peak is a lone spike ("" when it is not)
     feature_mm : largest distance of the tibial sheet from its smoothed copy within
         `length_mm` of the vertex peak (NaN when not measured); rough : whether that is a
-        rough feature (see `fecheck.fe.crosscheck.ROUGH_FEATURE_SHARE`)
+        rough feature (see `fecheck.fe.knee.crosscheck.ROUGH_FEATURE_SHARE`)
     """
 
     vertex_MPa: float

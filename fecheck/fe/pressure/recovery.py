@@ -11,7 +11,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from fecheck.fe.results import ContactMetrics, PressurePeaks
+from fecheck.fe.pressure.results import ContactMetrics, PressurePeaks
 
 SPIKE_RATIO = 2.0
 """A vertex peak more than this many times its largest edge neighbour's pressure is a lone

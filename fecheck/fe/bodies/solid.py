@@ -29,8 +29,8 @@ import numpy as np
 import scipy.sparse as sp
 
 from fecheck.errors import FecheckError
-from fecheck.fe.elasticity import lame
-from fecheck.fe.recovery import tributary_areas
+from fecheck.fe.material.elasticity import lame
+from fecheck.fe.pressure.recovery import tributary_areas
 from geometry.extrude import extrude_layer
 from geometry.mesh import TetMesh, TriMesh
 
@@ -120,10 +120,10 @@ def p2_elasticity(layer: TetMesh, youngs_MPa: float, poisson: float, chunk: int 
                   formulation: str = "displacement"):
     """(skfem mesh, basis, K): isotropic small-strain elasticity on quadratic tetrahedra
     (degree-2 quadrature, exact for affine P2), stiffness K in N/mm; `formulation`
-    'mixed' condenses an element-constant pressure (`fecheck.fe.elasticity`: the λ term
+    'mixed' condenses an element-constant pressure (`fecheck.fe.material.elasticity`: the λ term
     on the element means of div u, for nearly incompressible layers) inside each element
     matrix, (λ/|T|) d dᵀ with d_(ia) = ∫_T ∂_a φ_i (no second sparse assembly; the
-    same matrix as `fecheck.fe.elasticity.mean_dilatation_stiffness` to round-off).
+    same matrix as `fecheck.fe.material.elasticity.mean_dilatation_stiffness` to round-off).
 
     The element matrices are formed at once from the scalar P2 gradients,
     K_(ia)(jb) = ∫ λ ∂_a φ_i ∂_b φ_j + μ (δ_ab ∇φ_i·∇φ_j + ∂_b φ_i ∂_a φ_j) dx, in chunks

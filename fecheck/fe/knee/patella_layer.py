@@ -6,8 +6,8 @@ tibia's.
   normals toward the femur), extruded toward the bone by the EF's thickness: with
   ``scanned.thickness = "bone-distance"`` the patellar and femoral cartilage in series
   (`fecheck.model.patella.series_thickness`, averaged onto the vertices), else
-  ``contact.thickness_mm``. It is built by `fecheck.fe.press.build_layers` as a tibial
-  sheet is, and carried by the body ``"P"`` (`fecheck.fe.bodies.FEBody.carrier`).
+  ``contact.thickness_mm``. It is built by `fecheck.fe.solve.press.build_layers` as a tibial
+  sheet is, and carried by the body ``"P"`` (`fecheck.fe.bodies.scene_bodies.FEBody.carrier`).
 - Indenter: the femoral articular surface the EF patella presses (rigid, world frame),
   its contact faded within the EF's `fecheck.model.patella.RIM_MM` of the sheet's open
   rim as the EF's (the EF pair's rim table and width, `MeshIndenter`'s rim): a
@@ -22,7 +22,7 @@ tibia's.
 
 Two deformable layers (``fe.cartilage = "two-layer"``), ``fe.mode = "compartment"`` and
 ``fe.prepare = "on"`` are refused with the patella (`refuse_patella`); ``fe.prepare =
-"auto"`` leaves the patellar sheet as it is (`fecheck.fe.budget.prepared_for_size`).
+"auto"`` leaves the patellar sheet as it is (`fecheck.fe.bodies.budget.prepared_for_size`).
 Units: mm, N, MPa.
 """
 
@@ -36,11 +36,11 @@ from dataclasses import dataclass
 import numpy as np
 
 from fecheck.errors import FecheckError
-from fecheck.fe.bodies import FEBody, vertex_values
-from fecheck.fe.indenter import MeshIndenter
-from fecheck.fe.pose import FramePose
-from fecheck.fe.press import Drive
-from fecheck.fe.settings import FESettings
+from fecheck.fe.bodies.indenter import MeshIndenter
+from fecheck.fe.bodies.pose import FramePose
+from fecheck.fe.bodies.scene_bodies import FEBody, vertex_values
+from fecheck.fe.bodies.settings import FESettings
+from fecheck.fe.solve.press import Drive
 from fecheck.model.assembly import applied_load, free_indices
 from fecheck.model.knee_surfaces import femoral_master
 from fecheck.model.patella import (
@@ -74,7 +74,7 @@ this is not inside the femur (`MeshIndenter.max_depth_mm`), mm: in flexion the r
 sheet's rim cross the patella and meet the far side of the trochlea (measured at 30°: 16
 vertices at 47-50 mm, where the EF's deepest patellar penetration is below 1 mm)."""
 FRAME = "P"
-"""The patella's frame name (`fecheck.fe.pose.FramePose.body`, `FEBody.carrier`)."""
+"""The patella's frame name (`fecheck.fe.bodies.pose.FramePose.body`, `FEBody.carrier`)."""
 
 
 @dataclass(frozen=True, eq=False)

@@ -11,7 +11,7 @@ one's); its cut walls are free. Where faces of that crop invert in extrusion (a 
 coarse or rough sheet), the crop ends `TRIM_MM` before the nearest of them, down to
 `MIN_CROP_MM` from the contact. The vertices of the faces hit and those within `RING_MM`
 of the hit points are condensed in three dofs for the node-to-surface contact
-(`fecheck.fe.joint.FemoralLayer`).
+(`fecheck.fe.solve.joint.FemoralLayer`).
 
 Units: mm, N, MPa.
 """
@@ -25,12 +25,12 @@ from dataclasses import dataclass
 import numpy as np
 
 from fecheck.errors import FecheckError
-from fecheck.fe.bodies import vertex_values
-from fecheck.fe.indenter import MeshIndenter
-from fecheck.fe.joint import FemoralLayer
-from fecheck.fe.pose import FramePose
-from fecheck.fe.settings import FESettings
-from fecheck.fe.solid import layer_solid, release_freed_heap
+from fecheck.fe.bodies.indenter import MeshIndenter
+from fecheck.fe.bodies.pose import FramePose
+from fecheck.fe.bodies.scene_bodies import vertex_values
+from fecheck.fe.bodies.settings import FESettings
+from fecheck.fe.bodies.solid import layer_solid, release_freed_heap
+from fecheck.fe.solve.joint import FemoralLayer
 from fecheck.scene import Scene, surfaces
 from geometry.extrude import ExtrusionError, densest, extrusion_directions, extrusion_offsets
 from geometry.mesh import TriMesh

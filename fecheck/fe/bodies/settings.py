@@ -7,7 +7,7 @@ from dataclasses import dataclass
 from typing import Any
 
 from fecheck.errors import FecheckError
-from fecheck.fe.elasticity import FORMULATIONS, resolve
+from fecheck.fe.material.elasticity import FORMULATIONS, resolve
 from fecheck.scene import Scene
 
 MODES = ("joint", "compartment")
@@ -73,7 +73,7 @@ class FESettings:
             raise FecheckError("fe.candidate_gap_mm must be a positive number of mm")
 
     def formulation_for(self, poisson: float) -> str:
-        """'displacement' or 'mixed' (`fecheck.fe.elasticity.resolve`)."""
+        """'displacement' or 'mixed' (`fecheck.fe.material.elasticity.resolve`)."""
         return resolve(self.formulation, poisson)
 
     def levels(self, poisson: float) -> int:

@@ -6,7 +6,7 @@ gives n + E vertices, 2E + 3F edges and 4F triangles. Extruding it by L levels o
 each split into 3 tetrahedra along its side diagonals (no inner edge), gives 3·F·L
 tetrahedra, n(L + 1) vertices and E(L + 1) + nL + EL edges: (2L + 1)(n + E) quadratic
 nodes. The bottom's n + E nodes are fixed and one dof of each top edge's midside node is
-tied, so the layer keeps ``6L(n + E) − E`` dofs (`fecheck.fe.solid.layer_solid`).
+tied, so the layer keeps ``6L(n + E) − E`` dofs (`fecheck.fe.bodies.solid.layer_solid`).
 
 Memory is the measured peak of assembly and factorization (`BYTES_PER_DOF`): the
 Cholesky factor fills in faster than the dofs grow, so the bytes per dof grow with them.
@@ -19,8 +19,8 @@ from dataclasses import replace
 
 import numpy as np
 
-from fecheck.fe.bodies import FEBody
-from fecheck.fe.settings import FESettings
+from fecheck.fe.bodies.scene_bodies import FEBody
+from fecheck.fe.bodies.settings import FESettings
 from geometry import budget
 from geometry.mesh import TriMesh
 

@@ -24,21 +24,21 @@ import numpy as np
 import scipy.sparse as sp
 
 from fecheck.errors import FecheckError
-from fecheck.fe.bodies import FEBody
-from fecheck.fe.budget import MAX_DOFS, guard_layers, prepared_for_size
+from fecheck.fe.bodies.budget import MAX_DOFS, guard_layers, prepared_for_size
+from fecheck.fe.bodies.indenter import MeshIndenter, barycentric
+from fecheck.fe.bodies.pose import FramePose
+from fecheck.fe.bodies.scene_bodies import FEBody
+from fecheck.fe.bodies.settings import FESettings
+from fecheck.fe.bodies.solid import LayerSolid, layer_solid, release_freed_heap
+from fecheck.fe.bodies.volume import SolidMesh, mesh_solid, parent_faces, solid_layers
 from fecheck.fe.contact.candidates import Outcome, Round, widened
-from fecheck.fe.indenter import MeshIndenter, barycentric
-from fecheck.fe.joint import (
+from fecheck.fe.solve.joint import (
     ContactLayer,
     JointContact,
     JointSolution,
     femoral_shift,
     rigid_bodies,
 )
-from fecheck.fe.pose import FramePose
-from fecheck.fe.settings import FESettings
-from fecheck.fe.solid import LayerSolid, layer_solid, release_freed_heap
-from fecheck.fe.volume import SolidMesh, mesh_solid, parent_faces, solid_layers
 from fecheck.model.assembly import applied_load, free_indices
 from fecheck.scene import Scene
 from fecheck.statics.newton import geometric_tangent, pose, twist_basis
@@ -123,7 +123,7 @@ def guard_bodies(bodies: Sequence[FEBody], settings: FESettings, poisson: float
                  ) -> dict[int, SolidMesh]:
     """The closed tibial solids of `bodies` tetrahedralized (`mesh_solid`, by the solid's
     identity), and the size guard of every layer and solid before anything is assembled
-    (`fecheck.fe.budget.guard_layers`)."""
+    (`fecheck.fe.bodies.budget.guard_layers`)."""
     meshed = _mesh_solids(bodies, settings.refine)
     guard_layers([b for b in bodies if b.solid is None], settings, poisson,
                  solid_dofs=_solid_dofs(bodies, meshed, settings))
@@ -144,7 +144,7 @@ def build_layers(bodies: Sequence[FEBody], youngs_MPa: float, poisson: float,
     on the EF faces, or on prepared sheets (``fe.prepare``); a body with a closed tibial
     solid gets the solid instead (`solid_layer`; `meshed` from `guard_bodies`, else meshed
     here); refused before assembly when the sheets and solids chosen would not fit
-    (`fecheck.fe.budget.guard_layers`)."""
+    (`fecheck.fe.bodies.budget.guard_layers`)."""
     levels = settings.levels(poisson)
     if meshed is None:
         meshed = _mesh_solids(bodies, settings.refine)
@@ -184,7 +184,7 @@ def build_layers(bodies: Sequence[FEBody], youngs_MPa: float, poisson: float,
 def _sheet(body: FEBody, settings: FESettings, levels: int, log: Callable[[str], None],
            too_big: bool = False) -> tuple[FEBody, PreparedSheet | None, np.ndarray, int]:
     """The sheet the FE meshes for `body` (its own, or prepared: ``fe.prepare``, or
-    `too_big` as it is: `fecheck.fe.budget.prepared_for_size`), the preparation (None for
+    `too_big` as it is: `fecheck.fe.bodies.budget.prepared_for_size`), the preparation (None for
     its own), its extrusion directions and smoothing rounds."""
     directions, rounds = None, 0
     if settings.prepare != "on" and not too_big:
@@ -281,7 +281,7 @@ def _extrusion_failure(body: FEBody, err: ExtrusionError, settings: FESettings
 def solid_layer(body: FEBody, youngs_MPa: float, poisson: float, settings: FESettings,
                 log: Callable[[str], None], built: dict[int, dict[str, LayerSolid]],
                 meshed: SolidMesh) -> FELayer:
-    """The compartment's view of its closed tibial solid (`fecheck.fe.volume`; `meshed` by
+    """The compartment's view of its closed tibial solid (`fecheck.fe.bodies.volume`; `meshed` by
     `mesh_solid`), assembled once per solid (`built`, by the solid's identity)."""
     key = id(body.solid)
     if key not in built:
@@ -364,7 +364,7 @@ def push_drive(X_WT: FramePose, force_on_tibia: np.ndarray) -> Drive:
 def carried_by(layer: FELayer, bodies: dict[str, tuple[FramePose, np.ndarray]]
                ) -> FramePose:
     """The pose of the rigid body that carries `layer`, of `bodies`
-    (`fecheck.fe.joint.rigid_bodies`; a lone body carries every layer)."""
+    (`fecheck.fe.solve.joint.rigid_bodies`; a lone body carries every layer)."""
     if len(bodies) == 1:
         return next(iter(bodies.values()))[0]
     return bodies[layer.body.carrier][0]

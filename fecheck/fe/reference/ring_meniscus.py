@@ -6,15 +6,15 @@ z = 0, bonded to rigid bone at z = -h, free rim at `layer_radius_mm`) and onto a
 meniscus sitting on the layer: a wedge of revolution from r_i to r_o with a flat
 inferior face on z = 0 and a superior face on the sphere lowered by `clearance_mm`
 (z = R − √(R² − r²) − c), transversely isotropic with the fibres along the hoop
-(`fecheck.fe.anisotropy`). Frictionless contact on every interface: sphere–layer (the
+(`fecheck.fe.material.anisotropy`). Frictionless contact on every interface: sphere–layer (the
 centre), sphere–meniscus superior face, meniscus inferior face–layer top. The meniscus
 floats vertically: its vertical translation is an unknown with its own equilibrium
-(`fecheck.fe.multibody`).
+(`fecheck.fe.solve.multibody`).
 
-Solved two ways with the same contact core (`fecheck.fe.multibody`):
+Solved two ways with the same contact core (`fecheck.fe.solve.multibody`):
 
 1. axisymmetric, P2 triangles on (r, z) tensor grids (the layer's as
-   `fecheck.fe.axisym`, the meniscus's mapped onto its wedge), uniform `size_mm` out to
+   `fecheck.fe.reference.axisym`, the meniscus's mapped onto its wedge), uniform `size_mm` out to
    r_o. The meniscus's r nodes are the layer's, so the inferior contact is node to node
    on matching quadratic nodes (consistent loads 1/6, 2/3, 1/6: all positive); on a flat
    interface with small sliding this is the exact discrete pairing, no segment search.
@@ -22,7 +22,7 @@ Solved two ways with the same contact core (`fecheck.fe.multibody`):
    in-plane rigid modes): both solids meshed by Gmsh as revolved sections (the layer's
    top split at r_i and r_o so its mesh follows the meniscus's rim), quadratic
    tetrahedra, contact at vertices with the midside normal displacement on contact
-   faces tied to its edge's ends (as `fecheck.fe.solid`); the layer's top vertices under
+   faces tied to its edge's ends (as `fecheck.fe.bodies.solid`); the layer's top vertices under
    the meniscus meet its inferior faces by rays (node to surface, `ray_pairs`).
 
 Compared: the load share (force through the meniscus / F), the layer's vertex p_max (the
@@ -42,9 +42,9 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from fecheck.errors import FecheckError
-from fecheck.fe.anisotropy import MENISCUS, TransIso
-from fecheck.fe.multibody import Body, Indenter, Pair, ray_pairs, solve_multibody
-from fecheck.fe.recovery import project_pressure
+from fecheck.fe.material.anisotropy import MENISCUS, TransIso
+from fecheck.fe.pressure.recovery import project_pressure
+from fecheck.fe.solve.multibody import Body, Indenter, Pair, ray_pairs, solve_multibody
 from geometry.mesh import TetMesh, TriMesh
 
 
@@ -130,7 +130,7 @@ def _growing(start: float, end: float, step: float, ratio: float, max_step: floa
 def _line_pressure(r: np.ndarray, force: np.ndarray) -> np.ndarray:
     """Nodal pressure (MPa) on the quadratic line through the sorted nodes r (vertices and
     midpoints alternating, mm) whose consistent loads ∫ φ_i p 2πr dr are `force` (N):
-    the mass-matrix projection of `fecheck.fe.recovery.project_pressure`, assembled by
+    the mass-matrix projection of `fecheck.fe.pressure.recovery.project_pressure`, assembled by
     scikit-fem on a P2 line mesh."""
     from skfem import Basis, BilinearForm, ElementLineP2, MeshLine, asm
 
@@ -165,15 +165,15 @@ def _axisym_body(name: str, mesh, stiffness, fixed_where, translations=()):
 
 
 def _layer_material(case: RingCase):
-    from fecheck.fe.axisym import axisym_stiffness
-    from fecheck.fe.elasticity import resolve
+    from fecheck.fe.material.elasticity import resolve
+    from fecheck.fe.reference.axisym import axisym_stiffness
 
     form = resolve("auto", case.poisson)
     return lambda basis: axisym_stiffness(basis, case.youngs_MPa, case.poisson, form)
 
 
 def _meniscus_material(case: RingCase):
-    from fecheck.fe.anisotropy import axisym_hoop_stiffness
+    from fecheck.fe.material.anisotropy import axisym_hoop_stiffness
 
     return lambda basis: axisym_hoop_stiffness(basis, case.meniscus)
 
@@ -330,7 +330,7 @@ def _solid_body(name: str, tet: TetMesh, material, fixed_of, tie_faces, translat
     `fixed_of(points, basis, find_edge)` its fixed dofs; on each (faces (f, 3), normal
     function of points) of `tie_faces` the midside normal displacement is tied to its
     edge's ends (contact at vertices only)."""
-    from fecheck.fe.solid import edge_lookup, tie_matrix
+    from fecheck.fe.bodies.solid import edge_lookup, tie_matrix
 
     mesh, basis, K = material(tet)
     x = tet.points
@@ -371,7 +371,7 @@ def solid_ring(case: RingCase, size_mm: float = 0.6) -> RingAnswer:
     """The 3-D quarter-model solve (module docstring) with elements of `size_mm` in the
     meniscus and on the layer out to r_o + 1 mm (growing beyond); Gmsh and scikit-fem
     are imported here."""
-    from fecheck.fe.recovery import tributary_areas, zero_contour_area
+    from fecheck.fe.pressure.recovery import tributary_areas, zero_contour_area
 
     case.check()
     t0 = time.perf_counter()
@@ -421,8 +421,8 @@ def solid_ring(case: RingCase, size_mm: float = 0.6) -> RingAnswer:
 
 
 def _iso(tet, case: RingCase):
-    from fecheck.fe.elasticity import resolve
-    from fecheck.fe.solid import p2_elasticity
+    from fecheck.fe.bodies.solid import p2_elasticity
+    from fecheck.fe.material.elasticity import resolve
 
     return p2_elasticity(tet, case.youngs_MPa, case.poisson,
                          formulation=resolve("auto", case.poisson))
@@ -469,7 +469,7 @@ def _meniscus_section(gmsh, case: RingCase) -> list[int]:
 def _solid_meniscus(case: RingCase, size_mm: float, layer_nodes: np.ndarray,
                     layer_points: np.ndarray) -> tuple[Body, list[Pair]]:
     """The meniscus quarter (hoop fibres, per quadrature point) and its two pairs."""
-    from fecheck.fe.anisotropy import hoop_directions, p2_transiso
+    from fecheck.fe.material.anisotropy import hoop_directions, p2_transiso
 
     R, c = case.radius_mm, case.clearance_mm
     tet = _revolve(lambda g: _meniscus_section(g, case), f"{size_mm}", "ring-meniscus")

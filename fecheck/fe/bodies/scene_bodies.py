@@ -12,11 +12,11 @@ used, its thickness and the femoral surface that presses it.
   rigid femoral surface — the EF's own assumption (``fe.cartilage = "series"``). With
   ``fe.cartilage = "two-layer"`` the tibial cartilage alone: its bone distance, or its
   share of ``contact.thickness_mm``, 1 − ``contact.femoral_share`` (the femoral layer,
-  `fecheck.fe.femoral`, takes the rest).
+  `fecheck.fe.knee.femoral`, takes the rest).
   With ``geometry.tibia_solid`` and ``fe.body`` "layer": the solid's own thickness map
-  (`fecheck.fe.volume.solid_thickness`).
+  (`fecheck.fe.bodies.volume.solid_thickness`).
 - Tibial solid (``fe.body`` "solid", or "auto" with ``geometry.tibia_solid``): the closed
-  solid itself (`fecheck.fe.volume`), each compartment's articular face the part of its
+  solid itself (`fecheck.fe.bodies.volume`), each compartment's articular face the part of its
   boundary on that compartment's sheet (`fecheck.scene.tibia_solid.on_sheet`).
 - Femoral surface (world = femur frame, fixed): the analytic condyle sphere, or the
   femoral surface file (``geometry.femur``; or the closed hemisphere mesh) as a rigid
@@ -33,8 +33,8 @@ import numpy as np
 
 from fecheck.contact.analytic import Sphere
 from fecheck.errors import FecheckError
-from fecheck.fe.indenter import MeshIndenter, SphereIndenter
-from fecheck.fe.volume import TibiaSolid, solid_thickness
+from fecheck.fe.bodies.indenter import MeshIndenter, SphereIndenter
+from fecheck.fe.bodies.volume import TibiaSolid, solid_thickness
 from fecheck.model.knee_surfaces import tibial_slaves
 from fecheck.scene import Scene, surfaces
 from fecheck.scene.constants import COMPARTMENTS
@@ -59,7 +59,7 @@ class FEBody:
     solid : the closed tibial solid the FE meshes instead of extruding `surface` (shared
         by the compartments of a one-piece solid), or None
     carrier : the frame name of the rigid body the layer is bonded to ("T" the tibia, "P"
-        the patella: `fecheck.fe.patella_layer`); `surface` is in that body's frame
+        the patella: `fecheck.fe.knee.patella_layer`); `surface` is in that body's frame
     """
 
     name: str
@@ -195,7 +195,7 @@ def refuse_unmodelled(scene: Scene) -> None:
         raise FecheckError("the FE cross-check does not model menisci (menisci.dir = "
                            f"{scene['menisci.dir']!r}): set menisci.dir = '' to cross-check "
                            "the knee without them (`fecheck fe` on this scene runs the FE "
-                           "with menisci, fecheck.fe.knee_menisci)")
+                           "with menisci, fecheck.fe.knee.knee_menisci)")
 
 
 def scene_bodies(scene: Scene) -> list[FEBody]:
