@@ -296,7 +296,7 @@ def test_a_prepared_sheet_is_counted_as_the_fe_meshes_it():
     from geometry.prepare import prepare_sheet
 
     sheet = _dense_tilted_disc(step_mm=0.25)
-    bodies = [SimpleNamespace(surface=sheet, tibial_surface="mesh:sheet.stl")]
+    bodies = [SimpleNamespace(surface=sheet, tibial_surface="mesh:sheet.stl", carrier="T")]
     real = layer_dofs(prepare_sheet(sheet, 1.0).mesh, 0, 3)
     on = FESettings(prepare="on", size_mm=1.0)
     estimate = fe_estimate(bodies, 0, 3, on).count
@@ -306,7 +306,7 @@ def test_a_prepared_sheet_is_counted_as_the_fe_meshes_it():
     # 'auto' prepares only a mesh sheet that does not extrude: the smaller count, refused
     # only when neither fits; a generated plateau always extrudes: counted as it is
     assert fe_estimate(bodies, 0, 3, FESettings(prepare="auto")).count == estimate
-    plateau = [SimpleNamespace(surface=sheet, tibial_surface="plateau disc")]
+    plateau = [SimpleNamespace(surface=sheet, tibial_surface="plateau disc", carrier="T")]
     assert fe_estimate(plateau, 0, 3, FESettings(prepare="auto")).count == raw
 
 
@@ -319,7 +319,7 @@ def test_a_dense_sheet_the_fe_prepares_is_not_refused_for_its_raw_size():
     from fecheck.fe.bodies.settings import FESettings
 
     bodies = [SimpleNamespace(surface=_dense_tilted_disc(step_mm=0.1),
-                              tibial_surface="mesh:sheet.stl")]
+                              tibial_surface="mesh:sheet.stl", carrier="T")]
     guard_layers(bodies, FESettings(prepare="on"), 0.3)
     guard_layers(bodies, FESettings(prepare="auto"), 0.3)
     with pytest.raises(FecheckError, match="fe.refine"):
