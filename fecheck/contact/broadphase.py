@@ -254,6 +254,10 @@ def current_set(state):
 
 REMEMBERED_BUILDS = 4
 """How many rebuilt sets a `CandidateCache` keeps by their pose."""
+RECENT_SETS = 4
+"""How many sets built since the last `CandidateCache.reset` a cache keeps with their
+poses: a pose back within the reuse limit of one of them (a Newton line search's shorter
+step after a longer trial) takes that set again instead of a rebuild."""
 BOUND_SLACK_MM = 1e-9
 """A vertex is left out of a rebuild without asking the reach only if its bound lies this
 far below -margin (mm): round-off of the bound cannot then decide a vertex that a query
@@ -322,6 +326,10 @@ class CandidateCache:
         self._seen = 0
         self._current: Candidates | None = None
         self._builds: dict[bytes, tuple] = {}
+        # the sets built since the last reset: (reference R, t, the set's arrays)
+        self._recent: list[tuple[np.ndarray, np.ndarray, tuple]] = []
+        self._bound = (centroid, radius, float(reuse_fraction) * self.margin_mm)
+        self._restored = 0
         self._load_kernels()
 
     def _load_kernels(self) -> None:
@@ -337,8 +345,8 @@ class CandidateCache:
 
     @property
     def n_rebuilds(self) -> int:
-        """Candidate sets built so far."""
-        return int(self._counts[1])
+        """Candidate sets built so far (not counting recent sets taken again)."""
+        return int(self._counts[1]) - self._restored
 
     @property
     def n_reuses(self) -> int:
@@ -352,8 +360,28 @@ class CandidateCache:
         else:
             n = reused_set(self.state, R, t)
             if n < 0:
-                n = store_set(self.state, R, t, *self._remembered(R, t))
+                n = self._restore(R, t)
+            if n < 0:
+                built = self._remembered(R, t)
+                n = store_set(self.state, R, t, *built)
+                self._recent.append((np.array(R, dtype=float), np.array(t, dtype=float),
+                                     built))
+                del self._recent[:-RECENT_SETS]
         return self._read(n)
+
+    def _restore(self, R: np.ndarray, t: np.ndarray) -> int:
+        """Make the latest recent set (`RECENT_SETS`) that can serve the relative pose
+        (R, t) the current one, at its own reference pose (counted as a reuse); its count,
+        or -1 if none can. Exact as a reuse is: no face outside a set can touch while
+        the motion bound from the set's pose stays below the limit."""
+        centroid, radius, limit = self._bound
+        for R0, t0, built in reversed(self._recent):
+            if motion_bound(R, t, R0, t0, centroid, radius) <= limit:
+                n = store_set(self.state, R0, t0, *built)
+                self._restored += 1
+                self._counts[2] += 1
+                return n
+        return -1
 
     def _remembered(self, R: np.ndarray, t: np.ndarray):
         """`_build` at (R, t), or the faces of an earlier build at exactly that pose (a
@@ -412,5 +440,6 @@ class CandidateCache:
         return self._read(int(self._counts[1])) if self._counts[0] else None
 
     def reset(self) -> None:
-        """Forget the cached set (the next call rebuilds it)."""
+        """Forget the cached set and the recent ones (the next call rebuilds it)."""
         self._counts[0] = 0
+        self._recent = []

@@ -139,3 +139,34 @@ def test_bounded_rebuilds_over_a_sweep_find_the_sets_of_asking_every_vertex():
         np.testing.assert_array_equal(faces, np.flatnonzero(near[slave.faces].any(axis=1)))
     assert cache.n_rebuilds == every.n_rebuilds >= 30
     assert cache.n_reach_points < 0.6 * every.n_reach_points     # measured 0.53
+
+
+def test_a_pose_back_near_a_recent_set_takes_it_again_with_a_fresh_pairs_contact():
+    """A pose within the reuse limit (1 mm of a 2 mm margin) of a set built earlier in the
+    run, but not of the current one (a line search's shorter step after a longer trial),
+    takes that set again without a rebuild; its contact equals a fresh pair's there (the
+    set is a superset of the faces that can touch). A pose near no recent set's own pose
+    rebuilds, and after `reset` the recent sets are gone."""
+    master = icosphere(25.5, 3, center=[0.0, 0.0, 25.5 - 0.8])
+    slave = plane_patch([0.0, 0.0, 0.0], [0.0, 0.0, 1.0], radius=26.0, size=1.0)
+    pair = ContactPair(slave, master, margin_mm=2.0)
+    at = {x: (np.eye(3), np.array([x, 0.0, 0.0])) for x in (0.0, 3.0, 0.6, 1.6)}
+    identity = (np.eye(3), np.zeros(3))
+    pair.evaluate(at[0.0], identity)
+    first = pair.cache.current.faces
+    pair.evaluate(at[3.0], identity)
+    back = pair.evaluate(at[0.6], identity)
+    assert pair.cache.n_rebuilds == 2
+    np.testing.assert_array_equal(pair.cache.current.faces, first)
+    fresh = ContactPair(slave, master, margin_mm=2.0).evaluate(at[0.6], identity)
+    assert volume_of(back) == pytest.approx(volume_of(fresh), rel=1e-12) and volume_of(back) > 0
+    pair.evaluate(at[1.6], identity)                   # 1.6 mm from the first set's pose
+    assert pair.cache.n_rebuilds == 3
+    pair.cache.reset()
+    pair.evaluate(at[0.6], identity)
+    assert pair.cache.n_rebuilds == 4
+
+
+def volume_of(surface) -> float:
+    """Σ weight × depth of a contact surface's quadrature points, mm³."""
+    return float((surface.qp_weight * surface.qp_depth).sum())
