@@ -201,7 +201,8 @@ class ContactPair:
         its Table 5.3 d 0.80/0.85 mm, p_max 3.59/3.81 MPa; exact: 0.955/1.015 mm)
         The "fcl" method always counts whole faces.
     margin_mm : broad-phase reach; candidate faces are reused while no slave vertex can
-        have moved more than half of it relative to the master
+        have moved more than 90 % of it relative to a mesh master, half of it relative to
+        an analytic one (`fecheck.contact.broadphase`)
     mesh_sign : inside/outside test of a mesh master, "normal" (side of the closest
         face normal; open sheets) or "winding" (generalised winding number; closed
         meshes), see `fecheck.contact.mesh_master`
@@ -267,7 +268,7 @@ class ContactPair:
         else:
             how = self.master.describe()
         return (f"{how}; {area}; broad phase keeps slave faces within {self.margin_mm:g} mm, "
-                f"reused while the pose moves < {0.5 * self.margin_mm:g} mm")
+                f"reused while the pose moves < {self._cache.reuse_limit_mm:g} mm")
 
     @property
     def analytic_kernel(self) -> tuple[object, tuple]:

@@ -247,7 +247,8 @@ SCHEMA: dict[str, Key] = {
         choices=("auto", "closed-form", "bvh", "ray-parity", "fcl")),
     "contact.margin_mm": Key("float", 2.0, "Broad-phase margin, mm: candidate faces within "
                              "this distance are found once and reused while the pose moves "
-                             "less than half of it.", low=0.0),
+                             "less than 90 % of it (a mesh master) or half of it (an "
+                             "analytic one).", low=0.0),
     "contact.youngs_MPa": Key("float", 20.0, "Young's modulus E of the cartilage, MPa (the "
                               "foundation and Hertz laws and the FE cross-check).", low=0.0,
                               low_open=True),

@@ -5,7 +5,7 @@ import numpy as np
 import pytest
 
 from fecheck.contact import ContactPair, Plane, Sphere
-from fecheck.contact.broadphase import CandidateCache
+from fecheck.contact.broadphase import REUSE_FRACTION, CandidateCache
 from fecheck.contact.bvh import BALL, BOX, HALF_SPACE, PointTree
 from fecheck.statics.frames import rotation
 from geometry.icosphere import icosphere
@@ -114,7 +114,7 @@ def test_faces_in_a_region_are_those_whose_owner_is_within_its_extent(kind, para
 def test_bounded_rebuilds_over_a_sweep_find_the_sets_of_asking_every_vertex():
     """A mesh master's rebuild asks the closest-point reach only where a vertex's last
     reach plus its move since can exceed -margin: over a rolling sweep (60 steps of 1°
-    about the sphere's centre, a rebuild every step or two) every set is the brute-force
+    about the sphere's centre, a rebuild every two or three steps) every set is the brute-force
     one at its pose (the faces with a corner in the master's box whose signed distance >
     -margin),
     and the rebuilds ask at most 60 % of the vertices that asking every box vertex does
@@ -137,12 +137,12 @@ def test_bounded_rebuilds_over_a_sweep_find_the_sets_of_asking_every_vertex():
         y = slave.points @ R.T + t
         near = np.all((y >= lo) & (y <= hi), axis=1) & (pair.master.depth_values(y) > -2.0)
         np.testing.assert_array_equal(faces, np.flatnonzero(near[slave.faces].any(axis=1)))
-    assert cache.n_rebuilds == every.n_rebuilds >= 30
+    assert cache.n_rebuilds == every.n_rebuilds >= 20
     assert cache.n_reach_points < 0.6 * every.n_reach_points     # measured 0.53
 
 
 def test_a_pose_back_near_a_recent_set_takes_it_again_with_a_fresh_pairs_contact():
-    """A pose within the reuse limit (1 mm of a 2 mm margin) of a set built earlier in the
+    """A pose within the reuse limit (1.8 mm of a 2 mm margin) of a set built earlier in the
     run, but not of the current one (a line search's shorter step after a longer trial),
     takes that set again without a rebuild; its contact equals a fresh pair's there (the
     set is a superset of the faces that can touch). A pose near no recent set's own pose
@@ -150,17 +150,17 @@ def test_a_pose_back_near_a_recent_set_takes_it_again_with_a_fresh_pairs_contact
     master = icosphere(25.5, 3, center=[0.0, 0.0, 25.5 - 0.8])
     slave = plane_patch([0.0, 0.0, 0.0], [0.0, 0.0, 1.0], radius=26.0, size=1.0)
     pair = ContactPair(slave, master, margin_mm=2.0)
-    at = {x: (np.eye(3), np.array([x, 0.0, 0.0])) for x in (0.0, 3.0, 0.6, 1.6)}
+    at = {x: (np.eye(3), np.array([x, 0.0, 0.0])) for x in (0.0, 4.0, 0.6, 2.0)}
     identity = (np.eye(3), np.zeros(3))
     pair.evaluate(at[0.0], identity)
     first = pair.cache.current.faces
-    pair.evaluate(at[3.0], identity)
+    pair.evaluate(at[4.0], identity)
     back = pair.evaluate(at[0.6], identity)
     assert pair.cache.n_rebuilds == 2
     np.testing.assert_array_equal(pair.cache.current.faces, first)
     fresh = ContactPair(slave, master, margin_mm=2.0).evaluate(at[0.6], identity)
     assert volume_of(back) == pytest.approx(volume_of(fresh), rel=1e-12) and volume_of(back) > 0
-    pair.evaluate(at[1.6], identity)                   # 1.6 mm from the first set's pose
+    pair.evaluate(at[2.0], identity)                   # 2 mm from both sets' poses
     assert pair.cache.n_rebuilds == 3
     pair.cache.reset()
     pair.evaluate(at[0.6], identity)
@@ -170,3 +170,30 @@ def test_a_pose_back_near_a_recent_set_takes_it_again_with_a_fresh_pairs_contact
 def volume_of(surface) -> float:
     """Σ weight × depth of a contact surface's quadrature points, mm³."""
     return float((surface.qp_weight * surface.qp_depth).sum())
+
+
+def test_a_mesh_masters_set_serves_a_move_of_nine_tenths_of_the_margin_with_a_fresh_contact():
+    """A mesh master's set (the faces with a vertex within the 2 mm margin) is reused until
+    the slave has moved 1.8 mm (`REUSE_FRACTION`): a face left out had every vertex at
+    reach <= -2 mm, and a face's contact is made from its vertex depths, so none of them
+    can touch yet. The sphere comes down from 1 mm above the plate to 0.75 mm into it in
+    one set, whose contact equals a fresh pair's at every step; a reuse over 2.3 mm would
+    miss the faces the contact reaches then (8 mm out: 2.3 mm below the sphere at the
+    first pose)."""
+    master = icosphere(25.5, 3, center=[0.0, 0.0, 25.5 + 1.0])
+    slave = plane_patch([0.0, 0.0, 0.0], [0.0, 0.0, 1.0], radius=26.0, size=1.0)
+    pair = ContactPair(slave, master, margin_mm=2.0)
+    identity = (np.eye(3), np.zeros(3))
+    for up in np.arange(0.0, 1.76, 0.25):
+        pose = (np.eye(3), np.array([0.0, 0.0, up]))
+        surface = pair.evaluate(pose, identity)
+        fresh = ContactPair(slave, master, margin_mm=2.0).evaluate(pose, identity)
+        assert volume_of(surface) == pytest.approx(volume_of(fresh), rel=1e-12, abs=1e-15)
+    assert pair.cache.n_rebuilds == 1 and volume_of(surface) > 0
+    pair.evaluate((np.eye(3), np.array([0.0, 0.0, 2.0])), identity)    # past 1.8 mm
+    assert pair.cache.n_rebuilds == 2 and REUSE_FRACTION * 2.0 < 2.0 - 0.1
+    pair.evaluate((np.eye(3), np.zeros(3)), identity)                   # the first set again
+    deeper = (np.eye(3), np.array([0.0, 0.0, 2.3]))
+    fresh = ContactPair(slave, master, margin_mm=2.0).evaluate(deeper, identity)
+    kept = np.isin(fresh.face, pair.cache.current.faces)
+    assert not kept.all()

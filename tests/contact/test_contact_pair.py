@@ -127,7 +127,8 @@ def test_candidate_set_is_reused_for_small_motions_and_gives_identical_results()
         np.testing.assert_array_equal(a.face, b.face)
         np.testing.assert_allclose(a.qp_depth, b.qp_depth, atol=1e-12)
     assert reused.cache.n_rebuilds == 1 and reused.cache.n_reuses == len(poses) - 1
-    # A jump larger than half the margin forces a rebuild, and contact is still found.
+    # A jump larger than half the margin (an analytic master's limit) forces a rebuild,
+    # and contact is still found.
     far = reused.evaluate((np.eye(3), np.array([5.0, 0.0, 25.5 - 1.0])), IDENTITY)
     assert reused.cache.n_rebuilds == 2 and far.max_depth == pytest.approx(1.0, abs=0.05)
 
