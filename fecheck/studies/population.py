@@ -199,7 +199,7 @@ NEAR_BASELINE_MM = 1.0
 """A predicted start closer than this to the baseline pose (translations mm, rotations
 rad x `ROTATION_LENGTH_MM`) is not used: the sample starts from the baseline pose, whose
 broad-phase set every worker keeps (a new pose rebuilds it, which costs more than the
-Newton steps saved over so short a move; the broad phase reuses a set over 1 mm)."""
+Newton steps saved over so short a move; the broad phase reuses a set over 1.8 mm)."""
 ROTATION_LENGTH_MM = 50.0
 """Length that turns a rotation (rad) into a move (mm) in `NEAR_BASELINE_MM` (the
 solver's scale of moments and rotations)."""
