@@ -451,7 +451,7 @@ def solve_knee(scene: Scene, comps: Sequence[Compartment], springs: Sequence[Cal
     bodies = (tibia_body(q0, free_indices(scene), theta, base),
               Body("patella", np.zeros(6) if patella_start is None
                    else np.asarray(patella_start, dtype=float), tuple(range(6)),
-                   free_key="patella.dir", start_keys="the patella data's pose"))
+                   free_key="", start_keys="the patella data's pose"))
     problem = Problem(bodies, wrench, (), force_scale(scene),
                       tolerance=scene["solver.tolerance"],
                       max_iterations=scene["solver.max_iterations"],

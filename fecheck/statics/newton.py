@@ -230,7 +230,8 @@ class Body:
     q_start : (6,) start coordinates (x, y, z mm, θx, θy, θz rad); the coordinates not in
         `free` stay at their value (driven, or fixed)
     free : indices of the free coordinates in `BODY_DOFS` (empty: a fixed body)
-    free_key : the scene key that lists the free DOFs (for messages)
+    free_key : the scene key that lists the free DOFs (for messages); "" for a body whose
+        DOFs are all free, with no key to fix them (the patella)
     start_keys : the scene keys the start coordinates come from (for messages)
     base : (3, 3) rotation Q whose columns are the axes θx, θy, θz turn about at q = 0
         (R = Q·Rx·Ry·Rz·Qᵀ; a flexion axis off world x); None: the world axes
@@ -560,7 +561,7 @@ def _labels(p: Problem, names: Sequence[tuple[str, str]] | None = None) -> list[
 
 
 def _keys(p: Problem) -> str:
-    return ", ".join(dict.fromkeys(b.free_key for b in p.bodies if b.free))
+    return ", ".join(dict.fromkeys(b.free_key for b in p.bodies if b.free and b.free_key))
 
 
 def _no_stiffness_message(p: Problem, null: np.ndarray) -> str:
@@ -574,19 +575,27 @@ def _no_stiffness_message(p: Problem, null: np.ndarray) -> str:
                 f"({_keys(p)}) or use ligaments.model = 'spring'")
     kept: dict[str, list[str]] = {}     # a key shared by bodies keeps what all of them keep
     keys: dict[str, str] = {}
+    keyless: list[str] = []             # bodies with loose DOFs and no key to fix them
     for body in p.bodies:
         mine = [dof for name, dof in names if name == body.name]
         held = [dof for dof in mine if (body.name, dof) not in loose]
-        if len(held) < len(mine):
-            before = kept.get(body.free_key, held)
-            kept[body.free_key] = [dof for dof in before if dof in held]
-            keys[body.free_key] = body.start_keys
+        if len(held) == len(mine):
+            continue
+        if not body.free_key:
+            keyless.append(body.name)
+            continue
+        before = kept.get(body.free_key, held)
+        kept[body.free_key] = [dof for dof in before if dof in held]
+        keys[body.free_key] = body.start_keys
     drive = [f"{key} = {dofs!r}" for key, dofs in kept.items()]
     who = f"the {p.bodies[0].name} DOFs" if len(p.bodies) == 1 else "the DOFs"
+    fix = (f"drive them by setting {' and '.join(drive)} (their values come from "
+           f"{', '.join(keys.values())}), or add ligaments" if drive else "add ligaments")
+    if keyless:
+        fix += (f"; nothing holds the {' and the '.join(keyless)} here: it may have left the "
+                f"surface it rests on (approach this pose in smaller steps)")
     return (f"{who} {', '.join(_labels(p, loose))} have no stiffness (nothing resists "
-            f"them, e.g. sliding on frictionless plateaus): drive them by setting "
-            f"{' and '.join(drive)} (their values come from {', '.join(keys.values())}), or add "
-            f"ligaments")
+            f"them, e.g. sliding on frictionless plateaus): {fix}")
 
 
 MAX_STEP_MM = 5.0

@@ -141,6 +141,21 @@ def test_a_sliding_middle_body_is_named_with_the_key_that_drives_it(stack):
         solve(dataclasses.replace(problem, bodies=bodies))
 
 
+def test_a_sliding_body_without_a_key_is_named_with_what_would_hold_it(stack):
+    # The same slide, on a body whose DOFs no key fixes (the patella's "" key): no key is
+    # offered to set, the message says that nothing holds it and how to keep it held.
+    problem = _stack_problem(stack, (1, 2, 3, 4), (2,))
+    plate = dataclasses.replace(problem.bodies[PLATE], free_key="")
+    bodies = problem.bodies[:PLATE] + (plate,) + problem.bodies[PLATE + 1:]
+    with pytest.raises(FecheckError) as error:
+        solve(dataclasses.replace(problem, bodies=bodies))
+    assert str(error.value).startswith("the DOFs plate y have no stiffness")
+    assert str(error.value).endswith(
+        "add ligaments; nothing holds the plate here: it may have left the surface it rests "
+        "on (approach this pose in smaller steps)")
+    assert " = [" not in str(error.value)
+
+
 def test_block_tangent_matches_central_differences_of_the_stacked_residual(stack):
     # Every coordinate of the plate and the lower body free, a Blankevoort spring between
     # them and a rod from the fixed body to the lower one (with a multiplier), at a
