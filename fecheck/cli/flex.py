@@ -30,7 +30,8 @@ def add_parser(subparsers) -> None:
     add_scene_arguments(p, "override a scene key, value as a TOML literal")
     p.add_argument("--angles", default="0:120:1", metavar="A:B:STEP",
                    help="knee flexion angles, deg: START:STOP:STEP (inclusive) or a comma "
-                        "list (default 0:120:1)")
+                        "list (default 0:120:1); an angle not reached from the last in one "
+                        "step is approached in 1° steps")
     p.add_argument("--axis-point", metavar="X,Y,Z",
                    help="a point of the flexion axis, mm (with --axis-dir; default: the scene's "
                         "flexion.axis_point_mm, else fitted)")

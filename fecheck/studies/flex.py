@@ -488,10 +488,18 @@ def patella_row_fe(chk) -> dict:
     return out
 
 
+SUBSTEP_DEG = 1.0
+"""An angle not solved from the last solved one in one step is approached from there in
+steps of at most this (deg), each from the one before (a continuation; only the asked
+angle is reported): the source model's passive set-up with the patella solves every
+angle 0-120° at 1° steps, while from 30° to 60° in one step the patella leaves the
+trochlea."""
+
+
 def _sweep(scene: Scene, angles: Sequence[float], axis: FlexionAxis, run: FlexRun, comps,
            bundles: tuple, progress: Callable[[int, FlexPoint], None] | None) -> None:
     """The angles of `run_flex` in turn, appended to `run.points` (`run.stopped` set
-    where they stop)."""
+    where they stop); an angle not reached in one step is reached in `SUBSTEP_DEG` steps."""
     from fecheck.model.equilibrium import compartment_results, solve_equilibrium
     from fecheck.model.scanned import bundle_parts
 
@@ -499,23 +507,26 @@ def _sweep(scene: Scene, angles: Sequence[float], axis: FlexionAxis, run: FlexRu
     parts = bundle_parts(springs)
     q_rot = axis_rotation(axis.direction)
     sign = 1.0 if scene["knee.side"] == "right" else -1.0
-    warm, ab, ie, d = None, 0.0, 0.0, np.zeros(3)
-    state = None
-    for i, phi_deg in enumerate(angles):
+
+    def solve_at(phi_deg: float, last: tuple | None) -> tuple[FlexPoint | None, object, str]:
+        """The point at `phi_deg` from the last solved (eq, patella state), or None, and
+        the equilibrium, and why it failed ('' when solved)."""
         phi = math.radians(phi_deg)
-        if run.points:
-            warm = _warm(axis, q_rot, phi, ab, ie, d)
+        warm = state = None
+        if last is not None:
+            eq, state = last
+            warm = _warm(axis, q_rot, phi, float(eq.q[3]), float(eq.q[4]),
+                         eq.rot @ axis.point + eq.t - axis.point)
         try:
             if run.patella is None:
                 eq = solve_equilibrium(scene, comps, parts, (), warm, (-phi, q_rot),
-                                       check=i == 0)
+                                       check=last is None)
             else:
                 eq, state = solve_knee(scene, comps, parts, run.patella, warm,
                                        None if state is None else state.q, (-phi, q_rot),
-                                       check=i == 0)
+                                       check=last is None)
         except FecheckError as err:
-            run.stopped = f"flexion {phi_deg:g}°: {err}{_edge_note(scene, run.points)}"
-            return
+            return None, None, f"flexion {phi_deg:g}°: {err}"
         point = _point(scene, comps, eq, compartment_results(comps, eq), names, springs,
                        axis, q_rot, phi_deg, sign)
         point.patella = state
@@ -523,14 +534,36 @@ def _sweep(scene: Scene, angles: Sequence[float], axis: FlexionAxis, run: FlexRu
         if state is not None and state.contact.force_N <= 0.0:
             lost.append("patellofemoral")
         if not eq.solution.converged or lost:
-            run.stopped = (_stop_reason(phi_deg, eq, lost, run.points)
-                           + _edge_note(scene, run.points))
+            return None, None, _stop_reason(phi_deg, eq, lost, run.points)
+        return point, (eq, state), ""
+
+    last = None
+    for i, phi_deg in enumerate(angles):
+        point, solved, why = solve_at(phi_deg, last)
+        if why and run.points and abs(phi_deg - run.points[-1].flexion_deg) > SUBSTEP_DEG:
+            point, solved, why = _continued(solve_at, run.points[-1].flexion_deg, phi_deg,
+                                            last)
+        if why:
+            run.stopped = why + _edge_note(scene, run.points)
             return
         run.points.append(point)
-        ab, ie = float(eq.q[3]), float(eq.q[4])
-        d = eq.rot @ axis.point + eq.t - axis.point
+        last = solved
         if progress is not None:
             progress(i, point)
+
+
+def _continued(solve_at: Callable, start_deg: float, phi_deg: float, last: tuple) -> tuple:
+    """`solve_at` (of `_sweep`) from the solved `start_deg` to `phi_deg` in steps of at most
+    `SUBSTEP_DEG`, each from the one before; the last step's (point, solved, why), or the
+    first failed one's, its reason naming both angles."""
+    n = math.ceil(abs(phi_deg - start_deg) / SUBSTEP_DEG - 1e-9)
+    out = (None, last, "")
+    for between in np.linspace(start_deg, phi_deg, n + 1)[1:]:
+        out = solve_at(float(between), out[1])
+        if out[2]:
+            return (None, None, f"flexion {phi_deg:g}° (approached from {start_deg:g}° in "
+                                f"{SUBSTEP_DEG:g}° steps): {out[2]}")
+    return out
 
 
 def _stop_reason(phi_deg: float, eq, lost: list[str], done: list[FlexPoint]) -> str:

@@ -317,10 +317,12 @@ def test_ctrl_c_keeps_the_finished_angles(tmp_path, monkeypatch, capsys):
 
 def test_past_the_cartilage_stops_with_one_line_naming_the_angle(tmp_path, capsys):
     # decimated knee: 140° solves with the lateral contact 4.3 mm from the posterior edge
-    # of the femoral cartilage; 145° finds no equilibrium
+    # of the femoral cartilage; 145° is not reached in one step, and in 1° steps 144° finds
+    # no equilibrium
     assert _main(["--angles", "140,145", "--csv", str(tmp_path / "f.csv")]) == 1
     err = capsys.readouterr().err.strip().splitlines()[-1]
-    assert err.startswith("fecheck: error: flexion 145°: no equilibrium")
+    assert err.startswith("fecheck: error: flexion 145° (approached from 140° in 1° steps): "
+                          "flexion 144°: no equilibrium")
     assert "the femoral cartilage runs out there" in err
     assert len((tmp_path / "f.csv").read_text().strip().splitlines()) == 2
 

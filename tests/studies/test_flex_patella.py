@@ -125,3 +125,23 @@ def test_without_the_patella_the_tibiofemoral_run_never_enters_its_code(monkeypa
     assert run.stopped is None and run.patella is None
     row = run.points[1].row()
     assert not [k for k in row if k.startswith(("pf_", "PF_", "quadriceps"))]
+
+
+def test_an_angle_beyond_one_steps_reach_is_approached_in_one_degree_steps(monkeypatch):
+    """From 30° to 60° in one step the patella leaves the trochlea and the solve stops at
+    60°; approached in `flex.SUBSTEP_DEG` steps from 30°, 60° is solved at the equilibrium
+    a 1° sweep finds there (the same path, to the solver's round-off)."""
+    scene = load_scene("femur_tibia_ligaments", [
+        "patella.dir='fecheck:knee/lenhart2015_patella'", "load.frame='tibia'",
+        "load.force_N=30.0"])
+    axis = flex.given_axis((-1.757, -0.150, 22.272), (1.0, 0.0, 0.0))
+    jumped = flex.run_flex(scene, [0.0, 30.0, 60.0], axis)
+    swept = flex.run_flex(scene, np.arange(0.0, 61.0), axis)
+    assert jumped.stopped is None and swept.stopped is None
+    assert [p.flexion_deg for p in jumped.points] == [0.0, 30.0, 60.0]
+    np.testing.assert_allclose(jumped.points[-1].q, swept.points[-1].q, rtol=0, atol=1e-9)
+    np.testing.assert_allclose(jumped.points[-1].patella.q, swept.points[-1].patella.q,
+                               rtol=0, atol=1e-9)
+    monkeypatch.setattr(flex, "SUBSTEP_DEG", 90.0)
+    direct = flex.run_flex(scene, [0.0, 30.0, 60.0], axis)
+    assert direct.stopped.startswith("flexion 60°") and len(direct.points) == 2
