@@ -12,9 +12,9 @@ from its vertex depths (`fecheck.contact.kernels`): a face left out had every ve
 reach <= -margin, so while the bound stays below the margin each is still outside and
 the face out of contact. The limit is `REUSE_FRACTION` × margin for the sets asked of
 the master's reach (mesh masters), ``reuse_fraction`` × margin (0.5) for the analytic
-masters' half-spaces and balls. A rebuild
-asks a tree over the slave's vertices, built once (`fecheck.contact.bvh`), for the
-master's region, so it too costs ∝ the faces near the master, not the mesh.
+masters' half-spaces and balls. A rebuild asks a tree over the slave's vertices, built
+once (`fecheck.contact.bvh`), for the master's region, so it too costs ∝ the faces near
+the master, not the mesh.
 
 The cache's state (tree tables, reference pose, counters and the set) lives in one
 compiled object, `BroadPhaseState`, so that compiled code (`fecheck.laws.fused`) checks,

@@ -241,9 +241,10 @@ class MeshMaster:
             row = np.dtype((np.void, 24))
             known = last[0].view(row).ravel()
             order = np.argsort(known, kind="stable")
+            ranked = known[order]
             keys = pts.view(row).ravel()
-            at = np.minimum(np.searchsorted(known[order], keys), len(known) - 1)
-            hit = known[order][at] == keys
+            at = np.minimum(np.searchsorted(ranked, keys), len(known) - 1)
+            hit = ranked[at] == keys
             old = order[at[hit]]
             sq[hit], face[hit], closest[hit] = last[1][old], last[2][old], last[3][old]
             ask = np.flatnonzero(~hit)
