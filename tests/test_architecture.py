@@ -362,3 +362,35 @@ def test_the_checker_sees_a_backward_import_inside_fe(tmp_path):
                     "def f():\n    from fecheck.fe.knee.crosscheck import cross_check\n")
     assert _fe_backward("fecheck.fe.bodies.fake", fake) == [
         "fecheck.fe.bodies.fake:5 bodies → knee (fecheck.fe.knee.crosscheck)"]
+
+
+def _builder_importers(builders: set[str], modules: dict[str, Path]) -> dict[str, list[str]]:
+    """{module of `fecheck.fe`: the body builders among `builders` it imports}."""
+    out = {}
+    for module, path in modules.items():
+        if _fe_stage(module) is None:
+            continue
+        hits = sorted({t for target, names, _, _ in _imports(path, module)
+                       for t in _resolve(target, names) if t in builders})
+        if hits:
+            out[module] = hits
+    return out
+
+
+def test_the_fe_knows_a_body_beyond_the_tibia_only_through_its_registration():
+    # the cross-check and the balance are written against `knee_body`'s protocols: adding a
+    # body is its builder, one entry in `registry.BODIES`, its test
+    from fecheck.fe.knee.registry import BODIES
+
+    builders = {type(body).__module__ for body in BODIES}
+    assert builders == {"fecheck.fe.knee.patella_layer"}
+    assert _builder_importers(builders, MODULES) == {
+        "fecheck.fe.knee.registry": ["fecheck.fe.knee.patella_layer"]}
+
+
+def test_the_registration_checker_sees_a_builder_imported_elsewhere(tmp_path):
+    fake = tmp_path / "fake.py"
+    fake.write_text("def f():\n    from fecheck.fe.knee.patella_layer import PATELLA_KIND\n")
+    assert _builder_importers({"fecheck.fe.knee.patella_layer"},
+                              {"fecheck.fe.knee.fake": fake}) == {
+        "fecheck.fe.knee.fake": ["fecheck.fe.knee.patella_layer"]}

@@ -222,10 +222,8 @@ def summary_lines(check) -> list[str]:
     fe, ef = check.pose["fe"], check.pose["ef"]
     out.append(f"pose FE - EF ({check.settings.mode} mode): "
                + ", ".join(f"{k} {fe[k] - ef[k]:+.4f}" for k in fe))
-    if check.patella is not None:
-        pf = check.as_dict()["patella_pose"]
-        out.append("patella FE - EF: " + ", ".join(f"{k} {pf['fe'][k] - pf['ef'][k]:+.4f}"
-                                                   for k in pf["fe"]))
+    if check.extra is not None:
+        out += check.extra.lines()
     out.append(geometry_line(check.geometry))
     for name, chk in check.compartments.items():
         dev = chk.deviation()

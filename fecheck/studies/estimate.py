@@ -220,7 +220,7 @@ def solve_level(scene: Scene, check, run: RunResult, label: str, settings: FESet
     load control, as a `Level` (its face-averaged p_max on the default run's EF faces)."""
     from fecheck.fe.knee.crosscheck import fe_level
 
-    solved, dofs, seconds = fe_level(scene, bodies, run, settings, log, check.patella)
+    solved, dofs, seconds = fe_level(scene, bodies, run, settings, log, check.extra)
     metrics = {name: m for name, (_, m, _) in solved.items()}
     pressures = {name: p for name, (_, _, p) in solved.items()}
     by_name = {name: lay for name, (lay, _, _) in solved.items()}

@@ -448,7 +448,7 @@ def fe_row(scene: Scene, point: FlexPoint, axis: FlexionAxis, built: tuple,
     else:
         ef, pf, _ = ef_knee(scene, flexion, (point.q, point.patella.q), built, patella)
     ef_seconds = time.perf_counter() - t0
-    check = cross_check(scene, log=log, ef=(ef, ef_seconds), flexion=flexion, patella=pf)
+    check = cross_check(scene, log=log, ef=(ef, ef_seconds), flexion=flexion, extra=pf)
     balance = body_balance(scene, check, flexion)
     row = {"flexion_deg": point.flexion_deg, "balance": max(balance.values()),
            "fe_seconds": check.timing_s["fe"], "ef_seconds": ef_seconds}

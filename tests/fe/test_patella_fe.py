@@ -73,11 +73,11 @@ def _hand_statics(scene, check) -> tuple[np.ndarray, np.ndarray]:
     """The total wrench on the patella (6,) and the generalised force on the tibia's free
     DOFs, each force along its line by hand: the FE contact forces, the bundle, tendon and
     quadriceps tensions along their lines, the tibia's load, gravity and bundles."""
-    model = check.patella.model
+    model = check.extra.model
     q = np.array([check.pose["fe"].q[i] for i in range(5)])
     theta = math.radians(scene["dofs.flexion_deg"])
     rot, t = pose(q, theta)
-    prot, pt = body_pose(check.patella.q_fe)
+    prot, pt = body_pose(check.extra.q_fe)
     on_patella, on_tibia = np.zeros(6), np.zeros(6)
     for name, chk in check.compartments.items():
         if name == "patellofemoral":
@@ -105,7 +105,7 @@ def _hand_statics(scene, check) -> tuple[np.ndarray, np.ndarray]:
 def test_each_body_balances_by_hand_statics(knee):
     scene, check = knee
     on_patella, on_tibia = _hand_statics(scene, check)
-    quads = float(check.patella.model.quadriceps.tension_N.sum())
+    quads = float(check.extra.model.quadriceps.tension_N.sum())
     scale = np.repeat([quads, 100.0 * quads], 3)                  # N, and N·mm over 100 mm
     assert np.abs(on_patella / scale).max() < BALANCE_TOL
     free = np.array(list(free_indices(scene)))
@@ -212,7 +212,7 @@ def test_the_patellar_femoral_indenter_fades_at_the_rim_as_the_ef(knee):
     # the EF's faded depth, w(φ)·(-0.3) with w = 3x² - 2x³, x = φ/RIM_MM (0 at the rim);
     # an open gap is kept; the twist row is the faded gap's derivative (central differences)
     scene, check = knee
-    indenter = patella_body(scene, check.patella.model).indenter
+    indenter = patella_body(scene, check.extra.model).indenter
     mesh = indenter.mesh
     y = mesh.points[mesh.faces].mean(axis=1)
     phi = _rim_distance(mesh, y)
@@ -245,7 +245,7 @@ def test_fe_prepare_auto_leaves_the_patellar_sheet_as_it_is(knee):
     # sheet that gets smaller prepared, as the patellar one would; it is kept (a prepared
     # sheet and its femoral surface are cut for a tibial sheet)
     scene, check = knee
-    bodies = [*scene_bodies(scene), patella_body(scene, check.patella.model)]
+    bodies = [*scene_bodies(scene), patella_body(scene, check.extra.model)]
     settings = FESettings.from_scene(scene, refine=2)
     levels = settings.levels(scene["contact.poisson"])
     assert sum(layer_dofs(b.surface, 2, levels) for b in bodies) > MAX_DOFS

@@ -5,11 +5,10 @@ from __future__ import annotations
 import numpy as np
 
 from fecheck.fe.knee.crosscheck import CompartmentCheck, CrossCheck
-from fecheck.fe.knee.patella_layer import FRAME
 from fecheck.model.assembly import applied_load, free_indices
 from fecheck.model.run import ligament_springs
 from fecheck.scene import Scene
-from fecheck.statics.newton import body_pose, pose, twist_basis
+from fecheck.statics.newton import pose, twist_basis
 
 
 def free_dof_balance(scene: Scene, check: CrossCheck, flexion: tuple = (0.0,)) -> float:
@@ -31,29 +30,26 @@ def _contact_wrench(checks: list[CompartmentCheck], rot: np.ndarray, t: np.ndarr
 
 def body_balance(scene: Scene, check: CrossCheck, flexion: tuple = (0.0,)) -> dict[str, float]:
     """{body: the largest generalised force on its free DOFs at the FE pose of `check`
-    over its load}: the tibia's (load, gravity, ligaments, the patellar tendon and the FE
-    contact forces on the tibia) over load.force_N, moments over 100 mm · load.force_N;
-    with the patella, the patella's six (quadriceps, patellofemoral bundles, tendon and
-    its FE contact) over the quadriceps' total, moments over 100 mm times it. `flexion`:
-    the tibia's (θx rad, base rotation or None) as `fecheck.statics.newton.pose` takes
-    them."""
+    over its load}: the tibia's (load, gravity, ligaments, what a body beyond the tibia
+    puts on it, e.g. the patellar tendon, and the FE contact forces on the tibia) over
+    load.force_N, moments over 100 mm · load.force_N; with a body beyond the tibia, its own
+    (`fecheck.fe.knee.knee_body.BodyAtEF.balance`: for the patella the quadriceps,
+    patellofemoral bundles, tendon and its FE contact over the quadriceps' total, moments
+    over 100 mm times it). `flexion`: the tibia's (θx rad, base rotation or None) as
+    `fecheck.statics.newton.pose` takes them."""
     q = np.asarray(check.pose["fe"].q, dtype=float)
     rot, t = pose(q, *flexion)
     total = sum(part(rot, t)[0] for part in [applied_load(scene), *ligament_springs(scene)])
-    tibial = [c for c in check.compartments.values() if c.layer.body.carrier != FRAME]
-    total = total + _contact_wrench(tibial, rot, t)
+    carried = {}
+    for chk in check.compartments.values():
+        carried.setdefault(chk.layer.body.carrier, []).append(chk)
+    total = total + _contact_wrench(carried.get("T", []), rot, t)
     out = {}
-    if check.patella is not None:
-        model = check.patella.model
-        prot, pt = body_pose(check.patella.q_fe)
-        tendon = model.tendon(((rot, t), (prot, pt)))[1]
-        total = total + tendon[:6]
-        on_patella = (model.femoral(prot, pt)[0] + model.quadriceps(prot, pt)[0]
-                      + tendon[6:] + _contact_wrench(
-                          [c for c in check.compartments.values()
-                           if c.layer.body.carrier == FRAME], prot, pt))
-        quads = float(model.quadriceps.tension_N.sum())
-        out["patella"] = float(np.abs(on_patella / np.repeat([quads, 100.0 * quads], 3)).max())
+    extra = check.extra
+    if extra is not None:
+        on_tibia, out[extra.kind.name] = extra.balance(
+            (rot, t), _contact_wrench(carried.get(extra.kind.frame, []), *extra.fe_rt()))
+        total = total + on_tibia
     free = list(free_indices(scene))
     residual = (twist_basis(q, *flexion).T @ total)[free]
     scale = np.where(np.array(free) < 3, 1.0, 100.0) * scene["load.force_N"]

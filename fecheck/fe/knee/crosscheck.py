@@ -16,11 +16,12 @@ materials and load, compared on the same tibial faces.
    layer the axisymmetric FE, the EF closed form and Hertz at the FE's compartment force
    are added (the axisymmetric answer is then the 3D discretisation reference).
 
-With the patella (``patella.dir``): the patellar cartilage is a layer of its own on the
-patella, a second rigid body whose six DOFs join the tibia's under the EF's quadriceps,
-patellar tendon and patellofemoral bundles, the EF the tibia and the patella solved
-together (`fecheck.fe.knee.patella_layer`); the patellofemoral contact is compared as a
-compartment (centre of pressure in the patella frame) and left out of the split.
+With a body beyond the tibia (`fecheck.fe.knee.registry`: the patella, ``patella.dir``):
+its cartilage is a layer of its own on it, a second rigid body whose coordinates join the
+tibia's under the loads the EF puts on it (the patella's quadriceps, patellar tendon and
+patellofemoral bundles), the EF the tibia and the body solved together
+(`fecheck.fe.knee.knee_body`); its contact is compared as a compartment (centre of
+pressure in its frame) and left out of the split.
 
 ``fe.cartilage = "series"`` (default): the FE models one deformable layer (the tibial
 side) under a rigid femoral surface; with ``scanned.thickness = "bone-distance"`` that
@@ -47,14 +48,8 @@ from fecheck.errors import FecheckError
 from fecheck.fe.bodies.pose import FramePose
 from fecheck.fe.bodies.scene_bodies import FEBody, refuse_unmodelled, scene_bodies
 from fecheck.fe.bodies.settings import FESettings
-from fecheck.fe.knee.patella_layer import (
-    FRAME,
-    PatellaEF,
-    ef_knee,
-    knee_drive,
-    patella_body,
-    refuse_patella,
-)
+from fecheck.fe.knee.knee_body import BodyAtEF, KneeBody
+from fecheck.fe.knee.registry import scene_body
 from fecheck.fe.pressure.recovery import pressure_peaks, smoothing_length, zero_contour_area
 from fecheck.fe.pressure.results import ContactMetrics, FEContactResult, PressurePeaks, SideMetrics
 from fecheck.fe.solve.joint import rigid_bodies
@@ -71,7 +66,6 @@ from fecheck.fe.solve.press import (
 from fecheck.model.condyles import scene_knee
 from fecheck.model.equilibrium import axial_force
 from fecheck.model.notes import smoothing_notes
-from fecheck.model.patella import COMPARTMENT, PatellaModel, build_patella, pf_coordinates
 from fecheck.model.results import CompartmentResult, Pose, RunResult
 from fecheck.reference.closed_forms import (
     DONAHUE_2002,
@@ -80,7 +74,7 @@ from fecheck.reference.closed_forms import (
     hertz_sphere_on_plane,
 )
 from fecheck.scene import Scene
-from fecheck.statics.newton import body_pose, pose
+from fecheck.statics.newton import pose
 from geometry.roughness import Roughness, default_radius, roughness
 
 ROUGH_FEATURE_SHARE = 0.1
@@ -105,11 +99,6 @@ SERIES_VS_TWO_LAYER = ("on the scanned knee (validation/fe_two_layer.py, full re
                        "points on the medial/lateral split and 0.1 mm on the centres of "
                        "pressure, but its contact areas were 9-10 % smaller: good enough for "
                        "forces, split and where the load sits, not for the contact area")
-PATELLA_NOTE = ("the patella (patella.dir): its cartilage one more layer, bonded to the "
-                "patella (a rigid body, six free DOFs solved with the tibia's under the "
-                "quadriceps, the patellar tendon and the patellofemoral bundles of the EF) and "
-                "pressed by the rigid femoral surface; its centre of pressure in the patella "
-                "frame, its force left out of the medial/lateral split")
 DONAHUE_NOTE = ("* Donahue 2002 is another knee under another load (800 N, whole joint with "
                 "menisci): a scale for the numbers, not a reference for this scene")
 
@@ -205,14 +194,15 @@ class CrossCheck:
     notes: tuple[str, ...] = field(default=())
     ef_run: RunResult | None = None
     """The EF run compared (the error estimate's FE levels start from its pose)."""
-    patella: PatellaEF | None = None
-    """With patella.dir: the EF patella and the FE's patella coordinates."""
+    extra: BodyAtEF | None = None
+    """The body beyond the tibia at the EF, with the FE's coordinates (None: the tibia
+    alone)."""
 
     def split(self, side: str) -> dict[str, float]:
         """{tibial compartment: share of the summed tibial compartment force magnitudes}
         of `side` ("fe" or "ef_model")."""
         forces = {c: getattr(chk, side).force_N for c, chk in self.compartments.items()
-                  if chk.layer.body.carrier != FRAME}
+                  if chk.layer.body.carrier == "T"}
         total = sum(forces.values())
         return {c: f / total if total > 0 else math.nan for c, f in forces.items()}
 
@@ -224,18 +214,9 @@ class CrossCheck:
                "pose": {k: dict(v) for k, v in self.pose.items()},
                "settings": dict(self.settings.__dict__), "material": self.material,
                "timing_s": self.timing_s, "notes": list(self.notes)}
-        if self.patella is not None:
-            state = self.patella.state
-            out["patella_pose"] = {"fe": pf_coordinates(*_patella_pose(self.patella.q_fe)),
-                                   "ef": state.coordinates(),
-                                   "fe_q": [float(v) for v in self.patella.q_fe],
-                                   "ef_q": [float(v) for v in state.q]}
+        if self.extra is not None:
+            out |= self.extra.as_dict()
         return out
-
-
-def _patella_pose(q: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """The patella's (R, t) at its body coordinates q (6,)."""
-    return body_pose(np.asarray(q, dtype=float))
 
 
 def _num(value: float) -> float | None:
@@ -375,53 +356,56 @@ def _refuse_constraints(scene: Scene, settings: FESettings) -> None:
                            "fe.mode = 'compartment'")
 
 
-def _patella_model(scene: Scene, settings: FESettings, patella: PatellaEF | None
-                   ) -> PatellaModel | None:
-    """The patella's model with patella.dir (that of `patella` when given), else None;
-    refuses what the FE does not model with it (`refuse_patella`)."""
-    if not scene["patella.dir"]:
-        return None
-    refuse_patella(scene, settings)
-    return build_patella(scene) if patella is None else patella.model
+def _added(scene: Scene, settings: FESettings, extra: BodyAtEF | None
+           ) -> tuple[KneeBody | None, Any]:
+    """The scene's body beyond the tibia (`fecheck.fe.knee.registry.scene_body`) and its
+    model (that of `extra` when given), else (None, None); refuses what the FE does not
+    model with it (`KneeBody.refuse`)."""
+    kind = scene_body(scene)
+    if kind is None:
+        return None, None
+    kind.refuse(scene, settings)
+    return kind, kind.model(scene) if extra is None else extra.model
 
 
 def _ef(scene: Scene, log: Callable[[str], None], ef: tuple[RunResult, float] | None,
-        patella: PatellaEF | None, model: PatellaModel | None,
+        extra: BodyAtEF | None, kind: KneeBody | None, model: Any,
         flexion: tuple[float, np.ndarray] | None
-        ) -> tuple[RunResult, float, PatellaEF | None]:
-    """The EF run compared, its time (s) and its patella: `ef` and `patella` as given, or
-    solved here (`_ef_run`)."""
+        ) -> tuple[RunResult, float, BodyAtEF | None]:
+    """The EF run compared, its time (s) and the body beyond the tibia at the EF: `ef` and
+    `extra` as given, or solved here (`_ef_run`)."""
     if ef is None:
-        return _ef_run(scene, log, model, flexion)
-    _loaded(ef[0], patella)
-    return ef[0], ef[1], patella
+        return _ef_run(scene, log, kind, model, flexion)
+    _loaded(ef[0], extra)
+    return ef[0], ef[1], extra
 
 
-def _ef_run(scene: Scene, log: Callable[[str], None], model: PatellaModel | None = None,
-            flexion: tuple[float, np.ndarray] | None = None
-            ) -> tuple[RunResult, float, PatellaEF | None]:
-    """The scene's EF run, its time (s) and, with the patella's `model` (patella.dir), the
-    tibia and the patella solved together (`fecheck.fe.knee.patella_layer.ef_knee`)."""
+def _ef_run(scene: Scene, log: Callable[[str], None], kind: KneeBody | None = None,
+            model: Any = None, flexion: tuple[float, np.ndarray] | None = None
+            ) -> tuple[RunResult, float, BodyAtEF | None]:
+    """The scene's EF run, its time (s) and, with a body beyond the tibia (`kind`, its
+    `model`), the tibia and that body solved together (`KneeBody.ef`)."""
     from fecheck.model.run import run_scene
 
-    log("solving the EF equilibrium" + ("" if model is None else " with the patella"))
+    log("solving the EF equilibrium" + ("" if kind is None else f" with the {kind.name}"))
     t0 = time.perf_counter()
-    patella = None
-    if model is None:
+    extra = None
+    if kind is None:
         run = run_scene(scene)
     else:
-        run, patella, _ = ef_knee(scene, flexion, model=model)
+        run, extra = kind.ef(scene, flexion, model)
     seconds = time.perf_counter() - t0
-    _loaded(run, patella)
-    return run, seconds, patella
+    _loaded(run, extra)
+    return run, seconds, extra
 
 
-def _loaded(run: RunResult, patella: PatellaEF | None) -> None:
+def _loaded(run: RunResult, extra: BodyAtEF | None) -> None:
     """`FecheckError` unless the EF `run` converged with every compartment (and the
-    patella's contact) loaded."""
-    if patella is not None and not patella.state.contact.force_N > 0:
-        raise FecheckError("the patella carries no load at the EF equilibrium: the FE "
-                           "cross-check compares loaded contacts; raise patella.quadriceps_N")
+    contact of the body beyond the tibia) loaded."""
+    if extra is not None and not extra.contact.force_N > 0:
+        raise FecheckError(f"the {extra.kind.name} carries no load at the EF equilibrium: the "
+                           "FE cross-check compares loaded contacts; "
+                           f"{extra.kind.unloaded_hint}")
     if not run.converged:
         raise FecheckError("the EF equilibrium of this scene did not converge; fix the scene "
                            "(see `fecheck run`) before the FE cross-check")
@@ -432,7 +416,7 @@ def _loaded(run: RunResult, patella: PatellaEF | None) -> None:
                                "compartments; raise load.force_N or move load.point_mm")
 
 
-def _expected_depth(scene: Scene, run: RunResult, patella: PatellaEF | None = None) -> float:
+def _expected_depth(scene: Scene, run: RunResult, extra: BodyAtEF | None = None) -> float:
     """The deepest FE indentation to expect, mm: per compartment the EF run's depth, but
     no more than the linear EF of the scene's own layer would give at that force (a law
     with another stiffness, e.g. 'volumetric', can sink the EF far deeper than the layer
@@ -448,8 +432,8 @@ def _expected_depth(scene: Scene, run: RunResult, patella: PatellaEF | None = No
         layer = ef_sphere_on_plane(res.force_N, knee.radius_mm(c), E, nu, h).depth_mm
         ef = res.max_depth_mm if math.isfinite(res.max_depth_mm) else layer
         deepest = max(deepest, min(ef, layer))
-    if patella is not None:
-        deepest = max(deepest, patella.state.contact.max_depth_mm)
+    if extra is not None:
+        deepest = max(deepest, extra.contact.max_depth_mm)
     return deepest
 
 
@@ -470,32 +454,31 @@ def _femoral(scene: Scene, layers: Sequence[FELayer], settings: FESettings,
 
 def _solve(scene: Scene, layers: Sequence[FELayer], run: RunResult, settings: FESettings,
            log: Callable[[str], None], flexion: tuple[float, np.ndarray] | None = None,
-           patella: PatellaEF | None = None) -> tuple[dict, np.ndarray, float, float]:
+           extra: BodyAtEF | None = None
+           ) -> tuple[dict, np.ndarray, np.ndarray | None, float, float]:
     """FE solve(s) of the mode: {compartment: (layer, contact, worst penetration, X_WB
-    the pose of the body that carries it at that compartment's solution)}, the FE
-    unknowns (the tibia's q (5,), then with `patella` the patella's six coordinates; the EF
-    pose in compartment mode), the condensation time and the femoral layers' build time
-    (s; 0 for the series model); `flexion` as in `cross_check`."""
+    the pose of the body that carries it at that compartment's solution)}, the tibia's FE
+    q (5,) (the EF pose in compartment mode), with `extra` the body's FE coordinates (else
+    None), the condensation time and the femoral layers' build time (s; 0 for the series
+    model); `flexion` as in `cross_check`."""
     from fecheck.model.run import ligament_springs
 
     q_ef = np.asarray(run.pose.q, dtype=float)
-    margin = settings.candidate_gap_mm + _expected_depth(scene, run, patella)
+    margin = settings.candidate_gap_mm + _expected_depth(scene, run, extra)
     femoral = _femoral(scene, layers, settings, log)
     if settings.mode == "joint":
-        if patella is None:
+        if extra is None:
             drive = joint_drive(scene, q_ef, ligament_springs(scene), flexion)
         else:
-            drive = knee_drive(scene, q_ef, ligament_springs(scene),
-                               flexion or (math.radians(scene["dofs.flexion_deg"]), None),
-                               patella.model, patella.state.q)
+            drive = extra.kind.drive(scene, q_ef, ligament_springs(scene),
+                                     flexion or (math.radians(scene["dofs.flexion_deg"]), None),
+                                     extra)
         sol, condense, _, worst = solve_pressed(layers, drive, margin, settings, log, femoral)
         at = rigid_bodies(drive.pose, drive.basis, sol.q)
         out = {lay.body.name: (lay, lc, worst, carried_by(lay, at))
                for lay, lc in zip(layers, sol.layers, strict=True)}
-        q = drive.full(sol.q)
-        if patella is not None:
-            q = np.concatenate([q, sol.q[-6:]])
-        return out, q, condense, getattr(femoral, "seconds", 0.0)
+        coordinates = None if extra is None else sol.q[len(sol.q) - len(extra.q):]
+        return out, drive.full(sol.q), coordinates, condense, getattr(femoral, "seconds", 0.0)
     X_WT = _ef_pose(scene, q_ef, flexion)
     out, condense = {}, 0.0
     for lay in layers:
@@ -504,16 +487,16 @@ def _solve(scene: Scene, layers: Sequence[FELayer], run: RunResult, settings: FE
         sol, seconds, _, worst = solve_pressed([lay], drive, margin, settings, log, femoral)
         out[lay.body.name] = (lay, sol.layers[0], worst, drive.pose(sol.q))
         condense += seconds
-    return out, q_ef, condense, getattr(femoral, "seconds", 0.0)
+    return out, q_ef, None, condense, getattr(femoral, "seconds", 0.0)
 
 
-def _ef_side(name: str, run: RunResult, patella: PatellaEF | None,
+def _ef_side(name: str, run: RunResult, extra: BodyAtEF | None,
              tibia: tuple[np.ndarray, np.ndarray]
              ) -> tuple[CompartmentResult, tuple[np.ndarray, np.ndarray]]:
     """The EF result of compartment `name` and the pose (R, t) of the body that carries
-    it: the patella's for the patellofemoral contact, else the tibia's (`tibia`)."""
-    if name == COMPARTMENT:
-        return patella.state.contact, (patella.state.rot, patella.state.t)
+    it: the body's beyond the tibia for its contact, else the tibia's (`tibia`)."""
+    if extra is not None and name == extra.kind.compartment:
+        return extra.contact, extra.rt
     return run.compartments[name], tibia
 
 
@@ -528,13 +511,15 @@ def cross_check(scene: Scene, *, mode: str | None = None, refine: int | None = N
                 log: Callable[[str], None] | None = stderr_log,
                 ef: tuple[RunResult, float] | None = None,
                 flexion: tuple[float, np.ndarray] | None = None,
-                patella: PatellaEF | None = None) -> CrossCheck:
+                extra: BodyAtEF | None = None) -> CrossCheck:
     """The FE cross-check of `scene` (module docstring); `mode` and `refine` override
     ``fe.mode`` and ``fe.refine``; `log` gets progress lines (None: silent); `ef` the
     scene's EF run and its time (s) when the caller has them (None: solved here);
     `flexion` = (θx rad, Q (3, 3)): the EF run's flexion, held about Q's first column
-    (`fecheck flex`; None: dofs.flexion_deg about x); `patella`: with patella.dir, the EF
-    patella solved with `ef` (`fecheck.fe.knee.patella_layer.ef_knee`; None: solved here).
+    (`fecheck flex`; None: dofs.flexion_deg about x); `extra`: with a body beyond the
+    tibia (`fecheck.fe.knee.registry.scene_body`, e.g. patella.dir), that body at the EF
+    solved with `ef` (for the patella `fecheck.fe.knee.patella_layer.ef_knee`; None:
+    solved here).
 
     Raises
     ------
@@ -552,26 +537,25 @@ def cross_check(scene: Scene, *, mode: str | None = None, refine: int | None = N
     E, nu = scene["contact.youngs_MPa"], scene["contact.poisson"]
     t0 = time.perf_counter()
     bodies = scene_bodies(scene)
-    model = _patella_model(scene, settings, patella)
-    if model is not None:
-        bodies.append(patella_body(scene, model))
+    kind, model = _added(scene, settings, extra)
+    if kind is not None:
+        bodies.append(kind.fe_body(scene, model))
     meshed = guard_bodies(bodies, settings, nu)         # before the EF run, not after it
-    run, ef_seconds, patella = _ef(scene, say, ef, patella, model, flexion)
+    run, ef_seconds, extra = _ef(scene, say, ef, extra, kind, model, flexion)
     t1 = time.perf_counter()
     layers = build_layers(bodies, E, nu, settings, say, meshed)
     t2 = time.perf_counter()
-    solved, q_fe, condense, femoral_s = _solve(scene, layers, run, settings, say, flexion,
-                                               patella)
+    solved, q_fe, coordinates, condense, femoral_s = _solve(scene, layers, run, settings, say,
+                                                            flexion, extra)
     t3 = time.perf_counter()
-    if patella is not None:
-        patella = dataclasses.replace(patella, q_fe=q_fe[5:])
-        q_fe = q_fe[:5]
+    if extra is not None:
+        extra = extra.with_fe(coordinates)
     tibia_ef = _ef_pose(scene, run.pose.q, flexion).pair()
     checks, alerts, femoral = {}, [], {}
     for name, (lay, lc, worst, X_WT) in solved.items():
         fe, pressure = _fe_metrics(lay, lc.force_N, lc.active, rigid_gaps(lay, X_WT),
                                    X_WT.rotation)
-        res, (rot_ef, t_ef) = _ef_side(name, run, patella, tibia_ef)
+        res, (rot_ef, t_ef) = _ef_side(name, run, extra, tibia_ef)
         refs = _flat_references(scene, lay, float(lc.force_N.sum()), settings)
         on_faces = _on_ef_faces(lay, pressure)
         peaks, rough, said = assess_peaks(name, lay, pressure, on_faces, fe.depth_mm, E)
@@ -607,8 +591,8 @@ def cross_check(scene: Scene, *, mode: str | None = None, refine: int | None = N
                         f"fe.smooth_mm {settings.smooth_mm:g} mm, with the femoral surface "
                         "above), its pressures interpolated onto the EF faces")
     notes[:0] = smoothing_notes(scene)
-    if patella is not None:
-        notes.insert(0, PATELLA_NOTE)
+    if extra is not None:
+        notes.insert(0, extra.kind.note)
     if geometry["thickness_source"] in ("solid", "solid-distance"):
         notes[:0] = [SOLID_NOTE, LAYER_NOTE] if geometry["thickness_source"] == "solid" \
             else [LAYER_NOTE]
@@ -628,20 +612,20 @@ def cross_check(scene: Scene, *, mode: str | None = None, refine: int | None = N
                       {"E_MPa": E, "nu": nu, "thickness_mm": scene["contact.thickness_mm"],
                        "ef_k_N_per_mm3": column_stiffness(E, nu, scene["contact.thickness_mm"])},
                       {"fe": Pose.of(q_fe, side=run.pose.side), "ef": run.pose}, geometry,
-                      timing, tuple(notes), run, patella)
+                      timing, tuple(notes), run, extra)
 
 
 def fe_level(scene: Scene, bodies: Sequence[FEBody], run: RunResult, settings: FESettings,
-             log: Callable[[str], None], patella: PatellaEF | None = None
+             log: Callable[[str], None], extra: BodyAtEF | None = None
              ) -> tuple[dict[str, tuple], int, float]:
-    """The FE of `bodies` at `settings` from the EF `run`'s pose (and the EF `patella`'s,
-    with patella.dir) under the load control of ``settings.mode`` (another discretization
-    level of a cross-check): {compartment: (layer, FE metrics, vertex pressures MPa)}, the
-    FE dofs and time, s."""
+    """The FE of `bodies` at `settings` from the EF `run`'s pose (and the EF pose of the
+    body beyond the tibia, `extra`) under the load control of ``settings.mode`` (another
+    discretization level of a cross-check): {compartment: (layer, FE metrics, vertex
+    pressures MPa)}, the FE dofs and time, s."""
     E, nu = scene["contact.youngs_MPa"], scene["contact.poisson"]
     t0 = time.perf_counter()
     layers = build_layers(bodies, E, nu, settings, log)
-    solved, _, _, _ = _solve(scene, layers, run, settings, log, patella=patella)
+    solved = _solve(scene, layers, run, settings, log, extra=extra)[0]
     out = {}
     for name, (lay, lc, _, X_WT) in solved.items():
         out[name] = (lay, *_fe_metrics(lay, lc.force_N, lc.active, rigid_gaps(lay, X_WT),

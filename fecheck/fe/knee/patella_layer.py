@@ -19,6 +19,9 @@ tibia's.
   with their exact tangents (`fecheck.statics.newton.generalised_force`).
 - EF (`ef_knee`): the tibia and the patella solved together
   (`fecheck.model.patella.solve_knee`), as `fecheck flex` solves each angle.
+- The cross-check knows it as `PATELLA_KIND` (a `fecheck.fe.knee.knee_body.KneeBody`,
+  registered in `fecheck.fe.knee.registry.BODIES`) and its EF state as `PatellaEF` (a
+  `fecheck.fe.knee.knee_body.BodyAtEF`).
 
 Two deformable layers (``fe.cartilage = "two-layer"``), ``fe.mode = "compartment"`` and
 ``fe.prepare = "on"`` are refused with the patella (`refuse_patella`); ``fe.prepare =
@@ -31,7 +34,8 @@ from __future__ import annotations
 import math
 import time
 from collections.abc import Callable, Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
+from typing import Any
 
 import numpy as np
 
@@ -51,10 +55,11 @@ from fecheck.model.patella import (
     PatellaModel,
     PatellaState,
     build_patella,
+    pf_coordinates,
     series_thickness,
     solve_knee,
 )
-from fecheck.model.results import RunResult
+from fecheck.model.results import CompartmentResult, RunResult
 from fecheck.model.scanned import build_compartments, bundle_parts, bundle_springs, scanned_result
 from fecheck.scene import Scene, surfaces
 from fecheck.statics.newton import (
@@ -77,14 +82,105 @@ FRAME = "P"
 """The patella's frame name (`fecheck.fe.bodies.pose.FramePose.body`, `FEBody.carrier`)."""
 
 
+NOTE = ("the patella (patella.dir): its cartilage one more layer, bonded to the "
+        "patella (a rigid body, six free DOFs solved with the tibia's under the "
+        "quadriceps, the patellar tendon and the patellofemoral bundles of the EF) and "
+        "pressed by the rigid femoral surface; its centre of pressure in the patella "
+        "frame, its force left out of the medial/lateral split")
+
+
 @dataclass(frozen=True, eq=False)
 class PatellaEF:
-    """The EF patella of a cross-check: its model, its state at the EF equilibrium and
-    the FE's body coordinates (6,) (None before the FE solve)."""
+    """The EF patella of a cross-check (a `fecheck.fe.knee.knee_body.BodyAtEF`): its model,
+    its state at the EF equilibrium and the FE's body coordinates (6,) (None before the
+    FE solve)."""
 
     model: PatellaModel
     state: PatellaState
     q_fe: np.ndarray | None = None
+
+    @property
+    def kind(self) -> Patella:
+        return PATELLA_KIND
+
+    @property
+    def contact(self) -> CompartmentResult:
+        return self.state.contact
+
+    @property
+    def rt(self) -> tuple[np.ndarray, np.ndarray]:
+        return self.state.rot, self.state.t
+
+    @property
+    def q(self) -> np.ndarray:
+        return np.asarray(self.state.q, dtype=float)
+
+    def fe_rt(self) -> tuple[np.ndarray, np.ndarray]:
+        return body_pose(np.asarray(self.q_fe, dtype=float))
+
+    def with_fe(self, q: np.ndarray) -> PatellaEF:
+        return replace(self, q_fe=np.asarray(q, dtype=float))
+
+    def balance(self, tibia: tuple[np.ndarray, np.ndarray], contact: np.ndarray
+                ) -> tuple[np.ndarray, float]:
+        """The patellar tendon's wrench on the tibia (6,) and the patella's largest
+        generalised force (quadriceps, patellofemoral bundles, tendon and `contact`) over
+        the quadriceps' total, moments over 100 mm times it."""
+        prot, pt = self.fe_rt()
+        tendon = self.model.tendon((tibia, (prot, pt)))[1]
+        on_patella = (self.model.femoral(prot, pt)[0] + self.model.quadriceps(prot, pt)[0]
+                      + tendon[6:] + contact)
+        quads = float(self.model.quadriceps.tension_N.sum())
+        return tendon[:6], float(np.abs(on_patella / np.repeat([quads, 100.0 * quads], 3)).max())
+
+    def as_dict(self) -> dict[str, Any]:
+        """``patella_pose``: the FE's and the EF's patellofemoral coordinates and body
+        coordinates."""
+        return {"patella_pose": {"fe": pf_coordinates(*self.fe_rt()),
+                                 "ef": self.state.coordinates(),
+                                 "fe_q": [float(v) for v in self.q_fe],
+                                 "ef_q": [float(v) for v in self.state.q]}}
+
+    def lines(self) -> list[str]:
+        pf = self.as_dict()["patella_pose"]
+        return ["patella FE - EF: " + ", ".join(f"{k} {pf['fe'][k] - pf['ef'][k]:+.4f}"
+                                                for k in pf["fe"])]
+
+
+@dataclass(frozen=True)
+class Patella:
+    """The patella as a `fecheck.fe.knee.knee_body.KneeBody` (module docstring)."""
+
+    name: str = "patella"
+    frame: str = FRAME
+    compartment: str = COMPARTMENT
+    note: str = NOTE
+    unloaded_hint: str = "raise patella.quadriceps_N"
+
+    def wanted(self, scene: Scene) -> bool:
+        return bool(scene["patella.dir"])
+
+    def refuse(self, scene: Scene, settings: FESettings) -> None:
+        refuse_patella(scene, settings)
+
+    def model(self, scene: Scene) -> PatellaModel:
+        return build_patella(scene)
+
+    def fe_body(self, scene: Scene, model: PatellaModel) -> FEBody:
+        return patella_body(scene, model)
+
+    def ef(self, scene: Scene, flexion: tuple[float, np.ndarray | None] | None,
+           model: PatellaModel) -> tuple[RunResult, PatellaEF]:
+        run, at_ef, _ = ef_knee(scene, flexion, model=model)
+        return run, at_ef
+
+    def drive(self, scene: Scene, q_ef: np.ndarray, springs: Sequence[Callable],
+              flexion: tuple[float, np.ndarray | None], at_ef: PatellaEF) -> Drive:
+        return knee_drive(scene, q_ef, springs, flexion, at_ef.model, at_ef.q)
+
+
+PATELLA_KIND = Patella()
+"""The patella kind, registered in `fecheck.fe.knee.registry.BODIES`."""
 
 
 def refuse_patella(scene: Scene, settings: FESettings) -> None:
