@@ -14,6 +14,7 @@ import time
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import numpy as np
 
@@ -28,6 +29,10 @@ from fecheck.scene import Scene
 from fecheck.scene.constants import COMPARTMENTS, DOF_NAMES, GRAVITY_MPS2, LIGAMENTS
 from fecheck.scene.knee import plane_normal
 from fecheck.statics.newton import carried, cross3, master_tangent, point_force
+
+if TYPE_CHECKING:
+    from fecheck.contact.convex import SpherePlanePair
+    from fecheck.contact.pair import ContactPair
 
 Part = tuple[np.ndarray, np.ndarray]
 """(W (6,), dW/dξ (6, 6)): one part of the tibia's wrench and its tangent."""
@@ -113,7 +118,7 @@ class Compartment:
     """
 
     name: str
-    pair: object
+    pair: ContactPair | SpherePlanePair
     law: Callable[[object], laws.LawResult]
     slave_is_tibia: bool
     radius_mm: float

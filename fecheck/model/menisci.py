@@ -751,4 +751,6 @@ def solve_knee(scene: Scene, knee: MenisciKnee, t_start: float | None = None) ->
                      Pose.of(q_tibia, side=scene.side),
                      compartments, {}, timing, {}, tuple(not_converged_note(sol)), record,
                      menisci, {s: {k: m[k] for k in ("pressure_MPa", "outline")}
-                               for s, m in maps.items()})
+                               for s, m in maps.items()},
+                     {b.name: np.array(q, dtype=float)
+                      for b, q in zip(problem.bodies, sol.q, strict=True) if b.free})

@@ -256,6 +256,10 @@ class RunResult:
 
     `pose` is the tibia's; the femur is the fixed frame. `poses` maps every moving body's
     name to its `Pose` (today only the tibia moves).
+    coordinates : every free body's generalised coordinates (6,) at the equilibrium (x y z
+        mm, θx θy θz rad, `fecheck.statics.newton.body_pose`), by body name (the
+        tibia's, "tibia", and each meniscus's, "<compartment> meniscus"); with menisci,
+        else {} (the JSON gives them under ``menisci.poses``)
     """
 
     scene: str
@@ -273,6 +277,7 @@ class RunResult:
     record: SolveRecord | None = None
     menisci: Mapping[str, Any] = field(default_factory=dict)
     meniscus_maps: Mapping[str, Any] = field(default_factory=dict)
+    coordinates: Mapping[str, np.ndarray] = field(default_factory=dict)
 
     @property
     def poses(self) -> dict[str, Pose]:

@@ -120,15 +120,9 @@ class EFRuns:
                 raise FecheckError(f"calibrate: the EF with menisci did not converge at "
                                    f"{s['load.force_N']:g} N under the trial law "
                                    f"{_describe(parameters)}")
-            self.start[i] = [np.asarray(p["q"]) if p is not None else b.q_start
-                             for b, p in zip(knee.bodies, _poses(run, knee), strict=True)]
+            self.start[i] = [run.coordinates.get(b.name, b.q_start) for b in knee.bodies]
             out.append(ef_answer(run))
         return out
-
-
-def _poses(run, knee) -> list:
-    poses = run.menisci["poses"]
-    return [poses.get(b.name) for b in knee.bodies]
 
 
 def _describe(parameters: dict[str, Calibration]) -> str:

@@ -60,8 +60,10 @@ import time
 from collections.abc import Callable
 from dataclasses import dataclass, field, replace
 from enum import Enum
+from typing import TYPE_CHECKING
 
 import numpy as np
+import scipy.sparse as sp
 
 from fecheck.errors import FecheckError
 from fecheck.fe.bodies.indenter import MeshIndenter
@@ -70,6 +72,7 @@ from fecheck.fe.bodies.meniscus_solid import (
     DONAHUE_HORN_N_PER_MM,
     INFERIOR,
     SUPERIOR,
+    HoopResult,
     MeniscusSolid,
 )
 from fecheck.fe.bodies.pose import FramePose
@@ -84,6 +87,9 @@ from fecheck.fe.solve.press import FELayer, build_layers
 from fecheck.scene import Scene
 from fecheck.statics.root_spring import root_matrix
 from geometry.mesh import TriMesh
+
+if TYPE_CHECKING:
+    from skfem import CellBasis
 
 ROOTS = ("data", "donahue", "bundles", "springs")
 """Horn root stiffness sources (module docstring)."""
@@ -140,8 +146,8 @@ class MeniscusBody:
     horn_N_per_mm: dict[str, np.ndarray]
     spring_nodes: np.ndarray
     spring_N_per_mm: np.ndarray
-    basis: object = None
-    tie: object = None
+    basis: CellBasis | None = None
+    tie: sp.spmatrix | None = None
     rotation: np.ndarray = field(default_factory=lambda: np.eye(3))
     material: TransIso = MENISCUS
 
@@ -201,7 +207,7 @@ class MeniscusReport:
     contact_mm2: float
     near_mm2: dict[float, float]
     radial_mm: float
-    hoop: object
+    hoop: HoopResult
     roots_N: dict[str, float] = field(default_factory=dict)
 
 
@@ -415,9 +421,7 @@ def element_stress(basis, u: np.ndarray, fibre: np.ndarray,
     return np.einsum("nabcd,ncd->nab", stiffness_tensor(material, fibre), strain)
 
 
-def _blocks(n: int, rows: np.ndarray, cols: np.ndarray, values: np.ndarray):
-    import scipy.sparse as sp
-
+def _blocks(n: int, rows: np.ndarray, cols: np.ndarray, values: np.ndarray) -> sp.csr_matrix:
     return sp.csr_matrix((values, (rows, cols)), shape=(n, n))
 
 
@@ -605,11 +609,10 @@ def knee_menisci_fe(scene: Scene, *, meniscus_size_mm: float = DEFAULT_SIZE_MM,
 
 
 def ef_coordinates(run) -> dict[str, np.ndarray]:
-    """{body: its generalised coordinates q (6,) or (5,) (mm, rad)} of the EF run with
-    menisci (`fecheck.model.menisci.run_menisci`), read from its report once: the tibia's
-    and each meniscus's ("<compartment> meniscus")."""
-    return {name: np.asarray(pose["q"], dtype=float)
-            for name, pose in run.menisci["poses"].items()}
+    """{body: its generalised coordinates q (6,) (mm, rad)} of the EF run with menisci
+    (`fecheck.model.menisci.run_menisci`): the tibia's and each meniscus's ("<compartment>
+    meniscus")."""
+    return {name: np.asarray(q, dtype=float) for name, q in run.coordinates.items()}
 
 
 def _with_femoral_layers(scene: Scene, sides: list[_Side], rot: np.ndarray, t: np.ndarray,

@@ -59,6 +59,7 @@ import numpy as np
 import scipy.sparse as sp
 
 from fecheck.errors import FecheckError
+from fecheck.fe.bodies.indenter import MeshIndenter, SphereIndenter
 from fecheck.fe.bodies.pose import FramePose
 from fecheck.fe.bodies.solid import LayerSolid
 from fecheck.fe.contact.active_set import settled
@@ -103,7 +104,7 @@ class ContactLayer:
 
     name: str
     solid: LayerSolid
-    indenter: object
+    indenter: SphereIndenter | MeshIndenter
     candidates: np.ndarray
     femur: FemoralLayer | None = None
     body: str = "T"

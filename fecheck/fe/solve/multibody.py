@@ -36,7 +36,7 @@ Units: mm, N, MPa.
 from __future__ import annotations
 
 import time
-from collections.abc import Hashable, Sequence
+from collections.abc import Callable, Hashable, Sequence
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -107,7 +107,7 @@ class Compliance:
 
     dofs: np.ndarray
     block: np.ndarray
-    solve: object
+    solve: Callable[[np.ndarray], np.ndarray]
     directions: np.ndarray | None = None
     K: sp.spmatrix | None = None
 
