@@ -9,7 +9,8 @@ import numpy as np
 import pytest
 import scipy.sparse as sp
 
-from fecheck.fe.solve.multibody import Body, Condensed, Pair
+from fecheck.fe.contact.condense import Body, Pair
+from fecheck.fe.solve.multibody import Condensed
 
 K_BED = (1000.0, 3000.0)                # N/mm: bed springs at x = -L and x = +L
 K_PAD = (500.0, 1500.0)                 # N/mm: pad springs hung from the platen above them

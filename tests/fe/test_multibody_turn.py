@@ -9,7 +9,8 @@ import pytest
 import scipy.sparse as sp
 
 from fecheck.errors import FecheckError
-from fecheck.fe.solve.multibody import Body, Condensed, Pair
+from fecheck.fe.contact.condense import Body, Pair
+from fecheck.fe.solve.multibody import Condensed
 
 K_MINUS, K_PLUS = 1000.0, 3000.0        # N/mm: springs at x = -L and x = +L
 L_MM, E_MM, F_N = 10.0, 2.0, 100.0      # half span, load offset along x, load

@@ -10,10 +10,11 @@ import pytest
 import scipy.sparse as sp
 
 from fecheck.errors import FecheckError
+from fecheck.fe.contact.condense import Body, Pair
 from fecheck.fe.material.anisotropy import TransIso
 from fecheck.fe.reference.axisym import axisym_sphere_on_layer, axisym_stiffness
 from fecheck.fe.reference.ring_meniscus import RingCase, _ring_area, axisym_ring, solid_ring
-from fecheck.fe.solve.multibody import Body, Indenter, Pair, ray_pairs, solve_multibody
+from fecheck.fe.solve.multibody import Indenter, ray_pairs, solve_multibody
 
 K1, K2, K3 = 100.0, 50.0, 80.0          # N/mm: base under the block, block, base beside it
 G1, G2, G3 = 0.1, 0.05, 0.2             # mm: indenter-block, block-base, indenter-base

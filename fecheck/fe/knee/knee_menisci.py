@@ -78,11 +78,12 @@ from fecheck.fe.bodies.meniscus_solid import (
 from fecheck.fe.bodies.pose import FramePose
 from fecheck.fe.bodies.settings import FESettings
 from fecheck.fe.contact.candidates import Outcome, Round, widened
+from fecheck.fe.contact.condense import Body, Pair
 from fecheck.fe.contact.gap import nodal_displacements, surface_give
 from fecheck.fe.knee.femoral import FemoralSheet, femoral_layer, femoral_sheet, refuse_two_layer
 from fecheck.fe.material.anisotropy import MENISCUS, TransIso
 from fecheck.fe.solve.joint import FemoralLayer
-from fecheck.fe.solve.multibody import Body, Condensed, MultibodySolution, Pair, ray_pairs
+from fecheck.fe.solve.multibody import Condensed, MultibodySolution, ray_pairs
 from fecheck.fe.solve.press import FELayer, build_layers
 from fecheck.scene import Scene
 from fecheck.statics.root_spring import root_matrix

@@ -42,9 +42,10 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from fecheck.errors import FecheckError
+from fecheck.fe.contact.condense import Body, Pair
 from fecheck.fe.material.anisotropy import MENISCUS, TransIso
 from fecheck.fe.pressure.recovery import project_pressure
-from fecheck.fe.solve.multibody import Body, Indenter, Pair, ray_pairs, solve_multibody
+from fecheck.fe.solve.multibody import Indenter, ray_pairs, solve_multibody
 from geometry.mesh import TetMesh, TriMesh
 
 

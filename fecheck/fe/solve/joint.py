@@ -56,20 +56,14 @@ from collections.abc import Callable, Sequence
 from dataclasses import dataclass, replace
 
 import numpy as np
-import scipy.sparse as sp
 
 from fecheck.errors import FecheckError
 from fecheck.fe.bodies.indenter import MeshIndenter, SphereIndenter
 from fecheck.fe.bodies.pose import FramePose
 from fecheck.fe.bodies.solid import LayerSolid
 from fecheck.fe.contact.active_set import settled
-from fecheck.fe.contact.compliance import (
-    block_compliance,
-    condensed_compliance,
-    factorize,
-    nodal_compliance,
-)
-from fecheck.fe.contact.gap import surface_entries, surface_give
+from fecheck.fe.contact.condense import Body, CondensedBodies, Pair
+from fecheck.fe.contact.gap import surface_give
 
 POSE_TOL = 1e-9
 """The outer loop stops when the pose step is below this (mm, and rad × 100 mm)."""
@@ -141,52 +135,6 @@ class JointSolution:
     timing_s: dict
 
 
-class _Compliance:
-    """The factorized stiffness of one solid and its normal compliance at the candidates
-    of the layers it carries: one layer, or the compartments of one tibial solid (their
-    `LayerSolid`s share the stiffness matrix), coupled through it."""
-
-    def __init__(self, layers: Sequence[ContactLayer], solver: str, block: int = 256):
-        self.layers = layers
-        rows = sp.vstack([lay.solid.normal_rows[lay.candidates] for lay in layers]).tocsr()
-        self.rows = rows
-        K = layers[0].solid.K
-        if solver == "cholmod":
-            C, self.solve = condensed_compliance(
-                K, np.concatenate([lay.solid.vertex_dofs[lay.candidates] for lay in layers]),
-                np.concatenate([lay.solid.normals[lay.candidates] for lay in layers]))
-        else:
-            self.solve = factorize(K, solver)
-            C = block_compliance(rows, self.solve, block)
-        self.C = 0.5 * (C + C.T)
-
-
-class _FemoralCompliance:
-    """The femoral layer's factorized stiffness and its compliance C_f (3 m_f, 3 m_f) at
-    its candidate vertices (node-major x, y, z), and each surface vertex's candidate slot
-    (-1: not condensed)."""
-
-    def __init__(self, femur: FemoralLayer):
-        self.femur = femur
-        self.dofs = femur.solid.vertex_dofs[femur.candidates]
-        self.C, self.solve = nodal_compliance(femur.solid.K, self.dofs)
-        self.slot = np.full(femur.solid.surface.n_points, -1)
-        self.slot[femur.candidates] = np.arange(len(femur.candidates))
-
-    def pair_rows(self, face: np.ndarray, weights: np.ndarray, normals: np.ndarray
-                  ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
-        """For rays that hit faces `face` (m,) at `weights` (m, 3) along world `normals`
-        (m, 3): the paired rows, their columns (3 m_f) and values of P, and the rays that
-        hit a face with a vertex outside the candidates (unpaired)."""
-        nodes = self.femur.solid.surface.faces[np.maximum(face, 0)]           # (m, 3)
-        hit = face >= 0
-        inside = hit & (self.slot[nodes] >= 0).all(axis=1)
-        rows, cols, vals = surface_entries(
-            np.flatnonzero(inside), nodes[inside], weights[inside], normals[inside],
-            lambda n: 3 * self.slot[n][:, :, None] + np.arange(3))
-        return rows, cols, vals, hit & ~inside
-
-
 def femoral_shift(femur: FemoralLayer, u: np.ndarray, face: np.ndarray, weights: np.ndarray,
                   normals: np.ndarray) -> np.ndarray:
     """(m,) the give of the femoral layer (kept-dof displacements `u`, mm) at the points
@@ -226,29 +174,52 @@ class JointContact:
     def __init__(self, layers: Sequence[ContactLayer], *, solver: str = "cholmod",
                  log: Callable[[str], None] = lambda s: None):
         t0 = time.perf_counter()
-        self.layers, self.groups = _shared_solids(layers)
+        self.layers, groups = _shared_solids(layers)
         sizes = [len(layer.candidates) for layer in self.layers]
         self.offsets = np.concatenate([[0], np.cumsum(sizes)]).astype(int)
-        self.C = np.zeros((self.offsets[-1], self.offsets[-1]))
-        self.compliance, self.group_rows = [], []
-        for members in self.groups:
+        self.carrier: dict[int, str] = {}
+        self.nodes = np.zeros(len(self.layers), dtype=int)
+        bodies = []
+        for members in groups:
             group = [self.layers[i] for i in members]
-            log(f"FE {' + '.join(lay.name for lay in group)}: factorizing "
-                f"{group[0].solid.n_dofs} dofs, condensing onto "
-                f"{sum(len(lay.candidates) for lay in group)} contact candidates")
-            self.compliance.append(_Compliance(group, solver))
-            idx = np.concatenate([np.arange(self.offsets[i], self.offsets[i + 1])
-                                  for i in members])
-            self.group_rows.append(idx)
-            self.C[np.ix_(idx, idx)] = self.compliance[-1].C
+            name = " + ".join(lay.name for lay in group)
+            starts = np.cumsum([0] + [lay.solid.surface.n_points for lay in group[:-1]])
+            for i, start in zip(members, starts, strict=True):
+                self.carrier[i], self.nodes[i] = name, start
+            bodies.append(Body(name, group[0].solid.K,
+                               np.concatenate([lay.solid.vertex_dofs for lay in group])))
         femurs = {id(lay.femur): lay.femur for lay in self.layers if lay.femur is not None}
-        self.femoral = []
-        for femur in femurs.values():
-            log(f"FE {femur.name}: factorizing {femur.solid.n_dofs} dofs, condensing "
-                f"{len(femur.candidates)} femoral vertices in 3 dofs")
-            self.femoral.append(_FemoralCompliance(femur))
+        self.femurs = list(femurs.values())
+        self.bodies = bodies + [Body(f.name, f.solid.K, f.solid.vertex_dofs)
+                                for f in self.femurs]
+        self.solver = solver
+        self.base = CondensedBodies(
+            self.bodies, [self._pair(i, None) for i in range(len(self.layers))],
+            solver=solver, log=log,
+            held={f.name: f.solid.vertex_dofs[f.candidates].ravel() for f in self.femurs})
+        self.C = self.base.C
         self.seconds = time.perf_counter() - t0
         self.log = log
+
+    def _pair(self, i: int, hit: tuple | None) -> Pair:
+        """Layer i's candidates as the slave of a pair (its body's frame): against the rigid
+        indenter (`hit` None) or, with `hit` = (faces, weights, world normals) of their
+        rays, against its deformable femoral layer at the faces the rays hit (a row whose
+        face has a vertex outside the femoral candidates, or that misses, reads no femoral
+        give: weight 0)."""
+        layer = self.layers[i]
+        cand = layer.candidates
+        common = {"name": layer.name, "slave": self.carrier[i], "nodes": cand + self.nodes[i],
+                  "normals": layer.solid.normals[cand], "gap0_mm": np.zeros(len(cand))}
+        if hit is None:
+            return Pair(**common)
+        face, weights, normals = hit
+        femur = layer.femur
+        nodes = femur.solid.surface.faces[np.maximum(face, 0)]
+        inside = _inside(femur, face, nodes)
+        return Pair(**common, master=femur.name,
+                    master_nodes=np.where(inside[:, None], nodes, femur.candidates[0]),
+                    weights=np.where(inside[:, None], weights, 0.0), master_normals=normals)
 
     def solve(self, pose: Callable[[np.ndarray], FramePose],
               basis: Callable[[np.ndarray], np.ndarray],
@@ -301,7 +272,7 @@ class JointContact:
             raise FecheckError(f"the FE joint equilibrium did not settle in {max_outer} pose "
                                "updates; check the load and the free DOFs")
         g0, _, _, hits = _linearised_gaps(self.layers, pose, basis, q)
-        C, pairs, unpaired = self._paired(hits)
+        C, condensed, unpaired = self._paired(hits)
         if np.any(unpaired & (lam > 0)):
             k = int(np.flatnonzero(unpaired & (lam > 0))[0])
             i = int(np.searchsorted(self.offsets, k, side="right")) - 1
@@ -310,12 +281,7 @@ class JointContact:
             raise FecheckError(f"the {layer.name} tibial vertex at ({x:.1f}, {y:.1f}, {z:.1f}) "
                                "mm (tibia frame) touches the femoral layer outside its "
                                "condensed vertices; raise fe.candidate_gap_mm")
-        femoral_u = {id(fc.femur): fc.solve(_pair_load(fc, P, lam))
-                     for fc, P in zip(self.femoral, pairs, strict=True)}
-        u = {}
-        for members, c, idx in zip(self.groups, self.compliance, self.group_rows,
-                                   strict=True):
-            u.update(dict.fromkeys(members, c.solve(-(c.rows.T @ lam[idx]))))
+        u = condensed.displacements(lam)
         out = []
         for i, layer in enumerate(self.layers):
             block = slice(self.offsets[i], self.offsets[i + 1])
@@ -324,8 +290,9 @@ class JointContact:
             force[layer.candidates] = lam[block]
             gap = np.full(s, np.inf)
             gap[layer.candidates] = g0[block] + C[block] @ lam
-            out.append(LayerContact(layer.name, force, gap, force > 0, u[i], layer.femur,
-                                    femoral_u.get(id(layer.femur))))
+            out.append(LayerContact(layer.name, force, gap, force > 0, u[self.carrier[i]],
+                                    layer.femur,
+                                    None if layer.femur is None else u.get(layer.femur.name)))
         timing = {"condense": self.seconds, "contact": time.perf_counter() - t0}
         return JointSolution(q, out, outer, inner, timing)
 
@@ -342,40 +309,33 @@ class JointContact:
                 active |= mine & (g0 <= np.sort(g0[mine])[min(int(mine.sum()) - 1, 3)])
         return active
 
-    def _paired(self, hits: list) -> tuple[np.ndarray, list[sp.csr_matrix], np.ndarray]:
+    def _paired(self, hits: list) -> tuple[np.ndarray, CondensedBodies, np.ndarray]:
         """The compliance at the candidates with the femoral layers' give at the faces the
-        candidates' rays hit now (`hits`: per layer None or (face, weights, normals)): C +
-        Σ P C_f Pᵀ; the pair matrices P (m, 3 m_f) per femoral layer; the candidates whose
-        face lies outside the condensed femoral vertices."""
-        m = self.offsets[-1]
-        unpaired = np.zeros(m, dtype=bool)
-        if not self.femoral:
-            return self.C, [], unpaired
-        C = self.C.copy()
+        candidates' rays hit now (`hits`: per layer None or (face, weights, normals)),
+        C + Σ P C_f Pᵀ (each femoral compliance C_f condensed once, in `__init__`); the
+        condensation it comes from; the candidates whose face lies outside the condensed
+        femoral vertices."""
+        unpaired = np.zeros(self.offsets[-1], dtype=bool)
+        if not self.femurs:
+            return self.C, self.base, unpaired
         pairs = []
-        for fc in self.femoral:
-            rows, cols, vals = [], [], []
-            for i, layer in enumerate(self.layers):
-                if layer.femur is not fc.femur:
-                    continue
-                r, c, v, out = fc.pair_rows(*hits[i])
-                rows.append(r + self.offsets[i])
-                cols.append(c)
-                vals.append(v)
-                unpaired[self.offsets[i]:self.offsets[i + 1]] |= out
-            P = sp.csr_matrix((np.concatenate(vals), (np.concatenate(rows), np.concatenate(cols))),
-                              shape=(m, fc.C.shape[0]))
-            C += P @ (P @ fc.C).T
-            pairs.append(P)
-        return 0.5 * (C + C.T), pairs, unpaired
+        for i, layer in enumerate(self.layers):
+            pairs.append(self._pair(i, hits[i]))
+            if hits[i] is not None:
+                face = hits[i][0]
+                nodes = layer.femur.solid.surface.faces[np.maximum(face, 0)]
+                unpaired[self.offsets[i]:self.offsets[i + 1]] = (
+                    (face >= 0) & ~_inside(layer.femur, face, nodes))
+        condensed = CondensedBodies(self.bodies, pairs, solver=self.solver, reuse=self.base)
+        return condensed.C, condensed, unpaired
 
 
-def _pair_load(fc: _FemoralCompliance, P: sp.csr_matrix, lam: np.ndarray) -> np.ndarray:
-    """The femoral layer's kept-dof load Pᵀλ (N): each contact force along +n_i at its
-    hit point, shared by the barycentric weights."""
-    f = np.zeros(fc.femur.solid.n_dofs)
-    f[fc.dofs.ravel()] = P.T @ lam
-    return f
+def _inside(femur: FemoralLayer, face: np.ndarray, nodes: np.ndarray) -> np.ndarray:
+    """(m,) the rays that hit a face (`face` ≥ 0) of `femur` all of whose vertices `nodes`
+    (m, 3) are among its condensed candidates."""
+    held = np.zeros(femur.solid.surface.n_points, dtype=bool)
+    held[femur.candidates] = True
+    return (face >= 0) & held[nodes].all(axis=1)
 
 
 def rigid_bodies(pose, basis, q: np.ndarray) -> dict[str, tuple[FramePose, np.ndarray]]:

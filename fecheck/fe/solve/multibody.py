@@ -1,92 +1,41 @@
 """Deformable solids in frictionless contact with each other and with one rigid indenter
 under load control: the core of the FE with menisci.
 
-A `Body` is an assembled linear elastic solid reduced to its kept dofs (stiffness K,
-N/mm, symmetric positive definite once its supports, symmetry planes and anchors are
-removed) with, for each node, the kept dof of each displacement component (-1: a fixed
-component, zero displacement). A body that floats along some directions (a meniscus
-between the femur and the tibia) keeps those rigid translations t_k as unknowns: one dof
-per direction is anchored to make K positive definite, and the translation amplitude
-joins the problem with the body's equilibrium along it (exact: the contact forces that
-solve the problem are self-equilibrated along t_k, so the anchor carries nothing).
-
-A `Pair` pairs slave nodes of one body (unit normals n pointing from the slave to the
-master, reference gaps g0 along n, mm) with the rigid indenter or with a master body,
-hit at master nodes with weights w (the barycentric weights of the master face the
-slave's ray hits, `ray_pairs`; or one matching node, weight 1). With the contact force
-λ ≥ 0 (N) the slave takes −λ n and the master +λ Σ w n, so every gap reads
+The bodies (`fecheck.fe.contact.condense.Body`) and their contact pairs
+(`fecheck.fe.contact.condense.Pair`: slave nodes of one body, with unit normals n toward
+the master and reference gaps g0, mm, against the rigid indenter or a master body hit at
+barycentric weights w, `ray_pairs`) are condensed onto the pairs' gaps as every FE
+contact solve condenses them (`fecheck.fe.contact.condense.CondensedBodies`: the
+compliance C). What this driver adds is its rigid unknowns: the indenter moves by δ along
+its axis a (pushed with the load F; it may also turn by small angles about given axes
+under given moments, `Condensed`), and a body that floats along some directions (a
+meniscus between the femur and the tibia) keeps those rigid translations t_k as unknowns:
+one dof per direction is anchored to make K positive definite, and the translation
+amplitude joins the problem with the body's equilibrium along it (exact: the contact
+forces that solve the problem are self-equilibrated along t_k, so the anchor carries
+nothing). Every gap reads
 
     g = g0 + (Σ_a w_a u_a − u_s)·n + δ a·n (indenter pairs) = g0 + J δq + C λ,
 
-where the indenter moves by δ along its axis a (pushed with the load F; it may also turn
-by small angles about given axes under given moments, `Condensed`), δq = (δ, t); a body
-`carried` by the indenter (bonded to it) adds the indenter's motion to its own, so a
-pair it masters reads δ a·n as an indenter pair does, and the forces on it load the
-indenter,
-and C = Σ_bodies D_b K_b⁻¹ D_bᵀ (D_b: the gaps' map to body b's kept dofs; one sparse
-factorization per body, K_b⁻¹ on the dofs D_b reads from its trailing block:
-`fecheck.fe.contact.compliance.condensed_compliance` along the normals for a body that is only a
-slave, `nodal_compliance` otherwise, or block solves with another solver). The mixed
-complementarity problem g ≥ 0, λ ≥ 0, λ·g = 0 with the equilibria Jᵀλ = (−F, 0, ...)
-is solved exactly by the primal-dual active set of `fecheck.fe.contact.active_set.active_set`: no
-penalty. Gaps are in the reference configuration (small displacements, pairs fixed).
-Units: mm, N, MPa.
+δq = (δ, turns, t); a body `carried` by the indenter (bonded to it) adds the indenter's
+motion to its own, so a pair it masters reads δ a·n as an indenter pair does, and the
+forces on it load the indenter. The mixed complementarity problem g ≥ 0, λ ≥ 0, λ·g = 0
+with the equilibria Jᵀλ = (−F, 0, ...) is solved exactly by the primal-dual active set of
+`fecheck.fe.contact.active_set.active_set`: no penalty. Gaps are in the reference
+configuration (small displacements, pairs fixed). Units: mm, N, MPa.
 """
 
 from __future__ import annotations
 
 import time
-from collections.abc import Callable, Hashable, Sequence
+from collections.abc import Sequence
 from dataclasses import dataclass, field
 
 import numpy as np
-import scipy.sparse as sp
 
 from fecheck.errors import FecheckError
 from fecheck.fe.contact.active_set import active_set
-from fecheck.fe.contact.compliance import (
-    block_compliance,
-    condensed_compliance,
-    factorize,
-    nodal_compliance,
-)
-from fecheck.fe.contact.gap import kept_dofs, surface_entries
-
-
-@dataclass(frozen=True, eq=False)
-class Body:
-    """An assembled solid: name, kept-dof stiffness K (N/mm), node_dofs (N, d) the kept
-    dof of each node's displacement components (-1: fixed), translations (k, d) the unit
-    rigid translations left free (anchored out of K); `carried`: bonded to the indenter
-    (a cartilage layer on a rigid bone), so it moves and turns with it, its displacements
-    are relative to it, and the contact forces on it load the indenter."""
-
-    name: str
-    K: sp.spmatrix
-    node_dofs: np.ndarray
-    translations: np.ndarray = field(default_factory=lambda: np.zeros((0, 3)))
-    carried: bool = False
-
-
-@dataclass(frozen=True, eq=False)
-class Pair:
-    """Slave `nodes` (m,) of body `slave` with unit `normals` (m, d) toward the master and
-    reference gaps `gap0_mm` (m,); `master` None for the rigid indenter, else a body
-    hit at `master_nodes` (m, k) with `weights` (m, k); `points` (m, 3) the slave nodes'
-    places (mm), the lever arms of an indenter pair when the indenter turns; `key` what
-    the model that built the pair knows it by (its bodies and kind, typed), the solver
-    does not read it."""
-
-    name: str
-    slave: str
-    nodes: np.ndarray
-    normals: np.ndarray
-    gap0_mm: np.ndarray
-    master: str | None = None
-    master_nodes: np.ndarray | None = None
-    weights: np.ndarray | None = None
-    points: np.ndarray | None = None
-    key: Hashable = None
+from fecheck.fe.contact.condense import Body, CondensedBodies, Pair, check_pairs
 
 
 @dataclass(frozen=True)
@@ -96,20 +45,6 @@ class Indenter:
 
     axis: np.ndarray
     load_N: float
-
-
-@dataclass(frozen=True, eq=False)
-class Compliance:
-    """A body's condensed compliance, kept for `Condensed(reuse=...)`: its dofs (the node
-    dof triplets along `directions` (m, 3), or with `directions` None the sorted dofs
-    (k,) of (K⁻¹) on them), the block (mm/N), the solver of its K and that K (a body of
-    the same name with another K, a layer rebuilt larger, is condensed afresh)."""
-
-    dofs: np.ndarray
-    block: np.ndarray
-    solve: Callable[[np.ndarray], np.ndarray]
-    directions: np.ndarray | None = None
-    K: sp.spmatrix | None = None
 
 
 @dataclass(frozen=True, eq=False)
@@ -143,18 +78,10 @@ class MultibodySolution:
 
 
 def _check(bodies: Sequence[Body], pairs: Sequence[Pair], indenter: Indenter) -> dict:
-    names = {b.name: b for b in bodies}
     if not (np.isfinite(indenter.load_N) and indenter.load_N > 0):
         raise FecheckError(f"the indenter's load must be a positive number of N, got "
                            f"{indenter.load_N}")
-    for p in pairs:
-        for who in (p.slave, p.master):
-            if who is not None and who not in names:
-                raise FecheckError(f"contact pair {p.name!r} names body {who!r}, which is "
-                                   f"not among {sorted(names)}")
-        if not np.allclose(np.linalg.norm(p.normals, axis=1), 1.0, atol=1e-9):
-            raise FecheckError(f"contact pair {p.name!r}: the normals must be unit vectors")
-    return names
+    return check_pairs(bodies, pairs)
 
 
 def solve_multibody(bodies: Sequence[Body], pairs: Sequence[Pair], indenter: Indenter, *,
@@ -200,86 +127,24 @@ class Condensed:
                                "of each pair it or a body it carries is in, for the lever "
                                "arms")
         t0 = time.perf_counter()
-        self.pairs = list(pairs)
-        self.bodies = list(bodies)
-        sizes = [len(p.nodes) for p in pairs]
-        self.offsets = np.concatenate([[0], np.cumsum(sizes)]).astype(int)
-        m = int(self.offsets[-1])
+        self.core = CondensedBodies(bodies, pairs, solver=solver, block=block,
+                                    reuse=None if reuse is None else reuse.core)
+        self.pairs, self.bodies, self.offsets = self.core.pairs, self.core.bodies, self.core.offsets
         self.unknowns = ([(None, np.asarray(axis, dtype=float))]
                          + [(None, a) for a, _ in self.turns]
                          + [(b.name, t) for b in bodies for t in b.translations])
-        self.J = self._gap_map(names, m)
-        C = np.zeros((m, m))
-        self.D, self.solves, self.kept = {}, {}, {}
-        before: dict[str, Compliance] = reuse.kept if reuse is not None else {}
-        for b in bodies:
-            if not self._entries[b.name]:
-                continue
-            r, c, v = (np.concatenate(x) for x in zip(*self._entries[b.name], strict=True))
-            self.D[b.name] = D = sp.csr_matrix((v, (r, c)), shape=(m, b.K.shape[0]))
-            normal = self._normal_gaps(b) if solver == "cholmod" else None
-            old = before.get(b.name)
-            if old is not None and old.K is not b.K:     # rebuilt: nothing to reuse
-                old = None
-            if normal is not None:        # one direction per node: the normal compliance
-                rows, dofs, directions = normal
-                if (old is not None and old.directions is not None
-                        and np.array_equal(old.dofs, dofs)
-                        and np.array_equal(old.directions, directions)):
-                    along, self.solves[b.name] = old.block, old.solve
-                else:
-                    along, self.solves[b.name] = condensed_compliance(b.K, dofs, directions)
-                self.kept[b.name] = Compliance(dofs, along, self.solves[b.name], directions,
-                                                b.K)
-                C[np.ix_(rows, rows)] += along
-                continue
-            if solver == "cholmod":       # (K⁻¹) on the dofs the gaps read, one factorization
-                cols = np.unique(c)
-                nodal = old is not None and old.directions is None
-                if nodal and np.isin(cols, old.dofs).all():
-                    held, whole, self.solves[b.name] = old.dofs, old.block, old.solve
-                else:
-                    held = np.union1d(old.dofs, cols) if nodal else cols
-                    whole, self.solves[b.name] = nodal_compliance(b.K, held)
-                self.kept[b.name] = Compliance(held, whole, self.solves[b.name], K=b.K)
-                at = np.searchsorted(held, cols)
-                inverse = whole[np.ix_(at, at)]
-                Dc = D[:, cols]
-                C += (Dc @ (Dc @ inverse).T).T
-                continue
-            touched = np.unique(r)
-            self.solves[b.name] = factorize(b.K, solver)
-            C[np.ix_(touched, touched)] += block_compliance(D[touched], self.solves[b.name],
-                                                            block)
-        self.C = 0.5 * (C + C.T)
+        self.J = self._gap_map(names, int(self.offsets[-1]))
+        self.C = self.core.C
+        self.kept = self.core.kept
         self.seconds = time.perf_counter() - t0
 
-    def _normal_gaps(self, body: Body) -> tuple[np.ndarray, np.ndarray, np.ndarray] | None:
-        """(gap rows, node dof triplets, normals) when `body` is only ever a slave, at
-        distinct nodes with all three dofs kept (each gap reads one node's normal
-        displacement: `fecheck.fe.contact.compliance.condensed_compliance` applies); else None."""
-        mine = [(p, start) for p, start in zip(self.pairs, self.offsets[:-1], strict=True)
-                if body.name in (p.slave, p.master)]
-        if any(p.master == body.name for p, _ in mine):
-            return None
-        nodes = np.concatenate([p.nodes for p, _ in mine])
-        dofs = body.node_dofs[nodes]
-        if len(np.unique(nodes)) < len(nodes) or dofs.shape[1] != 3 or (dofs < 0).any():
-            return None
-        rows = np.concatenate([np.arange(start, start + len(p.nodes)) for p, start in mine])
-        return rows, dofs, np.concatenate([p.normals for p, _ in mine])
-
     def _gap_map(self, names: dict, m: int) -> np.ndarray:
-        """J (m, unknowns): the gaps' change with the indenter's travel and the bodies'
-        translations; fills the per-body entries of the gaps' map to their dofs."""
+        """J (m, unknowns): the gaps' change with the indenter's travel and turns and the
+        bodies' translations."""
         unknowns = self.unknowns
         J = np.zeros((m, len(unknowns)))
-        self._entries: dict[str, list] = {name: [] for name in names}
         for p, start in zip(self.pairs, self.offsets[:-1], strict=True):
             row = np.arange(start, start + len(p.nodes))
-            self._entries[p.slave].append(surface_entries(
-                row, p.nodes[:, None], -np.ones((len(row), 1)), p.normals,
-                kept_dofs(names[p.slave].node_dofs)))
             for k in (k for k, (who, _) in enumerate(unknowns) if who == p.slave):
                 J[row, k] -= p.normals @ unknowns[k][1]
             if names[p.slave].carried:
@@ -287,9 +152,6 @@ class Condensed:
             if p.master is None:
                 self._indenter_columns(J, row, p, 1.0)
                 continue
-            self._entries[p.master].append(surface_entries(
-                row, p.master_nodes, p.weights, p.normals,
-                kept_dofs(names[p.master].node_dofs)))
             for k in (k for k, (who, _) in enumerate(unknowns) if who == p.master):
                 J[row, k] += p.weights.sum(axis=1) * (p.normals @ unknowns[k][1])
             if names[p.master].carried:
@@ -308,11 +170,7 @@ class Condensed:
 
     def displacements(self, lam: np.ndarray) -> dict[str, np.ndarray]:
         """Each body's kept-dof displacements (mm) under the contact forces `lam` (m,) N."""
-        u = {name: self.solves[name](self.D[name].T @ lam) for name in self.D}
-        if not all(np.all(np.isfinite(x)) for x in u.values()):
-            raise FecheckError("the multibody contact solve produced NaN: a stiffness is "
-                               "singular")
-        return u
+        return self.core.displacements(lam)
 
     def solve(self, g0: np.ndarray, load_N: float, *, max_iter: int = 200,
               start: np.ndarray | None = None, displace: bool = True,
