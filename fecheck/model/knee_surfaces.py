@@ -2,12 +2,15 @@
 tibial compartments and the femoral surface of the scene's ``[geometry]`` files
 (`fecheck.scene.surfaces`), decimated to ``scanned.decimate_faces`` in total. Shared by the
 runners (`fecheck.model.scanned`), the fingerprint of a calibration file
-(`fecheck.model.fingerprint`) and the FE's bodies, so none of them has to import another.
+(`fecheck.model.fingerprint`) and the FE's bodies, so none of them has to import another;
+within one run or cross-check (`fecheck.model.reuse.building_once`) each is built once and
+all of them read the same objects.
 """
 
 from __future__ import annotations
 
 from fecheck.errors import FecheckError
+from fecheck.model.reuse import reusable
 from fecheck.scene import Scene, surfaces
 from geometry.decimate import decimated
 
@@ -28,6 +31,7 @@ def _target(scene: Scene) -> int:
     return target
 
 
+@reusable
 def tibial_slaves(scene: Scene) -> dict:
     """{compartment: tibial articular surface} (decimated to scanned.decimate_faces in
     total, shared in proportion to the two compartments' face counts)."""
@@ -40,6 +44,7 @@ def tibial_slaves(scene: Scene) -> dict:
     return meshes
 
 
+@reusable
 def femoral_master(scene: Scene):
     """The femoral articular surface, decimated in proportion to the tibial slaves."""
     femur = surfaces.femoral_surface(scene)

@@ -67,6 +67,19 @@ def reusing_builds(memo: dict | None = None) -> Iterator[None]:
         _active.memo = outer
 
 
+@contextmanager
+def building_once() -> Iterator[None]:
+    """Within the block, each `reusable` build runs once for the scene's values: one run
+    or one cross-check reads one knee (its surfaces, contact pairs and thickness maps),
+    whichever of its parts asks. A context already open (a sweep's, a population's) is
+    kept, with what it holds."""
+    if getattr(_active, "memo", None) is not None:
+        yield
+        return
+    with reusing_builds():
+        yield
+
+
 def reusable(build: Callable[[Scene], T]) -> Callable[[Scene], T]:
     """Mark `build` (a function of the scene alone) as reusable within `reusing_builds`."""
 

@@ -16,6 +16,7 @@ from fecheck.laws.coldstart import announce_cold_kernels
 from fecheck.model import scanned, sphere_plane
 from fecheck.model.plausibility import after_solve
 from fecheck.model.results import RunResult
+from fecheck.model.reuse import building_once
 from fecheck.model.rigid import run_rigid
 from fecheck.model.scanned import bundle_parts, bundle_springs, run_scanned
 from fecheck.model.sides import with_layer_compression
@@ -52,7 +53,8 @@ def run_scene(scene: Scene, warm_start: np.ndarray | None = None) -> RunResult:
                            f"{', '.join(MODEL_RUNNERS)}")
     if runner is not run_rigid:
         announce_cold_kernels()
-    result = runner(scene, warm_start)
+    with building_once():
+        result = runner(scene, warm_start)
     after_solve(scene, result)
     return with_layer_compression(scene, result)
 

@@ -72,6 +72,7 @@ def _hemisphere(scene: Scene, compartment: str):
                          method=scene["mesh.method"])
 
 
+@reusable
 def femoral_masters(scene: Scene) -> dict:
     kind = scene["model.kind"]
     if kind == "femur-tibia":
@@ -114,10 +115,10 @@ def slave_sides(scene: Scene, slave) -> tuple[np.ndarray, np.ndarray]:
 
 
 @reusable
-def _series_thicknesses(scene: Scene) -> dict[str, np.ndarray]:
-    """{compartment: `slave_thickness` of its slave}, kept while the geometry is."""
-    return {c: slave_thickness(scene, pair.slave)
-            for c, (pair, _) in contact_pairs(scene).items()}
+def series_thicknesses(scene: Scene) -> dict[str, np.ndarray]:
+    """{compartment: `slave_thickness` of its tibial slave (`tibial_slaves`)}, per face, mm;
+    kept while the geometry is."""
+    return {c: slave_thickness(scene, slave) for c, slave in tibial_slaves(scene).items()}
 
 
 @reusable
@@ -132,7 +133,7 @@ def _face_thickness(scene: Scene, compartment: str) -> np.ndarray:
     thickness (`fecheck.laws.layer.Sides.equivalent_thickness`)."""
     sides, scale = layer.sides(scene), scene["scanned.thickness_scale"]
     if not sides.own_material:
-        return scale * _series_thicknesses(scene)[compartment]
+        return scale * series_thicknesses(scene)[compartment]
     tibial, femoral = _side_thicknesses(scene)[compartment]
     return sides.equivalent_thickness(scale * tibial, scale * femoral)
 

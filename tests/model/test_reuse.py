@@ -133,3 +133,47 @@ def test_a_failed_point_drops_the_parts_built_so_far():
     assert not ok.failed and memo
     crushed = _solve_reusing(memo, scene, "contact.youngs_MPa=0.1", 0.1)   # layer crushed
     assert crushed.failed and memo == {}
+
+
+def _count_calls(monkeypatch, module, name: str) -> list:
+    """Every call of `module.name` from now on (a list that grows)."""
+    calls = []
+    original = getattr(module, name)
+
+    def counted(*args, **kwargs):
+        calls.append(args)
+        return original(*args, **kwargs)
+
+    monkeypatch.setattr(module, name, counted)
+    return calls
+
+
+def test_a_run_builds_the_scanned_knee_once(monkeypatch):
+    # the EF run reads its pairs three times (the compartments, each compartment's
+    # thickness map) and the surfaces from the runner, the mesh checks and the fingerprint:
+    # each is built once
+    from fecheck.scene import surfaces
+
+    made = _count_pairs(monkeypatch)
+    sheets = _count_calls(monkeypatch, surfaces, "tibial_compartments")
+    femur = _count_calls(monkeypatch, surfaces, "femoral_surface")
+    result = run_scene(load_scene("femur_tibia", ["scanned.decimate_faces=1500"]))
+    assert result.converged
+    assert len(made) == 2                # one pair per compartment
+    assert len(sheets) == 2 and len(femur) == 1   # the tibial slaves', the femur's share
+
+
+def test_a_cross_check_builds_the_knee_once_for_the_ef_and_the_fe(monkeypatch):
+    # the FE's tibial sheets are the very objects the EF's pairs hold, and the femoral
+    # surface is read once for both
+    from fecheck.fe.knee.crosscheck import cross_check
+    from fecheck.scene import surfaces
+
+    made = _count_pairs(monkeypatch)
+    sheets = _count_calls(monkeypatch, surfaces, "tibial_compartments")
+    femur = _count_calls(monkeypatch, surfaces, "femoral_surface")
+    scene = load_scene("femur_tibia", ["scanned.decimate_faces=1500", "fe.layers=1"])
+    check = cross_check(scene, log=None)
+    assert len(made) == 2 and len(sheets) == 2 and len(femur) == 1
+    slaves = {id(p.slave) for p in made}
+    assert {id(chk.layer.body.surface) for chk in check.compartments.values()} == slaves

@@ -106,7 +106,7 @@ def _sphere_plane_bodies(scene: Scene) -> list[FEBody]:
 
 
 def _scanned_bodies(scene: Scene) -> list[FEBody]:
-    from fecheck.model.scanned import femoral_masters, slave_thickness
+    from fecheck.model.scanned import femoral_masters, series_thicknesses
 
     slaves, masters = tibial_slaves(scene), femoral_masters(scene)
     source = scene["scanned.thickness"]
@@ -129,7 +129,7 @@ def _scanned_bodies(scene: Scene) -> list[FEBody]:
             h = np.full(surface.n_points, float(scene["contact.thickness_mm"]))
         else:
             h = scene["scanned.thickness_scale"] * vertex_values(
-                surface, slave_thickness(scene, surface))
+                surface, series_thicknesses(scene)[c])
         indenter, femoral = _indenter(masters[c], femur_name)
         if body == "solid":
             out.append(FEBody(c, surface, h, indenter, f"solid:{solid.name}", femoral,

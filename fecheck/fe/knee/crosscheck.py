@@ -67,6 +67,7 @@ from fecheck.model.condyles import scene_knee
 from fecheck.model.equilibrium import axial_force
 from fecheck.model.notes import smoothing_notes
 from fecheck.model.results import CompartmentResult, Pose, RunResult
+from fecheck.model.reuse import building_once
 from fecheck.reference.closed_forms import (
     DONAHUE_2002,
     column_stiffness,
@@ -527,6 +528,14 @@ def cross_check(scene: Scene, *, mode: str | None = None, refine: int | None = N
         A scene the FE cannot model faithfully (no cartilage, constraints in joint mode,
         an unloaded compartment), or an FE answer that is not physical.
     """
+    with building_once():                  # the EF and the FE read one knee
+        return _cross_check(scene, mode, refine, log, ef, flexion, extra)
+
+
+def _cross_check(scene: Scene, mode: str | None, refine: int | None,
+                 log: Callable[[str], None] | None, ef: tuple[RunResult, float] | None,
+                 flexion: tuple[float, np.ndarray] | None, extra: BodyAtEF | None
+                 ) -> CrossCheck:
     say = log or (lambda message: None)
     from fecheck.fe.knee.femoral import femoral_material, refuse_two_layer
 
