@@ -1074,7 +1074,8 @@ def _solve(sides: list[_Side], rot: np.ndarray, t: np.ndarray, load: float,
                          "two-layer" if any(s.femoral is not None for s in sides) else "series",
                          {}, {s.name: s.layer.surface for s in sides},
                          {s.name: superior_pressure(s.meniscus, records.get(
-                             f"{s.name} femur-meniscus")) for s in sides if s.meniscus})
+                             pair_name((s.name, PairKind.FEMUR_MENISCUS))))
+                          for s in sides if s.meniscus})
 
 
 def _bodies(sides: list[_Side]) -> list[Body]:
