@@ -182,12 +182,12 @@ def test_condensed_bodies_match_the_dense_compliance_of_each_side(solver):
     # D_s K_s⁻¹ D_sᵀ + D_m K_m⁻¹ D_mᵀ by dense inverses, whichever path condenses each
     # body (the normal compliance or block solves for the slave, the nodal one for the
     # master, held before any pair reads it). Measured agreement ~1e-16 mm/N.
-    from fecheck.fe.contact.condense import Body, CondensedBodies, Pair
+    from fecheck.fe.contact.condense import CondensedBodies, ElasticBody, Pair
 
     rng = np.random.default_rng(4)
     Ks, Km = _spd(36, 1), _spd(30, 2)
-    slave = Body("slave", Ks, np.arange(36).reshape(12, 3))
-    master = Body("master", Km, np.arange(30).reshape(10, 3))
+    slave = ElasticBody("slave", Ks, np.arange(36).reshape(12, 3))
+    master = ElasticBody("master", Km, np.arange(30).reshape(10, 3))
     m = 8
     nodes = rng.choice(12, m, replace=False)
     normals = _unit(rng, m)

@@ -1,5 +1,5 @@
-"""A body carried by the indenter (`fecheck.fe.solve.multibody.Body.carried`: a cartilage layer
-bonded to a rigid bone): it moves and turns with the indenter, its displacement is
+"""A body carried by the indenter (`fecheck.fe.contact.condense.ElasticBody.carried`: a
+cartilage layer bonded to a rigid bone): it moves and turns with the indenter, its displacement is
 relative to it, and the contact forces on it load the indenter. Two springs on a bed under
 two springs hung from a platen: each contact sees the two in series."""
 
@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 import scipy.sparse as sp
 
-from fecheck.fe.contact.condense import Body, Pair
+from fecheck.fe.contact.condense import ElasticBody, Pair
 from fecheck.fe.solve.multibody import Condensed
 
 K_BED = (1000.0, 3000.0)                # N/mm: bed springs at x = -L and x = +L
@@ -18,8 +18,8 @@ L_MM, E_MM, F_N = 10.0, 2.0, 100.0      # half span, load offset along x, load
 Y = np.array([0.0, 1.0, 0.0])
 
 
-def _springs(name: str, k: tuple[float, float], carried: bool) -> Body:
-    return Body(name, sp.diags(list(k)).tocsc(), np.array([[-1, -1, 0], [-1, -1, 1]]),
+def _springs(name: str, k: tuple[float, float], carried: bool) -> ElasticBody:
+    return ElasticBody(name, sp.diags(list(k)).tocsc(), np.array([[-1, -1, 0], [-1, -1, 1]]),
                 carried=carried)
 
 

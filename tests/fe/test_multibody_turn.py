@@ -9,7 +9,7 @@ import pytest
 import scipy.sparse as sp
 
 from fecheck.errors import FecheckError
-from fecheck.fe.contact.condense import Body, Pair
+from fecheck.fe.contact.condense import ElasticBody, Pair
 from fecheck.fe.solve.multibody import Condensed
 
 K_MINUS, K_PLUS = 1000.0, 3000.0        # N/mm: springs at x = -L and x = +L
@@ -20,7 +20,8 @@ Y = np.array([0.0, 1.0, 0.0])           # the turn axis, through the origin
 def _case(turn: bool):
     """Two vertical springs (z only) at (∓L, 0, 0) under a flat platen pushed down by F at
     (E, 0, 0): the moment on the platen about +y is E F."""
-    bed = Body("bed", sp.diags([K_MINUS, K_PLUS]).tocsc(), np.array([[-1, -1, 0], [-1, -1, 1]]))
+    bed = ElasticBody("bed", sp.diags([K_MINUS, K_PLUS]).tocsc(),
+                      np.array([[-1, -1, 0], [-1, -1, 1]]))
     points = np.array([[-L_MM, 0.0, 0.0], [L_MM, 0.0, 0.0]])
     pair = Pair("platen-bed", "bed", np.array([0, 1]), np.tile([0.0, 0.0, 1.0], (2, 1)),
                 np.zeros(2), points=points)
@@ -51,7 +52,7 @@ def test_a_held_platen_splits_it_by_the_springs_stiffness():
 
 
 def test_a_turn_needs_the_lever_arms_and_one_moment_per_axis():
-    bed = Body("bed", sp.diags([K_MINUS]).tocsc(), np.array([[-1, -1, 0]]))
+    bed = ElasticBody("bed", sp.diags([K_MINUS]).tocsc(), np.array([[-1, -1, 0]]))
     bare = Pair("platen-bed", "bed", np.array([0]), np.array([[0.0, 0.0, 1.0]]), np.zeros(1))
     with pytest.raises(FecheckError, match="Pair.points"):
         Condensed([bed], [bare], np.array([0.0, 0.0, -1.0]), turns=[(Y, np.zeros(3))])

@@ -10,7 +10,7 @@ import pytest
 import scipy.sparse as sp
 
 from fecheck.errors import FecheckError
-from fecheck.fe.contact.condense import Body, Pair
+from fecheck.fe.contact.condense import ElasticBody, Pair
 from fecheck.fe.material.anisotropy import TransIso
 from fecheck.fe.reference.axisym import axisym_sphere_on_layer, axisym_stiffness
 from fecheck.fe.reference.ring_meniscus import RingCase, _ring_area, axisym_ring, solid_ring
@@ -25,8 +25,8 @@ def _springs(load_N: float, solver: str = "cholmod"):
     a floating block (spring K2 between its bottom and top nodes, top anchored, its
     vertical translation free); the indenter moves down (-1) onto the block's top and the
     base's second node."""
-    base = Body("base", sp.diags([K1, K3]).tocsc(), np.array([[0], [1]]), np.zeros((0, 1)))
-    block = Body("block", sp.csc_matrix([[K2]]), np.array([[0], [-1]]), np.array([[1.0]]))
+    base = ElasticBody("base", sp.diags([K1, K3]).tocsc(), np.array([[0], [1]]), np.zeros((0, 1)))
+    block = ElasticBody("block", sp.csc_matrix([[K2]]), np.array([[0], [-1]]), np.array([[1.0]]))
     up = np.ones((1, 1))
     pairs = [Pair("indenter-block", "block", np.array([1]), up, np.array([G1])),
              Pair("block-base", "base", np.array([0]), up, np.array([G2]), "block",

@@ -1,7 +1,7 @@
 """Elastic bodies condensed onto the gaps of their contact pairs: the compliance every FE
 contact solve with deformable bodies reads.
 
-A `Body` is an assembled linear elastic solid reduced to its kept dofs (stiffness K,
+A `ElasticBody` is an assembled linear elastic solid reduced to its kept dofs (stiffness K,
 N/mm, symmetric positive definite once its supports, symmetry planes and anchors are
 removed) with, for each node, the kept dof of each displacement component (-1: a fixed
 component, zero displacement). A `Pair` pairs slave nodes of one body (unit normals n
@@ -42,7 +42,7 @@ from fecheck.fe.contact.gap import kept_dofs, surface_entries
 
 
 @dataclass(frozen=True, eq=False)
-class Body:
+class ElasticBody:
     """An assembled solid: name, kept-dof stiffness K (N/mm), node_dofs (N, d) the kept
     dof of each node's displacement components (-1: fixed), translations (k, d) the unit
     rigid translations left free (anchored out of K); `carried`: bonded to the indenter
@@ -100,7 +100,7 @@ class Compliance:
     K: sp.spmatrix | None = None
 
 
-def check_pairs(bodies: Sequence[Body], pairs: Sequence[Pair]) -> dict[str, Body]:
+def check_pairs(bodies: Sequence[ElasticBody], pairs: Sequence[Pair]) -> dict[str, ElasticBody]:
     """{name: body}; `FecheckError` for a pair naming an unknown body or with normals that
     are not unit vectors."""
     names = {b.name: b for b in bodies}
@@ -130,7 +130,7 @@ class CondensedBodies:
     pose: every later pairing inside them reuses it). `log` gets a line per factorization.
     """
 
-    def __init__(self, bodies: Sequence[Body], pairs: Sequence[Pair], *,
+    def __init__(self, bodies: Sequence[ElasticBody], pairs: Sequence[Pair], *,
                  solver: str = "cholmod", block: int = 512,
                  reuse: CondensedBodies | None = None,
                  held: Mapping[str, np.ndarray] | None = None,
@@ -201,7 +201,7 @@ class CondensedBodies:
         self.C = 0.5 * (C + C.T)
         self.seconds = time.perf_counter() - t0
 
-    def _entries(self, names: dict[str, Body]) -> dict[str, list]:
+    def _entries(self, names: dict[str, ElasticBody]) -> dict[str, list]:
         """Per body the (rows, columns, values) of the gaps' map to its kept dofs."""
         out: dict[str, list] = {name: [] for name in names}
         for p, start in zip(self.pairs, self.offsets[:-1], strict=True):
@@ -215,7 +215,7 @@ class CondensedBodies:
                     kept_dofs(names[p.master].node_dofs)))
         return out
 
-    def _normal_gaps(self, body: Body) -> tuple[np.ndarray, np.ndarray, np.ndarray] | None:
+    def _normal_gaps(self, body: ElasticBody) -> tuple[np.ndarray, np.ndarray, np.ndarray] | None:
         """(gap rows, node dof triplets, normals) when `body` is only ever a slave, at
         distinct nodes with all three dofs kept (each gap reads one node's normal
         displacement: `condensed_compliance` applies); else None."""

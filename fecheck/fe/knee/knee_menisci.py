@@ -11,7 +11,7 @@ From the EF equilibrium of a ``menisci.dir`` scene (`fecheck.model.menisci`, e.g
   layer of its own (`fecheck.fe.knee.femoral.femoral_layer`: the femoral sheet within
   `fecheck.fe.knee.femoral.CROP_MM` of the points where the femur pairs' candidate rays meet
   it, extruded toward the femoral bone by its thickness and bonded there, the femoral
-  material), carried by the femur (`fecheck.fe.solve.multibody.Body.carried`): the master of
+  material), carried by the femur (`fecheck.fe.contact.condense.ElasticBody.carried`): the master of
   the femur-tibia and femur-meniscus pairs, hit where each slave's ray meets it, paired
   afresh where those rays have moved while a vertex still penetrates (`REPAIR_WEIGHT`).
   Where a later candidate's ray meets the femoral sheet outside the layer, the layer is
@@ -78,7 +78,7 @@ from fecheck.fe.bodies.meniscus_solid import (
 from fecheck.fe.bodies.pose import FramePose
 from fecheck.fe.bodies.settings import FESettings
 from fecheck.fe.contact.candidates import Outcome, Round, widened
-from fecheck.fe.contact.condense import Body, Pair
+from fecheck.fe.contact.condense import ElasticBody, Pair
 from fecheck.fe.contact.gap import nodal_displacements, surface_give
 from fecheck.fe.knee.femoral import FemoralSheet, femoral_layer, femoral_sheet, refuse_two_layer
 from fecheck.fe.material.anisotropy import MENISCUS, TransIso
@@ -131,7 +131,7 @@ it)."""
 
 @dataclass(frozen=True, eq=False)
 class MeniscusBody:
-    """A meniscus in the tibia frame: its solid, points (n, 3) mm, the `Body` (horn
+    """A meniscus in the tibia frame: its solid, points (n, 3) mm, the `ElasticBody` (horn
     springs in K), superior vertices and their unit normals, inferior faces, the rise
     along the tibial axis (mm), the stiffness per horn and per spring node ((3, 3) N/mm
     each)."""
@@ -139,7 +139,7 @@ class MeniscusBody:
     side: str
     solid: MeniscusSolid
     points: np.ndarray
-    body: Body
+    body: ElasticBody
     superior: np.ndarray
     superior_normals: np.ndarray
     inferior_faces: np.ndarray
@@ -295,7 +295,7 @@ def horn_stiffness(solid: MeniscusSolid, root: str) -> dict[str, float]:
 def meniscus_body(solid: MeniscusSolid, points: np.ndarray, fibre: np.ndarray,
                   horns: dict[str, float], material: TransIso = MENISCUS,
                   extra: tuple[np.ndarray, np.ndarray] | None = None):
-    """(`Body`, basis, T) of a meniscus solid at `points` (n, 3) with element fibres
+    """(`ElasticBody`, basis, T) of a meniscus solid at `points` (n, 3) with element fibres
     `fibre` (nel, 3), both in the common frame: P2 transversely isotropic stiffness, each
     horn's stiffness (N/mm, `horns`) spread over its nodes as grounded springs in x, y and
     z (and the springs `extra`: (nodes, N/mm)), and on the superior and inferior faces the
@@ -322,7 +322,7 @@ def meniscus_body(solid: MeniscusSolid, points: np.ndarray, fibre: np.ndarray,
     T, kept = tie_matrix(basis.N, np.zeros(0, dtype=np.int64), mid, ends, normals_all)
     position = np.full(basis.N, -1)
     position[kept] = np.arange(len(kept))
-    return (Body(f"{solid.side} meniscus", (T.T @ K @ T).tocsc(),
+    return (ElasticBody(f"{solid.side} meniscus", (T.T @ K @ T).tocsc(),
                  position[basis.nodal_dofs.T]), basis, T)
 
 
@@ -442,20 +442,20 @@ class FemoralCrop:
 
 @dataclass(eq=False)
 class _Side:
-    """One compartment in the tibia frame: its layer and `Body`, the femoral surface
+    """One compartment in the tibia frame: its layer and `ElasticBody`, the femoral surface
     (world), its meniscus or None, and per layer vertex the meniscus inferior face its
     ray meets (-1: none), the barycentric weights and the gap (mm); `under` the vertices
     paired with the meniscus rather than the femur; `lift` (mm) taken off every
     femur-meniscus gap; with two deformable layers the femoral layer (tibia frame,
-    `fecheck.fe.solve.joint.FemoralLayer`), its `Body` (carried by the femur), its surface as a
-    `fecheck.fe.bodies.indenter.MeshIndenter` (what the rays hit), `hits`: per
+    `fecheck.fe.solve.joint.FemoralLayer`), its `ElasticBody` (carried by the femur), its
+    surface as a `fecheck.fe.bodies.indenter.MeshIndenter` (what the rays hit), `hits`: per
     femur pair (its `PairKind`) the femoral layer's MeshIndenter hits (face (k,),
     weights (k, 3)) of every vertex it may pair, at the pairing in use, and the
     `FemoralCrop` the layer was built over."""
 
     name: str
     layer: FELayer
-    body: Body
+    body: ElasticBody
     indenter: MeshIndenter
     meniscus: MeniscusBody | None
     face: np.ndarray
@@ -464,13 +464,13 @@ class _Side:
     under: np.ndarray
     lift: float = 0.0
     femoral: FemoralLayer | None = None
-    femoral_body: Body | None = None
+    femoral_body: ElasticBody | None = None
     femoral_surface: MeshIndenter | None = None
     hits: dict[PairKind, tuple[np.ndarray, np.ndarray]] = field(default_factory=dict)
     femoral_crop: FemoralCrop | None = None
 
 
-def _disp(body: Body, u: np.ndarray, nodes: np.ndarray) -> np.ndarray:
+def _disp(body: ElasticBody, u: np.ndarray, nodes: np.ndarray) -> np.ndarray:
     """(k, 3) displacements (mm) of `nodes` of `body` from its kept-dof `u` (0: fixed)."""
     return nodal_displacements(body.node_dofs, u, nodes)
 
@@ -581,7 +581,7 @@ def knee_menisci_fe(scene: Scene, *, meniscus_size_mm: float = DEFAULT_SIZE_MM,
     sides = []
     for lay in layers:
         pts, nrm = lay.surface.points, lay.solid.normals
-        body = Body(f"{lay.body.name} tibia", lay.solid.K, lay.solid.vertex_dofs)
+        body = ElasticBody(f"{lay.body.name} tibia", lay.solid.K, lay.solid.vertex_dofs)
         men = None
         if f"{lay.body.name} meniscus" in poses:
             solid = meniscus_solid(scene, lay.body.name, meniscus_size_mm)
@@ -649,7 +649,7 @@ def _with_femoral_layers(scene: Scene, sides: list[_Side], rot: np.ndarray, t: n
 def _with_femoral(s: _Side, crop: FemoralCrop, say: Callable[[str], None]) -> _Side:
     """`s` with its femoral layer built over `crop` (its hits left to the caller)."""
     layer = femoral_layer(crop.sheet, s.name, crop.points, crop.faces, crop.settings, say)
-    return replace(s, femoral=layer, femoral_body=Body(
+    return replace(s, femoral=layer, femoral_body=ElasticBody(
         f"{s.name} femoral", layer.solid.K, layer.solid.vertex_dofs, carried=True),
         femoral_surface=MeshIndenter(layer.solid.surface), femoral_crop=crop, hits={})
 
@@ -730,7 +730,7 @@ def _meniscus(solid: MeniscusSolid, q: np.ndarray, q_tibia: np.ndarray,
                         rotation, material)
 
 
-def _side(lay, body: Body, men: MeniscusBody | None, rot: np.ndarray, t: np.ndarray
+def _side(lay, body: ElasticBody, men: MeniscusBody | None, rot: np.ndarray, t: np.ndarray
           ) -> _Side:
     """The compartment's pairing: a layer vertex meets the meniscus where its ray meets
     the meniscus's inferior face before the femur."""
@@ -1078,7 +1078,7 @@ def _solve(sides: list[_Side], rot: np.ndarray, t: np.ndarray, load: float,
                           for s in sides if s.meniscus})
 
 
-def _bodies(sides: list[_Side]) -> list[Body]:
+def _bodies(sides: list[_Side]) -> list[ElasticBody]:
     """Every body of the knee: the tibial layers, the menisci and the femoral layers."""
     return ([s.body for s in sides] + [s.meniscus.body for s in sides if s.meniscus]
             + [s.femoral_body for s in sides if s.femoral_body is not None])

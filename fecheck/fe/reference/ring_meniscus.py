@@ -42,7 +42,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from fecheck.errors import FecheckError
-from fecheck.fe.contact.condense import Body, Pair
+from fecheck.fe.contact.condense import ElasticBody, Pair
 from fecheck.fe.material.anisotropy import MENISCUS, TransIso
 from fecheck.fe.pressure.recovery import project_pressure
 from fecheck.fe.solve.multibody import Indenter, ray_pairs, solve_multibody
@@ -148,7 +148,7 @@ def _line_pressure(r: np.ndarray, force: np.ndarray) -> np.ndarray:
 
 
 def _axisym_body(name: str, mesh, stiffness, fixed_where, translations=()):
-    """(Body, basis, node positions (2, N)) of an (r, z) P2 vector basis on `mesh`:
+    """(ElasticBody, basis, node positions (2, N)) of an (r, z) P2 vector basis on `mesh`:
     `stiffness(basis)` assembles K; `fixed_where(loc, ir, iz)` lists the fixed dofs."""
     from skfem import Basis, ElementTriP2, ElementVector
 
@@ -160,7 +160,7 @@ def _axisym_body(name: str, mesh, stiffness, fixed_where, translations=()):
     position = np.full(basis.N, -1)
     position[free] = np.arange(len(free))
     K = stiffness(basis).tocsr()[free][:, free]
-    body = Body(name, K, position[np.stack([ir, iz], axis=1)],
+    body = ElasticBody(name, K, position[np.stack([ir, iz], axis=1)],
                 np.asarray(translations, dtype=float).reshape(-1, 2))
     return body, loc[:, ir]
 
@@ -230,7 +230,7 @@ def axisym_ring(case: RingCase, size_mm: float = 0.1, *, meniscus_stiffness=None
 
 
 def _axisym_meniscus(case: RingCase, r: np.ndarray, size_mm: float, stiffness):
-    """(Body, node positions (2, N), levels) of the meniscus: the layer's r nodes in
+    """(ElasticBody, node positions (2, N), levels) of the meniscus: the layer's r nodes in
     [r_i, r_o], uniform `levels` of height mapped onto the wedge; anchored by u_z of the
     outer face's mid-height node, its vertical translation left free."""
     from skfem import MeshTri
@@ -327,7 +327,7 @@ def _revolve(build, size_field: str, name: str):
 
 
 def _solid_body(name: str, tet: TetMesh, material, fixed_of, tie_faces, translations=()):
-    """The Body of a P2 tetrahedral solid `tet`: `material(tet)` → (mesh, basis, K);
+    """The ElasticBody of a P2 tetrahedral solid `tet`: `material(tet)` → (mesh, basis, K);
     `fixed_of(points, basis, find_edge)` its fixed dofs; on each (faces (f, 3), normal
     function of points) of `tie_faces` the midside normal displacement is tied to its
     edge's ends (contact at vertices only)."""
@@ -346,7 +346,7 @@ def _solid_body(name: str, tet: TetMesh, material, fixed_of, tie_faces, translat
     T, kept = tie_matrix(basis.N, fixed, mid, ends, normals)
     position = np.full(basis.N, -1)
     position[kept] = np.arange(len(kept))
-    return Body(name, (T.T @ K @ T).tocsc(), position[basis.nodal_dofs.T],
+    return ElasticBody(name, (T.T @ K @ T).tocsc(), position[basis.nodal_dofs.T],
                 np.asarray(translations, dtype=float).reshape(-1, 3))
 
 
@@ -468,7 +468,7 @@ def _meniscus_section(gmsh, case: RingCase) -> list[int]:
 
 
 def _solid_meniscus(case: RingCase, size_mm: float, layer_nodes: np.ndarray,
-                    layer_points: np.ndarray) -> tuple[Body, list[Pair]]:
+                    layer_points: np.ndarray) -> tuple[ElasticBody, list[Pair]]:
     """The meniscus quarter (hoop fibres, per quadrature point) and its two pairs."""
     from fecheck.fe.material.anisotropy import hoop_directions, p2_transiso
 

@@ -62,7 +62,7 @@ from fecheck.fe.bodies.indenter import MeshIndenter, SphereIndenter
 from fecheck.fe.bodies.pose import FramePose
 from fecheck.fe.bodies.solid import LayerSolid
 from fecheck.fe.contact.active_set import settled
-from fecheck.fe.contact.condense import Body, CondensedBodies, Pair
+from fecheck.fe.contact.condense import CondensedBodies, ElasticBody, Pair
 from fecheck.fe.contact.gap import surface_give
 
 POSE_TOL = 1e-9
@@ -186,11 +186,11 @@ class JointContact:
             starts = np.cumsum([0] + [lay.solid.surface.n_points for lay in group[:-1]])
             for i, start in zip(members, starts, strict=True):
                 self.carrier[i], self.nodes[i] = name, start
-            bodies.append(Body(name, group[0].solid.K,
+            bodies.append(ElasticBody(name, group[0].solid.K,
                                np.concatenate([lay.solid.vertex_dofs for lay in group])))
         femurs = {id(lay.femur): lay.femur for lay in self.layers if lay.femur is not None}
         self.femurs = list(femurs.values())
-        self.bodies = bodies + [Body(f.name, f.solid.K, f.solid.vertex_dofs)
+        self.bodies = bodies + [ElasticBody(f.name, f.solid.K, f.solid.vertex_dofs)
                                 for f in self.femurs]
         self.solver = solver
         self.base = CondensedBodies(

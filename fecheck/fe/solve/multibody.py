@@ -1,7 +1,7 @@
 """Deformable solids in frictionless contact with each other and with one rigid indenter
 under load control: the core of the FE with menisci.
 
-The bodies (`fecheck.fe.contact.condense.Body`) and their contact pairs
+The bodies (`fecheck.fe.contact.condense.ElasticBody`) and their contact pairs
 (`fecheck.fe.contact.condense.Pair`: slave nodes of one body, with unit normals n toward
 the master and reference gaps g0, mm, against the rigid indenter or a master body hit at
 barycentric weights w, `ray_pairs`) are condensed onto the pairs' gaps as every FE
@@ -35,7 +35,7 @@ import numpy as np
 
 from fecheck.errors import FecheckError
 from fecheck.fe.contact.active_set import active_set
-from fecheck.fe.contact.condense import Body, CondensedBodies, Pair, check_pairs
+from fecheck.fe.contact.condense import CondensedBodies, ElasticBody, Pair, check_pairs
 
 
 @dataclass(frozen=True)
@@ -77,14 +77,14 @@ class MultibodySolution:
         return float(max(0.0, -min(p.gap_mm.min() for p in self.pairs.values())))
 
 
-def _check(bodies: Sequence[Body], pairs: Sequence[Pair], indenter: Indenter) -> dict:
+def _check(bodies: Sequence[ElasticBody], pairs: Sequence[Pair], indenter: Indenter) -> dict:
     if not (np.isfinite(indenter.load_N) and indenter.load_N > 0):
         raise FecheckError(f"the indenter's load must be a positive number of N, got "
                            f"{indenter.load_N}")
     return check_pairs(bodies, pairs)
 
 
-def solve_multibody(bodies: Sequence[Body], pairs: Sequence[Pair], indenter: Indenter, *,
+def solve_multibody(bodies: Sequence[ElasticBody], pairs: Sequence[Pair], indenter: Indenter, *,
                     solver: str = "cholmod", max_iter: int = 200, block: int = 512
                     ) -> MultibodySolution:
     """Solve the frictionless contact of `bodies` through `pairs` under the indenter's
@@ -113,7 +113,7 @@ class Condensed:
     the union of both, so that the next re-pairing is likely to find them; a body whose K
     is another object (rebuilt) is condensed afresh."""
 
-    def __init__(self, bodies: Sequence[Body], pairs: Sequence[Pair], axis: np.ndarray, *,
+    def __init__(self, bodies: Sequence[ElasticBody], pairs: Sequence[Pair], axis: np.ndarray, *,
                  solver: str = "cholmod", block: int = 512,
                  turns: Sequence[tuple[np.ndarray, np.ndarray]] = (),
                  reuse: Condensed | None = None):
