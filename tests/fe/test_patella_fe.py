@@ -252,3 +252,21 @@ def test_fe_prepare_auto_leaves_the_patellar_sheet_as_it_is(knee):
     assert sheet_dofs(bodies[-1].surface, settings, levels, True) < layer_dofs(
         bodies[-1].surface, 2, levels)                 # preparing would make it smaller
     assert prepared_for_size(bodies, settings, levels)[-1] is False
+
+
+def test_a_scene_with_two_bodies_beyond_the_tibia_is_refused_on_one_line(monkeypatch):
+    # the FE joint solves one body beyond the tibia: a second kind the scene also has is
+    # named in a one-line refusal, not solved as if it were absent
+    import dataclasses
+
+    from fecheck.fe.knee import registry
+    from fecheck.fe.knee.patella_layer import PATELLA_KIND
+
+    scene = _scene()
+    assert registry.scene_body(scene) is PATELLA_KIND
+    monkeypatch.setattr(registry, "BODIES",
+                        (PATELLA_KIND, dataclasses.replace(PATELLA_KIND, name="tray")))
+    with pytest.raises(FecheckError, match="patella and tray") as err:
+        registry.scene_body(scene)
+    assert "\n" not in str(err.value)
+    assert registry.scene_body(load_scene("femur_tibia_ligaments")) is None
