@@ -26,6 +26,8 @@ from pathlib import Path
 
 import pytest
 
+from fecheck.fe.knee.registry import BODIES
+
 ROOT = Path(__file__).resolve().parents[1]
 ORDER = ("scene", "reference", "contact", "laws", "statics", "model", "fe", "io", "studies",
          "cli")
@@ -380,8 +382,6 @@ def _builder_importers(builders: set[str], modules: dict[str, Path]) -> dict[str
 def test_the_fe_knows_a_body_beyond_the_tibia_only_through_its_registration():
     # the cross-check and the balance are written against `knee_body`'s protocols: adding a
     # body is its builder, one entry in `registry.BODIES`, its test
-    from fecheck.fe.knee.registry import BODIES
-
     builders = {type(body).__module__ for body in BODIES}
     assert builders == {"fecheck.fe.knee.patella_layer"}
     assert _builder_importers(builders, MODULES) == {

@@ -14,11 +14,12 @@ import time
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from pathlib import Path
-from typing import TYPE_CHECKING
 
 import numpy as np
 
 from fecheck import laws
+from fecheck.contact.convex import SpherePlanePair
+from fecheck.contact.pair import ContactPair
 from fecheck.errors import FecheckError
 from fecheck.laws import calibrated
 from fecheck.laws.fused import HotPath
@@ -29,10 +30,6 @@ from fecheck.scene import Scene
 from fecheck.scene.constants import COMPARTMENTS, DOF_NAMES, GRAVITY_MPS2, LIGAMENTS
 from fecheck.scene.knee import plane_normal
 from fecheck.statics.newton import carried, cross3, master_tangent, point_force
-
-if TYPE_CHECKING:
-    from fecheck.contact.convex import SpherePlanePair
-    from fecheck.contact.pair import ContactPair
 
 Part = tuple[np.ndarray, np.ndarray]
 """(W (6,), dW/dξ (6, 6)): one part of the tibia's wrench and its tangent."""

@@ -14,6 +14,7 @@ from scipy.spatial.transform import Rotation
 from fecheck.fe.bodies.pose import FramePose
 from fecheck.fe.contact.active_set import active_set, settled
 from fecheck.fe.contact.candidates import Outcome, Round, widened
+from fecheck.fe.contact.condense import CondensedBodies, ElasticBody, Pair
 from fecheck.fe.contact.gap import (
     kept_dofs,
     nodal_displacements,
@@ -182,8 +183,6 @@ def test_condensed_bodies_match_the_dense_compliance_of_each_side(solver):
     # D_s K_s⁻¹ D_sᵀ + D_m K_m⁻¹ D_mᵀ by dense inverses, whichever path condenses each
     # body (the normal compliance or block solves for the slave, the nodal one for the
     # master, held before any pair reads it). Measured agreement ~1e-16 mm/N.
-    from fecheck.fe.contact.condense import CondensedBodies, ElasticBody, Pair
-
     rng = np.random.default_rng(4)
     Ks, Km = _spd(36, 1), _spd(30, 2)
     slave = ElasticBody("slave", Ks, np.arange(36).reshape(12, 3))

@@ -9,6 +9,7 @@ thickness) so the module runs in seconds; the patellar sheet is the EF's own."""
 
 from __future__ import annotations
 
+import dataclasses
 import math
 
 import numpy as np
@@ -23,8 +24,9 @@ from fecheck.fe.bodies.pose import FramePose
 from fecheck.fe.bodies.scene_bodies import scene_bodies
 from fecheck.fe.bodies.settings import FESettings
 from fecheck.fe.bodies.solid import layer_solid
+from fecheck.fe.knee import registry
 from fecheck.fe.knee.crosscheck import cross_check
-from fecheck.fe.knee.patella_layer import patella_body
+from fecheck.fe.knee.patella_layer import PATELLA_KIND, patella_body
 from fecheck.fe.solve.joint import ContactLayer, JointContact
 from fecheck.model.assembly import applied_load, free_indices
 from fecheck.model.patella import RIM_MM
@@ -257,11 +259,6 @@ def test_fe_prepare_auto_leaves_the_patellar_sheet_as_it_is(knee):
 def test_a_scene_with_two_bodies_beyond_the_tibia_is_refused_on_one_line(monkeypatch):
     # the FE joint solves one body beyond the tibia: a second kind the scene also has is
     # named in a one-line refusal, not solved as if it were absent
-    import dataclasses
-
-    from fecheck.fe.knee import registry
-    from fecheck.fe.knee.patella_layer import PATELLA_KIND
-
     scene = _scene()
     assert registry.scene_body(scene) is PATELLA_KIND
     monkeypatch.setattr(registry, "BODIES",

@@ -10,10 +10,11 @@ import threading
 import pytest
 
 from fecheck.contact.pair import ContactPair
+from fecheck.fe.knee.crosscheck import cross_check
 from fecheck.model import reuse
 from fecheck.model.reuse import reusable, reusing_builds
 from fecheck.model.run import run_scene
-from fecheck.scene import apply_overrides, load_scene
+from fecheck.scene import apply_overrides, load_scene, surfaces
 from fecheck.studies.sweep import override_for, run_sweep
 
 BUILDS: list[str] = []
@@ -152,8 +153,6 @@ def test_a_run_builds_the_scanned_knee_once(monkeypatch):
     # the EF run reads its pairs three times (the compartments, each compartment's
     # thickness map) and the surfaces from the runner, the mesh checks and the fingerprint:
     # each is built once
-    from fecheck.scene import surfaces
-
     made = _count_pairs(monkeypatch)
     sheets = _count_calls(monkeypatch, surfaces, "tibial_compartments")
     femur = _count_calls(monkeypatch, surfaces, "femoral_surface")
@@ -166,9 +165,6 @@ def test_a_run_builds_the_scanned_knee_once(monkeypatch):
 def test_a_cross_check_builds_the_knee_once_for_the_ef_and_the_fe(monkeypatch):
     # the FE's tibial sheets are the very objects the EF's pairs hold, and the femoral
     # surface is read once for both
-    from fecheck.fe.knee.crosscheck import cross_check
-    from fecheck.scene import surfaces
-
     made = _count_pairs(monkeypatch)
     sheets = _count_calls(monkeypatch, surfaces, "tibial_compartments")
     femur = _count_calls(monkeypatch, surfaces, "femoral_surface")

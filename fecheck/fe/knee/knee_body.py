@@ -20,16 +20,15 @@ Units: mm, N, MPa; poses (R, t) map the body's frame into the world (the femur's
 from __future__ import annotations
 
 from collections.abc import Callable, Sequence
-from typing import TYPE_CHECKING, Any, Protocol
+from typing import Any, Protocol
 
 import numpy as np
 
-if TYPE_CHECKING:
-    from fecheck.fe.bodies.scene_bodies import FEBody
-    from fecheck.fe.bodies.settings import FESettings
-    from fecheck.fe.solve.press import Drive
-    from fecheck.model.results import CompartmentResult, RunResult
-    from fecheck.scene import Scene
+from fecheck.fe.bodies.scene_bodies import FEBody
+from fecheck.fe.bodies.settings import FESettings
+from fecheck.fe.solve.press import Drive
+from fecheck.model.results import CompartmentResult, RunResult
+from fecheck.scene import Scene
 
 Flexion = tuple[float, "np.ndarray | None"]
 """(θx rad, Q (3, 3) or None): the tibia's flexion held about Q's first column (None: x)."""

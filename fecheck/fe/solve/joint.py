@@ -190,36 +190,42 @@ class JointContact:
                                np.concatenate([lay.solid.vertex_dofs for lay in group])))
         femurs = {id(lay.femur): lay.femur for lay in self.layers if lay.femur is not None}
         self.femurs = list(femurs.values())
+        self.condensed_nodes = {}
+        for f in self.femurs:
+            self.condensed_nodes[f.name] = np.zeros(f.solid.surface.n_points, dtype=bool)
+            self.condensed_nodes[f.name][f.candidates] = True
         self.bodies = bodies + [ElasticBody(f.name, f.solid.K, f.solid.vertex_dofs)
                                 for f in self.femurs]
         self.solver = solver
         self.base = CondensedBodies(
-            self.bodies, [self._pair(i, None) for i in range(len(self.layers))],
+            self.bodies, [self._pair(i, None)[0] for i in range(len(self.layers))],
             solver=solver, log=log,
             held={f.name: f.solid.vertex_dofs[f.candidates].ravel() for f in self.femurs})
         self.C = self.base.C
         self.seconds = time.perf_counter() - t0
         self.log = log
 
-    def _pair(self, i: int, hit: tuple | None) -> Pair:
+    def _pair(self, i: int, hit: tuple | None) -> tuple[Pair, np.ndarray]:
         """Layer i's candidates as the slave of a pair (its body's frame): against the rigid
         indenter (`hit` None) or, with `hit` = (faces, weights, world normals) of their
         rays, against its deformable femoral layer at the faces the rays hit (a row whose
         face has a vertex outside the femoral candidates, or that misses, reads no femoral
-        give: weight 0)."""
+        give: weight 0); and the rows whose ray hits a face outside the femoral candidates
+        (unpaired)."""
         layer = self.layers[i]
         cand = layer.candidates
         common = {"name": layer.name, "slave": self.carrier[i], "nodes": cand + self.nodes[i],
                   "normals": layer.solid.normals[cand], "gap0_mm": np.zeros(len(cand))}
         if hit is None:
-            return Pair(**common)
+            return Pair(**common), np.zeros(len(cand), dtype=bool)
         face, weights, normals = hit
         femur = layer.femur
         nodes = femur.solid.surface.faces[np.maximum(face, 0)]
-        inside = _inside(femur, face, nodes)
-        return Pair(**common, master=femur.name,
+        inside = (face >= 0) & self.condensed_nodes[femur.name][nodes].all(axis=1)
+        pair = Pair(**common, master=femur.name,
                     master_nodes=np.where(inside[:, None], nodes, femur.candidates[0]),
                     weights=np.where(inside[:, None], weights, 0.0), master_normals=normals)
+        return pair, (face >= 0) & ~inside
 
     def solve(self, pose: Callable[[np.ndarray], FramePose],
               basis: Callable[[np.ndarray], np.ndarray],
@@ -315,27 +321,12 @@ class JointContact:
         C + Σ P C_f Pᵀ (each femoral compliance C_f condensed once, in `__init__`); the
         condensation it comes from; the candidates whose face lies outside the condensed
         femoral vertices."""
-        unpaired = np.zeros(self.offsets[-1], dtype=bool)
         if not self.femurs:
-            return self.C, self.base, unpaired
-        pairs = []
-        for i, layer in enumerate(self.layers):
-            pairs.append(self._pair(i, hits[i]))
-            if hits[i] is not None:
-                face = hits[i][0]
-                nodes = layer.femur.solid.surface.faces[np.maximum(face, 0)]
-                unpaired[self.offsets[i]:self.offsets[i + 1]] = (
-                    (face >= 0) & ~_inside(layer.femur, face, nodes))
+            return self.C, self.base, np.zeros(self.offsets[-1], dtype=bool)
+        pairs, unpaired = zip(*(self._pair(i, hits[i]) for i in range(len(self.layers))),
+                              strict=True)
         condensed = CondensedBodies(self.bodies, pairs, solver=self.solver, reuse=self.base)
-        return condensed.C, condensed, unpaired
-
-
-def _inside(femur: FemoralLayer, face: np.ndarray, nodes: np.ndarray) -> np.ndarray:
-    """(m,) the rays that hit a face (`face` ≥ 0) of `femur` all of whose vertices `nodes`
-    (m, 3) are among its condensed candidates."""
-    held = np.zeros(femur.solid.surface.n_points, dtype=bool)
-    held[femur.candidates] = True
-    return (face >= 0) & held[nodes].all(axis=1)
+        return condensed.C, condensed, np.concatenate(unpaired)
 
 
 def rigid_bodies(pose, basis, q: np.ndarray) -> dict[str, tuple[FramePose, np.ndarray]]:
