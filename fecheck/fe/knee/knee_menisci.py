@@ -96,8 +96,6 @@ ROOTS = ("data", "donahue", "bundles", "springs")
 """Horn root stiffness sources (module docstring)."""
 PENETRATION_TOL_MM = 1e-6
 """Largest overlap accepted at any contact vertex after the solve, mm."""
-MOVE_TOL_MM = 1e-10
-"""The outer loop stops when the femur's step is below this, mm."""
 REACH_MM = 0.5
 """The femoral layer covers the sheet where the rays of the femur pairs' vertices within
 this distance beyond the candidate gap meet it (and `fecheck.fe.knee.femoral.CROP_MM` around):
@@ -1003,26 +1001,13 @@ def _solve(sides: list[_Side], rot: np.ndarray, t: np.ndarray, load: float,
         say(f"condensed {sum(len(p.nodes) for p in pairs)} contact candidates in "
             f"{state.condensed.seconds:.1f} s")
         t0 = time.perf_counter()
-        previous = None
-        for _ in range(50):
-            state.outer += 1
-            turn = state.angles @ turn_axes
-            g0 = np.concatenate([_pair_gaps(p, sides, rot, t, state.travel, turn)
-                                 for p in pairs])
-            sol = state.condensed.solve(g0, load, start=previous, displace=False,
-                                        moments_Nmm=moments)
-            previous = np.concatenate([sol.pairs[p.name].active for p in pairs])
-            state.travel += sol.approach_mm
-            state.angles = state.angles + sol.turns_rad
-            arm = max(float(np.linalg.norm(p.points, axis=1).max())
-                      for p in pairs if p.key[1].femur)
-            if np.abs(np.r_[sol.approach_mm, sol.turns_rad * arm]).max() <= MOVE_TOL_MM:
-                break
-        else:
-            raise FecheckError("the femur of the FE with menisci does not settle in 50 "
-                               "re-linearisations; check the load and the meshes")
-        sol = replace(sol, u=state.condensed.displacements(
-            np.concatenate([sol.pairs[p.name].force_N for p in pairs])))
+        arm = max(float(np.linalg.norm(p.points, axis=1).max()) for p in pairs if p.key[1].femur)
+        sol = state.condensed.solve(
+            lambda x: np.concatenate([_pair_gaps(p, sides, rot, t, x[0], x[1:] @ turn_axes)
+                                      for p in pairs]),
+            load, moments_Nmm=moments, start=np.r_[state.travel, state.angles], arm_mm=arm)
+        state.outer += sol.updates
+        state.travel, state.angles = sol.approach_mm, sol.turns_rad
         state.solve_s += time.perf_counter() - t0
         paired = {s.name: s.hits for s in sides}
         for s in sides:

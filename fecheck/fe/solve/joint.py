@@ -22,7 +22,8 @@ equilibrium of the bodies' free DOFs under the external load, gravity, ligaments
 muscles Q (generalised forces, N and N·mm; Q's own change with the pose, ∂Q/∂q, joins that row
 as + ∂Q/∂q·δq when given). For an active set A the equalities are one dense solve;
 vertices that pull are released and those that penetrate are added until A stops
-changing (Hintermüller-Ito-Kunisch). The outer loop re-linearises g0, J and G at the
+changing (Hintermüller-Ito-Kunisch). The outer loop (`fecheck.fe.solve.drive`, the one
+every FE solve with rigid unknowns runs) re-linearises g0, J and G at the
 new pose (rotations are finite) until the pose stops moving: the
 equilibrium is exact, with no penalty and no tolerance on penetration beyond round-off.
 The equilibrium row's tangent carries, besides ∂Q/∂q, the change of the contact forces'
@@ -61,9 +62,9 @@ from fecheck.errors import FecheckError
 from fecheck.fe.bodies.indenter import MeshIndenter, SphereIndenter
 from fecheck.fe.bodies.pose import FramePose
 from fecheck.fe.bodies.solid import LayerSolid
-from fecheck.fe.contact.active_set import settled
 from fecheck.fe.contact.condense import CondensedBodies, ElasticBody, Pair
 from fecheck.fe.contact.gap import surface_give
+from fecheck.fe.solve.drive import Linearised, equilibrium
 
 POSE_TOL = 1e-9
 """The outer loop stops when the pose step is below this (mm, and rad × 100 mm)."""
@@ -249,41 +250,35 @@ class JointContact:
             tibia); None: the load does not change with the pose
         """
         t0 = time.perf_counter()
-        q = np.asarray(q0, dtype=float).copy()
-        active = lam = None
-        inner = 0
-        for outer in range(1, max_outer + 1):
+        k = len(np.asarray(q0))
+
+        def linearise(q: np.ndarray, lam: np.ndarray | None) -> Linearised:
             g0, J, G, hits = _linearised_gaps(self.layers, pose, basis, q)
-            C, _, _ = self._paired(hits)
-            if active is None:
-                active = self._first_set(g0)
-            dQ = np.zeros((len(q), len(q))) if stiffness is None else stiffness(q)
+            dQ = np.zeros((k, k)) if stiffness is None else stiffness(q)
             if lam is not None:
                 dQ = dQ + _force_stiffness(self.layers, pose, basis, q, lam)
-            lam, dq, active, it = settled(C, g0, J, G, load(q), dQ, active, max_active,
-                                         "refine the layer under the contact or check the "
-                                         "load")
-            inner += it
-            turns = np.abs(np.asarray(basis(q))[..., 3:, :]).reshape(-1, len(q)).sum(axis=0)
-            scale = np.where(turns > 0, 100.0, 1.0)                            # rad → mm
-            size = float(np.max(np.abs(dq) * scale))
-            if size > MAX_POSE_STEP:
-                dq = dq * (MAX_POSE_STEP / size)
-            q = q + dq
+            return Linearised(g0, J, G, self._paired(hits)[0], load(q), dQ)
+
+        def log(outer: int, dq: np.ndarray, active: np.ndarray) -> None:
             self.log(f"FE pose update {outer}: {int(active.sum())} vertices in contact, "
                      f"step {np.abs(dq).max():.2e}")
-            if size <= POSE_TOL:
-                break
-        else:
-            raise FecheckError(f"the FE joint equilibrium did not settle in {max_outer} pose "
-                               "updates; check the load and the free DOFs")
+
+        turns = np.abs(np.asarray(basis(q0))[..., 3:, :]).reshape(-1, k).sum(axis=0)
+        driven = equilibrium(
+            linearise, lambda lin, active: self._first_set(lin.g0) if active is None else active,
+            q0, scale=np.where(turns > 0, 100.0, 1.0), tolerance=POSE_TOL,
+            max_step=MAX_POSE_STEP, max_outer=max_outer, max_active=max_active,
+            hint="refine the layer under the contact or check the load",
+            failure=f"the FE joint equilibrium did not settle in {max_outer} pose updates; "
+                    "check the load and the free DOFs", log=log)
+        q, lam = driven.q, driven.lam
         g0, _, _, hits = _linearised_gaps(self.layers, pose, basis, q)
         C, condensed, unpaired = self._paired(hits)
         if np.any(unpaired & (lam > 0)):
-            k = int(np.flatnonzero(unpaired & (lam > 0))[0])
-            i = int(np.searchsorted(self.offsets, k, side="right")) - 1
+            row = int(np.flatnonzero(unpaired & (lam > 0))[0])
+            i = int(np.searchsorted(self.offsets, row, side="right")) - 1
             layer = self.layers[i]
-            x, y, z = layer.solid.surface.points[layer.candidates[k - self.offsets[i]]]
+            x, y, z = layer.solid.surface.points[layer.candidates[row - self.offsets[i]]]
             raise FecheckError(f"the {layer.name} tibial vertex at ({x:.1f}, {y:.1f}, {z:.1f}) "
                                "mm (tibia frame) touches the femoral layer outside its "
                                "condensed vertices; raise fe.candidate_gap_mm")
@@ -300,8 +295,7 @@ class JointContact:
                                     layer.femur,
                                     None if layer.femur is None else u.get(layer.femur.name)))
         timing = {"condense": self.seconds, "contact": time.perf_counter() - t0}
-        return JointSolution(q, out, outer, inner, timing)
-
+        return JointSolution(q, out, driven.outer, driven.inner, timing)
 
     def _first_set(self, g0: np.ndarray) -> np.ndarray:
         """The first active set: the four smallest gaps, and each rigid body none of

@@ -20,22 +20,32 @@ nothing). Every gap reads
 δq = (δ, turns, t); a body `carried` by the indenter (bonded to it) adds the indenter's
 motion to its own, so a pair it masters reads δ a·n as an indenter pair does, and the
 forces on it load the indenter. The mixed complementarity problem g ≥ 0, λ ≥ 0, λ·g = 0
-with the equilibria Jᵀλ = (−F, 0, ...) is solved exactly by the primal-dual active set of
-`fecheck.fe.contact.active_set.active_set`: no penalty. Gaps are in the reference
-configuration (small displacements, pairs fixed). Units: mm, N, MPa.
+with the equilibria Jᵀλ = (−F, 0, ...) is solved by the outer loop every FE solve with
+rigid unknowns runs (`fecheck.fe.solve.drive`: the primal-dual active set of
+`fecheck.fe.contact.active_set` at each linearisation, no penalty). With the rigid gaps
+given as a function of the indenter's travel and turns (the femur's surface over the
+menisci), that loop evaluates them exactly at each update, so the turns are finite; J stays
+the reference configuration's. The bodies' displacements are small (pairs fixed).
+Units: mm, N, MPa.
 """
 
 from __future__ import annotations
 
 import time
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
 
 import numpy as np
 
 from fecheck.errors import FecheckError
-from fecheck.fe.contact.active_set import active_set
 from fecheck.fe.contact.condense import CondensedBodies, ElasticBody, Pair, check_pairs
+from fecheck.fe.solve.drive import Linearised, equilibrium
+
+MOVE_TOL_MM = 1e-10
+"""The outer loop stops when the indenter's and the bodies' step is below this, mm (a turn
+times the lever arm `Condensed.solve` is given)."""
+MAX_MOVES = 50
+"""Most re-linearisations of one `Condensed.solve`."""
 
 
 @dataclass(frozen=True)
@@ -60,8 +70,9 @@ class PairContact:
 class MultibodySolution:
     """pairs: name → PairContact; approach_mm: the indenter's travel along its axis;
     translations: body → (k,) rigid translations (mm); u: body → kept-dof elastic
-    displacements (mm, without the translations); iterations; timing_s; turns_rad (r,)
-    the indenter's turns about its `Condensed` turn axes (rad)."""
+    displacements (mm, without the translations); iterations (active-set, summed);
+    timing_s; turns_rad (r,) the indenter's turns about its `Condensed` turn axes (rad);
+    updates: the outer loop's re-linearisations."""
 
     pairs: dict[str, PairContact]
     approach_mm: float
@@ -70,6 +81,7 @@ class MultibodySolution:
     iterations: int
     timing_s: dict
     turns_rad: np.ndarray = field(default_factory=lambda: np.zeros(0))
+    updates: int = 1
 
     @property
     def max_penetration_mm(self) -> float:
@@ -92,14 +104,13 @@ def solve_multibody(bodies: Sequence[ElasticBody], pairs: Sequence[Pair], indent
     when the active set does not settle or a stiffness is singular."""
     condensed = Condensed(bodies, pairs, indenter.axis, solver=solver, block=block)
     return condensed.solve(np.concatenate([p.gap0_mm for p in pairs]), indenter.load_N,
-                           max_iter=max_iter)
+                           max_active=max_iter)
 
 
 class Condensed:
     """`bodies` condensed onto the gaps of `pairs` (the costly part: one factorization and
-    one block solve per body), ready to `solve` for any reference gaps and load with the
-    same pairing: an outer loop that re-evaluates the rigid gaps at the indenter's new
-    place reuses it.
+    one block solve per body), ready to `solve` for any rigid gaps and load with the
+    same pairing.
 
     `turns`: (unit axis (3,), centre (3,) mm) about which the indenter may also turn by a
     small angle θ, balanced by the moment `solve` is given: an indenter pair's gap then
@@ -172,47 +183,72 @@ class Condensed:
         """Each body's kept-dof displacements (mm) under the contact forces `lam` (m,) N."""
         return self.core.displacements(lam)
 
-    def solve(self, g0: np.ndarray, load_N: float, *, max_iter: int = 200,
-              start: np.ndarray | None = None, displace: bool = True,
-              moments_Nmm: np.ndarray | None = None) -> MultibodySolution:
-        """The contact under the indenter's load `load_N` (N, > 0) with reference gaps
-        `g0` (m,) mm, the pairs' rows in order; `start` (m,) the first active set (a
-        previous answer's; None: the closest gaps); without `displace` the bodies'
-        displacements are left out (u empty: `displacements` gives them later);
-        `moments_Nmm` (r,) the moment on the indenter about each turn axis (N·mm, zero
-        when None)."""
+    def solve(self, g0: np.ndarray | Callable[[np.ndarray], np.ndarray], load_N: float, *,
+              moments_Nmm: np.ndarray | None = None, start: np.ndarray | None = None,
+              arm_mm: float = 1.0, max_outer: int = MAX_MOVES, max_active: int = 200
+              ) -> MultibodySolution:
+        """The contact under the indenter's load `load_N` (N, > 0) and the moment
+        `moments_Nmm` (r,) on it about each turn axis (N·mm, zero when None), by the outer
+        loop every FE solve with rigid unknowns runs (`fecheck.fe.solve.drive`).
+
+        g0 : the pairs' rigid gaps, rows in order (mm): (m,) with the indenter at rest (they
+            change by J with its travel and turns), or a function of its travel and turns
+            (1 + r,) mm, rad, evaluated exactly at each update (turns are then finite)
+        start : (1 + r,) the indenter's travel and turns to start from (zeros when None)
+        arm_mm : the lever arm that turns a turn into a step (mm), for the loop's tolerance
+        """
         if not (np.isfinite(load_N) and load_N > 0):
             raise FecheckError(f"the indenter's load must be a positive number of N, got "
                                f"{load_N}")
         t0 = time.perf_counter()
-        J, C = self.J, self.C
+        r = len(self.turns)
         Q = np.zeros(len(self.unknowns))
         Q[0] = load_N
-        r = len(self.turns)
         if moments_Nmm is not None:
             moments = np.asarray(moments_Nmm, dtype=float)
             if moments.shape != (r,) or not np.all(np.isfinite(moments)):
                 raise FecheckError(f"give one finite moment (N mm) per turn axis ({r}), got "
                                    f"{moments_Nmm}")
             Q[1:1 + r] = moments
+        moved, slid = self.J[:, :1 + r], self.J[:, 1 + r:]
+        rigid = g0 if callable(g0) else (lambda x: g0 + moved @ x)
+        zero = np.zeros((len(Q), len(Q)))
+
+        def linearise(q: np.ndarray, lam: np.ndarray | None) -> Linearised:
+            return Linearised(rigid(q[:1 + r]) + slid @ q[1 + r:], self.J, self.J, self.C, Q,
+                              zero)
+
+        q0 = np.zeros(len(Q))
+        if start is not None:
+            q0[:1 + r] = start
+        driven = equilibrium(
+            linearise, lambda lin, active: self._first_set(lin.g0, active), q0,
+            scale=np.r_[1.0, np.full(r, arm_mm), np.ones(slid.shape[1])],
+            tolerance=MOVE_TOL_MM, max_outer=max_outer, max_active=max_active,
+            hint="refine the meshes at the contact or check the load",
+            failure=f"the rigid unknowns of the contact solve do not settle in {max_outer} "
+                    "re-linearisations; check the load and the meshes")
+        u = self.displacements(driven.lam)
+        off, q, gap = self.offsets, driven.q, driven.gap_mm
+        out = {p.name: PairContact(driven.lam[a:b], gap[a:b], driven.active[a:b])
+               for p, a, b in zip(self.pairs, off[:-1], off[1:], strict=True)}
+        translations = {b.name: q[[k for k, (who, _) in enumerate(self.unknowns)
+                                   if who == b.name]] for b in self.bodies}
+        return MultibodySolution(out, float(q[0]), translations, u, driven.inner,
+                                 {"condense": self.seconds,
+                                  "active_set": time.perf_counter() - t0},
+                                 q[1:1 + r].copy(), driven.outer)
+
+    def _first_set(self, g0: np.ndarray, start: np.ndarray | None) -> np.ndarray:
+        """The first active set: the closest gaps of `g0` (m,) mm, the set `start` (m,)
+        (the last solve's; None: none), and for each unknown no contact of which holds it
+        the closest gap among those it moves."""
         first = (g0 <= g0.min() + 1e-9) | (False if start is None else start)
-        for k in range(len(self.unknowns)):   # each unknown starts with a contact that holds it
-            rows = J[:, k] != 0.0
+        for k in range(len(self.unknowns)):
+            rows = self.J[:, k] != 0.0
             if rows.any() and not (first & rows).any():
                 first[np.argmin(np.where(rows, g0, np.inf))] = True
-        lam, dq, active, iterations = active_set(C, g0, J, J, Q, np.zeros((len(Q),) * 2),
-                                                 first, max_iter, "refine the meshes at the "
-                                                 "contact or check the load")
-        gap = g0 + J @ dq + C @ lam
-        timing = {"condense": self.seconds, "active_set": time.perf_counter() - t0}
-        u = self.displacements(lam) if displace else {}
-        off = self.offsets
-        out = {p.name: PairContact(lam[a:b], gap[a:b], active[a:b])
-               for p, a, b in zip(self.pairs, off[:-1], off[1:], strict=True)}
-        translations = {b.name: dq[[k for k, (who, _) in enumerate(self.unknowns)
-                                    if who == b.name]] for b in self.bodies}
-        return MultibodySolution(out, float(dq[0]), translations, u, iterations, timing,
-                                 dq[1:1 + r].copy())
+        return first
 
 
 def ray_pairs(points: np.ndarray, normals: np.ndarray, master_points: np.ndarray,
