@@ -38,6 +38,7 @@ from pathlib import Path
 import numpy as np
 
 from fecheck.errors import FecheckError
+from fecheck.fe.bodies.pose import FramePose
 from fecheck.fe.knee.crosscheck import cross_check, ef_metrics
 from fecheck.model.run import run_scene
 from fecheck.scene import load_scene, with_values
@@ -132,7 +133,7 @@ def _compare(label: str, kind: str, scene, fit, calibration: Path, donor: Path |
                "solve_s": solve, "fe_s": check.timing_s["fe"]}
         forces = {}
         for c in COMPARTMENTS:
-            ef = ef_metrics(result.compartments[c], rot, t)
+            ef = ef_metrics(result.compartments[c], FramePose(rot, t, "W", "T"))
             fe = check.compartments[c].fe
             forces[c] = ef.force_N
             for key, attr in (("pmax", "max_pressure_MPa"), ("pmean", "mean_pressure_MPa"),

@@ -10,6 +10,7 @@ import math
 import numpy as np
 import pytest
 
+from fecheck.fe.bodies.pose import FramePose
 from fecheck.fe.knee.crosscheck import ef_metrics
 from fecheck.model.run import run_scene
 from fecheck.scene import load_scene
@@ -43,7 +44,7 @@ def test_ef_centre_of_pressure_is_the_foot_of_the_condyle_centre(rotated, name):
     # z = z of the contact point there, so the foot keeps x, y and takes that z
     centre = rot.T @ (np.asarray(knee.condyle_center[name]) - t)
     foot = np.array([centre[0], centre[1], knee.contact_point[name][2]])
-    cop = ef_metrics(res, rot, t).center_of_pressure_mm
+    cop = ef_metrics(res, FramePose(rot, t, "W", "T")).center_of_pressure_mm
     # The face centroids break the symmetry by a fraction of a face (measured 0.016 mm
     # medial, 1e-6 mm lateral); a centre of pressure left in world axes or without the
     # translation is off by 2 to 5 mm here.

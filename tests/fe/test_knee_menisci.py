@@ -13,6 +13,7 @@ from menisci_helpers import assert_balanced
 
 from fecheck.errors import FecheckError
 from fecheck.fe.bodies.meniscus_solid import DONAHUE_HORN_N_PER_MM, meniscus_solid
+from fecheck.fe.bodies.pose import FramePose
 from fecheck.fe.knee import knee_menisci
 from fecheck.scene import load_scene, with_values
 from fecheck.scene.packaged import data_dir
@@ -272,7 +273,7 @@ def test_report_pressure_compression_and_near_areas(coarse, intact):
     scene, ef, layers = coarse
     r = intact
     q = np.asarray(ef.menisci["poses"]["tibia"]["q"])
-    rot, t = body_pose(q)
+    X_WT = FramePose(*body_pose(q), "W", "T")
     turn = np.radians(r.turn_deg) @ knee_menisci.femur_turns(scene, q)[0]
     for lay in layers:
         c = lay.body.name
@@ -284,7 +285,7 @@ def test_report_pressure_compression_and_near_areas(coarse, intact):
         ft = r.pairs[f"{c} femur-tibia"]
         pressed = ft.nodes[ft.force_N > 0]
         rigid = knee_menisci._femur_gap(lay.indenter, lay.surface.points[pressed],
-                                        lay.solid.normals[pressed], rot, t, r.approach_mm,
+                                        lay.solid.normals[pressed], X_WT, r.approach_mm,
                                         turn)
         assert r.fe[c].compression_mm == pytest.approx(-rigid.min(), abs=1e-9)
         m = r.menisci[c]

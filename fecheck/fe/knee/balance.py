@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from fecheck.fe.bodies.pose import FramePose
 from fecheck.fe.knee.crosscheck import CompartmentCheck, CrossCheck
 from fecheck.model.assembly import applied_load, free_indices
 from fecheck.model.run import ligament_springs
@@ -16,14 +17,13 @@ def free_dof_balance(scene: Scene, check: CrossCheck, flexion: tuple = (0.0,)) -
     return max(body_balance(scene, check, flexion).values())
 
 
-def _contact_wrench(checks: list[CompartmentCheck], rot: np.ndarray, t: np.ndarray
-                    ) -> np.ndarray:
-    """The FE contact forces of `checks` on the body at (R, t) they are carried by: force
+def _contact_wrench(checks: list[CompartmentCheck], X_WB: FramePose) -> np.ndarray:
+    """The FE contact forces of `checks` on the body B at X_WB they are carried by: force
     and moment about the world origin (6,), N and N·mm."""
     total = np.zeros(6)
     for chk in checks:
-        x = chk.layer.surface.points @ rot.T + t
-        f = -chk.fe_force_N[:, None] * (chk.layer.solid.normals @ rot.T)
+        x = X_WB.points(chk.layer.surface.points)
+        f = -chk.fe_force_N[:, None] * X_WB.vectors(chk.layer.solid.normals)
         total += np.concatenate([f.sum(axis=0), np.cross(x, f).sum(axis=0)])
     return total
 
@@ -38,17 +38,17 @@ def body_balance(scene: Scene, check: CrossCheck, flexion: tuple = (0.0,)) -> di
     over 100 mm times it). `flexion`: the tibia's (θx rad, base rotation or None) as
     `fecheck.statics.newton.pose` takes them."""
     q = np.asarray(check.pose["fe"].q, dtype=float)
-    rot, t = pose(q, *flexion)
-    total = sum(part(rot, t)[0] for part in [applied_load(scene), *ligament_springs(scene)])
+    X_WT = FramePose(*pose(q, *flexion), "W", "T")
+    total = sum(part(*X_WT.pair())[0] for part in [applied_load(scene), *ligament_springs(scene)])
     carried = {}
     for chk in check.compartments.values():
         carried.setdefault(chk.layer.body.carrier, []).append(chk)
-    total = total + _contact_wrench(carried.get("T", []), rot, t)
+    total = total + _contact_wrench(carried.get("T", []), X_WT)
     out = {}
     extra = check.extra
     if extra is not None:
         on_tibia, out[extra.kind.name] = extra.balance(
-            (rot, t), _contact_wrench(carried.get(extra.kind.frame, []), *extra.fe_rt()))
+            X_WT, _contact_wrench(carried.get(extra.kind.frame, []), extra.fe_pose()))
         total = total + on_tibia
     free = list(free_indices(scene))
     residual = (twist_basis(q, *flexion).T @ total)[free]

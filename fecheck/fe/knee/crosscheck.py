@@ -226,29 +226,30 @@ def _num(value: float) -> float | None:
 
 # ---------------------------------------------------------------------- the metrics
 def _fe_metrics(layer: FELayer, force_N: np.ndarray, active: np.ndarray, gaps0: np.ndarray,
-                rot: np.ndarray) -> tuple[SideMetrics, np.ndarray]:
+                X_WB: FramePose) -> tuple[SideMetrics, np.ndarray]:
     """FE metrics of one compartment (forces at the surface vertices, rigid gaps at the
-    solution pose) and the vertex pressures."""
+    solution pose X_WB of the body that carries it) and the vertex pressures."""
     surface, solid = layer.surface, layer.solid
     pressure = force_N / solid.tributary_mm2
-    vector = -(force_N @ solid.normals) @ rot.T                  # on the tibia, world
+    vector = X_WB.vectors(-(force_N @ solid.normals))            # on the body, world
     total = float(force_N.sum())
     area = zero_contour_area(surface.points, surface.faces, pressure, active)
     cop = (force_N @ surface.points) / total if total > 0 else None
     depth = float(max(0.0, -gaps0.min()))
-    return SideMetrics(vector, axial_force(vector, rot), float(pressure.max()),
+    return SideMetrics(vector, axial_force(vector, X_WB.rotation), float(pressure.max()),
                        total / area if area > 0 else math.nan, area, depth, cop), pressure
 
 
-def ef_metrics(res: CompartmentResult, rot: np.ndarray, t: np.ndarray) -> SideMetrics:
-    """The EF run's metrics of one compartment, its centre of pressure in the tibia frame
-    (from its face pressures and in-contact face areas; None for a point contact)."""
+def ef_metrics(res: CompartmentResult, X_WB: FramePose) -> SideMetrics:
+    """The EF run's metrics of one compartment, its centre of pressure in the frame of the
+    body B at X_WB that carries it (from its face pressures and in-contact face areas;
+    None for a point contact)."""
     cop = None
     if res.face_area_mm2 is not None and res.face_pressure_MPa is not None:
         load = res.face_pressure_MPa * res.face_area_mm2
         if load.sum() > 0:
             centroid = res.slave_points[res.slave_faces].mean(axis=1)
-            cop = rot.T @ ((load @ centroid) / load.sum() - t)
+            cop = X_WB.rotation.T @ ((load @ centroid) / load.sum() - X_WB.translation)
     vector = (np.full(3, math.nan) if res.force_vector_N is None
               else np.asarray(res.force_vector_N, dtype=float))
     return SideMetrics(vector, res.axial_force_N, res.max_pressure_MPa,
@@ -274,15 +275,16 @@ def _on_ef_faces(layer: FELayer, pressure: np.ndarray) -> np.ndarray:
     return total / area
 
 
-def _ef_face_pressure(layer: FELayer, res: CompartmentResult, rot: np.ndarray,
-                      t: np.ndarray) -> np.ndarray | None:
-    """The EF face pressure when it lives on this layer's EF faces, else None."""
+def _ef_face_pressure(layer: FELayer, res: CompartmentResult, X_WB: FramePose
+                      ) -> np.ndarray | None:
+    """The EF face pressure when it lives on this layer's EF faces (its body at X_WB),
+    else None."""
     ef = layer.body.surface
     if (res.face_pressure_MPa is None or res.slave_faces is None
             or res.slave_faces.shape != ef.faces.shape
             or not np.array_equal(res.slave_faces, ef.faces)):
         return None
-    back = (res.slave_points - t) @ rot                           # world → tibia frame
+    back = (res.slave_points - X_WB.translation) @ X_WB.rotation   # world → body frame
     if not np.allclose(back, ef.points, atol=1e-6):
         return None
     return np.asarray(res.face_pressure_MPa, dtype=float)
@@ -491,14 +493,13 @@ def _solve(scene: Scene, layers: Sequence[FELayer], run: RunResult, settings: FE
     return out, q_ef, None, condense, getattr(femoral, "seconds", 0.0)
 
 
-def _ef_side(name: str, run: RunResult, extra: BodyAtEF | None,
-             tibia: tuple[np.ndarray, np.ndarray]
-             ) -> tuple[CompartmentResult, tuple[np.ndarray, np.ndarray]]:
-    """The EF result of compartment `name` and the pose (R, t) of the body that carries
-    it: the body's beyond the tibia for its contact, else the tibia's (`tibia`)."""
+def _ef_side(name: str, run: RunResult, extra: BodyAtEF | None, X_WT: FramePose
+             ) -> tuple[CompartmentResult, FramePose]:
+    """The EF result of compartment `name` and the EF pose of the body that carries it:
+    the body's beyond the tibia for its contact, else the tibia's X_WT."""
     if extra is not None and name == extra.kind.compartment:
-        return extra.contact, extra.rt
-    return run.compartments[name], tibia
+        return extra.contact, extra.ef_pose
+    return run.compartments[name], X_WT
 
 
 def _ef_pose(scene: Scene, q: np.ndarray, flexion: tuple[float, np.ndarray] | None
@@ -559,12 +560,11 @@ def _cross_check(scene: Scene, mode: str | None, refine: int | None,
     t3 = time.perf_counter()
     if extra is not None:
         extra = extra.with_fe(coordinates)
-    tibia_ef = _ef_pose(scene, run.pose.q, flexion).pair()
+    tibia_ef = _ef_pose(scene, run.pose.q, flexion)
     checks, alerts, femoral = {}, [], {}
-    for name, (lay, lc, worst, X_WT) in solved.items():
-        fe, pressure = _fe_metrics(lay, lc.force_N, lc.active, rigid_gaps(lay, X_WT),
-                                   X_WT.rotation)
-        res, (rot_ef, t_ef) = _ef_side(name, run, extra, tibia_ef)
+    for name, (lay, lc, worst, X_WB) in solved.items():
+        fe, pressure = _fe_metrics(lay, lc.force_N, lc.active, rigid_gaps(lay, X_WB), X_WB)
+        res, X_WB_ef = _ef_side(name, run, extra, tibia_ef)
         refs = _flat_references(scene, lay, float(lc.force_N.sum()), settings)
         on_faces = _on_ef_faces(lay, pressure)
         peaks, rough, said = assess_peaks(name, lay, pressure, on_faces, fe.depth_mm, E)
@@ -573,8 +573,8 @@ def _cross_check(scene: Scene, mode: str | None, refine: int | None,
         if femur is not None and id(femur) not in femoral:
             femoral[id(femur)] = roughness(femur, default_radius(femur))
         checks[name] = CompartmentCheck(
-            name, fe, ef_metrics(res, rot_ef, t_ef), lay, pressure, lc.force_N, lc.active,
-            on_faces, _ef_face_pressure(lay, res, rot_ef, t_ef), worst, peaks=peaks,
+            name, fe, ef_metrics(res, X_WB_ef), lay, pressure, lc.force_N, lc.active,
+            on_faces, _ef_face_pressure(lay, res, X_WB_ef), worst, peaks=peaks,
             roughness=rough, femoral_roughness=femoral.get(id(femur)), **refs)
     for text in alerts:
         warnings.warn(text, stacklevel=2)
@@ -636,9 +636,9 @@ def fe_level(scene: Scene, bodies: Sequence[FEBody], run: RunResult, settings: F
     layers = build_layers(bodies, E, nu, settings, log)
     solved = _solve(scene, layers, run, settings, log, extra=extra)[0]
     out = {}
-    for name, (lay, lc, _, X_WT) in solved.items():
-        out[name] = (lay, *_fe_metrics(lay, lc.force_N, lc.active, rigid_gaps(lay, X_WT),
-                                       X_WT.rotation))
+    for name, (lay, lc, _, X_WB) in solved.items():
+        out[name] = (lay, *_fe_metrics(lay, lc.force_N, lc.active, rigid_gaps(lay, X_WB),
+                                       X_WB))
     dofs = sum(sol.n_dofs for sol in _solids(layers)) + sum(f.solid.n_dofs
                                                             for f in _femurs(solved))
     return out, dofs, time.perf_counter() - t0

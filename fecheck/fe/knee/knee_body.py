@@ -24,6 +24,7 @@ from typing import Any, Protocol
 
 import numpy as np
 
+from fecheck.fe.bodies.pose import FramePose
 from fecheck.fe.bodies.scene_bodies import FEBody
 from fecheck.fe.bodies.settings import FESettings
 from fecheck.fe.solve.press import Drive
@@ -48,22 +49,21 @@ class BodyAtEF(Protocol):
         """The EF contact of the body's cartilage (its compartment)."""
 
     @property
-    def rt(self) -> tuple[np.ndarray, np.ndarray]:
-        """The body's EF pose (R (3, 3), t (3,) mm)."""
+    def ef_pose(self) -> FramePose:
+        """The body's EF pose in the world, X_WB (B its frame, `KneeBody.frame`)."""
 
     @property
     def q(self) -> np.ndarray:
         """The body's EF coordinates (the FE's start)."""
 
-    def fe_rt(self) -> tuple[np.ndarray, np.ndarray]:
-        """The body's FE pose (R, t) at `q_fe`."""
+    def fe_pose(self) -> FramePose:
+        """The body's FE pose in the world at `q_fe`, X_WB."""
 
     def with_fe(self, q: np.ndarray) -> BodyAtEF:
         """A copy with the FE's coordinates `q`."""
 
-    def balance(self, tibia: tuple[np.ndarray, np.ndarray], contact: np.ndarray
-                ) -> tuple[np.ndarray, float]:
-        """At the FE poses (the tibia's `tibia` = (R, t), the body's at `q_fe`), with the FE
+    def balance(self, X_WT: FramePose, contact: np.ndarray) -> tuple[np.ndarray, float]:
+        """At the FE poses (the tibia's X_WT, the body's at `q_fe`), with the FE
         `contact` wrench on the body (6,) (N, N·mm, about the world origin): the wrench the
         body's parts put on the tibia (6,) and the largest generalised force on the body's
         DOFs over its load."""

@@ -564,8 +564,8 @@ def knee_menisci_fe(scene: Scene, *, meniscus_size_mm: float = DEFAULT_SIZE_MM,
                            "the FE")
     poses = ef_coordinates(run)
     q_tibia = poses["tibia"]
-    rot, t = body_pose(q_tibia)
-    load = float(applied_load(scene)(rot, t)[0][2])
+    X_WT = FramePose(*body_pose(q_tibia), "W", "T")
+    load = float(applied_load(scene)(*X_WT.pair())[0][2])
     if not load > 0:
         raise FecheckError(f"the load less the tibia's weight along z is {load:.1f} N: the "
                            "FE with menisci needs a load that presses the joint")
@@ -591,13 +591,13 @@ def knee_menisci_fe(scene: Scene, *, meniscus_size_mm: float = DEFAULT_SIZE_MM,
                             horns, extra, material)
             say(f"{men.side} meniscus: {len(men.solid.mesh.tets)} tetrahedra, "
                 f"{men.body.K.shape[0]} dofs, raised {men.rise_mm:.3f} mm onto the layer")
-        sides.append(replace(_side(lay, body, men, rot, t), lift=float(lift_mm)))
+        sides.append(replace(_side(lay, body, men, X_WT), lift=float(lift_mm)))
     if settings.cartilage == "two-layer":
-        sides = _with_femoral_layers(plain, sides, rot, t, settings, say)
+        sides = _with_femoral_layers(plain, sides, X_WT, settings, say)
     seconds["build"] = time.perf_counter() - t0
     turns = femur_turns(scene, q_tibia) if not hold_rotation else (np.zeros((0, 3)),
                                                                     np.zeros(0))
-    result = _solve(sides, rot, t, load, settings.candidate_gap_mm, run, seconds, say, turns)
+    result = _solve(sides, X_WT, load, settings.candidate_gap_mm, run, seconds, say, turns)
     if not without:
         return result
     say("the same knee without its menisci")
@@ -614,15 +614,15 @@ def ef_coordinates(run) -> dict[str, np.ndarray]:
     return {name: np.asarray(q, dtype=float) for name, q in run.coordinates.items()}
 
 
-def _with_femoral_layers(scene: Scene, sides: list[_Side], rot: np.ndarray, t: np.ndarray,
-                         settings, say: Callable[[str], None]) -> list[_Side]:
+def _with_femoral_layers(scene: Scene, sides: list[_Side], X_WT: FramePose, settings,
+                         say: Callable[[str], None]) -> list[_Side]:
     """`sides` each with the femoral cartilage as a layer of its own (tibia frame, bonded
     to the femur and carried by it: `fecheck.fe.knee.femoral.femoral_layer`) over the points
     where the normals of its femur pairs' vertices within `REACH_MM` of the candidate gap
     (the meniscus's less its lift) meet the femoral sheet (`FemoralCrop`)."""
     world = sides[0].indenter.mesh
     sheet = femoral_sheet(scene, world)
-    sheet = replace(sheet, mesh=TriMesh((world.points - t) @ rot, world.faces))
+    sheet = replace(sheet, mesh=TriMesh(X_WT.inverse().points(world.points), world.faces))
     indenter = MeshIndenter(sheet.mesh)
     out = []
     for s in sides:
@@ -639,7 +639,7 @@ def _with_femoral_layers(scene: Scene, sides: list[_Side], rot: np.ndarray, t: n
         crop = FemoralCrop(sheet, indenter, settings, np.concatenate(points),
                            np.concatenate(faces))
         side = _with_femoral(s, crop, say)
-        side.hits = _femoral_hits(side, rot, 0.0, None)
+        side.hits = _femoral_hits(side, X_WT, 0.0, None)
         out.append(side)
     return out
 
@@ -652,7 +652,7 @@ def _with_femoral(s: _Side, crop: FemoralCrop, say: Callable[[str], None]) -> _S
         femoral_surface=MeshIndenter(layer.solid.surface), femoral_crop=crop, hits={})
 
 
-def _grown_femoral(s: _Side, cands: dict[PairKey, np.ndarray], rot: np.ndarray,
+def _grown_femoral(s: _Side, cands: dict[PairKey, np.ndarray], X_WT: FramePose,
                    travel: float, turn: np.ndarray | None, say: Callable[[str], None]
                    ) -> _Side | None:
     """`s` with its femoral layer rebuilt over its `FemoralCrop`'s points and the points
@@ -666,7 +666,7 @@ def _grown_femoral(s: _Side, cands: dict[PairKey, np.ndarray], rot: np.ndarray,
     for kind in _femur_kinds(s):
         rows = cands[s.name, kind]
         miss = rows[s.hits[kind][0][rows] == -1]
-        pts, nrm = _in_femur(*(a[miss] for a in _pair_points(s, kind)), rot, travel, turn)
+        pts, nrm = _in_femur(*(a[miss] for a in _pair_points(s, kind)), X_WT, travel, turn)
         gap, face, _ = crop.indenter.hits(pts, nrm)
         points.append(pts + gap.gap_mm[:, None] * nrm)
         faces.append(face)
@@ -677,7 +677,7 @@ def _grown_femoral(s: _Side, cands: dict[PairKey, np.ndarray], rot: np.ndarray,
         "grown over the sheet they meet")
     side = _with_femoral(s, replace(crop, points=np.concatenate(points),
                                     faces=np.concatenate(faces)), say)
-    side.hits = _femoral_hits(side, rot, travel, turn)
+    side.hits = _femoral_hits(side, X_WT, travel, turn)
     return side
 
 
@@ -696,14 +696,14 @@ def femur_turns(scene: Scene, q_tibia: np.ndarray) -> tuple[np.ndarray, np.ndarr
     from fecheck.statics.newton import body_pose
 
     q = np.asarray(q_tibia, dtype=float)
-    rot, t = body_pose(q)
+    X_WT = FramePose(*body_pose(q), "W", "T")
     rx = rot_x(q[3])
     axes = (np.array([1.0, 0.0, 0.0]), rx[:, 1], (rx @ rot_y(q[4]))[:, 2])
     free = [TURN_DOFS[d] for d in scene.free_dofs if d in TURN_DOFS]
     world = np.array([axes[i] for i in free]).reshape(-1, 3)
-    wrench = applied_load(scene)(rot, t)[0]
-    about_origin = wrench[3:] - np.cross(t, wrench[:3])
-    return world @ rot, -(world @ about_origin)
+    wrench = applied_load(scene)(*X_WT.pair())[0]
+    about_origin = wrench[3:] - np.cross(X_WT.translation, wrench[:3])
+    return world @ X_WT.rotation, -(world @ about_origin)
 
 
 def _meniscus(solid: MeniscusSolid, q: np.ndarray, q_tibia: np.ndarray,
@@ -728,8 +728,7 @@ def _meniscus(solid: MeniscusSolid, q: np.ndarray, q_tibia: np.ndarray,
                         rotation, material)
 
 
-def _side(lay, body: ElasticBody, men: MeniscusBody | None, rot: np.ndarray, t: np.ndarray
-          ) -> _Side:
+def _side(lay, body: ElasticBody, men: MeniscusBody | None, X_WT: FramePose) -> _Side:
     """The compartment's pairing: a layer vertex meets the meniscus where its ray meets
     the meniscus's inferior face before the femur."""
     pts, nrm = lay.surface.points, lay.solid.normals
@@ -738,26 +737,26 @@ def _side(lay, body: ElasticBody, men: MeniscusBody | None, rot: np.ndarray, t: 
         return _Side(lay.body.name, lay, body, lay.indenter, None, np.full(n, -1),
                      np.zeros((n, 3)), np.full(n, np.inf), np.zeros(n, dtype=bool))
     face, weights, gap = _inferior_rays(men.points, men.inferior_faces, pts, nrm)
-    femur = _femur_gap(lay.indenter, pts, nrm, rot, t, 0.0)
+    femur = _femur_gap(lay.indenter, pts, nrm, X_WT, 0.0)
     return _Side(lay.body.name, lay, body, lay.indenter, men, face, weights, gap,
                  (face >= 0) & (gap < femur))
 
 
-def _femur_gap(indenter, points: np.ndarray, normals: np.ndarray, rot: np.ndarray,
-               t: np.ndarray, travel_mm: float, turn: np.ndarray | None = None) -> np.ndarray:
+def _femur_gap(indenter, points: np.ndarray, normals: np.ndarray, X_WT: FramePose,
+               travel_mm: float, turn: np.ndarray | None = None) -> np.ndarray:
     """Rigid gaps (mm) along `normals` from tibia-frame `points` to the femoral surface,
-    the tibia at pose (R, t), the femur turned by the rotation vector `turn` (tibia frame,
+    the tibia at pose X_WT, the femur turned by the rotation vector `turn` (tibia frame,
     rad, about the tibia's origin; None: not turned) and lowered by `travel_mm` along
     world z."""
-    lowered, normals = _in_femur(points, normals, rot, travel_mm, turn)
-    return indenter.gap(lowered @ rot.T + t, normals @ rot.T).gap_mm
+    lowered, normals = _in_femur(points, normals, X_WT, travel_mm, turn)
+    return indenter.gap(X_WT.points(lowered), X_WT.vectors(normals)).gap_mm
 
 
-def _in_femur(points: np.ndarray, normals: np.ndarray, rot: np.ndarray, travel_mm: float,
+def _in_femur(points: np.ndarray, normals: np.ndarray, X_WT: FramePose, travel_mm: float,
               turn: np.ndarray | None) -> tuple[np.ndarray, np.ndarray]:
     """Tibia-frame `points` and `normals` carried into the femur's frame at the EF pose:
     the femur lowered by `travel_mm` along world z and turned by `turn` (`_femur_gap`)."""
-    lowered = points + travel_mm * (rot.T @ [0.0, 0.0, 1.0])
+    lowered = points + travel_mm * (X_WT.rotation.T @ [0.0, 0.0, 1.0])
     if turn is None:
         return lowered, normals
     from scipy.spatial.transform import Rotation
@@ -814,7 +813,7 @@ nor the femoral sheet: no femoral cartilage lies along it (its gap is infinite, 
 the rigid femur), so it is left out of the femur pairs while that holds."""
 
 
-def _femoral_hits(s: _Side, rot: np.ndarray, travel: float, turn: np.ndarray | None
+def _femoral_hits(s: _Side, X_WT: FramePose, travel: float, turn: np.ndarray | None
                   ) -> dict[PairKind, tuple[np.ndarray, np.ndarray]]:
     """Per femur pair of `s` the femoral layer's face (-1: a miss that meets the femoral
     sheet, `OFF_SHEET`: one that does not) and barycentric weights where each of its
@@ -822,7 +821,7 @@ def _femoral_hits(s: _Side, rot: np.ndarray, travel: float, turn: np.ndarray | N
     turned by `turn`."""
     out = {}
     for kind in _femur_kinds(s):
-        pts, nrm = _in_femur(*_pair_points(s, kind), rot, travel, turn)
+        pts, nrm = _in_femur(*_pair_points(s, kind), X_WT, travel, turn)
         _, face, weights = s.femoral_surface.hits(pts, nrm)
         miss = np.flatnonzero(face < 0)
         off = s.femoral_crop.indenter.hits(pts[miss], nrm[miss])[1] < 0
@@ -902,7 +901,7 @@ def _femoral_give(s: _Side, kind: PairKind, u: dict[str, np.ndarray] | None
     return out
 
 
-def _all_gaps(sides: list[_Side], rot: np.ndarray, t: np.ndarray, travel: float,
+def _all_gaps(sides: list[_Side], X_WT: FramePose, travel: float,
               u: dict[str, np.ndarray] | None, turn: np.ndarray | None = None
               ) -> dict[PairKey, np.ndarray]:
     """Every pair's gaps (mm) over all its possible vertices (inf where none) with the
@@ -913,7 +912,7 @@ def _all_gaps(sides: list[_Side], rot: np.ndarray, t: np.ndarray, travel: float,
         pts, nrm = s.layer.surface.points, s.layer.solid.normals
         every = np.arange(len(pts))
         u_t = _disp(s.body, u[s.body.name], every) if u else np.zeros_like(pts)
-        g = (_femur_gap(s.indenter, pts, nrm, rot, t, travel, turn)
+        g = (_femur_gap(s.indenter, pts, nrm, X_WT, travel, turn)
              - np.einsum("ij,ij->i", u_t, nrm) + _femoral_give(s, PairKind.FEMUR_TIBIA, u))
         out[s.name, PairKind.FEMUR_TIBIA] = np.where(s.under, np.inf, g)
         if s.meniscus is None:
@@ -922,7 +921,7 @@ def _all_gaps(sides: list[_Side], rot: np.ndarray, t: np.ndarray, travel: float,
         u_m = (u[m.body.name] if u else np.zeros(m.body.K.shape[0]))
         sup = _disp(m.body, u_m, m.superior)
         out[s.name, PairKind.FEMUR_MENISCUS] = (
-            _femur_gap(s.indenter, m.points[m.superior], m.superior_normals, rot, t, travel,
+            _femur_gap(s.indenter, m.points[m.superior], m.superior_normals, X_WT, travel,
                        turn)
             - np.einsum("ij,ij->i", sup, m.superior_normals) - s.lift
             + _femoral_give(s, PairKind.FEMUR_MENISCUS, u))
@@ -959,7 +958,7 @@ class _Settled:
     where: str
 
 
-def _solve(sides: list[_Side], rot: np.ndarray, t: np.ndarray, load: float,
+def _solve(sides: list[_Side], X_WT: FramePose, load: float,
            margin: float, run, seconds: dict, say,
            turns: tuple[np.ndarray, np.ndarray] = (np.zeros((0, 3)), np.zeros(0))
            ) -> KneeMenisciFE:
@@ -969,16 +968,16 @@ def _solve(sides: list[_Side], rot: np.ndarray, t: np.ndarray, load: float,
     `turns`: (unit axes (r, 3) in the tibia frame about the tibia's origin, the moment
     (r,) N·mm on the femur about each) along which the femur turns free under that
     moment."""
-    axis = -rot.T @ np.array([0.0, 0.0, 1.0])
+    axis = -X_WT.rotation.T @ np.array([0.0, 0.0, 1.0])
     turn_axes, moments = turns
     sides = list(sides)
-    gaps = _all_gaps(sides, rot, t, 0.0, None)
+    gaps = _all_gaps(sides, X_WT, 0.0, None)
     state = _Femur(travel=0.0, angles=np.zeros(len(turn_axes)))
 
     def solve(cands: dict[PairKey, np.ndarray]) -> Round[_Settled]:
         t0 = time.perf_counter()
         for i, s in enumerate(sides):
-            grown = _grown_femoral(s, cands, rot, state.travel, state.angles @ turn_axes, say)
+            grown = _grown_femoral(s, cands, X_WT, state.travel, state.angles @ turn_axes, say)
             sides[i] = s if grown is None else grown
         seconds["build"] += time.perf_counter() - t0
         off = sum(len(cands[s.name, k]) - len(_reachable(s, k, cands[s.name, k]))
@@ -1003,7 +1002,7 @@ def _solve(sides: list[_Side], rot: np.ndarray, t: np.ndarray, load: float,
         t0 = time.perf_counter()
         arm = max(float(np.linalg.norm(p.points, axis=1).max()) for p in pairs if p.key[1].femur)
         sol = state.condensed.solve(
-            lambda x: np.concatenate([_pair_gaps(p, sides, rot, t, x[0], x[1:] @ turn_axes)
+            lambda x: np.concatenate([_pair_gaps(p, sides, X_WT, x[0], x[1:] @ turn_axes)
                                       for p in pairs]),
             load, moments_Nmm=moments, start=np.r_[state.travel, state.angles], arm_mm=arm)
         state.outer += sol.updates
@@ -1012,8 +1011,8 @@ def _solve(sides: list[_Side], rot: np.ndarray, t: np.ndarray, load: float,
         paired = {s.name: s.hits for s in sides}
         for s in sides:
             if s.femoral is not None:
-                s.hits = _femoral_hits(s, rot, state.travel, state.angles @ turn_axes)
-        gaps = _all_gaps(sides, rot, t, state.travel, sol.u, state.angles @ turn_axes)
+                s.hits = _femoral_hits(s, X_WT, state.travel, state.angles @ turn_axes)
+        gaps = _all_gaps(sides, X_WT, state.travel, sol.u, state.angles @ turn_axes)
         worst, where = _worst(gaps, sides)
         moved = _moved_hits(paired, sides, cands) if worst > PENETRATION_TOL_MM else 0
         return Round(_Settled(pairs, sol, gaps, where), gaps, worst, moved)
@@ -1185,8 +1184,8 @@ def _worst(gaps: dict[PairKey, np.ndarray], sides: list[_Side]) -> tuple[float, 
             f"{pair_name(key)} at ({', '.join(f'{v:.1f}' for v in point)}) mm, tibia frame")
 
 
-def _pair_gaps(p: Pair, sides: list[_Side], rot: np.ndarray, t: np.ndarray,
-               travel: float, turn: np.ndarray | None = None) -> np.ndarray:
+def _pair_gaps(p: Pair, sides: list[_Side], X_WT: FramePose, travel: float,
+               turn: np.ndarray | None = None) -> np.ndarray:
     """The reference gaps (mm) of pair `p` with the femur at `travel` turned by `turn`
     (`_femur_gap`; undeformed)."""
     side = next(s for s in sides if s.name == p.key[0])
@@ -1194,8 +1193,8 @@ def _pair_gaps(p: Pair, sides: list[_Side], rot: np.ndarray, t: np.ndarray,
         return p.gap0_mm
     if p.slave == side.body.name:
         return _femur_gap(side.indenter, side.layer.surface.points[p.nodes], p.normals,
-                          rot, t, travel, turn)
-    return _femur_gap(side.indenter, side.meniscus.points[p.nodes], p.normals, rot, t,
+                          X_WT, travel, turn)
+    return _femur_gap(side.indenter, side.meniscus.points[p.nodes], p.normals, X_WT,
                       travel, turn) - side.lift
 
 

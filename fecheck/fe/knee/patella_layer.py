@@ -108,26 +108,25 @@ class PatellaEF:
         return self.state.contact
 
     @property
-    def rt(self) -> tuple[np.ndarray, np.ndarray]:
-        return self.state.rot, self.state.t
+    def ef_pose(self) -> FramePose:
+        return FramePose(self.state.rot, self.state.t, "W", FRAME)
 
     @property
     def q(self) -> np.ndarray:
         return np.asarray(self.state.q, dtype=float)
 
-    def fe_rt(self) -> tuple[np.ndarray, np.ndarray]:
-        return body_pose(np.asarray(self.q_fe, dtype=float))
+    def fe_pose(self) -> FramePose:
+        return FramePose(*body_pose(np.asarray(self.q_fe, dtype=float)), "W", FRAME)
 
     def with_fe(self, q: np.ndarray) -> PatellaEF:
         return replace(self, q_fe=np.asarray(q, dtype=float))
 
-    def balance(self, tibia: tuple[np.ndarray, np.ndarray], contact: np.ndarray
-                ) -> tuple[np.ndarray, float]:
+    def balance(self, X_WT: FramePose, contact: np.ndarray) -> tuple[np.ndarray, float]:
         """The patellar tendon's wrench on the tibia (6,) and the patella's largest
         generalised force (quadriceps, patellofemoral bundles, tendon and `contact`) over
         the quadriceps' total, moments over 100 mm times it."""
-        prot, pt = self.fe_rt()
-        tendon = self.model.tendon((tibia, (prot, pt)))[1]
+        prot, pt = self.fe_pose().pair()
+        tendon = self.model.tendon((X_WT.pair(), (prot, pt)))[1]
         on_patella = (self.model.femoral(prot, pt)[0] + self.model.quadriceps(prot, pt)[0]
                       + tendon[6:] + contact)
         quads = float(self.model.quadriceps.tension_N.sum())
@@ -136,7 +135,7 @@ class PatellaEF:
     def as_dict(self) -> dict[str, Any]:
         """``patella_pose``: the FE's and the EF's patellofemoral coordinates and body
         coordinates."""
-        return {"patella_pose": {"fe": pf_coordinates(*self.fe_rt()),
+        return {"patella_pose": {"fe": pf_coordinates(*self.fe_pose().pair()),
                                  "ef": self.state.coordinates(),
                                  "fe_q": [float(v) for v in self.q_fe],
                                  "ef_q": [float(v) for v in self.state.q]}}
