@@ -66,8 +66,9 @@ import numpy as np
 from fecheck.errors import FecheckError
 from fecheck.fe.bodies.meniscus_solid import DEFAULT_SIZE_MM
 from fecheck.fe.bodies.settings import CARTILAGE
-from fecheck.fe.knee.knee_menisci import NEAR_MM, ROOTS, knee_menisci_fe
+from fecheck.fe.knee.knee_menisci import NEAR_MM, knee_menisci_fe
 from fecheck.fe.knee.knee_menisci_report import donahue_note, region_rows, report_lines, rows
+from fecheck.fe.knee.meniscus_body import ROOTS
 from fecheck.model.results import write_rows
 from fecheck.scene import load_scene
 

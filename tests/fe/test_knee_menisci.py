@@ -14,7 +14,7 @@ from menisci_helpers import assert_balanced
 from fecheck.errors import FecheckError
 from fecheck.fe.bodies.meniscus_solid import DONAHUE_HORN_N_PER_MM, meniscus_solid
 from fecheck.fe.bodies.pose import FramePose
-from fecheck.fe.knee import knee_menisci
+from fecheck.fe.knee import knee_menisci, meniscus_body
 from fecheck.scene import load_scene, with_values
 from fecheck.scene.packaged import data_dir
 
@@ -168,18 +168,18 @@ def test_horn_springs_hold_a_rigid_shift_with_the_roots_stiffness():
                              / (1000.0 * it["parameters"]["slack_length"]["value"])
                              for it in items if it["meniscus"] == "medial" and it["group"] == group)
     solid = meniscus_solid("fecheck:knee/smith2019_menisci", "medial", MENISCUS_MM)
-    horns = knee_menisci.horn_stiffness(solid, "data")
+    horns = meniscus_body.horn_stiffness(solid, "data")
     assert horns == pytest.approx(expected, rel=1e-12)
-    assert knee_menisci.horn_stiffness(solid, "donahue") == {
+    assert meniscus_body.horn_stiffness(solid, "donahue") == {
         "anterior": DONAHUE_HORN_N_PER_MM, "posterior": DONAHUE_HORN_N_PER_MM}
-    basis, K = knee_menisci.meniscus_stiffness(solid, solid.mesh.points, solid.fibre, horns)
+    basis, K = meniscus_body.meniscus_stiffness(solid, solid.mesh.points, solid.fibre, horns)
     for d in np.eye(3):
         u = np.zeros(basis.N)
         for c in range(3):
             u[basis.nodal_dofs[c]] = u[basis.edge_dofs[c]] = d[c]
         assert u @ K @ u == pytest.approx(sum(expected.values()), rel=1e-8)
     with pytest.raises(FecheckError, match="horn root stiffness 'ligaments'"):
-        knee_menisci.horn_stiffness(solid, "ligaments")
+        meniscus_body.horn_stiffness(solid, "ligaments")
 
 
 def test_refused_before_any_work(monkeypatch):
@@ -227,9 +227,9 @@ def test_element_stress_of_uniaxial_fibre_stress_and_shear_is_the_closed_form():
         a = (x @ d)[:, None] * d
         return eps0 * (a - M.nu_tp * (x - a))
 
-    sigma = knee_menisci.element_stress(basis, nodal(uniaxial), fibre)
+    sigma = meniscus_body.element_stress(basis, nodal(uniaxial), fibre)
     assert np.abs(sigma - M.E_t * eps0 * np.outer(d, d)).max() <= 1e-9 * M.E_t * eps0
-    sigma = knee_menisci.element_stress(basis, nodal(lambda x: gamma * (x @ d)[:, None] * e),
+    sigma = meniscus_body.element_stress(basis, nodal(lambda x: gamma * (x @ d)[:, None] * e),
                                         fibre)
     expected = M.G_t * gamma * (np.outer(d, e) + np.outer(e, d))
     assert np.abs(sigma - expected).max() <= 1e-9 * M.G_t * gamma
@@ -252,10 +252,10 @@ def test_coronary_springs_add_their_k_over_l0_to_a_rigid_shift():
               / (1000.0 * it["parameters"]["slack_length"]["value"])
               for it in items if it["meniscus"] == "lateral" and it["group"] == "COR")
     solid = meniscus_solid("fecheck:knee/smith2019_menisci", "lateral", MENISCUS_MM)
-    horns = knee_menisci.horn_stiffness(solid, "data")
-    extra = knee_menisci.coronary_springs(solid, folder)
+    horns = meniscus_body.horn_stiffness(solid, "data")
+    extra = meniscus_body.coronary_springs(solid, folder)
     assert len(extra[0]) == 3
-    basis, K = knee_menisci.meniscus_stiffness(solid, solid.mesh.points, solid.fibre, horns,
+    basis, K = meniscus_body.meniscus_stiffness(solid, solid.mesh.points, solid.fibre, horns,
                                                extra=extra)
     u = np.zeros(basis.N)
     u[basis.nodal_dofs[1]] = u[basis.edge_dofs[1]] = 1.0
@@ -481,10 +481,10 @@ def test_a_ray_grazing_the_meniscus_rim_still_places_it():
                             faces=lambda label: np.array([[0, 1, 2]]))
     layer = np.array([[0.2, 0.2, 0.0], [0.955, 0.05, 0.02]])
     normals = np.array([[0.0, 0.0, 1.0], [np.sqrt(0.5), 0.0, np.sqrt(0.5)]])
-    points, _, rise = knee_menisci.place_meniscus(solid, np.zeros(6), np.zeros(6), layer,
+    points, _, rise = meniscus_body.place_meniscus(solid, np.zeros(6), np.zeros(6), layer,
                                                   normals)
     overlap = 0.02 * np.sqrt(2.0)
     assert points[0, 2] == pytest.approx(overlap, abs=1e-12)
     assert rise == pytest.approx(overlap - 1.0, abs=1e-12)
-    face, _, gap = knee_menisci._inferior_rays(points, np.array([[0, 1, 2]]), layer, normals)
+    face, _, gap = meniscus_body.inferior_rays(points, np.array([[0, 1, 2]]), layer, normals)
     assert face[1] < 0 and gap[0] == pytest.approx(overlap, abs=1e-12)

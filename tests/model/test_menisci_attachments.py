@@ -13,7 +13,7 @@ import numpy as np
 import pytest
 
 from fecheck.fe.bodies.meniscus_solid import meniscus_solid
-from fecheck.fe.knee import knee_menisci
+from fecheck.fe.knee import meniscus_body
 from fecheck.model import menisci
 from fecheck.scene import load_scene
 from fecheck.scene.packaged import data_dir
@@ -112,9 +112,9 @@ def test_fe_root_springs_hold_a_rigid_shift_along_the_roots():
         return 2000.0 * (np.outer(e, e) + TRANSVERSE_FRACTION * (np.eye(3) - np.outer(e, e)))
 
     for torn in ((), ("posterior",)):
-        horns = knee_menisci.horn_matrices(solid, "springs", 2000.0, torn)
+        horns = meniscus_body.horn_matrices(solid, "springs", 2000.0, torn)
         assert sorted(horns) == sorted({"anterior", "posterior"} - set(torn))
-        basis, K = knee_menisci.meniscus_stiffness(solid, solid.mesh.points, solid.fibre,
+        basis, K = meniscus_body.meniscus_stiffness(solid, solid.mesh.points, solid.fibre,
                                                    horns)
         for d in (np.array([1.0, 0.0, 0.0]), np.array([0.3, -0.5, 0.8])):
             u = np.zeros(basis.N)
