@@ -17,9 +17,10 @@ L_MM, E_MM, F_N = 10.0, 2.0, 100.0      # half span, load offset along x, load
 Y = np.array([0.0, 1.0, 0.0])           # the turn axis, through the origin
 
 
-def _case(turn: bool):
+def _case(turn: bool, gaps=None):
     """Two vertical springs (z only) at (∓L, 0, 0) under a flat platen pushed down by F at
-    (E, 0, 0): the moment on the platen about +y is E F."""
+    (E, 0, 0): the moment on the platen about +y is E F; `gaps` the platen's rigid gaps as
+    a function of its travel and turn (None: linear in them)."""
     bed = ElasticBody("bed", sp.diags([K_MINUS, K_PLUS]).tocsc(),
                       np.array([[-1, -1, 0], [-1, -1, 1]]))
     points = np.array([[-L_MM, 0.0, 0.0], [L_MM, 0.0, 0.0]])
@@ -27,7 +28,8 @@ def _case(turn: bool):
                 np.zeros(2), points=points)
     condensed = Condensed([bed], [pair], np.array([0.0, 0.0, -1.0]),
                           turns=[(Y, np.zeros(3))] if turn else ())
-    return condensed.solve(np.zeros(2), F_N, moments_Nmm=[E_MM * F_N] if turn else None)
+    return condensed.solve(np.zeros(2) if gaps is None else gaps, F_N,
+                           moments_Nmm=[E_MM * F_N] if turn else None)
 
 
 def test_a_turning_platen_splits_an_off_centre_load_by_its_lever_arms():
@@ -40,6 +42,19 @@ def test_a_turning_platen_splits_an_off_centre_load_by_its_lever_arms():
     assert sol.approach_mm == pytest.approx(0.03, rel=1e-12)
     np.testing.assert_allclose(sol.turns_rad, [-0.001], rtol=1e-12)
     np.testing.assert_allclose(sol.pairs["platen-bed"].gap_mm, 0.0, atol=1e-15)
+
+
+def test_rigid_gaps_given_as_a_function_hold_exactly_at_the_answer():
+    # The flat platen turned by a finite θ about +y and lowered by δ meets the spring at x
+    # with the gap −δ − x tan θ. The forces balance on the reference lever arms as above
+    # (40 / 60 N, compressions 0.04 / 0.02 mm), so tan θ = −0.001: the loop steps until the
+    # exact gaps close, θ = atan(−0.001), 3e-7 off the linear answer's −0.001.
+    x = np.array([-L_MM, L_MM])
+    sol = _case(turn=True, gaps=lambda q: -q[0] - x * np.tan(q[1]))
+    np.testing.assert_allclose(sol.pairs["platen-bed"].force_N, [40.0, 60.0], rtol=1e-12)
+    assert sol.approach_mm == pytest.approx(0.03, rel=1e-12)
+    np.testing.assert_allclose(sol.turns_rad, [np.arctan(-0.001)], rtol=1e-12)
+    assert sol.updates > 2
 
 
 def test_a_held_platen_splits_it_by_the_springs_stiffness():

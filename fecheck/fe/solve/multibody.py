@@ -226,8 +226,8 @@ class Condensed:
             scale=np.r_[1.0, np.full(r, arm_mm), np.ones(slid.shape[1])],
             tolerance=MOVE_TOL_MM, max_outer=max_outer, max_active=max_active,
             hint="refine the meshes at the contact or check the load",
-            failure=f"the rigid unknowns of the contact solve do not settle in {max_outer} "
-                    "re-linearisations; check the load and the meshes")
+            failure=f"the rigid indenter (the femur) and the floating bodies do not settle "
+                    f"in {max_outer} re-linearisations; check the load and the meshes")
         u = self.displacements(driven.lam)
         off, q, gap = self.offsets, driven.q, driven.gap_mm
         out = {p.name: PairContact(driven.lam[a:b], gap[a:b], driven.active[a:b])
