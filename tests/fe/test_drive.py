@@ -68,3 +68,14 @@ def test_a_long_step_is_shortened_and_still_converges():
 def test_a_loop_that_does_not_settle_says_so():
     with pytest.raises(FecheckError, match="the bar does not settle"):
         solve(900.0, -9000.0, max_outer=1)
+
+
+def test_a_gap_that_is_not_a_number_is_refused_not_passed_on():
+    def broken(q, lam):
+        lin = bar(400.0, 0.0)(q, lam)
+        return Linearised(np.where(X > 0, np.nan, lin.g0), lin.J, lin.G, lin.C, lin.Q, lin.dQ)
+
+    with pytest.raises(FecheckError, match="not a number; check the bar"):
+        equilibrium(broken, lambda lin, active: np.ones(len(X), dtype=bool), np.zeros(2),
+                    scale=np.ones(2), tolerance=1e-12, max_outer=5, max_active=5,
+                    hint="check the bar", failure="unused")

@@ -83,9 +83,15 @@ def equilibrium(linearise: Callable[[np.ndarray, np.ndarray | None], Linearised]
     inner = 0
     for outer in range(1, max_outer + 1):
         lin = linearise(q, lam)
+        if np.isnan(lin.g0).any() or not np.all(np.isfinite(lin.Q)):
+            raise FecheckError(f"the contact problem at update {outer} has a gap or a load "
+                               f"that is not a number; {hint}")
         lam, dq, active, iterations = settled(lin.C, lin.g0, lin.J, lin.G, lin.Q, lin.dQ,
                                               first(lin, active), max_active, hint)
         inner += iterations
+        if not (np.all(np.isfinite(dq)) and np.all(np.isfinite(lam))):
+            raise FecheckError(f"the contact solve at update {outer} gives a step or a force "
+                               f"that is not finite; {hint}")
         size = float(np.max(np.abs(dq) * scale, initial=0.0))
         if size > max_step:
             dq = dq * (max_step / size)
