@@ -192,6 +192,7 @@ def plot_pressure(r, layers, path: Path) -> None:
 
     top = max(float(p.max()) for p in r.pressure_MPa.values())
     fig, ax = plt.subplots(figsize=(8, 5.5))
+    label_y = max(float(lay.surface.points[:, 1].max()) for lay in layers) + 3.0
     for lay in layers:
         c = lay.body.name
         pts = lay.surface.points
@@ -200,11 +201,12 @@ def plot_pressure(r, layers, path: Path) -> None:
         if c in r.outlines:
             ax.add_collection(LineCollection(r.outlines[c][:, :, :2], colors="w",
                                              linewidths=1.0))
-        ax.text(pts[:, 0].mean(), pts[:, 1].max() + 3, f"{c}: share {r.fe[c].share:.1%}, "
+        ax.text(pts[:, 0].mean(), label_y, f"{c}: share {r.fe[c].share:.1%}, "
                 f"p_max {r.fe[c].p_max_MPa:.2f} MPa", ha="center", fontsize=9)
     fig.colorbar(art, ax=ax, label="tibial contact pressure, MPa")
     ax.set_aspect("equal")
     ax.autoscale_view()
+    ax.set_ylim(top=label_y + 4.0)                          # room for the labels
     ax.set_xlabel("x mm (right)")
     ax.set_ylabel("y mm (anterior)")
     ax.set_title(f"FE with menisci ({r.cartilage} cartilage), {r.load_N:.0f} N: tibial "
