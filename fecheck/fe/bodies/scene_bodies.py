@@ -36,6 +36,7 @@ from fecheck.errors import FecheckError
 from fecheck.fe.bodies.indenter import MeshIndenter, SphereIndenter
 from fecheck.fe.bodies.volume import TibiaSolid, solid_thickness
 from fecheck.model.knee_surfaces import tibial_slaves
+from fecheck.model.scanned import femoral_masters, series_thicknesses
 from fecheck.scene import Scene, surfaces
 from fecheck.scene.constants import COMPARTMENTS
 from fecheck.scene.relevance import SCANNED_KINDS
@@ -106,8 +107,6 @@ def _sphere_plane_bodies(scene: Scene) -> list[FEBody]:
 
 
 def _scanned_bodies(scene: Scene) -> list[FEBody]:
-    from fecheck.model.scanned import femoral_masters, series_thicknesses
-
     slaves, masters = tibial_slaves(scene), femoral_masters(scene)
     source = scene["scanned.thickness"]
     femur_name = (surfaces.file_path(scene, "femur").name

@@ -22,9 +22,11 @@ from fecheck.fe.bodies.meniscus_solid import (
     MeniscusSolid,
 )
 from fecheck.fe.bodies.pose import FramePose
+from fecheck.fe.bodies.solid import edge_lookup, tie_matrix
 from fecheck.fe.contact.condense import ElasticBody
-from fecheck.fe.material.anisotropy import MENISCUS, TransIso
+from fecheck.fe.material.anisotropy import MENISCUS, TransIso, p2_transiso, stiffness_tensor
 from fecheck.fe.solve.multibody import ray_pairs
+from fecheck.statics.newton import body_pose
 from fecheck.statics.root_spring import root_matrix
 from geometry.mesh import TriMesh
 
@@ -111,8 +113,6 @@ def meniscus_body(solid: MeniscusSolid, points: np.ndarray, fibre: np.ndarray,
     z (and the springs `extra`: (nodes, N/mm)), and on the superior and inferior faces the
     midside normal displacement tied to its edge's ends (contact at vertices only); the
     full P2 displacement is T @ the body's kept-dof displacement."""
-    from fecheck.fe.bodies.solid import edge_lookup, tie_matrix
-
     basis, K = meniscus_stiffness(solid, points, fibre, horns, material, extra)
     mesh = basis.mesh
     find_edge = edge_lookup(mesh.edges, mesh.p.shape[1])
@@ -145,8 +145,6 @@ def meniscus_stiffness(solid: MeniscusSolid, points: np.ndarray, fibre: np.ndarr
     nodes as grounded springs, and the springs `extra` ((nodes, N/mm each), in x, y and
     z) likewise."""
     from skfem import MeshTet
-
-    from fecheck.fe.material.anisotropy import p2_transiso
 
     mesh = MeshTet(np.ascontiguousarray(points.T), np.ascontiguousarray(solid.mesh.tets.T))
     basis, K = p2_transiso(mesh, material, fibre)
@@ -223,8 +221,6 @@ def element_stress(basis, u: np.ndarray, fibre: np.ndarray,
     """(nel, 3, 3) stress (MPa) per element of the P2 displacement `u` (mm, on the
     scikit-fem vector `basis`): the element's volume-mean strain times the transversely
     isotropic stiffness with its fibre `fibre` (nel, 3)."""
-    from fecheck.fe.material.anisotropy import stiffness_tensor
-
     grad = np.asarray(basis.interpolate(u).grad)                     # (3, 3, nel, nq)
     dx = np.asarray(basis.dx)
     mean = np.einsum("abeq,eq->eab", grad, dx) / dx.sum(axis=1)[:, None, None]
@@ -254,8 +250,6 @@ def place_meniscus(solid: MeniscusSolid, q_meniscus: np.ndarray, q_tibia: np.nda
     inferior faces is zero (to 1e-9 mm); where a ray grazing the inferior surface's rim
     keeps that from settling, the placement where nothing overlaps and the least gap is
     smallest, if under `RIM_GAP_MM`."""
-    from fecheck.statics.newton import body_pose
-
     rot_m, t_m = body_pose(np.asarray(q_meniscus, dtype=float))
     rot_t, t_t = body_pose(np.asarray(q_tibia, dtype=float))
     points = (solid.mesh.points @ rot_m.T + t_m - t_t) @ rot_t
@@ -291,8 +285,6 @@ def build_meniscus(solid: MeniscusSolid, q: np.ndarray, q_tibia: np.ndarray,
     normals, `place_meniscus`), with the horns' stiffness `horns` ({horn: (3, 3) N/mm},
     `horn_matrices`), the springs `extra` ((nodes, N/mm), `coronary_springs`) and its
     `material`."""
-    from fecheck.statics.newton import body_pose
-
     points, fibre, rise = place_meniscus(solid, q, q_tibia, layer_points, layer_normals)
     body, basis, tie = meniscus_body(solid, points, fibre, horns, material, extra)
     X_WT = FramePose(*body_pose(np.asarray(q_tibia, dtype=float)), "W", "T")
